@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# ci/test.sh: the project's whole check, as CI runs it (and as a developer should before pushing).
+#
+#   1. ci/setup.sh --test      a Vulkan loader, a driver (Mesa's lavapipe runs on the CPU) and the
+#                              Khronos validation layers; installs them with apt-get when missing
+#   2. cargo fmt --check       formatting
+#   3. cargo clippy            lints, warnings are errors
+#   4. cargo test              unit and integration tests (dev profile); the tests that use the GPU
+#                              turn the validation layers on themselves, and any validation error fails them
+#
+# Exits non-zero at the first failing step.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+step() {
+    local name=$1
+    shift
+    local start=$SECONDS
+    echo "==> $name: $*"
+    if ! "$@"; then
+        echo "==> FAILED: $name ($((SECONDS - start)) s)" >&2
+        exit 1
+    fi
+    echo "==> ok: $name ($((SECONDS - start)) s)"
+}
+
+step setup ./ci/setup.sh --test
+step fmt cargo fmt --all -- --check
+step clippy cargo clippy --all-targets -- -D warnings
+step test cargo test
+echo "==> all checks passed in $SECONDS s"

@@ -1,0 +1,30 @@
+// camera.wgsl: primary rays. A pinhole or thin-lens camera with a horizontal field of view.
+
+struct CameraRay {
+    o: vec3<f32>,
+    d: vec3<f32>,
+}
+
+// `film` is a position on the image in pixels, (0,0) the top-left corner, x right, y down; the pixel
+// (i, j) covers [i, i+1) x [j, j+1). The image plane at distance 1 spans [-tan(fov/2), tan(fov/2)]
+// across the width; pixels are square. `lens` is a uniform sample of the unit disk.
+//
+// Thin lens: every ray through the lens point o + aperture*(lens.x right + lens.y up) passes through the
+// point the pinhole ray meets on the plane in focus (distance focus_distance along `forward`), so that
+// plane is sharp and the rest blurs with a circle of confusion proportional to the aperture.
+fn camera_ray(position: vec3<f32>, right: vec3<f32>, up: vec3<f32>, forward: vec3<f32>,
+              tan_half_fov: f32, width: u32, height: u32, film: vec2<f32>,
+              lens_radius: f32, focus_distance: f32, lens: vec2<f32>) -> CameraRay {
+    let half_w = 0.5 * f32(width);
+    let half_h = 0.5 * f32(height);
+    let sx = (film.x - half_w) / half_w * tan_half_fov;
+    let sy = (half_h - film.y) / half_w * tan_half_fov;
+    let dir = normalize(forward + sx * right + sy * up);
+    if lens_radius <= 0.0 {
+        return CameraRay(position, dir);
+    }
+    // dot(dir, forward) > 0 always (fov < 180), so the focus point is in front of the camera.
+    let focus_point = position + dir * (focus_distance / dot(dir, forward));
+    let origin = position + lens_radius * (lens.x * right + lens.y * up);
+    return CameraRay(origin, normalize(focus_point - origin));
+}

@@ -1,0 +1,183 @@
+// intersect.wgsl: ray–primitive tests and robust spawning of secondary rays.
+//
+// Conventions: ray directions are unit vectors; t is a distance along the ray. A miss returns T_MISS.
+// Every hit also returns a conservative bound on the absolute floating-point error of the hit point, so
+// that the next ray can start just outside that error box (pbrt-v4's scheme, Pharr et al. 2023, §6.8)
+// instead of after an arbitrary epsilon that fails either at scale 1e-4 or at scale 1e5.
+
+const T_MISS: f32 = 3.0e38;
+// Unit roundoff of f32 (2^-24).
+const F32_U: f32 = 5.9604645e-8;
+
+// gamma(n) = n u / (1 - n u): the bound on the relative error of n chained roundings (Higham).
+fn gamma_n(n: f32) -> f32 {
+    return (n * F32_U) / (1.0 - n * F32_U);
+}
+
+// --- Spheres ----------------------------------------------------------------------------------------
+// Solves |o + t d - c|^2 = r^2 with |d| = 1, i.e. t^2 + 2 b t + c0 = 0 with f = o - c, b = f.d,
+// c0 = |f|^2 - r^2. Two precision measures (Haines et al., "Precision Improvements for Ray/Sphere
+// Intersection", Ray Tracing Gems, ch. 7, 2019):
+//  * the discriminant b^2 - c0 is computed as r^2 - |f - b d|^2 (the squared distance from the centre to
+//    the ray's closest point), which does not cancel catastrophically for small spheres seen from afar;
+//  * the two roots come from q = -b - sign(b) sqrt(disc): t0 = q and t1 = c0 / q, so neither is the
+//    difference of two nearly equal numbers.
+// Returns the smallest root in (t_min, t_max), or T_MISS.
+fn intersect_sphere(o: vec3<f32>, d: vec3<f32>, center: vec3<f32>, radius: f32,
+                    t_min: f32, t_max: f32) -> f32 {
+    let f = o - center;
+    let b = dot(f, d);
+    let l = f - b * d;
+    let disc = radius * radius - dot(l, l);
+    if disc < 0.0 {
+        return T_MISS;
+    }
+    let s = sqrt(disc);
+    // (|f| - r)(|f| + r) keeps c0 accurate when the origin lies near the surface of a huge sphere.
+    let lf = length(f);
+    let c0 = (lf - radius) * (lf + radius);
+    let q = select(-b + s, -b - s, b >= 0.0);
+    var t0 = q;
+    var t1 = select(c0 / q, t0, q == 0.0);
+    if t0 > t1 {
+        let tmp = t0;
+        t0 = t1;
+        t1 = tmp;
+    }
+    if t0 > t_min && t0 < t_max {
+        return t0;
+    }
+    if t1 > t_min && t1 < t_max {
+        return t1;
+    }
+    return T_MISS;
+}
+
+// A sphere hit point re-projected onto the surface (p = c + r (p - c)/|p - c|), which removes the error
+// accumulated along a long ray, with its absolute error bound: the re-projection costs a few roundings
+// relative to |p - c|, and adding back c costs one more relative to |p|.
+struct SurfacePoint {
+    p: vec3<f32>,
+    err: vec3<f32>,
+}
+
+fn sphere_surface_point(o: vec3<f32>, d: vec3<f32>, t: f32, center: vec3<f32>, radius: f32) -> SurfacePoint {
+    let local = o + t * d - center;
+    let on_surface = local * (radius / length(local));
+    let p = center + on_surface;
+    let err = gamma_n(6.0) * abs(on_surface) + gamma_n(2.0) * (abs(center) + abs(p));
+    return SurfacePoint(p, err);
+}
+
+// --- Triangles --------------------------------------------------------------------------------------
+// Watertight ray–triangle intersection (Woop, Benthin & Wald, "Watertight Ray/Triangle Intersection",
+// JCGT 2(1), 2013): translate the vertices to the ray origin, shear so that the ray is the +z axis, and
+// evaluate the three 2-D edge functions. A point on a shared edge gets the same edge-function value from
+// both triangles, so a ray through an edge or vertex of a closed mesh always hits at least one of them.
+// Zero-area triangles have det = 0 and are never hit.
+struct TriangleHit {
+    t: f32,
+    // Barycentric coordinates of the hit (b0 for v0, b1 for v1, b2 for v2).
+    b: vec3<f32>,
+}
+
+fn component(v: vec3<f32>, k: u32) -> f32 {
+    return select(select(v.x, v.y, k == 1u), v.z, k == 2u);
+}
+
+fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>,
+                      t_min: f32, t_max: f32) -> TriangleHit {
+    let miss = TriangleHit(T_MISS, vec3<f32>(0.0));
+    // kz: the dimension where |d| is largest; kx, ky the other two, swapped to keep the winding.
+    let ad = abs(d);
+    var kz = 2u;
+    if ad.x > ad.y && ad.x > ad.z {
+        kz = 0u;
+    } else if ad.y > ad.z {
+        kz = 1u;
+    }
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    let dz = component(d, kz);
+    if dz < 0.0 {
+        let tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    let sx = component(d, kx) / dz;
+    let sy = component(d, ky) / dz;
+    let sz = 1.0 / dz;
+
+    let a = v0 - o;
+    let bb = v1 - o;
+    let c = v2 - o;
+    let ax = component(a, kx) - sx * component(a, kz);
+    let ay = component(a, ky) - sy * component(a, kz);
+    let bx = component(bb, kx) - sx * component(bb, kz);
+    let by = component(bb, ky) - sy * component(bb, kz);
+    let cx = component(c, kx) - sx * component(c, kz);
+    let cy = component(c, ky) - sy * component(c, kz);
+
+    // Edge functions: e0 for the edge opposite v0 (v1 -> v2), etc.
+    let e0 = cx * by - cy * bx;
+    let e1 = ax * cy - ay * cx;
+    let e2 = bx * ay - by * ax;
+    // Both signs present: the ray passes outside. Zeros (on an edge) count as inside, for either winding.
+    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+        return miss;
+    }
+    let det = e0 + e1 + e2;
+    if det == 0.0 {
+        return miss;
+    }
+    let az = sz * component(a, kz);
+    let bz = sz * component(bb, kz);
+    let cz = sz * component(c, kz);
+    let t_scaled = e0 * az + e1 * bz + e2 * cz;
+    let t = t_scaled / det;
+    if !(t > t_min && t < t_max) {
+        return miss;
+    }
+    return TriangleHit(t, vec3<f32>(e0, e1, e2) / det);
+}
+
+// Hit point from barycentrics, with pbrt's bound: |error| <= gamma(7) * sum |b_i v_i|.
+fn triangle_surface_point(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, b: vec3<f32>) -> SurfacePoint {
+    let p = b.x * v0 + b.y * v1 + b.z * v2;
+    let err = gamma_n(7.0) * (abs(b.x * v0) + abs(b.y * v1) + abs(b.z * v2));
+    return SurfacePoint(p, err);
+}
+
+// --- Spawning rays ----------------------------------------------------------------------------------
+// The next float towards +inf / -inf (finite inputs); used to round the offset origin away from the surface.
+fn next_float_up(x: f32) -> f32 {
+    if x == 0.0 {
+        return 1.4e-45;
+    }
+    let bits = bitcast<u32>(x);
+    return bitcast<f32>(select(bits - 1u, bits + 1u, x > 0.0));
+}
+
+fn next_float_down(x: f32) -> f32 {
+    if x == 0.0 {
+        return -1.4e-45;
+    }
+    let bits = bitcast<u32>(x);
+    return bitcast<f32>(select(bits + 1u, bits - 1u, x > 0.0));
+}
+
+// The origin for a ray leaving a surface point p (error box `err`, geometric normal n) in direction w:
+// push p along n, to the side w leaves from, by the projection of the error box on n, then round away
+// from p so that the rounding of the addition cannot bring it back inside the box.
+fn offset_ray_origin(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, w: vec3<f32>) -> vec3<f32> {
+    let dist = dot(abs(n), err);
+    var offset = dist * n;
+    if dot(w, n) < 0.0 {
+        offset = -offset;
+    }
+    var po = p + offset;
+    if offset.x > 0.0 { po.x = next_float_up(po.x); } else if offset.x < 0.0 { po.x = next_float_down(po.x); }
+    if offset.y > 0.0 { po.y = next_float_up(po.y); } else if offset.y < 0.0 { po.y = next_float_down(po.y); }
+    if offset.z > 0.0 { po.z = next_float_up(po.z); } else if offset.z < 0.0 { po.z = next_float_down(po.z); }
+    return po;
+}

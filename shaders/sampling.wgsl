@@ -1,0 +1,71 @@
+// sampling.wgsl: warping uniform numbers into the distributions the integrator needs, with their pdfs.
+
+const PI: f32 = 3.14159265358979323846;
+const TWO_PI: f32 = 6.28318530717958647692;
+const INV_PI: f32 = 0.31830988618379067154;
+
+// An orthonormal basis (t, b, n) around a unit vector n, without branches on n's direction except its sign:
+// Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 6(1), 2017.
+struct Frame {
+    t: vec3<f32>,
+    b: vec3<f32>,
+    n: vec3<f32>,
+}
+
+fn frame_from_normal(n: vec3<f32>) -> Frame {
+    let s = select(-1.0, 1.0, n.z >= 0.0);
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    let t = vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
+    let bt = vec3<f32>(b, s + n.y * n.y * a, -n.y);
+    return Frame(t, bt, n);
+}
+
+fn frame_to_world(f: Frame, v: vec3<f32>) -> vec3<f32> {
+    return v.x * f.t + v.y * f.b + v.z * f.n;
+}
+
+// Cosine-weighted direction on the hemisphere around n (Malley's method: uniform disk, lifted).
+// pdf(w) = cos(theta) / pi, with cos(theta) = dot(w, n).
+fn sample_cosine_hemisphere(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let r = sqrt(u.x);
+    let phi = TWO_PI * u.y;
+    let z = sqrt(max(0.0, 1.0 - u.x));
+    return frame_to_world(frame_from_normal(n), vec3<f32>(r * cos(phi), r * sin(phi), z));
+}
+
+// Uniform point on the unit disk, polar mapping: r = sqrt(u1), phi = 2 pi u2; pdf = 1/pi.
+fn sample_uniform_disk(u: vec2<f32>) -> vec2<f32> {
+    let r = sqrt(u.x);
+    let phi = TWO_PI * u.y;
+    return vec2<f32>(r * cos(phi), r * sin(phi));
+}
+
+// Uniform direction inside the cone of half-angle theta_max around `axis`, given
+// one_minus_cos_max = 1 - cos(theta_max) (passed in that form so that tiny cones keep their precision).
+// cos(theta) = 1 - u1 * (1 - cos theta_max), phi = 2 pi u2; pdf = 1 / (2 pi (1 - cos theta_max)) per sr.
+fn sample_cone(axis: vec3<f32>, one_minus_cos_max: f32, u: vec2<f32>) -> vec3<f32> {
+    let one_minus_cos = u.x * one_minus_cos_max;
+    let cos_theta = 1.0 - one_minus_cos;
+    // sin^2 = 1 - cos^2 = (1 - cos)(1 + cos), written without cancellation for small angles.
+    let sin_theta = sqrt(max(0.0, one_minus_cos * (2.0 - one_minus_cos)));
+    let phi = TWO_PI * u.y;
+    return frame_to_world(frame_from_normal(axis),
+                          vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta));
+}
+
+// The cone subtended by a sphere of radius r whose centre is at squared distance d2 > r^2:
+// sin^2(theta_max) = r^2 / d2 and 1 - cos = sin^2 / (1 + cos), exact even when r << d.
+fn sphere_cone_one_minus_cos(r: f32, d2: f32) -> f32 {
+    let sin2 = min(1.0, r * r / d2);
+    let cos_max = sqrt(max(0.0, 1.0 - sin2));
+    return sin2 / (1.0 + cos_max);
+}
+
+// Box–Muller: two independent N(0, sigma^2) offsets from two uniforms.
+// 1 - u1 lies in (0, 1], so the logarithm is finite.
+fn sample_gaussian2(u: vec2<f32>, sigma: f32) -> vec2<f32> {
+    let r = sigma * sqrt(-2.0 * log(1.0 - u.x));
+    let phi = TWO_PI * u.y;
+    return vec2<f32>(r * cos(phi), r * sin(phi));
+}

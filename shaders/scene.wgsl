@@ -1,0 +1,193 @@
+// scene.wgsl: the scene buffers, closest-hit and visibility queries over them, and direct lighting.
+// Struct layouts here are mirrored by `#[repr(C)]` Pod types in src/gpu/types.rs; a test holds each
+// Rust layout against the layout naga reflects from this file.
+
+struct Params {
+    cam_position: vec3<f32>,
+    lens_radius: f32,
+    cam_right: vec3<f32>,
+    tan_half_fov: f32,
+    cam_up: vec3<f32>,
+    focus_distance: f32,
+    cam_forward: vec3<f32>,
+    filter_sigma: f32,
+    background: vec3<f32>,
+    filter_kind: u32, // 0 none, 1 box, 2 gaussian
+    width: u32,
+    height: u32,
+    max_bounces: u32,
+    seed: u32,
+    sample_start: u32, // index of the first sample of this pass
+    sample_count: u32, // samples per pixel in this pass
+    num_spheres: u32,
+    num_triangles: u32,
+    num_lights: u32,
+    roulette_depth: u32, // Russian roulette from this many scattering events on
+    guard_one: f32, // always 1.0; see accumulate.wgsl
+    _pad0: u32,
+}
+
+struct Sphere {
+    center: vec3<f32>,
+    radius: f32,
+    material: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+struct Triangle {
+    v0: vec3<f32>,
+    material: u32,
+    v1: vec3<f32>,
+    _pad0: u32,
+    v2: vec3<f32>,
+    _pad1: u32,
+}
+
+struct Material {
+    albedo: vec3<f32>, // diffuse albedo or mirror tint
+    kind: u32,
+    emission: vec3<f32>, // radiance of an emitter, W sr^-1 m^-2
+    ior: f32,
+}
+
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_SPHERE: u32 = 1u;
+
+struct Light {
+    position: vec3<f32>, // point position or sphere centre
+    radius: f32,
+    // point: radiant intensity I = P color / (4 pi) (W/sr); sphere: radiance Le = P color / (4 pi^2 r^2)
+    intensity: vec3<f32>,
+    kind: u32,
+    sphere_index: u32, // for sphere lights: the index of its emitter sphere in `spheres`
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
+@group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(3) var<storage, read> materials: array<Material>;
+@group(0) @binding(4) var<storage, read> lights: array<Light>;
+
+const PRIM_NONE: u32 = 0u;
+const PRIM_SPHERE: u32 = 1u;
+const PRIM_TRIANGLE: u32 = 2u;
+
+struct Hit {
+    t: f32,
+    prim_kind: u32,
+    prim_index: u32,
+    b: vec3<f32>, // triangle barycentrics
+}
+
+// The closest intersection along the ray in (0, t_max). The origin has already been offset off its
+// surface (offset_ray_origin), so t_min is 0.
+fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
+    var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
+    for (var i = 0u; i < params.num_spheres; i++) {
+        let s = spheres[i];
+        let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
+        if t < hit.t {
+            hit = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0));
+        }
+    }
+    for (var i = 0u; i < params.num_triangles; i++) {
+        let tri = triangles[i];
+        let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
+        if th.t < hit.t {
+            hit = Hit(th.t, PRIM_TRIANGLE, i, th.b);
+        }
+    }
+    return hit;
+}
+
+// Is anything in the way over (0, t_max)? Stops at the first blocker.
+fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
+    for (var i = 0u; i < params.num_spheres; i++) {
+        let s = spheres[i];
+        if intersect_sphere(o, d, s.center, s.radius, 0.0, t_max) < t_max {
+            return true;
+        }
+    }
+    for (var i = 0u; i < params.num_triangles; i++) {
+        let tri = triangles[i];
+        if intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, t_max).t < t_max {
+            return true;
+        }
+    }
+    return false;
+}
+
+// Surface data at a hit: position with its error bound, geometric normal (outward for spheres,
+// (v1 - v0) x (v2 - v0) for triangles), material index.
+struct Surface {
+    p: vec3<f32>,
+    err: vec3<f32>,
+    n: vec3<f32>,
+    material: u32,
+}
+
+fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
+    if hit.prim_kind == PRIM_SPHERE {
+        let s = spheres[hit.prim_index];
+        let sp = sphere_surface_point(o, d, hit.t, s.center, s.radius);
+        return Surface(sp.p, sp.err, normalize(sp.p - s.center), s.material);
+    }
+    let tri = triangles[hit.prim_index];
+    let sp = triangle_surface_point(tri.v0, tri.v1, tri.v2, hit.b);
+    let n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
+    return Surface(sp.p, sp.err, n, tri.material);
+}
+
+// Irradiance-like sum over all lights of Le * cos(theta) / pdf at a surface point with facing normal n
+// (one sample per sphere light): the caller multiplies by the BRDF (albedo / pi).
+//  * Point light of intensity I at distance r: E = I cos(theta) / r^2 (the course's formula, with
+//    I = P / (4 pi)).
+//  * Sphere light: sample a direction uniformly in the cone the sphere subtends (pdf 1/(2 pi (1-cos_max)));
+//    the estimate Le cos(theta) / pdf is unbiased for the irradiance from the sphere, light-side cosine
+//    included (the cone measure already accounts for it), and converges to the point light as r -> 0.
+fn direct_light(sp: Surface, n: vec3<f32>, rng: ptr<function, Rng>) -> vec3<f32> {
+    var e = vec3<f32>(0.0);
+    for (var i = 0u; i < params.num_lights; i++) {
+        let light = lights[i];
+        if light.kind == LIGHT_POINT {
+            let to_light = light.position - sp.p;
+            let dist2 = dot(to_light, to_light);
+            let dist = sqrt(dist2);
+            let wi = to_light / dist;
+            let cos_theta = dot(n, wi);
+            if cos_theta <= 0.0 || dist2 == 0.0 {
+                continue;
+            }
+            let o = offset_ray_origin(sp.p, sp.err, n, wi);
+            // Stop short of the light itself by a relative 1e-4, since a point light has no surface.
+            if !scene_occluded(o, wi, dist * (1.0 - 1.0e-4)) {
+                e += light.intensity * cos_theta / dist2;
+            }
+        } else {
+            let u = rng_next2(rng);
+            let to_center = light.position - sp.p;
+            let d2 = dot(to_center, to_center);
+            if d2 <= light.radius * light.radius {
+                continue; // inside the light: it does not illuminate its own interior
+            }
+            let omc = sphere_cone_one_minus_cos(light.radius, d2);
+            let wi = sample_cone(to_center / sqrt(d2), omc, u);
+            let cos_theta = dot(n, wi);
+            if cos_theta <= 0.0 {
+                continue;
+            }
+            // Visible if the first thing the ray meets is this light's own sphere.
+            let o = offset_ray_origin(sp.p, sp.err, n, wi);
+            let hit = scene_intersect(o, wi, T_MISS);
+            if hit.prim_kind == PRIM_SPHERE && hit.prim_index == light.sphere_index {
+                e += light.intensity * cos_theta * (TWO_PI * omc);
+            }
+        }
+    }
+    return e;
+}

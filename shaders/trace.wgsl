@@ -1,0 +1,124 @@
+// trace.wgsl: the path-tracing kernel. One invocation per pixel and pass; it traces `sample_count` paths
+// (samples sample_start .. sample_start + sample_count) and adds each to the pixel's running sums in the
+// same order whatever the split into passes, so N passes of k samples give the same bits as one of N k.
+
+@group(0) @binding(5) var<storage, read_write> accum: array<Accum>;
+
+const FILTER_NONE: u32 = 0u;
+const FILTER_BOX: u32 = 1u;
+const FILTER_GAUSSIAN: u32 = 2u;
+
+// Position on the film of one sample of pixel `px`, importance-sampled from the pixel filter: the
+// filter's weight is then 1 for every sample, and the pixel value is the plain mean of its samples.
+fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
+    let center = vec2<f32>(px) + vec2<f32>(0.5);
+    let u = rng_next2(rng);
+    switch params.filter_kind {
+        case FILTER_BOX: {
+            return vec2<f32>(px) + u;
+        }
+        case FILTER_GAUSSIAN: {
+            return center + sample_gaussian2(u, params.filter_sigma);
+        }
+        default: {
+            return center;
+        }
+    }
+}
+
+// One path: the Monte Carlo estimate of the radiance arriving at the camera through this sample.
+// L = sum over vertices of beta * (emission seen by a specular chain, or direct light by next-event
+// estimation at diffuse vertices), with beta the product of f cos / pdf along the path.
+fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
+    var rng = rng_new(px.y * params.width + px.x, sample, params.seed);
+    let film = film_position(px, &rng);
+    let lens = sample_uniform_disk(rng_next2(&rng));
+    let cam = camera_ray(params.cam_position, params.cam_right, params.cam_up, params.cam_forward,
+                         params.tan_half_fov, params.width, params.height, film,
+                         params.lens_radius, params.focus_distance, lens);
+    var o = cam.o;
+    var d = cam.d;
+    var beta = vec3<f32>(1.0);
+    var radiance = vec3<f32>(0.0);
+    // Emission found by a ray counts only when no next-event estimate already accounted for it: on camera
+    // rays and after specular bounces (mirror, glass). After a diffuse bounce, the light was sampled.
+    var count_emission = true;
+    var bounces = 0u;
+    loop {
+        let hit = scene_intersect(o, d, T_MISS);
+        if hit.prim_kind == PRIM_NONE {
+            radiance += beta * params.background;
+            break;
+        }
+        let sp = surface_at(o, d, hit);
+        let mat = materials[sp.material];
+        if mat.kind == MAT_EMITTER {
+            if count_emission {
+                radiance += beta * mat.emission;
+            }
+            break;
+        }
+        if bounces >= params.max_bounces {
+            break;
+        }
+        bounces += 1u;
+        // Both faces scatter: shade with the normal on the side the ray came from.
+        let entering = dot(d, sp.n) < 0.0;
+        let n = select(-sp.n, sp.n, entering);
+        var wi: vec3<f32>;
+        switch mat.kind {
+            case MAT_DIFFUSE: {
+                // Next-event estimation: f = albedo / pi times sum of Le cos / pdf.
+                radiance += beta * mat.albedo * INV_PI * direct_light(sp, n, &rng);
+                // Continue with a cosine-weighted direction: f cos / pdf = (albedo/pi) cos / (cos/pi) = albedo.
+                wi = sample_cosine_hemisphere(n, rng_next2(&rng));
+                beta *= mat.albedo;
+                count_emission = false;
+            }
+            case MAT_MIRROR: {
+                wi = reflect_dir(d, n);
+                beta *= mat.albedo;
+                count_emission = true;
+            }
+            default: { // MAT_DIELECTRIC
+                // eta = n_t / n_i: entering goes from the outside (index 1) into the material.
+                let eta = select(1.0 / mat.ior, mat.ior, entering);
+                let f = fresnel_dielectric(-dot(d, n), eta);
+                // Choose reflection with probability F, refraction with 1 - F: the weights F/F and
+                // (1-F)/(1-F) cancel, so beta is unchanged (radiance scaling by eta^2 is not applied:
+                // it cancels along any path that enters and leaves the same medium).
+                if rng_next(&rng) < f {
+                    wi = reflect_dir(d, n);
+                } else {
+                    wi = refract_dir(d, n, eta);
+                }
+                count_emission = true;
+            }
+        }
+        o = offset_ray_origin(sp.p, sp.err, n, wi);
+        d = wi;
+        // Russian roulette (unbiased): past roulette_depth, continue with probability q and divide by q.
+        if bounces >= params.roulette_depth {
+            let q = clamp(max(beta.x, max(beta.y, beta.z)), 0.05, 0.95);
+            if rng_next(&rng) >= q {
+                break;
+            }
+            beta /= q;
+        }
+    }
+    return radiance;
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x >= params.width || gid.y >= params.height {
+        return;
+    }
+    let pixel = gid.y * params.width + gid.x;
+    var acc = accum[pixel];
+    for (var s = 0u; s < params.sample_count; s++) {
+        let radiance = trace_path(gid.xy, params.sample_start + s);
+        acc = accumulate_sample(acc, radiance, params.guard_one);
+    }
+    accum[pixel] = acc;
+}

@@ -1,0 +1,152 @@
+//! The film: per-pixel means and variances read back from the GPU, the display transform, and atomic
+//! PNG/EXR writing.
+
+use crate::gpu::types::GpuAccum;
+use crate::scene::{Gamma, ImageSettings};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Linear radiance per pixel, row-major from the top-left, with the variance of each pixel's estimate.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel behind each mean.
+    pub spp: u32,
+    /// Mean radiance (the estimate), RGB.
+    pub mean: Vec<[f32; 3]>,
+    /// Estimated variance of each mean: s^2 / n with s^2 the unbiased sample variance; NaN when n < 2.
+    pub variance: Vec<[f32; 3]>,
+}
+
+/// An output format, from the file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    Png,
+    Exr,
+}
+
+impl OutputFormat {
+    pub fn from_path(path: &Path) -> Option<OutputFormat> {
+        match path.extension()?.to_str()?.to_ascii_lowercase().as_str() {
+            "png" => Some(OutputFormat::Png),
+            "exr" => Some(OutputFormat::Exr),
+            _ => None,
+        }
+    }
+}
+
+impl Film {
+    /// From the GPU's Kahan sums: sum ~ s - c (c holds what the last additions overshot), in f64.
+    pub fn from_sums(width: u32, height: u32, spp: u32, accum: &[GpuAccum]) -> Film {
+        let n = spp as f64;
+        let mut mean = Vec::with_capacity(accum.len());
+        let mut variance = Vec::with_capacity(accum.len());
+        for a in accum {
+            let mut m = [0f32; 3];
+            let mut v = [0f32; 3];
+            for c in 0..3 {
+                let s = a.sum[c] as f64 - a.sum_c[c] as f64;
+                let sq = a.sum_sq[c] as f64 - a.sum_sq_c[c] as f64;
+                if spp == 0 {
+                    continue;
+                }
+                let mu = s / n;
+                m[c] = mu as f32;
+                v[c] = if spp < 2 {
+                    f32::NAN
+                } else {
+                    // Unbiased sample variance, clamped at 0 against rounding, divided by n for the mean.
+                    (((sq - n * mu * mu) / (n - 1.0)).max(0.0) / n) as f32
+                };
+            }
+            mean.push(m);
+            variance.push(v);
+        }
+        Film { width, height, spp, mean, variance }
+    }
+
+    /// The mean radiance of pixel (x, y), (0, 0) the top-left.
+    pub fn pixel(&self, x: u32, y: u32) -> [f32; 3] {
+        self.mean[(y * self.width + x) as usize]
+    }
+
+    /// Mean over all pixels and channels.
+    pub fn average(&self) -> f64 {
+        let total: f64 = self.mean.iter().flat_map(|p| p.iter()).map(|&v| v as f64).sum();
+        total / (self.mean.len() * 3).max(1) as f64
+    }
+
+    /// Estimated relative error of the image against the converged one:
+    /// sqrt(mean over pixels and channels of Var[pixel estimate]) / mean(image). NaN below 2 spp or for a
+    /// black image.
+    pub fn estimated_rel_error(&self) -> f64 {
+        let var: f64 = self.variance.iter().flat_map(|p| p.iter()).map(|&v| v as f64).sum();
+        let var = var / (self.variance.len() * 3).max(1) as f64;
+        let mean = self.average();
+        if !var.is_finite() || mean <= 0.0 { f64::NAN } else { var.sqrt() / mean }
+    }
+
+    /// The 8-bit display image: v = clamp(exposure L, 0, 1), then v^(1/gamma) or the sRGB curve.
+    pub fn to_rgb8(&self, settings: &ImageSettings) -> image::RgbImage {
+        let transfer = |v: f32| -> u8 {
+            let v = (v * settings.exposure).clamp(0.0, 1.0);
+            let v = if v.is_nan() { 0.0 } else { v };
+            let encoded = match settings.gamma {
+                Gamma::Power(g) => v.powf(1.0 / g),
+                Gamma::Srgb => {
+                    if v <= 0.0031308 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
+                }
+            };
+            (encoded * 255.0).round().clamp(0.0, 255.0) as u8
+        };
+        image::RgbImage::from_fn(self.width, self.height, |x, y| {
+            let p = self.pixel(x, y);
+            image::Rgb([transfer(p[0]), transfer(p[1]), transfer(p[2])])
+        })
+    }
+
+    /// The linear float image (no exposure, no gamma): what the estimator computed.
+    pub fn to_rgb32f(&self) -> image::Rgb32FImage {
+        image::Rgb32FImage::from_fn(self.width, self.height, |x, y| image::Rgb(self.pixel(x, y)))
+    }
+
+    /// Writes the film to `path` (format from the extension), atomically: a temporary file in the same
+    /// directory, flushed and synced, then renamed over the target. A crash never leaves a partial image.
+    pub fn write(&self, path: &Path, settings: &ImageSettings) -> Result<(), crate::Error> {
+        let format = OutputFormat::from_path(path).ok_or_else(|| {
+            crate::Error::Usage(format!(
+                "cannot tell the image format of {}: use a .png or .exr extension",
+                path.display()
+            ))
+        })?;
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        let encoded = match format {
+            OutputFormat::Png => self.to_rgb8(settings).write_to(&mut bytes, image::ImageFormat::Png),
+            OutputFormat::Exr => self.to_rgb32f().write_to(&mut bytes, image::ImageFormat::OpenExr),
+        };
+        encoded.map_err(|e| crate::Error::Io { path: path.to_path_buf(), message: e.to_string() })?;
+        write_atomically(path, bytes.get_ref())
+    }
+}
+
+fn temp_path_for(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+/// Writes `bytes` to `path` through a temporary file and a rename.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), crate::Error> {
+    let io_err = |e: std::io::Error| crate::Error::Io { path: path.to_path_buf(), message: e.to_string() };
+    let tmp = temp_path_for(path);
+    let result = (|| {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(io_err)
+}

@@ -1,0 +1,136 @@
+//! Buffers: host-visible ones for uploads and readback, device-local ones for the accumulator.
+
+use super::{GpuContext, GpuError};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use std::sync::Arc;
+
+/// A Vulkan buffer with its memory. Freed on drop.
+pub struct Buffer {
+    ctx: Arc<GpuContext>,
+    pub(crate) raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    size: u64,
+}
+
+impl Buffer {
+    /// A buffer of `size` bytes (at least 4: Vulkan forbids empty buffers, so empty arrays get a dummy).
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Buffer, GpuError> {
+        let size = size.max(16);
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let device = &ctx.device;
+        // SAFETY: valid create info; the buffer is destroyed in Drop or below on failure.
+        let raw = unsafe { device.create_buffer(&info, None) }.map_err(|e| GpuError::vk("vkCreateBuffer", e))?;
+        let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
+        let allocation = {
+            let mut guard = ctx.allocator();
+            let Some(allocator) = guard.as_mut() else {
+                unsafe { device.destroy_buffer(raw, None) };
+                return Err(GpuError::Alloc("the allocator is gone".into()));
+            };
+            allocator.allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear: true,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })
+        };
+        let allocation = match allocation {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { device.destroy_buffer(raw, None) };
+                return Err(GpuError::Alloc(format!("{name} ({size} bytes): {e}")));
+            }
+        };
+        if let Err(e) = unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) } {
+            if let Some(a) = ctx.allocator().as_mut() {
+                let _ = a.free(allocation);
+            }
+            unsafe { device.destroy_buffer(raw, None) };
+            return Err(GpuError::vk("vkBindBufferMemory", e));
+        }
+        Ok(Buffer { ctx: ctx.clone(), raw, allocation: Some(allocation), size })
+    }
+
+    /// A host-visible storage buffer holding `data` (uploaded now).
+    pub fn storage_from<T: bytemuck::Pod>(ctx: &Arc<GpuContext>, name: &str, data: &[T]) -> Result<Buffer, GpuError> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        let mut b = Buffer::new(
+            ctx,
+            name,
+            bytes.len() as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        b.write(bytes)?;
+        Ok(b)
+    }
+
+    /// A host-visible uniform buffer holding `value`.
+    pub fn uniform_from<T: bytemuck::Pod>(ctx: &Arc<GpuContext>, name: &str, value: &T) -> Result<Buffer, GpuError> {
+        let mut b = Buffer::new(
+            ctx,
+            name,
+            std::mem::size_of::<T>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )?;
+        b.write(bytemuck::bytes_of(value))?;
+        Ok(b)
+    }
+
+    /// Size in bytes.
+    pub fn size(&self) -> u64 {
+        self.size
+    }
+
+    /// Copies `bytes` to the start of a host-visible buffer.
+    pub fn write(&mut self, bytes: &[u8]) -> Result<(), GpuError> {
+        let slice = self
+            .allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .ok_or_else(|| GpuError::Usage("write to a buffer that is not host-visible".into()))?;
+        if bytes.len() > slice.len() {
+            return Err(GpuError::Usage(format!(
+                "write of {} bytes into a buffer of {}",
+                bytes.len(),
+                slice.len()
+            )));
+        }
+        slice[..bytes.len()].copy_from_slice(bytes);
+        Ok(())
+    }
+
+    /// The contents of a host-visible buffer (call after the GPU work writing it has completed).
+    pub fn read_bytes(&self) -> Result<&[u8], GpuError> {
+        self.allocation
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .map(|s| &s[..self.size as usize])
+            .ok_or_else(|| GpuError::Usage("read of a buffer that is not host-visible".into()))
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        // SAFETY: the owner waits for GPU work using this buffer before dropping it.
+        unsafe { self.ctx.device.destroy_buffer(self.raw, None) };
+        if let Some(a) = self.allocation.take()
+            && let Some(alloc) = self.ctx.allocator().as_mut()
+        {
+            let _ = alloc.free(a);
+        }
+    }
+}

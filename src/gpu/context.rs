@@ -1,0 +1,375 @@
+//! The Vulkan context: instance (with optional Khronos validation), the chosen physical device, a logical
+//! device with one compute queue, a command pool and the memory allocator.
+
+use super::GpuError;
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use std::ffi::{CStr, c_void};
+use std::sync::{Arc, Mutex};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// What `vkpath info` reports for one physical device.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DeviceInfo {
+    pub index: usize,
+    pub name: String,
+    pub device_type: String,
+    pub api_version: String,
+    pub driver_version: u32,
+    pub has_compute_queue: bool,
+    pub max_compute_workgroup_count: [u32; 3],
+    pub max_compute_workgroup_invocations: u32,
+    pub max_storage_buffer_range: u32,
+    pub max_memory_allocation_size: u64,
+    pub device_local_memory_bytes: u64,
+}
+
+/// Options for creating a [`GpuContext`].
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    /// Enable `VK_LAYER_KHRONOS_validation` and record every message of severity warning or above.
+    /// Also enabled by the environment variable `VKPATH_VALIDATION=1`.
+    pub validation: bool,
+    /// Pick the first device whose name contains this (case-insensitive); also `VKPATH_DEVICE`.
+    pub device_substring: Option<String>,
+}
+
+/// Messages the validation layer reported (errors and warnings), shared with the debug callback.
+#[derive(Default)]
+struct DebugSink {
+    errors: Mutex<Vec<String>>,
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    _types: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) && !user.is_null() && !data.is_null() {
+        // SAFETY: `user` is the DebugSink boxed in GpuContext, alive until the messenger is destroyed;
+        // `data` is valid for the duration of the callback.
+        let sink = unsafe { &*(user as *const DebugSink) };
+        let msg = unsafe { (*data).message_as_c_str() }
+            .map(|m| m.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "<no message>".into());
+        if let Ok(mut errors) = sink.errors.lock() {
+            errors.push(msg);
+        }
+    }
+    vk::FALSE
+}
+
+/// The device, its queue and allocator. Shared (`Arc`) by buffers and kernels, which must not outlive it.
+pub struct GpuContext {
+    // Keeps the Vulkan loader library loaded for as long as the instance lives.
+    _entry: ash::Entry,
+    pub(crate) instance: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT, Box<DebugSink>)>,
+    pub(crate) device: ash::Device,
+    pub(crate) queue: Mutex<vk::Queue>,
+    pub(crate) queue_family: u32,
+    pub(crate) allocator: Mutex<Option<Allocator>>,
+    pub(crate) limits: vk::PhysicalDeviceLimits,
+    info: DeviceInfo,
+    reason: String,
+}
+
+fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
+        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
+        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
+        vk::PhysicalDeviceType::CPU => "CPU",
+        _ => "other",
+    }
+}
+
+/// Preference order when no name is given: discrete, integrated, virtual, CPU (lavapipe), other.
+fn device_type_rank(t: vk::PhysicalDeviceType) -> u32 {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
+        vk::PhysicalDeviceType::CPU => 3,
+        _ => 4,
+    }
+}
+
+fn load_entry() -> Result<ash::Entry, GpuError> {
+    // SAFETY: loading the system Vulkan loader library; no other code runs during the load.
+    unsafe { ash::Entry::load() }.map_err(|e| GpuError::NoVulkan(e.to_string()))
+}
+
+fn env_flag(name: &str) -> bool {
+    std::env::var(name).map(|v| !v.is_empty() && v != "0").unwrap_or(false)
+}
+
+fn create_instance(entry: &ash::Entry, validation: bool) -> Result<ash::Instance, GpuError> {
+    let app_name = c"vkpath";
+    let app_info = vk::ApplicationInfo::default()
+        .application_name(app_name)
+        .engine_name(app_name)
+        .api_version(vk::API_VERSION_1_1);
+    let mut layers = Vec::new();
+    let mut extensions = Vec::new();
+    if validation {
+        // SAFETY: plain query of the loader.
+        let available = unsafe { entry.enumerate_instance_layer_properties() }
+            .map_err(|e| GpuError::vk("vkEnumerateInstanceLayerProperties", e))?;
+        let found = available
+            .iter()
+            .any(|l| l.layer_name_as_c_str().map(|n| n == VALIDATION_LAYER).unwrap_or(false));
+        if !found {
+            return Err(GpuError::ValidationUnavailable);
+        }
+        layers.push(VALIDATION_LAYER.as_ptr());
+        extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+    }
+    let create_info = vk::InstanceCreateInfo::default()
+        .application_info(&app_info)
+        .enabled_layer_names(&layers)
+        .enabled_extension_names(&extensions);
+    // SAFETY: create_info and everything it points to live until the call returns.
+    let instance = unsafe { entry.create_instance(&create_info, None) };
+    match instance {
+        Ok(i) => Ok(i),
+        Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => Err(GpuError::NoDevice),
+        Err(e) => Err(GpuError::vk("vkCreateInstance", e)),
+    }
+}
+
+fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> DeviceInfo {
+    // SAFETY: pd comes from this instance's enumeration.
+    let props = unsafe { instance.get_physical_device_properties(pd) };
+    let queues = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    let mem = unsafe { instance.get_physical_device_memory_properties(pd) };
+    let mut maint3 = vk::PhysicalDeviceMaintenance3Properties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut maint3);
+    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    let device_local = mem.memory_heaps[..mem.memory_heap_count as usize]
+        .iter()
+        .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+        .map(|h| h.size)
+        .sum();
+    let v = props.api_version;
+    DeviceInfo {
+        index,
+        name: props
+            .device_name_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        device_type: device_type_name(props.device_type).into(),
+        api_version: format!(
+            "{}.{}.{}",
+            vk::api_version_major(v),
+            vk::api_version_minor(v),
+            vk::api_version_patch(v)
+        ),
+        driver_version: props.driver_version,
+        has_compute_queue: queues.iter().any(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE)),
+        max_compute_workgroup_count: props.limits.max_compute_work_group_count,
+        max_compute_workgroup_invocations: props.limits.max_compute_work_group_invocations,
+        max_storage_buffer_range: props.limits.max_storage_buffer_range,
+        max_memory_allocation_size: maint3.max_memory_allocation_size,
+        device_local_memory_bytes: device_local,
+    }
+}
+
+/// Lists the Vulkan devices without creating a logical device (for `vkpath info`).
+pub fn list_devices() -> Result<Vec<DeviceInfo>, GpuError> {
+    let entry = load_entry()?;
+    let instance = create_instance(&entry, false)?;
+    // SAFETY: the instance is valid; destroyed below.
+    let pds = unsafe { instance.enumerate_physical_devices() };
+    let result = pds
+        .map(|pds| pds.iter().enumerate().map(|(i, &pd)| describe(&instance, i, pd)).collect())
+        .map_err(|e| GpuError::vk("vkEnumeratePhysicalDevices", e));
+    unsafe { instance.destroy_instance(None) };
+    result
+}
+
+/// Chooses a device: by name substring when given, else the best-ranked type with a compute queue.
+/// Returns the index and a sentence saying why.
+pub fn choose_device(devices: &[DeviceInfo], substring: Option<&str>) -> Result<(usize, String), GpuError> {
+    let usable: Vec<&DeviceInfo> = devices.iter().filter(|d| d.has_compute_queue).collect();
+    if usable.is_empty() {
+        return Err(GpuError::NoDevice);
+    }
+    if let Some(sub) = substring {
+        let needle = sub.to_lowercase();
+        return usable
+            .iter()
+            .find(|d| d.name.to_lowercase().contains(&needle))
+            .map(|d| (d.index, format!("its name contains \"{sub}\" (VKPATH_DEVICE)")))
+            .ok_or_else(|| GpuError::DeviceNotFound {
+                wanted: sub.to_string(),
+                available: usable.iter().map(|d| d.name.clone()).collect(),
+            });
+    }
+    let rank = |d: &DeviceInfo| match d.device_type.as_str() {
+        "discrete GPU" => device_type_rank(vk::PhysicalDeviceType::DISCRETE_GPU),
+        "integrated GPU" => device_type_rank(vk::PhysicalDeviceType::INTEGRATED_GPU),
+        "virtual GPU" => device_type_rank(vk::PhysicalDeviceType::VIRTUAL_GPU),
+        "CPU" => device_type_rank(vk::PhysicalDeviceType::CPU),
+        _ => 4,
+    };
+    let best = usable.iter().min_by_key(|d| (rank(d), d.index)).copied().ok_or(GpuError::NoDevice)?;
+    Ok((
+        best.index,
+        format!(
+            "it is a {} with a compute queue (preference: discrete GPU, integrated GPU, virtual GPU, CPU)",
+            best.device_type
+        ),
+    ))
+}
+
+impl GpuContext {
+    /// Creates the context on the preferred device (see [`choose_device`]).
+    pub fn new(options: &ContextOptions) -> Result<Arc<GpuContext>, GpuError> {
+        let validation = options.validation || env_flag("VKPATH_VALIDATION");
+        let substring = options
+            .device_substring
+            .clone()
+            .or_else(|| std::env::var("VKPATH_DEVICE").ok().filter(|s| !s.is_empty()));
+        let entry = load_entry()?;
+        let instance = create_instance(&entry, validation)?;
+        // From here on, failures must destroy what was created: build in a closure and clean up on error.
+        let mut debug = None;
+        if validation {
+            let sink = Box::new(DebugSink::default());
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(&*sink as *const DebugSink as *mut c_void);
+            // SAFETY: `sink` is boxed and kept with the messenger; the callback only reads it.
+            match unsafe { loader.create_debug_utils_messenger(&info, None) } {
+                Ok(m) => debug = Some((loader, m, sink)),
+                Err(e) => {
+                    unsafe { instance.destroy_instance(None) };
+                    return Err(GpuError::vk("vkCreateDebugUtilsMessengerEXT", e));
+                }
+            }
+        }
+        let cleanup_instance = |debug: &Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT, Box<DebugSink>)>| unsafe {
+            if let Some((loader, m, _)) = debug {
+                loader.destroy_debug_utils_messenger(*m, None);
+            }
+            instance.destroy_instance(None);
+        };
+        let pds = match unsafe { instance.enumerate_physical_devices() } {
+            Ok(p) => p,
+            Err(e) => {
+                cleanup_instance(&debug);
+                return Err(GpuError::vk("vkEnumeratePhysicalDevices", e));
+            }
+        };
+        let infos: Vec<DeviceInfo> = pds.iter().enumerate().map(|(i, &pd)| describe(&instance, i, pd)).collect();
+        let (index, reason) = match choose_device(&infos, substring.as_deref()) {
+            Ok(c) => c,
+            Err(e) => {
+                cleanup_instance(&debug);
+                return Err(e);
+            }
+        };
+        let physical = pds[index];
+        let queue_family = unsafe { instance.get_physical_device_queue_family_properties(physical) }
+            .iter()
+            .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            .unwrap_or(0) as u32;
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&priorities)];
+        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        let device = match unsafe { instance.create_device(physical, &device_info, None) } {
+            Ok(d) => d,
+            Err(e) => {
+                cleanup_instance(&debug);
+                return Err(GpuError::vk("vkCreateDevice", e));
+            }
+        };
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let allocator = match Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device: physical,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        }) {
+            Ok(a) => a,
+            Err(e) => {
+                unsafe { device.destroy_device(None) };
+                cleanup_instance(&debug);
+                return Err(GpuError::Alloc(e.to_string()));
+            }
+        };
+        let limits = unsafe { instance.get_physical_device_properties(physical) }.limits;
+        Ok(Arc::new(GpuContext {
+            _entry: entry,
+            instance,
+            debug,
+            device,
+            queue: Mutex::new(queue),
+            queue_family,
+            allocator: Mutex::new(Some(allocator)),
+            limits,
+            info: infos[index].clone(),
+            reason,
+        }))
+    }
+
+    /// The chosen device.
+    pub fn device_info(&self) -> &DeviceInfo {
+        &self.info
+    }
+
+    /// Why this device was chosen, in words.
+    pub fn choice_reason(&self) -> &str {
+        &self.reason
+    }
+
+    /// Whether the Khronos validation layer is active.
+    pub fn validation_enabled(&self) -> bool {
+        self.debug.is_some()
+    }
+
+    /// Error messages reported by the validation layer so far (empty when validation is off).
+    pub fn validation_errors(&self) -> Vec<String> {
+        self.debug
+            .as_ref()
+            .and_then(|(_, _, sink)| sink.errors.lock().ok().map(|e| e.clone()))
+            .unwrap_or_default()
+    }
+
+    pub(crate) fn allocator(&self) -> std::sync::MutexGuard<'_, Option<Allocator>> {
+        // A poisoned lock means a panic elsewhere already; the allocator itself is still consistent.
+        self.allocator.lock().unwrap_or_else(|p| p.into_inner())
+    }
+}
+
+impl Drop for GpuContext {
+    fn drop(&mut self) {
+        // SAFETY: every buffer and kernel holds an Arc to the context, so none is alive any more.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            // The allocator frees its memory blocks: it must go before the device.
+            self.allocator().take();
+            self.device.destroy_device(None);
+            if let Some((loader, m, _)) = &self.debug {
+                loader.destroy_debug_utils_messenger(*m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}

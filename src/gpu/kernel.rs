@@ -1,0 +1,250 @@
+//! A compute kernel: pipeline + descriptor set whose layout is reflected from the shader, and a way to
+//! run it and wait.
+
+use super::shader::{BindingInfo, CompiledShader};
+use super::{Buffer, GpuContext, GpuError};
+use ash::vk;
+use std::sync::Arc;
+
+pub struct Kernel {
+    ctx: Arc<GpuContext>,
+    bindings: Vec<BindingInfo>,
+    workgroup_size: [u32; 3],
+    set_layout: vk::DescriptorSetLayout,
+    pipeline_layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    command_pool: vk::CommandPool,
+    command_buffer: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+impl Kernel {
+    pub fn new(ctx: &Arc<GpuContext>, shader: &CompiledShader) -> Result<Kernel, GpuError> {
+        // Build into a Kernel with null handles first, so that Drop cleans up whatever a failure leaves.
+        let mut k = Kernel {
+            ctx: ctx.clone(),
+            bindings: shader.bindings.clone(),
+            workgroup_size: shader.workgroup_size,
+            set_layout: vk::DescriptorSetLayout::null(),
+            pipeline_layout: vk::PipelineLayout::null(),
+            pipeline: vk::Pipeline::null(),
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            command_pool: vk::CommandPool::null(),
+            command_buffer: vk::CommandBuffer::null(),
+            fence: vk::Fence::null(),
+        };
+        let device = &ctx.device;
+        let layout_bindings: Vec<vk::DescriptorSetLayoutBinding> = shader
+            .bindings
+            .iter()
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b.binding)
+                    .descriptor_type(b.descriptor_type)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        // SAFETY (whole block): plain object creation with create-infos that outlive each call.
+        unsafe {
+            k.set_layout = device
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
+                    None,
+                )
+                .map_err(|e| GpuError::vk("vkCreateDescriptorSetLayout", e))?;
+            let set_layouts = [k.set_layout];
+            k.pipeline_layout = device
+                .create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts), None)
+                .map_err(|e| GpuError::vk("vkCreatePipelineLayout", e))?;
+            let module = device
+                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&shader.spirv), None)
+                .map_err(|e| GpuError::vk("vkCreateShaderModule", e))?;
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module)
+                .name(c"main");
+            let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(k.pipeline_layout);
+            let pipelines = device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None);
+            device.destroy_shader_module(module, None);
+            k.pipeline = pipelines.map_err(|(_, e)| GpuError::vk("vkCreateComputePipelines", e))?[0];
+
+            let uniform_count = shader
+                .bindings
+                .iter()
+                .filter(|b| b.descriptor_type == vk::DescriptorType::UNIFORM_BUFFER)
+                .count() as u32;
+            let storage_count = shader.bindings.len() as u32 - uniform_count;
+            let mut sizes = Vec::new();
+            if uniform_count > 0 {
+                sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: uniform_count });
+            }
+            if storage_count > 0 {
+                sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: storage_count });
+            }
+            k.pool = device
+                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
+                .map_err(|e| GpuError::vk("vkCreateDescriptorPool", e))?;
+            k.set = device
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default().descriptor_pool(k.pool).set_layouts(&set_layouts),
+                )
+                .map_err(|e| GpuError::vk("vkAllocateDescriptorSets", e))?[0];
+            k.command_pool = device
+                .create_command_pool(
+                    &vk::CommandPoolCreateInfo::default()
+                        .queue_family_index(ctx.queue_family)
+                        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
+                    None,
+                )
+                .map_err(|e| GpuError::vk("vkCreateCommandPool", e))?;
+            k.command_buffer = device
+                .allocate_command_buffers(
+                    &vk::CommandBufferAllocateInfo::default()
+                        .command_pool(k.command_pool)
+                        .level(vk::CommandBufferLevel::PRIMARY)
+                        .command_buffer_count(1),
+                )
+                .map_err(|e| GpuError::vk("vkAllocateCommandBuffers", e))?[0];
+            k.fence = device
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+                .map_err(|e| GpuError::vk("vkCreateFence", e))?;
+        }
+        Ok(k)
+    }
+
+    /// The bindings this kernel expects, in binding order.
+    pub fn bindings(&self) -> &[BindingInfo] {
+        &self.bindings
+    }
+
+    /// Points the descriptor set at `buffers`, one per binding, in binding order.
+    pub fn bind(&mut self, buffers: &[&Buffer]) -> Result<(), GpuError> {
+        if buffers.len() != self.bindings.len() {
+            return Err(GpuError::Usage(format!(
+                "kernel has {} bindings but {} buffers were given",
+                self.bindings.len(),
+                buffers.len()
+            )));
+        }
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
+            .iter()
+            .map(|b| [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }])
+            .collect();
+        let writes: Vec<vk::WriteDescriptorSet> = self
+            .bindings
+            .iter()
+            .zip(infos.iter())
+            .map(|(b, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(self.set)
+                    .dst_binding(b.binding)
+                    .descriptor_type(b.descriptor_type)
+                    .buffer_info(info)
+            })
+            .collect();
+        // SAFETY: the set is not in use by the GPU (every submit waits for completion).
+        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+        Ok(())
+    }
+
+    /// Records a dispatch of enough workgroups to cover `invocations` (x, y, z), and optionally a copy of
+    /// `copy.0` into `copy.1` after it; submits and waits for completion.
+    pub fn run(&mut self, invocations: [u32; 3], copy: Option<(&Buffer, &Buffer)>) -> Result<(), GpuError> {
+        let groups = [0, 1, 2].map(|i| invocations[i].div_ceil(self.workgroup_size[i].max(1)));
+        let max = self.ctx.limits.max_compute_work_group_count;
+        if groups.iter().zip(max.iter()).any(|(g, m)| g > m) {
+            return Err(GpuError::Usage(format!(
+                "dispatch of {groups:?} workgroups exceeds the device limit {max:?}"
+            )));
+        }
+        let device = &self.ctx.device;
+        let cb = self.command_buffer;
+        // SAFETY: the command buffer is idle (we wait below after every submit); handles are valid.
+        unsafe {
+            device
+                .reset_command_buffer(cb, vk::CommandBufferResetFlags::empty())
+                .map_err(|e| GpuError::vk("vkResetCommandBuffer", e))?;
+            device
+                .begin_command_buffer(
+                    cb,
+                    &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
+                .map_err(|e| GpuError::vk("vkBeginCommandBuffer", e))?;
+            if groups.iter().all(|&g| g > 0) {
+                device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+                device.cmd_bind_descriptor_sets(
+                    cb,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.pipeline_layout,
+                    0,
+                    &[self.set],
+                    &[],
+                );
+                device.cmd_dispatch(cb, groups[0], groups[1], groups[2]);
+            }
+            if let Some((src, dst)) = copy {
+                // The dispatch's shader writes must be visible to the transfer that reads them.
+                let barrier = vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
+                device.cmd_pipeline_barrier(
+                    cb,
+                    vk::PipelineStageFlags::COMPUTE_SHADER,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::DependencyFlags::empty(),
+                    &[barrier],
+                    &[],
+                    &[],
+                );
+                let size = src.size().min(dst.size());
+                device.cmd_copy_buffer(cb, src.raw, dst.raw, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
+            }
+            // Make all writes visible to the host once the fence signals.
+            let barrier = vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+                .dst_access_mask(vk::AccessFlags::HOST_READ);
+            device.cmd_pipeline_barrier(
+                cb,
+                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::HOST,
+                vk::DependencyFlags::empty(),
+                &[barrier],
+                &[],
+                &[],
+            );
+            device.end_command_buffer(cb).map_err(|e| GpuError::vk("vkEndCommandBuffer", e))?;
+            let cbs = [cb];
+            let submit = vk::SubmitInfo::default().command_buffers(&cbs);
+            {
+                let queue = self.ctx.queue.lock().unwrap_or_else(|p| p.into_inner());
+                device
+                    .queue_submit(*queue, &[submit], self.fence)
+                    .map_err(|e| GpuError::vk("vkQueueSubmit", e))?;
+            }
+            device
+                .wait_for_fences(&[self.fence], true, u64::MAX)
+                .map_err(|e| GpuError::vk("vkWaitForFences", e))?;
+            device.reset_fences(&[self.fence]).map_err(|e| GpuError::vk("vkResetFences", e))?;
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Kernel {
+    fn drop(&mut self) {
+        let d = &self.ctx.device;
+        // SAFETY: `run` waits for completion, so nothing of ours is in flight; null handles are ignored.
+        unsafe {
+            d.destroy_fence(self.fence, None);
+            d.destroy_command_pool(self.command_pool, None);
+            d.destroy_descriptor_pool(self.pool, None);
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_pipeline_layout(self.pipeline_layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}

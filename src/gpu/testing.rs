@@ -1,0 +1,61 @@
+//! Shader unit tests via readback: run a small WGSL test kernel that calls the shader library over an
+//! input buffer, and get its output buffer back as Pod values.
+//!
+//! A test kernel is WGSL appended to the library (`shaders/*.wgsl`, the same source the renderer uses).
+//! It declares its input at binding 0 and its output at binding 1, and an entry point `main` with one
+//! invocation per output element:
+//!
+//! ```wgsl
+//! @group(0) @binding(0) var<storage, read> input: array<vec4<f32>>;
+//! @group(0) @binding(1) var<storage, read_write> output: array<f32>;
+//! @compute @workgroup_size(64)
+//! fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+//!     if id.x >= arrayLength(&output) { return; }
+//!     output[id.x] = fresnel_dielectric(input[id.x].x, input[id.x].y);
+//! }
+//! ```
+//!
+//! ```no_run
+//! # use vkpath::gpu::testing;
+//! let input = vec![[1.0f32, 1.5, 0.0, 0.0]];
+//! let out: Vec<f32> = testing::run_kernel(&testing::context(), "/* the WGSL above */", &input, 1)?;
+//! # Ok::<(), vkpath::gpu::GpuError>(())
+//! ```
+
+use super::{Buffer, ContextOptions, GpuContext, GpuError, Kernel, shader};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use std::sync::{Arc, OnceLock};
+
+/// A process-wide context for tests, with the Khronos validation layer on when it is installed
+/// (`VKPATH_VALIDATION=0` turns it off). Panics with the setup message if no device exists: tests need one.
+pub fn context() -> Arc<GpuContext> {
+    static CTX: OnceLock<Arc<GpuContext>> = OnceLock::new();
+    CTX.get_or_init(|| {
+        let want = std::env::var("VKPATH_VALIDATION").map(|v| v != "0").unwrap_or(true);
+        let options = ContextOptions { validation: want, ..Default::default() };
+        GpuContext::new(&options).unwrap_or_else(|e| panic!("vkpath tests need a Vulkan device: {e}"))
+    })
+    .clone()
+}
+
+/// Compiles `kernel_source` after the shader library, runs one invocation per output element over
+/// `input`, and returns the `output_len` elements of the output buffer.
+pub fn run_kernel<I: bytemuck::Pod, O: bytemuck::Pod>(
+    ctx: &Arc<GpuContext>,
+    kernel_source: &str,
+    input: &[I],
+    output_len: usize,
+) -> Result<Vec<O>, GpuError> {
+    let source = shader::compose(&[("test kernel", kernel_source)]);
+    let compiled = shader::compile(&source)?;
+    let mut kernel = Kernel::new(ctx, &compiled)?;
+    let input_buffer = Buffer::storage_from(ctx, "test input", input)?;
+    let out_bytes = (output_len * std::mem::size_of::<O>()) as u64;
+    let mut output = Buffer::new(ctx, "test output", out_bytes, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuToCpu)?;
+    output.write(&vec![0u8; output.size() as usize])?;
+    kernel.bind(&[&input_buffer, &output])?;
+    kernel.run([output_len as u32, 1, 1], None)?;
+    let bytes = &output.read_bytes()?[..out_bytes as usize];
+    Ok(bytemuck::pod_collect_to_vec(bytes))
+}

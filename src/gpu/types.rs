@@ -1,0 +1,107 @@
+//! `#[repr(C)]` Pod structs shared with the WGSL in `shaders/scene.wgsl` and `shaders/accumulate.wgsl`.
+//!
+//! WGSL's layout rules put a `vec3<f32>` at 16-byte alignment with size 12, so every `vec3` here is
+//! followed by a 4-byte scalar that fills its slot, and structs are padded to a multiple of 16 bytes.
+//! The compile-time asserts below pin the sizes; `tests/layout.rs` holds every field offset against the
+//! layout naga reflects from the WGSL.
+
+use bytemuck::{Pod, Zeroable};
+
+/// Per-render constants (uniform buffer, binding 0). Mirrors `Params` in scene.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuParams {
+    pub cam_position: [f32; 3],
+    pub lens_radius: f32,
+    pub cam_right: [f32; 3],
+    pub tan_half_fov: f32,
+    pub cam_up: [f32; 3],
+    pub focus_distance: f32,
+    pub cam_forward: [f32; 3],
+    pub filter_sigma: f32,
+    pub background: [f32; 3],
+    pub filter_kind: u32,
+    pub width: u32,
+    pub height: u32,
+    pub max_bounces: u32,
+    pub seed: u32,
+    pub sample_start: u32,
+    pub sample_count: u32,
+    pub num_spheres: u32,
+    pub num_triangles: u32,
+    pub num_lights: u32,
+    pub roulette_depth: u32,
+    pub guard_one: f32,
+    pub _pad0: u32,
+}
+
+/// Mirrors `Sphere` in scene.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSphere {
+    pub center: [f32; 3],
+    pub radius: f32,
+    pub material: u32,
+    pub _pad: [u32; 3],
+}
+
+/// Mirrors `Triangle` in scene.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangle {
+    pub v0: [f32; 3],
+    pub material: u32,
+    pub v1: [f32; 3],
+    pub _pad0: u32,
+    pub v2: [f32; 3],
+    pub _pad1: u32,
+}
+
+/// Material kinds (`MAT_*` in materials.wgsl).
+pub const MAT_DIFFUSE: u32 = 0;
+pub const MAT_MIRROR: u32 = 1;
+pub const MAT_DIELECTRIC: u32 = 2;
+pub const MAT_EMITTER: u32 = 3;
+
+/// Mirrors `Material` in scene.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub albedo: [f32; 3],
+    pub kind: u32,
+    pub emission: [f32; 3],
+    pub ior: f32,
+}
+
+/// Light kinds (`LIGHT_*` in scene.wgsl).
+pub const LIGHT_POINT: u32 = 0;
+pub const LIGHT_SPHERE: u32 = 1;
+
+/// Mirrors `Light` in scene.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLight {
+    pub position: [f32; 3],
+    pub radius: f32,
+    pub intensity: [f32; 3],
+    pub kind: u32,
+    pub sphere_index: u32,
+    pub _pad: [u32; 3],
+}
+
+/// Mirrors `Accum` in accumulate.wgsl: Kahan-compensated sums of samples and of their squares.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuAccum {
+    pub sum: [f32; 4],
+    pub sum_c: [f32; 4],
+    pub sum_sq: [f32; 4],
+    pub sum_sq_c: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 128);
+const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuLight>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuAccum>() == 64);

@@ -1,0 +1,57 @@
+//! vkpath: a physically based path tracer whose every ray runs in a Vulkan compute shader.
+//!
+//! Data flows one way:
+//! `scene.toml` → [`scene::Scene`] (parse + validate) → [`gpu::scene::GpuScene`] (Pod buffers) →
+//! [`render::Renderer`] (WGSL compiled by naga, dispatched through ash, accumulated progressively) →
+//! [`film::Film`] (linear f32 means and variances) → PNG / EXR.
+//!
+//! ```no_run
+//! use vkpath::{gpu::{ContextOptions, GpuContext}, render::{Renderer, RenderOptions}, scene::Scene};
+//! let scene = Scene::default_scene();
+//! let ctx = GpuContext::new(&ContextOptions::default())?;
+//! let mut renderer = Renderer::new(&ctx, &scene, &RenderOptions::default())?;
+//! renderer.run_pass(16)?;
+//! let film = renderer.film()?;
+//! film.write(std::path::Path::new("course.png"), &scene.image)?;
+//! # Ok::<(), vkpath::Error>(())
+//! ```
+//!
+//! The library never prints; errors are values ([`Error`]).
+
+pub mod film;
+pub mod gpu;
+pub mod render;
+pub mod scene;
+
+pub use film::Film;
+pub use render::{RenderOptions, Renderer};
+pub use scene::Scene;
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong, grouped by who can fix it (see [`Error::exit_code`]).
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The scene file is wrong: the message names the file, line and key.
+    #[error(transparent)]
+    Scene(#[from] scene::SceneError),
+    /// The device, driver or shader failed.
+    #[error(transparent)]
+    Gpu(#[from] gpu::GpuError),
+    /// Reading or writing a file failed.
+    #[error("could not write {}: {message}. Check that the directory exists and is writable.", path.display())]
+    Io { path: PathBuf, message: String },
+    /// Bad flags or arguments.
+    #[error("{0}")]
+    Usage(String),
+}
+
+impl Error {
+    /// The CLI's exit status: 2 for bad input (scene, flags), 1 for everything else.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            Error::Scene(_) | Error::Usage(_) => 2,
+            Error::Gpu(_) | Error::Io { .. } => 1,
+        }
+    }
+}

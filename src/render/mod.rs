@@ -1,0 +1,206 @@
+//! The progressive renderer: uploads a scene, dispatches passes of samples, reads back the film.
+//!
+//! Each pass traces samples `[start, start + k)` of every pixel and adds them, one by one and in index
+//! order, to per-pixel Kahan sums on the GPU. Because a sample's random numbers depend only on (pixel,
+//! sample index, dimension, seed), the image after N passes of k samples is bit-identical to one pass of
+//! N k samples: pass sizes are free to adapt to time budgets and progress reports.
+
+use crate::film::Film;
+use crate::gpu::scene::{GpuScene, params_for};
+use crate::gpu::types::{GpuAccum, GpuParams};
+use crate::gpu::{Buffer, GpuContext, GpuError, Kernel, shader};
+use crate::scene::Scene;
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Renderer settings that are not part of the scene file.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// Russian roulette starts after this many scattering events (`u32::MAX` disables it). Unbiased:
+    /// a path survives with probability q = clamp(max(beta), 0.05, 0.95) and its weight is divided by q.
+    pub roulette_depth: u32,
+    /// Samples per pixel in each pass; `None` adapts the pass to about `target_pass_seconds`.
+    pub samples_per_pass: Option<u32>,
+    /// Target duration of one pass when adapting (keeps Ctrl-C, `--time` and progress responsive).
+    pub target_pass_seconds: f64,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions { roulette_depth: 3, samples_per_pass: None, target_pass_seconds: 0.25 }
+    }
+}
+
+/// A scene uploaded to the device with its kernel and accumulator.
+pub struct Renderer {
+    ctx: Arc<GpuContext>,
+    kernel: Kernel,
+    params: GpuParams,
+    params_buffer: Buffer,
+    accum: Buffer,
+    // Scene buffers: bound to the kernel, kept alive with it.
+    _scene_buffers: Vec<Buffer>,
+    samples_done: u32,
+}
+
+impl Renderer {
+    /// Compiles the kernel and uploads `scene`. The scene must have been validated (Scene::load does).
+    pub fn new(ctx: &Arc<GpuContext>, scene: &Scene, options: &RenderOptions) -> Result<Renderer, GpuError> {
+        let gpu = GpuScene::build(scene);
+        let mut params = params_for(scene, options.roulette_depth);
+        params.num_spheres = gpu.spheres.len() as u32;
+        params.num_triangles = gpu.triangles.len() as u32;
+        params.num_lights = gpu.lights.len() as u32;
+        let compiled = shader::compile(&shader::trace_source())?;
+        let mut kernel = Kernel::new(ctx, &compiled)?;
+        let params_buffer = Buffer::uniform_from(ctx, "params", &params)?;
+        let spheres = Buffer::storage_from(ctx, "spheres", &gpu.spheres)?;
+        let triangles = Buffer::storage_from(ctx, "triangles", &gpu.triangles)?;
+        let materials = Buffer::storage_from(ctx, "materials", &gpu.materials)?;
+        let lights = Buffer::storage_from(ctx, "lights", &gpu.lights)?;
+        let pixels = scene.image.width as u64 * scene.image.height as u64;
+        // Host-visible: the kernel reads and writes each pixel's sums once per pass, so this costs little
+        // even over PCIe, and the host reads the film without a copy.
+        let accum = Buffer::new(
+            ctx,
+            "accumulator",
+            pixels * std::mem::size_of::<GpuAccum>() as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuToCpu,
+        )?;
+        kernel.bind(&[&params_buffer, &spheres, &triangles, &materials, &lights, &accum])?;
+        let mut r = Renderer {
+            ctx: ctx.clone(),
+            kernel,
+            params,
+            params_buffer,
+            accum,
+            _scene_buffers: vec![spheres, triangles, materials, lights],
+            samples_done: 0,
+        };
+        r.reset()?;
+        Ok(r)
+    }
+
+    /// Clears the accumulator: the next pass starts again at sample 0.
+    pub fn reset(&mut self) -> Result<(), GpuError> {
+        let zeros = vec![0u8; self.accum.size() as usize];
+        self.accum.write(&zeros)?;
+        self.samples_done = 0;
+        Ok(())
+    }
+
+    /// Traces `spp` more samples per pixel and waits for them.
+    pub fn run_pass(&mut self, spp: u32) -> Result<(), GpuError> {
+        if spp == 0 {
+            return Ok(());
+        }
+        let Some(end) = self.samples_done.checked_add(spp) else {
+            return Err(GpuError::Usage("more than 2^32 samples per pixel".into()));
+        };
+        self.params.sample_start = self.samples_done;
+        self.params.sample_count = spp;
+        self.params_buffer.write(bytemuck::bytes_of(&self.params))?;
+        self.kernel.run([self.params.width, self.params.height, 1], None)?;
+        self.samples_done = end;
+        Ok(())
+    }
+
+    /// Samples per pixel accumulated so far.
+    pub fn samples_done(&self) -> u32 {
+        self.samples_done
+    }
+
+    /// The device context.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Reads the accumulator back as a film (means and variances, linear radiance).
+    pub fn film(&self) -> Result<Film, GpuError> {
+        let bytes = self.accum.read_bytes()?;
+        let accum: &[GpuAccum] = bytemuck::try_cast_slice(bytes)
+            .map_err(|e| GpuError::Usage(format!("accumulator readback: {e}")))?;
+        let pixels = self.params.width as usize * self.params.height as usize;
+        Ok(Film::from_sums(self.params.width, self.params.height, self.samples_done, &accum[..pixels]))
+    }
+}
+
+/// When a progressive render stops.
+#[derive(Clone, Debug)]
+pub struct Budget {
+    /// Upper bound on samples per pixel.
+    pub spp: u32,
+    /// Stop after the first pass that ends past this duration.
+    pub time: Option<Duration>,
+    /// Call `on_checkpoint` whenever the sample count reaches a multiple of this.
+    pub checkpoint_every: Option<u32>,
+}
+
+/// Why a progressive render ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    Samples,
+    Time,
+    Interrupted,
+}
+
+/// What [`render_progressive`] reports after each pass.
+#[derive(Clone, Copy, Debug)]
+pub struct PassReport {
+    pub samples_done: u32,
+    pub elapsed: Duration,
+    /// True when `samples_done` is a multiple of `checkpoint_every` (or the render is ending).
+    pub checkpoint: bool,
+}
+
+/// Runs passes until the budget is spent or `stop` is set (Ctrl-C), adapting the pass size so that a
+/// pass takes about `options.target_pass_seconds`. `on_pass` runs after every pass; an error from it
+/// ends the render. Returns why it stopped and the time spent tracing.
+pub fn render_progressive(
+    renderer: &mut Renderer,
+    options: &RenderOptions,
+    budget: &Budget,
+    stop: &AtomicBool,
+    mut on_pass: impl FnMut(&Renderer, &PassReport) -> Result<(), crate::Error>,
+) -> Result<(StopReason, Duration), crate::Error> {
+    let start = Instant::now();
+    let mut pass_spp = options.samples_per_pass.unwrap_or(1).max(1);
+    let reason = loop {
+        if stop.load(Ordering::SeqCst) {
+            break StopReason::Interrupted;
+        }
+        let done = renderer.samples_done();
+        if done >= budget.spp {
+            break StopReason::Samples;
+        }
+        if let Some(t) = budget.time
+            && done > 0
+            && start.elapsed() >= t
+        {
+            break StopReason::Time;
+        }
+        let mut k = pass_spp.min(budget.spp - done);
+        if let Some(every) = budget.checkpoint_every.filter(|&e| e > 0) {
+            let next = (done / every + 1).saturating_mul(every);
+            k = k.min(next - done);
+        }
+        let t0 = Instant::now();
+        renderer.run_pass(k)?;
+        let dt = t0.elapsed().as_secs_f64();
+        let done = renderer.samples_done();
+        let checkpoint = budget.checkpoint_every.is_some_and(|e| e > 0 && done % e == 0);
+        on_pass(renderer, &PassReport { samples_done: done, elapsed: start.elapsed(), checkpoint })?;
+        if options.samples_per_pass.is_none() && k == pass_spp {
+            // Grow (at most doubling) or shrink the pass towards the target duration.
+            let per_sample = dt / k as f64;
+            let ideal = (options.target_pass_seconds / per_sample.max(1e-9)).floor();
+            pass_spp = (ideal as u32).clamp(1, pass_spp.saturating_mul(2));
+        }
+    };
+    Ok((reason, start.elapsed()))
+}

@@ -1,0 +1,148 @@
+//! Scenes: the TOML file format (`../shared/docs/scene-format.md` is the contract), its validation, and
+//! the in-memory [`Scene`] the renderer consumes.
+//!
+//! Everything here is plain data in `f32`/glam types: it knows nothing of Vulkan. `gpu::scene` turns a
+//! [`Scene`] into the Pod buffers the shader reads.
+
+mod parse;
+
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+pub use parse::SceneError;
+
+/// The course's box of spheres, embedded so that `vkpath render` works with no file at all.
+pub const DEFAULT_SCENE_TOML: &str = include_str!("../../scenes/course.toml");
+/// The name the default scene reports (and its default output stem).
+pub const DEFAULT_SCENE_NAME: &str = "course";
+
+/// A loaded, validated scene. Every invariant of the contract holds (finite numbers, positive radii,
+/// albedos in [0,1], a non-degenerate camera, material indices in range).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Where the scene came from (`None` for the embedded default); used in messages and for the output stem.
+    pub path: Option<PathBuf>,
+    pub camera: Camera,
+    pub image: ImageSettings,
+    pub render: RenderSettings,
+    /// Materials in order of first definition in `[materials]`; objects hold indices into this list.
+    pub materials: Vec<Material>,
+    /// Material names, parallel to `materials`.
+    pub material_names: Vec<String>,
+    pub spheres: Vec<Sphere>,
+    pub triangles: Vec<Triangle>,
+    pub lights: Vec<Light>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    /// Horizontal field of view across the image width, in degrees, in (0, 180).
+    pub fov_deg: f32,
+    /// Lens radius in scene units; 0 is a pinhole.
+    pub aperture: f32,
+    /// Distance along the view axis to the plane in focus (> 0).
+    pub focus_distance: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Gamma {
+    /// `clamp(exposure * L, 0, 1)^(1/g)`, the course's transform (g = 2.2 by default).
+    Power(f32),
+    /// The sRGB transfer curve (IEC 61966-2-1).
+    Srgb,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageSettings {
+    pub width: u32,
+    pub height: u32,
+    pub exposure: f32,
+    pub gamma: Gamma,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Filter {
+    /// Gaussian of std-dev `filter_sigma` pixels, sampled by Box–Muller jitter.
+    Gaussian,
+    /// Uniform over the pixel's square.
+    Box,
+    /// Every sample through the pixel centre.
+    None,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub samples: u32,
+    pub max_bounces: u32,
+    pub seed: u32,
+    pub filter: Filter,
+    pub filter_sigma: f32,
+    pub background: Vec3,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Material {
+    Diffuse { albedo: Vec3 },
+    Mirror { tint: Vec3 },
+    Dielectric { ior: f32 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    pub material: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    /// Counter-clockwise seen from the front; both faces are shaded.
+    pub vertices: [Vec3; 3],
+    pub material: u32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Radiant intensity `power * color / (4 pi)` W/sr in every direction.
+    Point { position: Vec3, power: f32, color: Vec3 },
+    /// A visible sphere of uniform radiance `power * color / (4 pi^2 radius^2)`.
+    Sphere { center: Vec3, radius: f32, power: f32, color: Vec3 },
+}
+
+impl Scene {
+    /// Reads and validates a scene file. Errors name the file, the line and the key.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?;
+        Scene::from_toml_str(&text, Some(path))
+    }
+
+    /// Parses and validates scene text. `path` is used for messages and to resolve relative paths.
+    pub fn from_toml_str(text: &str, path: Option<&Path>) -> Result<Scene, SceneError> {
+        parse::parse_scene(text, path)
+    }
+
+    /// The embedded default scene (the course's box of spheres).
+    pub fn default_scene() -> Scene {
+        Scene::from_toml_str(DEFAULT_SCENE_TOML, None).expect("the embedded default scene is valid")
+    }
+
+    /// The stem used for default output names (`course` for the embedded scene).
+    pub fn stem(&self) -> String {
+        self.path
+            .as_ref()
+            .and_then(|p| p.file_stem())
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| DEFAULT_SCENE_NAME.to_string())
+    }
+
+    /// A short name for reports (`--json`'s "scene").
+    pub fn display_name(&self) -> String {
+        self.path
+            .as_ref()
+            .map(|p| p.display().to_string())
+            .unwrap_or_else(|| format!("<default: {DEFAULT_SCENE_NAME}>"))
+    }
+}

@@ -1,0 +1,1645 @@
+//! Scene files: TOML text -> validated [`Scene`], or a [`SceneError`] that names the file, the line and
+//! the key.
+//!
+//! The work happens in three steps:
+//!
+//! 1. `toml` parses the text into its syntax tree (`DeTable`), keeping the byte span of every key and
+//!    value. Invalid TOML stops here.
+//! 2. serde (`deny_unknown_fields`) turns that tree into the `Raw*` structs below, which mirror the file
+//!    one to one. Every value is wrapped in [`Spanned`] so that step 3 still knows where it came from.
+//!    Unknown keys, missing required keys and wrong types stop here; their errors carry only a byte span
+//!    and a message, so we find the dotted key path by looking that span up in the tree from step 1.
+//! 3. `Checker` applies the contract's rules (finite numbers, positive radii, a usable camera, ...) and
+//!    builds the renderer's types, filling in defaults.
+//!
+//! The contract is `shared/docs/scene-format.md`. Nothing here may panic on any input: user numbers are
+//! compared, never unwrapped, and integer arithmetic on them is done in a type wide enough not to
+//! overflow.
+
+use super::{
+    Camera, Filter, Gamma, ImageSettings, Light, Material, RenderSettings, Scene, Sphere, Triangle,
+};
+use glam::Vec3;
+use serde::Deserialize;
+use serde::de::{Deserializer, IgnoredAny, Visitor};
+use std::collections::BTreeMap;
+use std::fmt;
+use std::ops::Range;
+use std::path::Path;
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+/// The file name errors report for the embedded default scene, which has no path.
+const DEFAULT_SCENE_FILE: &str = "<default scene>";
+
+/// Hint appended to errors whose fix is "make the file match the format".
+const SEE_CONTRACT: &str =
+    "See the scene-format contract (scene-format.md) for every key, its unit and its default.";
+
+// ---------------------------------------------------------------------------------------------------
+// The error type
+// ---------------------------------------------------------------------------------------------------
+
+/// Why a scene could not be loaded. Its `Display` is one paragraph (no newline) of the form
+/// `FILE, line N, key KEY: what is wrong. What to do.`, ready to print before exiting with status 2.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneError {
+    file: String,
+    line: Option<usize>,
+    key: Option<String>,
+    /// What is wrong, without a final full stop.
+    problem: String,
+    /// What to do about it, a full sentence.
+    hint: String,
+}
+
+impl SceneError {
+    /// The scene file could not be read at all.
+    pub fn io(path: &Path, e: &std::io::Error) -> SceneError {
+        SceneError::new(
+            path.display().to_string(),
+            None,
+            None,
+            format!("cannot read the scene file: {e}"),
+            "Check that the path is right and that the file is readable.",
+        )
+    }
+
+    /// The file as given by the user, or `<default scene>` for the embedded scene.
+    pub fn file(&self) -> &str {
+        &self.file
+    }
+
+    /// The 1-based line the problem is on, when it is known.
+    pub fn line(&self) -> Option<usize> {
+        self.line
+    }
+
+    /// The dotted key path of the offending value, e.g. `sphere[2].radius` or `materials.glass.ior`.
+    /// Array-of-tables indices are 0-based, in file order.
+    pub fn key(&self) -> Option<&str> {
+        self.key.as_deref()
+    }
+
+    fn new(
+        file: String,
+        line: Option<usize>,
+        key: Option<String>,
+        problem: impl Into<String>,
+        hint: impl Into<String>,
+    ) -> SceneError {
+        // Messages can quote user text (a bad material name, a TOML parser message); the one-paragraph
+        // promise must hold whatever they contain.
+        let one_line = |s: String| s.split_whitespace().collect::<Vec<_>>().join(" ");
+        let problem = one_line(problem.into());
+        SceneError {
+            file,
+            line,
+            key,
+            problem: problem.trim_end_matches('.').to_string(),
+            hint: one_line(hint.into()),
+        }
+    }
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.file)?;
+        if let Some(line) = self.line {
+            write!(f, ", line {line}")?;
+        }
+        if let Some(key) = &self.key {
+            write!(f, ", key {key}")?;
+        }
+        write!(f, ": {}. {}", self.problem, self.hint)
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+// ---------------------------------------------------------------------------------------------------
+// The file as serde sees it
+// ---------------------------------------------------------------------------------------------------
+
+/// The whole file. Table names are singular (`[[sphere]]`) because each array-of-tables entry is one
+/// object.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    camera: Spanned<RawCamera>,
+    image: Option<RawImage>,
+    render: Option<RawRender>,
+    /// A BTreeMap iterates in name order; the key spans let us restore the order of the file.
+    #[serde(default)]
+    materials: BTreeMap<Spanned<String>, Spanned<RawMaterial>>,
+    #[serde(default)]
+    sphere: Vec<Spanned<RawSphere>>,
+    #[serde(default)]
+    triangle: Vec<Spanned<RawTriangle>>,
+    /// Meshes are part of the format but not implemented: accept any content, then refuse it with a
+    /// clear "not supported yet" instead of a confusing complaint about its keys.
+    #[serde(default)]
+    mesh: Vec<Spanned<IgnoredAny>>,
+    #[serde(default)]
+    light: Vec<Spanned<RawLight>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCamera {
+    position: Spanned<RawVec3>,
+    look_at: Spanned<RawVec3>,
+    up: Option<Spanned<RawVec3>>,
+    fov: Spanned<f32>,
+    aperture: Option<Spanned<f32>>,
+    focus_distance: Option<Spanned<f32>>,
+}
+
+/// Integers are read as `i64` (TOML's integer type) so that a negative or huge value gets a message
+/// about its allowed range rather than serde's "expected u32".
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawImage {
+    width: Option<Spanned<i64>>,
+    height: Option<Spanned<i64>>,
+    exposure: Option<Spanned<f32>>,
+    gamma: Option<Spanned<RawGamma>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawRender {
+    samples: Option<Spanned<i64>>,
+    max_bounces: Option<Spanned<i64>>,
+    seed: Option<Spanned<i64>>,
+    filter: Option<Spanned<String>>,
+    filter_sigma: Option<Spanned<f32>>,
+    background: Option<Spanned<RawVec3>>,
+}
+
+/// One flat struct for every material type rather than a serde-tagged enum: a tagged enum buffers its
+/// content, which loses the spans, and its "unknown variant" error would point at the whole material
+/// rather than at `type`. Which keys a type allows is checked by hand in `Checker::material`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    albedo: Option<Spanned<RawVec3>>,
+    tint: Option<Spanned<RawVec3>>,
+    ior: Option<Spanned<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSphere {
+    center: Spanned<RawVec3>,
+    radius: Spanned<f32>,
+    material: Spanned<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTriangle {
+    vertices: Spanned<Vec<Spanned<RawVec3>>>,
+    material: Spanned<String>,
+}
+
+/// Flat for the same reason as [`RawMaterial`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLight {
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    position: Option<Spanned<RawVec3>>,
+    center: Option<Spanned<RawVec3>>,
+    radius: Option<Spanned<f32>>,
+    power: Spanned<f32>,
+    color: Option<Spanned<RawVec3>>,
+}
+
+/// A TOML array of exactly three numbers (integers accepted). serde's own `[f32; 3]` silently ignores
+/// extra elements, so the length is checked here.
+#[derive(Clone, Copy)]
+struct RawVec3([f32; 3]);
+
+impl<'de> Deserialize<'de> for RawVec3 {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let numbers = Vec::<f32>::deserialize(deserializer)?;
+        match <[f32; 3]>::try_from(numbers.as_slice()) {
+            Ok(xyz) => Ok(RawVec3(xyz)),
+            Err(_) => Err(serde::de::Error::invalid_length(
+                numbers.len(),
+                &"an array of 3 numbers",
+            )),
+        }
+    }
+}
+
+/// `gamma` is either a number or a name; which names are valid is decided in `Checker::image` so that
+/// the error can list them.
+enum RawGamma {
+    Number(f32),
+    Name(String),
+}
+
+impl<'de> Deserialize<'de> for RawGamma {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct GammaVisitor;
+
+        impl Visitor<'_> for GammaVisitor {
+            type Value = RawGamma;
+
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a positive number or the string \"srgb\"")
+            }
+
+            // `as f32` saturates out-of-range values to infinity, which the finiteness check reports.
+            fn visit_f64<E>(self, v: f64) -> Result<RawGamma, E> {
+                Ok(RawGamma::Number(v as f32))
+            }
+
+            fn visit_i64<E>(self, v: i64) -> Result<RawGamma, E> {
+                Ok(RawGamma::Number(v as f32))
+            }
+
+            fn visit_u64<E>(self, v: u64) -> Result<RawGamma, E> {
+                Ok(RawGamma::Number(v as f32))
+            }
+
+            fn visit_str<E>(self, v: &str) -> Result<RawGamma, E> {
+                Ok(RawGamma::Name(v.to_owned()))
+            }
+        }
+
+        deserializer.deserialize_any(GammaVisitor)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Entry point
+// ---------------------------------------------------------------------------------------------------
+
+/// Parses and validates a scene. `path` is only used for messages and stored in the result.
+pub(crate) fn parse_scene(text: &str, path: Option<&Path>) -> Result<Scene, SceneError> {
+    let file = match path {
+        Some(p) => p.display().to_string(),
+        None => DEFAULT_SCENE_FILE.to_string(),
+    };
+    let checker = Checker { file, text };
+
+    // Step 1: syntax. The tree is kept so that step 2's errors can be located in it.
+    let tree = DeTable::parse(text).map_err(|e| checker.syntax_error(&e))?;
+    // Step 2: shape. Scene files are small, so cloning the tree costs nothing worth avoiding.
+    let raw = RawScene::deserialize(toml::de::Deserializer::from(tree.clone()))
+        .map_err(|e| checker.shape_error(&e, tree.get_ref()))?;
+    // Step 3: meaning.
+    checker.scene(&raw, path)
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Step 3: the contract's rules
+// ---------------------------------------------------------------------------------------------------
+
+/// Validates the raw file and builds the [`Scene`]; knows the file name and text to phrase errors.
+struct Checker<'a> {
+    file: String,
+    text: &'a str,
+}
+
+impl Checker<'_> {
+    fn scene(&self, raw: &RawScene, path: Option<&Path>) -> Result<Scene, SceneError> {
+        let camera = self.camera(&raw.camera)?;
+        let image = self.image(raw.image.as_ref())?;
+        let render = self.render(raw.render.as_ref())?;
+
+        // TOML has already rejected duplicate names, so sorting by position is a total order.
+        let mut named: Vec<_> = raw.materials.iter().collect();
+        named.sort_by_key(|(name, _)| name.span().start);
+        let mut materials = Vec::with_capacity(named.len());
+        let mut material_names = Vec::with_capacity(named.len());
+        for (name, material) in named {
+            materials.push(self.material(name.get_ref(), material)?);
+            material_names.push(name.get_ref().clone());
+        }
+
+        let mut spheres = Vec::with_capacity(raw.sphere.len());
+        for (i, sphere) in raw.sphere.iter().enumerate() {
+            spheres.push(self.sphere(i, sphere.get_ref(), &material_names)?);
+        }
+        let mut triangles = Vec::with_capacity(raw.triangle.len());
+        for (i, triangle) in raw.triangle.iter().enumerate() {
+            triangles.push(self.triangle(i, triangle.get_ref(), &material_names)?);
+        }
+        if let Some(mesh) = raw.mesh.first() {
+            return Err(self.error(
+                mesh.span(),
+                "mesh[0]",
+                "[[mesh]] tables (Wavefront OBJ models) are not supported yet",
+                "Remove the [[mesh]] table, or build the shape from [[triangle]] tables for now.",
+            ));
+        }
+        let mut lights = Vec::with_capacity(raw.light.len());
+        for (i, light) in raw.light.iter().enumerate() {
+            lights.push(self.light(i, light)?);
+        }
+
+        Ok(Scene {
+            path: path.map(Path::to_path_buf),
+            camera,
+            image,
+            render,
+            materials,
+            material_names,
+            spheres,
+            triangles,
+            lights,
+        })
+    }
+
+    fn camera(&self, raw: &Spanned<RawCamera>) -> Result<Camera, SceneError> {
+        let c = raw.get_ref();
+        let position = self.vec3(&c.position, "camera.position")?;
+        let look_at = self.vec3(&c.look_at, "camera.look_at")?;
+        let fov_deg = self.number(&c.fov, "camera.fov")?;
+        if !(fov_deg > 0.0 && fov_deg < 180.0) {
+            return Err(self.error(
+                c.fov.span(),
+                "camera.fov",
+                format!("the field of view must be strictly between 0 and 180 degrees, got {fov_deg}"),
+                "fov is the horizontal angle across the image width in degrees; 60 is a typical value.",
+            ));
+        }
+        if look_at == position {
+            return Err(self.error(
+                c.look_at.span(),
+                "camera.look_at",
+                format!(
+                    "look_at equals position ({position}), so the camera has no view direction"
+                ),
+                "Move look_at to the point the camera should aim at.",
+            ));
+        }
+
+        // The geometry checks run in f64: the difference or squared length of two finite f32 vectors
+        // can overflow f32, but not f64.
+        let view = sub64(look_at, position);
+        let view_length = length64(view);
+
+        // A defaulted `up` has no span of its own; the [camera] header is the nearest place to point.
+        let (up, up_span) = match &c.up {
+            Some(up) => (self.vec3(up, "camera.up")?, up.span()),
+            None => (Vec3::Y, raw.span()),
+        };
+        let up64 = [f64::from(up.x), f64::from(up.y), f64::from(up.z)];
+        let up_length = length64(up64);
+        if up_length == 0.0 {
+            return Err(self.error(
+                up_span,
+                "camera.up",
+                "the up vector is zero",
+                "Set camera.up to the direction that should point up in the image, e.g. [0, 1, 0].",
+            ));
+        }
+        let view_dir = scale64(view, 1.0 / view_length);
+        let up_dir = scale64(up64, 1.0 / up_length);
+        if length64(cross64(up_dir, view_dir)) < 1e-6 {
+            let which = if c.up.is_some() {
+                "the up vector"
+            } else {
+                "the default up vector [0, 1, 0]"
+            };
+            return Err(self.error(
+                up_span,
+                "camera.up",
+                format!("{which} is parallel to the view direction (look_at - position), so the image has no defined up"),
+                "Set camera.up to a direction that is not along the line of sight.",
+            ));
+        }
+
+        let aperture = match &c.aperture {
+            Some(a) => self.number(a, "camera.aperture")?,
+            None => 0.0,
+        };
+        if aperture < 0.0 {
+            return Err(self.error(
+                span_of(&c.aperture, raw),
+                "camera.aperture",
+                format!("the aperture (lens radius) must be >= 0, got {aperture}"),
+                "Use 0 for a pinhole camera, or a positive lens radius in scene units for depth of field.",
+            ));
+        }
+
+        let focus_distance = match &c.focus_distance {
+            Some(d) => {
+                let d_value = self.number(d, "camera.focus_distance")?;
+                if d_value <= 0.0 {
+                    return Err(self.error(
+                        d.span(),
+                        "camera.focus_distance",
+                        format!("the focus distance must be > 0, got {d_value}"),
+                        "Give the distance along the view axis to the plane in focus, in scene units, or leave it out to focus on look_at.",
+                    ));
+                }
+                d_value
+            }
+            None => {
+                // The default, |look_at - position|, can exceed f32's range for extreme coordinates.
+                let d = view_length as f32;
+                if !d.is_finite() {
+                    return Err(self.error(
+                        c.look_at.span(),
+                        "camera.look_at",
+                        "look_at is so far from position that the distance between them overflows a 32-bit float",
+                        "Bring the scene's coordinates into a smaller range.",
+                    ));
+                }
+                d
+            }
+        };
+
+        Ok(Camera {
+            position,
+            look_at,
+            up,
+            fov_deg,
+            aperture,
+            focus_distance,
+        })
+    }
+
+    fn image(&self, raw: Option<&RawImage>) -> Result<ImageSettings, SceneError> {
+        let Some(raw) = raw else {
+            return Ok(ImageSettings {
+                width: 512,
+                height: 512,
+                exposure: 1.0,
+                gamma: Gamma::Power(2.2),
+            });
+        };
+        const MAX_SIDE: u32 = 65536;
+        const MAX_PIXELS: u64 = 1 << 28;
+        let side_hint = "Image sides are in pixels, between 1 and 65536.";
+        let width = match &raw.width {
+            Some(w) => self.integer(w, "image.width", 1, MAX_SIDE, side_hint)?,
+            None => 512,
+        };
+        let height = match &raw.height {
+            Some(h) => self.integer(h, "image.height", 1, MAX_SIDE, side_hint)?,
+            None => 512,
+        };
+        let pixels = u64::from(width) * u64::from(height);
+        if pixels > MAX_PIXELS {
+            // Both defaults are small, so at least one side was given; point at it.
+            let (span, key) = match (&raw.width, &raw.height) {
+                (Some(w), _) => (w.span(), "image.width"),
+                (None, Some(h)) => (h.span(), "image.height"),
+                (None, None) => (0..0, "image.width"),
+            };
+            return Err(self.error(
+                span,
+                key,
+                format!("{width} x {height} is {pixels} pixels, more than the limit of {MAX_PIXELS} (2^28)"),
+                "Render a smaller image, e.g. 16384 x 16384 at most.",
+            ));
+        }
+
+        let exposure = match &raw.exposure {
+            Some(e) => {
+                let value = self.number(e, "image.exposure")?;
+                if value < 0.0 {
+                    return Err(self.error(
+                        e.span(),
+                        "image.exposure",
+                        format!("the exposure must be >= 0, got {value}"),
+                        "Exposure is a linear multiplier on radiance before the display transform; 1 leaves it unchanged.",
+                    ));
+                }
+                value
+            }
+            None => 1.0,
+        };
+
+        let gamma = match &raw.gamma {
+            None => Gamma::Power(2.2),
+            Some(g) => match g.get_ref() {
+                RawGamma::Number(value) => {
+                    let value = self.number(&Spanned::new(g.span(), *value), "image.gamma")?;
+                    if value <= 0.0 {
+                        return Err(self.error(
+                            g.span(),
+                            "image.gamma",
+                            format!("a numeric gamma must be > 0, got {value}"),
+                            "Use 2.2 (the default) or the string \"srgb\".",
+                        ));
+                    }
+                    Gamma::Power(value)
+                }
+                RawGamma::Name(name) if name == "srgb" => Gamma::Srgb,
+                RawGamma::Name(name) => {
+                    return Err(self.error(
+                        g.span(),
+                        "image.gamma",
+                        format!("unknown gamma \"{name}\""),
+                        "Use a positive number such as 2.2, or the string \"srgb\" for the sRGB transfer curve.",
+                    ));
+                }
+            },
+        };
+
+        Ok(ImageSettings {
+            width,
+            height,
+            exposure,
+            gamma,
+        })
+    }
+
+    fn render(&self, raw: Option<&RawRender>) -> Result<RenderSettings, SceneError> {
+        let Some(raw) = raw else {
+            return Ok(RenderSettings {
+                samples: 64,
+                max_bounces: 5,
+                seed: 0,
+                filter: Filter::Gaussian,
+                filter_sigma: 0.5,
+                background: Vec3::ZERO,
+            });
+        };
+        let samples = match &raw.samples {
+            Some(s) => self.integer(
+                s,
+                "render.samples",
+                1,
+                u32::MAX,
+                "samples is the number of paths per pixel; it must be at least 1.",
+            )?,
+            None => 64,
+        };
+        let max_bounces = match &raw.max_bounces {
+            Some(b) => self.integer(
+                b,
+                "render.max_bounces",
+                0,
+                u32::MAX,
+                "max_bounces counts scattering events per path; 0 shows lights and the background only.",
+            )?,
+            None => 5,
+        };
+        let seed = match &raw.seed {
+            Some(s) => self.integer(
+                s,
+                "render.seed",
+                0,
+                u32::MAX,
+                "The seed is a 32-bit unsigned integer.",
+            )?,
+            None => 0,
+        };
+        let filter = match &raw.filter {
+            None => Filter::Gaussian,
+            Some(f) => match f.get_ref().as_str() {
+                "gaussian" => Filter::Gaussian,
+                "box" => Filter::Box,
+                "none" => Filter::None,
+                other => {
+                    return Err(self.error(
+                        f.span(),
+                        "render.filter",
+                        format!("unknown pixel filter \"{other}\""),
+                        "Use \"gaussian\" (the default), \"box\" or \"none\".",
+                    ));
+                }
+            },
+        };
+        let filter_sigma = match &raw.filter_sigma {
+            Some(s) => {
+                let value = self.number(s, "render.filter_sigma")?;
+                if value <= 0.0 {
+                    return Err(self.error(
+                        s.span(),
+                        "render.filter_sigma",
+                        format!("the filter's standard deviation must be > 0, got {value}"),
+                        "filter_sigma is in pixels; 0.5 is the default. Use filter = \"none\" for no filtering.",
+                    ));
+                }
+                value
+            }
+            None => 0.5,
+        };
+        let background = match &raw.background {
+            Some(b) => {
+                let value = self.vec3(b, "render.background")?;
+                if value.min_element() < 0.0 {
+                    return Err(self.error(
+                        b.span(),
+                        "render.background",
+                        format!("background radiance cannot be negative, got {value}"),
+                        "Give a linear RGB radiance with components >= 0; [0, 0, 0] is black.",
+                    ));
+                }
+                value
+            }
+            None => Vec3::ZERO,
+        };
+        Ok(RenderSettings {
+            samples,
+            max_bounces,
+            seed,
+            filter,
+            filter_sigma,
+            background,
+        })
+    }
+
+    fn material(&self, name: &str, raw: &Spanned<RawMaterial>) -> Result<Material, SceneError> {
+        let m = raw.get_ref();
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let kind = m.kind.get_ref().as_str();
+        // Each type allows only some of the optional keys; a key for another type is treated like any
+        // unknown key rather than silently ignored.
+        let (allowed, material): (&[&str], _) = match kind {
+            "diffuse" => {
+                let albedo = self.required(
+                    &m.albedo,
+                    raw,
+                    &key("albedo"),
+                    "a diffuse material needs an albedo",
+                )?;
+                let value = self.vec3(albedo, &key("albedo"))?;
+                if !in_unit_range(value) {
+                    return Err(self.error(
+                        albedo.span(),
+                        &key("albedo"),
+                        format!("every albedo component must be in [0, 1], got {value}"),
+                        "Albedo is the fraction of light reflected per channel; energy conservation needs it in [0, 1].",
+                    ));
+                }
+                (&["albedo"], Material::Diffuse { albedo: value })
+            }
+            "mirror" => {
+                let tint = match &m.tint {
+                    Some(t) => {
+                        let value = self.vec3(t, &key("tint"))?;
+                        if !in_unit_range(value) {
+                            return Err(self.error(
+                                t.span(),
+                                &key("tint"),
+                                format!("every tint component must be in [0, 1], got {value}"),
+                                "The tint scales reflected light per channel; leave it out for a perfect white mirror.",
+                            ));
+                        }
+                        value
+                    }
+                    None => Vec3::ONE,
+                };
+                (&["tint"], Material::Mirror { tint })
+            }
+            "dielectric" => {
+                let ior = self.required(
+                    &m.ior,
+                    raw,
+                    &key("ior"),
+                    "a dielectric material needs an ior",
+                )?;
+                let value = self.number(ior, &key("ior"))?;
+                if value <= 0.0 {
+                    return Err(self.error(
+                        ior.span(),
+                        &key("ior"),
+                        format!("the index of refraction must be > 0, got {value}"),
+                        "Glass is about 1.5, water 1.33; the outside medium has ior 1.",
+                    ));
+                }
+                (&["ior"], Material::Dielectric { ior: value })
+            }
+            other => {
+                return Err(self.error(
+                    m.kind.span(),
+                    &key("type"),
+                    format!("unknown material type \"{other}\""),
+                    "Use \"diffuse\" (with albedo), \"mirror\" (optional tint) or \"dielectric\" (with ior).",
+                ));
+            }
+        };
+        let present = [
+            ("albedo", m.albedo.as_ref().map(Spanned::span)),
+            ("tint", m.tint.as_ref().map(Spanned::span)),
+            ("ior", m.ior.as_ref().map(Spanned::span)),
+        ];
+        self.reject_foreign_keys(
+            &present,
+            allowed,
+            &format!("materials.{name}"),
+            &format!("a {kind} material"),
+        )?;
+        Ok(material)
+    }
+
+    fn sphere(&self, i: usize, raw: &RawSphere, names: &[String]) -> Result<Sphere, SceneError> {
+        let center = self.vec3(&raw.center, &format!("sphere[{i}].center"))?;
+        let radius = self.positive_radius(&raw.radius, &format!("sphere[{i}].radius"), "sphere")?;
+        let material =
+            self.material_index(&raw.material, &format!("sphere[{i}].material"), names)?;
+        Ok(Sphere {
+            center,
+            radius,
+            material,
+        })
+    }
+
+    fn triangle(
+        &self,
+        i: usize,
+        raw: &RawTriangle,
+        names: &[String],
+    ) -> Result<Triangle, SceneError> {
+        let given = raw.vertices.get_ref();
+        if given.len() != 3 {
+            return Err(self.error(
+                raw.vertices.span(),
+                &format!("triangle[{i}].vertices"),
+                format!("a triangle needs exactly 3 vertices, got {}", given.len()),
+                "Give vertices as [[x, y, z], [x, y, z], [x, y, z]], counter-clockwise seen from the front.",
+            ));
+        }
+        let mut vertices = [Vec3::ZERO; 3];
+        for (j, (slot, vertex)) in vertices.iter_mut().zip(given).enumerate() {
+            *slot = self.vec3(vertex, &format!("triangle[{i}].vertices[{j}]"))?;
+        }
+        // A zero-area triangle is allowed: rays never hit it, so it is harmless.
+        let material =
+            self.material_index(&raw.material, &format!("triangle[{i}].material"), names)?;
+        Ok(Triangle { vertices, material })
+    }
+
+    fn light(&self, i: usize, raw: &Spanned<RawLight>) -> Result<Light, SceneError> {
+        let l = raw.get_ref();
+        let key = |field: &str| format!("light[{i}].{field}");
+        let power = self.number(&l.power, &key("power"))?;
+        if power <= 0.0 {
+            return Err(self.error(
+                l.power.span(),
+                &key("power"),
+                format!("a light's power must be > 0, got {power}"),
+                "power is the light's total emitted flux in watts; remove the light rather than giving it no power.",
+            ));
+        }
+        let color = match &l.color {
+            Some(c) => {
+                let value = self.vec3(c, &key("color"))?;
+                if value.min_element() < 0.0 {
+                    return Err(self.error(
+                        c.span(),
+                        &key("color"),
+                        format!("light color components cannot be negative, got {value}"),
+                        "color multiplies power per channel; use components >= 0 ([1, 1, 1] is white).",
+                    ));
+                }
+                value
+            }
+            None => Vec3::ONE,
+        };
+        let kind = l.kind.get_ref().as_str();
+        let (allowed, light): (&[&str], _) = match kind {
+            "point" => {
+                let position = self.required(
+                    &l.position,
+                    raw,
+                    &key("position"),
+                    "a point light needs a position",
+                )?;
+                let position = self.vec3(position, &key("position"))?;
+                (
+                    &["position"],
+                    Light::Point {
+                        position,
+                        power,
+                        color,
+                    },
+                )
+            }
+            "sphere" => {
+                let center = self.required(
+                    &l.center,
+                    raw,
+                    &key("center"),
+                    "a sphere light needs a center",
+                )?;
+                let center = self.vec3(center, &key("center"))?;
+                let radius = self.required(
+                    &l.radius,
+                    raw,
+                    &key("radius"),
+                    "a sphere light needs a radius",
+                )?;
+                let radius = self.positive_radius(radius, &key("radius"), "sphere light")?;
+                (
+                    &["center", "radius"],
+                    Light::Sphere {
+                        center,
+                        radius,
+                        power,
+                        color,
+                    },
+                )
+            }
+            other => {
+                return Err(self.error(
+                    l.kind.span(),
+                    &key("type"),
+                    format!("unknown light type \"{other}\""),
+                    "Use \"point\" (with position) or \"sphere\" (with center and radius).",
+                ));
+            }
+        };
+        let present = [
+            ("position", l.position.as_ref().map(Spanned::span)),
+            ("center", l.center.as_ref().map(Spanned::span)),
+            ("radius", l.radius.as_ref().map(Spanned::span)),
+        ];
+        self.reject_foreign_keys(
+            &present,
+            allowed,
+            &format!("light[{i}]"),
+            &format!("a {kind} light"),
+        )?;
+        Ok(light)
+    }
+
+    // ----- small checks shared by the rules above -----
+
+    /// A number that must be finite: TOML allows `nan` and `inf`, and a value beyond f32's range
+    /// (about 3.4e38) has already become infinite by the time we see it.
+    fn number(&self, v: &Spanned<f32>, key: &str) -> Result<f32, SceneError> {
+        let value = *v.get_ref();
+        if value.is_finite() {
+            Ok(value)
+        } else {
+            Err(self.not_finite(v.span(), key, &value.to_string()))
+        }
+    }
+
+    /// Three finite numbers.
+    fn vec3(&self, v: &Spanned<RawVec3>, key: &str) -> Result<Vec3, SceneError> {
+        let RawVec3(xyz) = *v.get_ref();
+        if xyz.iter().all(|c| c.is_finite()) {
+            Ok(Vec3::from_array(xyz))
+        } else {
+            let shown = format!("[{}, {}, {}]", xyz[0], xyz[1], xyz[2]);
+            Err(self.not_finite(v.span(), key, &shown))
+        }
+    }
+
+    fn not_finite(&self, span: Range<usize>, key: &str, shown: &str) -> SceneError {
+        self.error(
+            span,
+            key,
+            format!("every number must be finite, got {shown}"),
+            "TOML allows nan and inf, but a scene needs finite numbers within the 32-bit float range (about ±3.4e38).",
+        )
+    }
+
+    /// An integer in `min..=max`, checked in i64 so that no value can overflow on the way.
+    fn integer(
+        &self,
+        v: &Spanned<i64>,
+        key: &str,
+        min: u32,
+        max: u32,
+        hint: &str,
+    ) -> Result<u32, SceneError> {
+        let value = *v.get_ref();
+        let name = key.rsplit('.').next().unwrap_or(key);
+        let out_of_range = || {
+            self.error(
+                v.span(),
+                key,
+                format!("{name} must be an integer from {min} to {max}, got {value}"),
+                hint,
+            )
+        };
+        if value < i64::from(min) || value > i64::from(max) {
+            return Err(out_of_range());
+        }
+        // In range, so the conversion cannot fail; the impossible case still gets the same error.
+        u32::try_from(value).map_err(|_| out_of_range())
+    }
+
+    fn positive_radius(&self, v: &Spanned<f32>, key: &str, what: &str) -> Result<f32, SceneError> {
+        let radius = self.number(v, key)?;
+        if radius <= 0.0 {
+            return Err(self.error(
+                v.span(),
+                key,
+                format!("the radius must be > 0, got {radius}"),
+                format!("Give every {what} a positive radius in scene units."),
+            ));
+        }
+        Ok(radius)
+    }
+
+    /// A key that serde treats as optional because only some `type`s need it. Reported like serde's
+    /// missing keys: at the line of the table that lacks it.
+    fn required<'v, T>(
+        &self,
+        value: &'v Option<Spanned<T>>,
+        table: &Spanned<impl Sized>,
+        key: &str,
+        problem: &str,
+    ) -> Result<&'v Spanned<T>, SceneError> {
+        value.as_ref().ok_or_else(|| {
+            self.error(
+                table.span(),
+                key,
+                format!("{problem}, but the key is missing"),
+                format!(
+                    "Add `{}`. {SEE_CONTRACT}",
+                    key.rsplit('.').next().unwrap_or(key)
+                ),
+            )
+        })
+    }
+
+    /// Errors on the first present key (in file order) that `allowed` does not list.
+    fn reject_foreign_keys(
+        &self,
+        present: &[(&str, Option<Range<usize>>)],
+        allowed: &[&str],
+        table_key: &str,
+        what: &str,
+    ) -> Result<(), SceneError> {
+        let first_foreign = present
+            .iter()
+            .filter(|(name, _)| !allowed.contains(name))
+            .filter_map(|(name, span)| span.clone().map(|span| (*name, span)))
+            .min_by_key(|(_, span)| span.start);
+        match first_foreign {
+            None => Ok(()),
+            Some((name, span)) => Err(self.error(
+                span,
+                &format!("{table_key}.{name}"),
+                format!("{what} has no `{name}`"),
+                format!("Remove `{name}`, or change the type. {SEE_CONTRACT}"),
+            )),
+        }
+    }
+
+    /// Resolves a material name to its index in `names` (file order).
+    fn material_index(
+        &self,
+        name: &Spanned<String>,
+        key: &str,
+        names: &[String],
+    ) -> Result<u32, SceneError> {
+        let wanted = name.get_ref();
+        let Some(index) = names.iter().position(|n| n == wanted) else {
+            let defined = if names.is_empty() {
+                "no materials are defined".to_string()
+            } else {
+                let quoted: Vec<String> = names.iter().map(|n| format!("\"{n}\"")).collect();
+                format!("the defined materials are {}", quoted.join(", "))
+            };
+            return Err(self.error(
+                name.span(),
+                key,
+                format!("material \"{wanted}\" is not defined ({defined})"),
+                "Use one of the names in [materials], or define this one there.",
+            ));
+        };
+        u32::try_from(index).map_err(|_| {
+            self.error(
+                name.span(),
+                key,
+                "too many materials for a 32-bit index",
+                "Use fewer materials.",
+            )
+        })
+    }
+
+    // ----- turning positions into errors -----
+
+    /// The 1-based line of a byte offset.
+    fn line_of(&self, offset: usize) -> usize {
+        let end = offset.min(self.text.len());
+        1 + self.text.as_bytes()[..end]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+    }
+
+    fn error(
+        &self,
+        span: Range<usize>,
+        key: &str,
+        problem: impl Into<String>,
+        hint: impl Into<String>,
+    ) -> SceneError {
+        SceneError::new(
+            self.file.clone(),
+            Some(self.line_of(span.start)),
+            Some(key.to_string()),
+            problem,
+            hint,
+        )
+    }
+
+    /// Step 1 failed: the text is not TOML. There is no tree to look the key up in, so the key is read
+    /// off the offending line when it looks like `key = ...`.
+    fn syntax_error(&self, e: &toml::de::Error) -> SceneError {
+        let offset = e.span().map_or(0, |s| s.start);
+        SceneError::new(
+            self.file.clone(),
+            Some(self.line_of(offset)),
+            guess_key_at(self.text, offset),
+            format!("this is not valid TOML: {}", e.message()),
+            "Fix the TOML syntax at this line (https://toml.io).",
+        )
+    }
+
+    /// Step 2 failed: the TOML does not have the scene's shape. serde's message names the key for
+    /// unknown and missing keys; otherwise the span points at the offending value.
+    fn shape_error(&self, e: &toml::de::Error, tree: &DeTable<'_>) -> SceneError {
+        let message = e.message();
+        let span = e.span().unwrap_or(0..0);
+        let line = Some(self.line_of(span.start));
+        let exact = find_key_path(tree, "", &|s: &Range<usize>| *s == span);
+
+        if let Some(field) = backticked_after(message, "missing field `") {
+            // The span is the table that lacks the key (the document root has the empty span 0..0,
+            // which matches nothing, so it falls back to the empty path).
+            let key = join_key(exact.as_deref().unwrap_or(""), field);
+            let problem = format!("the required key `{field}` is missing");
+            return SceneError::new(
+                self.file.clone(),
+                line,
+                Some(key),
+                problem,
+                format!("Add `{field}`. {SEE_CONTRACT}"),
+            );
+        }
+        if let Some(field) = backticked_after(message, "unknown field `") {
+            // The span is the unknown key itself; serde lists the keys allowed there.
+            let key = exact.unwrap_or_else(|| field.to_string());
+            let allowed = message
+                .split_once(", expected ")
+                .map_or(String::new(), |(_, list)| {
+                    format!(" (allowed here: {list})")
+                });
+            let problem = format!("unknown key `{field}`{allowed}");
+            let hint = format!("Remove it or fix its spelling. {SEE_CONTRACT}");
+            return SceneError::new(self.file.clone(), line, Some(key), problem, hint);
+        }
+
+        // A wrong type or length: the span is the value. Prefer the node with exactly that span, else
+        // the innermost node containing its start.
+        let key =
+            exact.or_else(|| find_key_path(tree, "", &|s: &Range<usize>| s.contains(&span.start)));
+        SceneError::new(
+            self.file.clone(),
+            line,
+            key,
+            plain_words(message),
+            SEE_CONTRACT,
+        )
+    }
+}
+
+/// The span of an optional value, or of its table when the value was left out.
+fn span_of<T, U>(value: &Option<Spanned<T>>, table: &Spanned<U>) -> Range<usize> {
+    value.as_ref().map_or_else(|| table.span(), Spanned::span)
+}
+
+fn in_unit_range(v: Vec3) -> bool {
+    v.min_element() >= 0.0 && v.max_element() <= 1.0
+}
+
+// f64 helpers for the camera checks (glam's DVec3 would do too; these keep the f32 -> f64 step visible).
+
+fn sub64(a: Vec3, b: Vec3) -> [f64; 3] {
+    [
+        f64::from(a.x) - f64::from(b.x),
+        f64::from(a.y) - f64::from(b.y),
+        f64::from(a.z) - f64::from(b.z),
+    ]
+}
+
+fn length64(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+fn scale64(v: [f64; 3], s: f64) -> [f64; 3] {
+    [v[0] * s, v[1] * s, v[2] * s]
+}
+
+fn cross64(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Locating keys
+// ---------------------------------------------------------------------------------------------------
+
+fn join_key(path: &str, key: &str) -> String {
+    if path.is_empty() {
+        key.to_string()
+    } else {
+        format!("{path}.{key}")
+    }
+}
+
+/// The dotted path (`sphere[1].center`) of the innermost key or value in `table` whose span satisfies
+/// `hit`. Children are searched before their parent so that the most specific key wins; this matters
+/// because a `[table]`'s span is only its header, and an array of tables shares its span with its first
+/// element.
+fn find_key_path(
+    table: &DeTable<'_>,
+    path: &str,
+    hit: &dyn Fn(&Range<usize>) -> bool,
+) -> Option<String> {
+    table.iter().find_map(|(key, value)| {
+        let key_path = join_key(path, key.get_ref());
+        find_in_value(value, &key_path, hit).or_else(|| hit(&key.span()).then_some(key_path))
+    })
+}
+
+fn find_in_value(
+    value: &Spanned<DeValue<'_>>,
+    path: &str,
+    hit: &dyn Fn(&Range<usize>) -> bool,
+) -> Option<String> {
+    let inside = match value.get_ref() {
+        DeValue::Table(table) => find_key_path(table, path, hit),
+        DeValue::Array(items) => items
+            .iter()
+            .enumerate()
+            .find_map(|(i, item)| find_in_value(item, &format!("{path}[{i}]"), hit)),
+        _ => None,
+    };
+    inside.or_else(|| hit(&value.span()).then(|| path.to_string()))
+}
+
+/// For text that is not valid TOML: the key assigned on the line holding `offset`, prefixed by the
+/// table header above it (`camera.fov`, `sphere[1].radius`). Best effort: `None` when the line is not
+/// a plain `key = value`.
+fn guess_key_at(text: &str, offset: usize) -> Option<String> {
+    let bytes = text.as_bytes();
+    let offset = offset.min(bytes.len());
+    // Newlines are ASCII, so slicing at them always lands on a char boundary.
+    let start = bytes[..offset]
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |i| i + 1);
+    let end = bytes[start..]
+        .iter()
+        .position(|&b| b == b'\n')
+        .map_or(bytes.len(), |i| start + i);
+    let line = text[start..end].split('#').next().unwrap_or("").trim();
+    let is_bare_key = |s: &str| {
+        !s.is_empty()
+            && s.chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+    };
+    // A broken or duplicated `[table]` header names the table itself.
+    if let Some(name) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+        let name = name.trim_matches(['[', ']']).trim();
+        return is_bare_key(name).then(|| name.to_string());
+    }
+    let (lhs, _) = line.split_once('=')?;
+    let key = lhs.trim();
+    if !is_bare_key(key) {
+        return None;
+    }
+
+    // The last header before this line decides the prefix; `[[name]]` headers are counted so that the
+    // index matches the one the other errors use.
+    let mut header: Option<String> = None;
+    let mut array_counts: BTreeMap<&str, usize> = BTreeMap::new();
+    for line in text[..start].lines() {
+        let line = line.split('#').next().unwrap_or("").trim();
+        if let Some(name) = line.strip_prefix("[[").and_then(|l| l.strip_suffix("]]")) {
+            let name = name.trim();
+            let count = array_counts.entry(name).or_insert(0);
+            header = Some(format!("{name}[{count}]"));
+            *count += 1;
+        } else if let Some(name) = line.strip_prefix('[').and_then(|l| l.strip_suffix(']')) {
+            header = Some(name.trim().to_string());
+        }
+    }
+    if header
+        .as_deref()
+        .is_some_and(|h| !is_bare_key(&h.replace(['[', ']'], "")))
+    {
+        return Some(key.to_string());
+    }
+    Some(match header {
+        Some(h) => join_key(&h, key),
+        None => key.to_string(),
+    })
+}
+
+/// The text between `prefix` and the next backtick, e.g. the field name in "missing field `radius`".
+fn backticked_after<'m>(message: &'m str, prefix: &str) -> Option<&'m str> {
+    let rest = message.strip_prefix(prefix)?;
+    rest.split_once('`').map(|(name, _)| name)
+}
+
+/// serde names Rust types in its messages; say what they mean in TOML terms.
+fn plain_words(message: &str) -> String {
+    // An integer that does not fit the type serde was asked for (i64 for integer keys, and anything
+    // beyond i64 for float keys) comes out as "integer `N` as i128, expected f32" and the like.
+    let integer = backticked_after(message, "invalid value: integer `")
+        .or_else(|| backticked_after(message, "invalid type: integer `"));
+    if let Some(digits) = integer
+        && (message.contains("` as i128")
+            || message.contains("` as u128")
+            || message.ends_with("expected i64"))
+    {
+        return format!("the integer {digits} is out of range");
+    }
+
+    let mut words = message
+        .replace("invalid type: map", "invalid type: table")
+        .replace("expected f32", "expected a number")
+        .replace("expected i64", "expected an integer")
+        .replace("a sequence", "an array")
+        .replace("expected a string", "expected a string in quotes");
+    // "expected struct RawCamera" -> "expected a table": the Raw* names mean nothing to a user.
+    if let Some(at) = words.find("struct Raw") {
+        let rest = &words[at + "struct Raw".len()..];
+        let name_len = rest
+            .find(|c: char| !c.is_ascii_alphanumeric())
+            .unwrap_or(rest.len());
+        words.replace_range(at..at + "struct Raw".len() + name_len, "a table");
+    }
+    words
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The contract's example, minus the `[[mesh]]` table (meshes are not supported yet).
+    const CONTRACT_EXAMPLE: &str = r#"
+[camera]
+position       = [0.0, 0.0, 55.0]
+look_at        = [0.0, 0.0, 0.0]
+up             = [0.0, 1.0, 0.0]
+fov            = 60.0
+aperture       = 0.0
+focus_distance = 55.0
+
+[image]
+width    = 512
+height   = 512
+exposure = 1.0
+gamma    = 2.2
+
+[render]
+samples      = 64
+max_bounces  = 5
+seed         = 0
+filter       = "gaussian"
+filter_sigma = 0.5
+background   = [0.0, 0.0, 0.0]
+
+[materials]
+white  = { type = "diffuse", albedo = [0.8, 0.8, 0.8] }
+mirror = { type = "mirror", tint = [1.0, 1.0, 1.0] }
+glass  = { type = "dielectric", ior = 1.5 }
+
+[[sphere]]
+center   = [0.0, 0.0, 0.0]
+radius   = 10.0
+material = "white"
+
+[[triangle]]
+vertices = [[-5.0, -5.0, -20.0], [5.0, -5.0, -20.0], [0.0, 5.0, -20.0]]
+material = "white"
+
+[[light]]
+type     = "point"
+position = [-10.0, 20.0, 40.0]
+power    = 37699.1
+color    = [1.0, 1.0, 1.0]
+
+[[light]]
+type   = "sphere"
+center = [-10.0, 20.0, 40.0]
+radius = 5.0
+power  = 37699.1
+color  = [1.0, 1.0, 1.0]
+"#;
+
+    const MINIMAL: &str = r#"
+[camera]
+position = [0, 0, 10]
+look_at  = [0, 0, 0]
+fov      = 45
+"#;
+
+    fn parse(text: &str) -> Scene {
+        match parse_scene(text, Some(Path::new("test.toml"))) {
+            Ok(scene) => scene,
+            Err(e) => panic!("scene should parse: {e}"),
+        }
+    }
+
+    #[test]
+    fn contract_example_parses_to_the_written_values() {
+        let scene = parse(CONTRACT_EXAMPLE);
+        assert_eq!(scene.path.as_deref(), Some(Path::new("test.toml")));
+        assert_eq!(
+            scene.camera,
+            Camera {
+                position: Vec3::new(0.0, 0.0, 55.0),
+                look_at: Vec3::ZERO,
+                up: Vec3::Y,
+                fov_deg: 60.0,
+                aperture: 0.0,
+                focus_distance: 55.0,
+            }
+        );
+        assert_eq!(
+            scene.image,
+            ImageSettings {
+                width: 512,
+                height: 512,
+                exposure: 1.0,
+                gamma: Gamma::Power(2.2)
+            }
+        );
+        assert_eq!(
+            scene.render,
+            RenderSettings {
+                samples: 64,
+                max_bounces: 5,
+                seed: 0,
+                filter: Filter::Gaussian,
+                filter_sigma: 0.5,
+                background: Vec3::ZERO,
+            }
+        );
+        assert_eq!(scene.material_names, ["white", "mirror", "glass"]);
+        assert_eq!(
+            scene.materials,
+            [
+                Material::Diffuse {
+                    albedo: Vec3::splat(0.8)
+                },
+                Material::Mirror { tint: Vec3::ONE },
+                Material::Dielectric { ior: 1.5 },
+            ]
+        );
+        assert_eq!(
+            scene.spheres,
+            [Sphere {
+                center: Vec3::ZERO,
+                radius: 10.0,
+                material: 0
+            }]
+        );
+        assert_eq!(
+            scene.triangles,
+            [Triangle {
+                vertices: [
+                    Vec3::new(-5.0, -5.0, -20.0),
+                    Vec3::new(5.0, -5.0, -20.0),
+                    Vec3::new(0.0, 5.0, -20.0),
+                ],
+                material: 0,
+            }]
+        );
+        assert_eq!(
+            scene.lights,
+            [
+                Light::Point {
+                    position: Vec3::new(-10.0, 20.0, 40.0),
+                    power: 37699.1,
+                    color: Vec3::ONE
+                },
+                Light::Sphere {
+                    center: Vec3::new(-10.0, 20.0, 40.0),
+                    radius: 5.0,
+                    power: 37699.1,
+                    color: Vec3::ONE,
+                },
+            ]
+        );
+    }
+
+    #[test]
+    fn minimal_scene_gets_every_default() {
+        let scene = parse(MINIMAL);
+        assert_eq!(scene.camera.up, Vec3::Y);
+        assert_eq!(scene.camera.aperture, 0.0);
+        // The default focus distance is |look_at - position|.
+        assert_eq!(scene.camera.focus_distance, 10.0);
+        assert_eq!(
+            scene.image,
+            ImageSettings {
+                width: 512,
+                height: 512,
+                exposure: 1.0,
+                gamma: Gamma::Power(2.2)
+            }
+        );
+        assert_eq!(
+            scene.render,
+            RenderSettings {
+                samples: 64,
+                max_bounces: 5,
+                seed: 0,
+                filter: Filter::Gaussian,
+                filter_sigma: 0.5,
+                background: Vec3::ZERO,
+            }
+        );
+        assert!(scene.materials.is_empty() && scene.material_names.is_empty());
+        assert!(scene.spheres.is_empty() && scene.triangles.is_empty() && scene.lights.is_empty());
+    }
+
+    #[test]
+    fn partial_tables_default_the_missing_keys() {
+        let text = format!(
+            "{MINIMAL}\n[image]\nwidth = 320\n[render]\nsamples = 16\n\n[materials]\nm = {{ type = \"mirror\" }}\n\
+             [[light]]\ntype = \"point\"\nposition = [0, 5, 0]\npower = 100\n"
+        );
+        let scene = parse(&text);
+        assert_eq!((scene.image.width, scene.image.height), (320, 512));
+        assert_eq!(scene.image.gamma, Gamma::Power(2.2));
+        assert_eq!((scene.render.samples, scene.render.max_bounces), (16, 5));
+        assert_eq!(scene.materials, [Material::Mirror { tint: Vec3::ONE }]);
+        assert_eq!(
+            scene.lights,
+            [Light::Point {
+                position: Vec3::new(0.0, 5.0, 0.0),
+                power: 100.0,
+                color: Vec3::ONE
+            }]
+        );
+    }
+
+    #[test]
+    fn material_indices_follow_file_order_not_name_order() {
+        // Names deliberately out of alphabetical order, and objects refer to them out of order too.
+        let text = format!(
+            r#"{MINIMAL}
+[materials]
+zinc  = {{ type = "mirror", tint = [0.9, 0.9, 0.9] }}
+amber = {{ type = "diffuse", albedo = [0.8, 0.5, 0.1] }}
+moss  = {{ type = "dielectric", ior = 1.3 }}
+
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = "moss"
+
+[[sphere]]
+center = [3, 0, 0]
+radius = 1
+material = "zinc"
+
+[[triangle]]
+vertices = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+material = "amber"
+"#
+        );
+        let scene = parse(&text);
+        assert_eq!(scene.material_names, ["zinc", "amber", "moss"]);
+        let name_of = |i: u32| scene.material_names[i as usize].as_str();
+        assert_eq!(name_of(scene.spheres[0].material), "moss");
+        assert_eq!(name_of(scene.spheres[1].material), "zinc");
+        assert_eq!(name_of(scene.triangles[0].material), "amber");
+        assert_eq!(scene.materials[2], Material::Dielectric { ior: 1.3 });
+    }
+
+    #[test]
+    fn materials_may_be_written_as_subtables() {
+        let text = format!(
+            "{MINIMAL}\n[materials.b]\ntype = \"dielectric\"\nior = 2\n\n[materials.a]\ntype = \"mirror\"\n"
+        );
+        let scene = parse(&text);
+        assert_eq!(scene.material_names, ["b", "a"]);
+    }
+
+    #[test]
+    fn gamma_srgb_selects_the_srgb_curve() {
+        let scene = parse(&format!("{MINIMAL}\n[image]\ngamma = \"srgb\"\n"));
+        assert_eq!(scene.image.gamma, Gamma::Srgb);
+        let scene = parse(&format!("{MINIMAL}\n[image]\ngamma = 1.8\n"));
+        assert_eq!(scene.image.gamma, Gamma::Power(1.8));
+    }
+
+    #[test]
+    fn integers_are_accepted_where_floats_are_expected() {
+        let text = format!(
+            r#"{MINIMAL}
+[image]
+exposure = 2
+gamma = 2
+[render]
+filter = "box"
+filter_sigma = 1
+background = [1, 0, 0]
+[materials]
+glass = {{ type = "dielectric", ior = 2 }}
+[[sphere]]
+center = [1, 2, 3]
+radius = 10
+material = "glass"
+[[light]]
+type = "sphere"
+center = [0, 10, 0]
+radius = 2
+power = 500
+"#
+        );
+        let scene = parse(&text);
+        assert_eq!(scene.camera.fov_deg, 45.0);
+        assert_eq!(scene.image.exposure, 2.0);
+        assert_eq!(scene.image.gamma, Gamma::Power(2.0));
+        assert_eq!(scene.render.filter, Filter::Box);
+        assert_eq!(scene.render.filter_sigma, 1.0);
+        assert_eq!(scene.render.background, Vec3::X);
+        assert_eq!(scene.materials, [Material::Dielectric { ior: 2.0 }]);
+        assert_eq!(
+            scene.spheres,
+            [Sphere {
+                center: Vec3::new(1.0, 2.0, 3.0),
+                radius: 10.0,
+                material: 0
+            }]
+        );
+        assert_eq!(
+            scene.lights,
+            [Light::Sphere {
+                center: Vec3::new(0.0, 10.0, 0.0),
+                radius: 2.0,
+                power: 500.0,
+                color: Vec3::ONE
+            }]
+        );
+    }
+
+    #[test]
+    fn limits_are_inclusive() {
+        let text = format!(
+            "{MINIMAL}\n[image]\nwidth = 65536\nheight = 4096\nexposure = 0\n[render]\nmax_bounces = 0\nseed = 4294967295\nfilter = \"none\"\n\
+             [materials]\nblack = {{ type = \"diffuse\", albedo = [0, 0, 1] }}\n"
+        );
+        let scene = parse(&text);
+        assert_eq!((scene.image.width, scene.image.height), (65536, 4096));
+        assert_eq!(scene.render.seed, u32::MAX);
+        assert_eq!(scene.render.max_bounces, 0);
+        assert_eq!(scene.render.filter, Filter::None);
+    }
+
+    #[test]
+    fn zero_area_triangles_are_allowed() {
+        let text = format!(
+            "{MINIMAL}\n[materials]\nw = {{ type = \"diffuse\", albedo = [1, 1, 1] }}\n[[triangle]]\n\
+             vertices = [[1, 1, 1], [1, 1, 1], [2, 2, 2]]\nmaterial = \"w\"\n"
+        );
+        assert_eq!(parse(&text).triangles.len(), 1);
+    }
+
+    #[test]
+    fn default_scene_errors_name_the_default_scene() {
+        let err = parse_scene("[camera]\nfov = 60\n", None).expect_err("position is missing");
+        assert_eq!(err.file(), DEFAULT_SCENE_FILE);
+        assert!(
+            err.to_string()
+                .starts_with("<default scene>, line 1, key camera.position: "),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn the_embedded_default_scene_is_valid() {
+        if let Err(e) = parse_scene(super::super::DEFAULT_SCENE_TOML, None) {
+            panic!("{e}");
+        }
+    }
+
+    #[test]
+    fn syntax_errors_guess_the_key_from_the_line() {
+        let text = "[camera]\nposition = [0, 0, 1]\n\n[[sphere]]\nradius = 1\n[[sphere]]\nradius = 1.2.3\n";
+        let err = parse_scene(text, None).expect_err("not TOML");
+        assert_eq!(err.line(), Some(7));
+        assert_eq!(err.key(), Some("sphere[1].radius"));
+    }
+
+    #[test]
+    fn messages_quoting_user_text_stay_on_one_line() {
+        let text = format!(
+            "{MINIMAL}\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"two\\nlines\"\n"
+        );
+        let err = parse_scene(&text, None).expect_err("undefined material");
+        assert!(!err.to_string().contains('\n'), "{err}");
+    }
+}

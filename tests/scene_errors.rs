@@ -1,0 +1,676 @@
+//! Every way a scene file can be wrong, one test each: the error must name the file, the exact line and
+//! the key, fit in one paragraph, and never come from a panic.
+//!
+//! Scene texts put `# line N` comments on the offending line so the expected numbers can be checked by
+//! eye.
+
+use std::path::Path;
+use vkpath::scene::{Scene, SceneError};
+
+/// Lines 1-8 of most test scenes: a valid camera and two materials. Text appended to it starts at
+/// line 9.
+const BASE: &str = r#"[camera]
+position = [0, 0, 10]
+look_at  = [0, 0, 0]
+fov      = 60
+
+[materials]
+white = { type = "diffuse", albedo = [0.8, 0.8, 0.8] }
+glass = { type = "dielectric", ior = 1.5 }
+"#;
+
+fn with_base(rest: &str) -> String {
+    format!("{BASE}{rest}")
+}
+
+/// Parses `text` as `bad.toml`, expects an error at `line` whose key contains `key`, and checks the
+/// message's shape. Returns the error for further checks.
+#[track_caller]
+fn expect_error(text: &str, line: usize, key: &str) -> SceneError {
+    let err = match Scene::from_toml_str(text, Some(Path::new("bad.toml"))) {
+        Ok(_) => panic!("expected an error at line {line}, key {key}, but the scene parsed"),
+        Err(err) => err,
+    };
+    let message = err.to_string();
+    assert_eq!(err.file(), "bad.toml", "{message}");
+    assert_eq!(err.line(), Some(line), "{message}");
+    assert!(
+        err.key().is_some_and(|k| k.contains(key)),
+        "key {:?} should contain {key:?}: {message}",
+        err.key()
+    );
+    assert!(message.contains("bad.toml"), "{message}");
+    assert!(message.contains(&format!("line {line}")), "{message}");
+    assert!(message.contains(key), "{message}");
+    assert!(
+        !message.contains('\n'),
+        "the message must be one paragraph: {message:?}"
+    );
+    err
+}
+
+/// Like [`expect_error`], and the key must be exactly `key`.
+#[track_caller]
+fn expect_error_exact(text: &str, line: usize, key: &str) -> SceneError {
+    let err = expect_error(text, line, key);
+    assert_eq!(err.key(), Some(key), "{err}");
+    err
+}
+
+#[test]
+fn the_base_scene_is_valid() {
+    // Guards the other tests: each of them breaks exactly one thing.
+    let scene = Scene::from_toml_str(&with_base(""), Some(Path::new("ok.toml"))).expect("valid");
+    assert_eq!(scene.material_names, ["white", "glass"]);
+}
+
+#[test]
+fn display_has_the_documented_shape() {
+    let err = expect_error_exact(
+        &with_base(
+            "[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"white\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = -2\nmaterial = \"white\"\n",
+        ),
+        15,
+        "sphere[1].radius",
+    );
+    assert!(
+        err.to_string().starts_with(
+            "bad.toml, line 15, key sphere[1].radius: the radius must be > 0, got -2. "
+        ),
+        "{err}"
+    );
+}
+
+// ----- the file itself -----
+
+#[test]
+fn invalid_toml() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60 60\n";
+    let err = expect_error_exact(text, 4, "camera.fov");
+    assert!(err.to_string().contains("not valid TOML"), "{err}");
+}
+
+#[test]
+fn invalid_toml_unclosed_array() {
+    let text = with_base("[[sphere]]\ncenter = [0, 0, 0\nradius = 1\n");
+    // The parser notices the missing `]` on the line after the array started.
+    let err = Scene::from_toml_str(&text, Some(Path::new("bad.toml"))).expect_err("not TOML");
+    let line = err.line().expect("a line");
+    assert!((10..=11).contains(&line), "{err}");
+    assert!(
+        err.to_string().contains(&format!("bad.toml, line {line}")),
+        "{err}"
+    );
+}
+
+#[test]
+fn duplicate_key_is_invalid_toml() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\nfov = 50\n";
+    expect_error_exact(text, 5, "camera.fov");
+}
+
+#[test]
+fn duplicate_table_is_invalid_toml() {
+    let text = with_base("\n[camera]   # line 10\nfov = 50\n");
+    expect_error_exact(&text, 10, "camera");
+}
+
+#[test]
+fn load_of_a_missing_file_names_the_file() {
+    let path = Path::new("/nonexistent/dir/no-such-scene.toml");
+    let err = Scene::load(path).expect_err("the file does not exist");
+    assert_eq!(err.file(), path.display().to_string());
+    assert_eq!(err.line(), None);
+    let message = err.to_string();
+    assert!(message.contains("no-such-scene.toml"), "{message}");
+    assert!(!message.contains('\n'), "{message:?}");
+}
+
+// ----- missing and unknown keys -----
+
+#[test]
+fn missing_camera_table() {
+    let text = "[image]\nwidth = 64\n";
+    // The document root lacks it; its "table" starts at line 1.
+    let err = expect_error_exact(text, 1, "camera");
+    assert!(err.to_string().contains("missing"), "{err}");
+}
+
+#[test]
+fn missing_camera_key() {
+    let text = "\n[camera]   # line 2\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n";
+    let err = expect_error_exact(text, 2, "camera.fov");
+    assert!(err.to_string().contains("missing"), "{err}");
+}
+
+#[test]
+fn missing_sphere_key_names_the_sphere_and_its_table() {
+    let text = with_base(
+        r#"[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = "white"
+[[sphere]]          # line 13
+center = [0, 0, 0]
+material = "white"
+"#,
+    );
+    expect_error_exact(&text, 13, "sphere[1].radius");
+}
+
+#[test]
+fn missing_light_power() {
+    let text = with_base("[[light]]  # line 9\ntype = \"point\"\nposition = [0, 5, 0]\n");
+    expect_error_exact(&text, 9, "light[0].power");
+}
+
+#[test]
+fn missing_point_light_position() {
+    let text = with_base("[[light]]  # line 9\ntype = \"point\"\npower = 10\n");
+    expect_error_exact(&text, 9, "light[0].position");
+}
+
+#[test]
+fn missing_sphere_light_radius() {
+    let text =
+        with_base("[[light]]  # line 9\ntype = \"sphere\"\ncenter = [0, 5, 0]\npower = 10\n");
+    expect_error_exact(&text, 9, "light[0].radius");
+}
+
+#[test]
+fn missing_diffuse_albedo() {
+    let text = with_base("[materials.chalk]  # line 9\ntype = \"diffuse\"\n");
+    expect_error_exact(&text, 9, "materials.chalk.albedo");
+}
+
+#[test]
+fn missing_dielectric_ior() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\nwater = { type = \"dielectric\" }  # line 6\n";
+    expect_error_exact(text, 6, "materials.water.ior");
+}
+
+#[test]
+fn unknown_key_at_top_level() {
+    // Before any table header: after `[materials]` it would be read as a material.
+    let text = format!("title = \"my scene\"   # line 1\n{BASE}");
+    let err = expect_error_exact(&text, 1, "title");
+    assert!(err.to_string().contains("unknown key"), "{err}");
+}
+
+#[test]
+fn unknown_table_at_top_level() {
+    let text = with_base("\n[imag]  # line 10\nwidth = 64\n");
+    expect_error_exact(&text, 10, "imag");
+}
+
+#[test]
+fn unknown_key_inside_a_table() {
+    let text =
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\nzoom = 2  # line 5\n";
+    let err = expect_error_exact(text, 5, "camera.zoom");
+    assert!(err.to_string().contains("unknown key `zoom`"), "{err}");
+}
+
+#[test]
+fn unknown_key_inside_an_array_of_tables() {
+    let text = with_base(
+        r#"[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = "white"
+
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+colour = "red"       # line 17
+material = "white"
+"#,
+    );
+    expect_error_exact(&text, 17, "sphere[1].colour");
+}
+
+#[test]
+fn unknown_key_inside_a_material() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n\n[materials]\nred = { type = \"diffuse\", albedo = [1, 0, 0], roughness = 0.5 }  # line 7\n";
+    expect_error_exact(text, 7, "materials.red.roughness");
+}
+
+#[test]
+fn key_of_another_material_type_is_rejected() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n\n[materials]\nred = { type = \"diffuse\", albedo = [1, 0, 0], ior = 1.5 }  # line 7\n";
+    expect_error_exact(text, 7, "materials.red.ior");
+}
+
+#[test]
+fn key_of_another_light_type_is_rejected() {
+    let text = with_base(
+        "[[light]]\ntype = \"point\"\nposition = [0, 5, 0]\nradius = 2   # line 12\npower = 10\n",
+    );
+    expect_error_exact(&text, 12, "light[0].radius");
+}
+
+// ----- types and shapes -----
+
+#[test]
+fn wrong_type() {
+    let text = with_base(
+        "[[sphere]]\ncenter = [0, 0, 0]\nradius = \"big\"   # line 11\nmaterial = \"white\"\n",
+    );
+    expect_error_exact(&text, 11, "sphere[0].radius");
+}
+
+#[test]
+fn vector_with_two_numbers() {
+    let text =
+        with_base("[[sphere]]\ncenter = [0, 0]   # line 10\nradius = 1\nmaterial = \"white\"\n");
+    let err = expect_error_exact(&text, 10, "sphere[0].center");
+    assert!(err.to_string().contains("3 numbers"), "{err}");
+}
+
+#[test]
+fn vector_with_four_numbers() {
+    let text = "[camera]\nposition = [0, 0, 10, 1]   # line 2\nlook_at = [0, 0, 0]\nfov = 60\n";
+    expect_error_exact(text, 2, "camera.position");
+}
+
+#[test]
+fn triangle_with_two_vertices() {
+    let text = with_base(
+        "[[triangle]]\nvertices = [[0, 0, 0], [1, 0, 0]]   # line 10\nmaterial = \"white\"\n",
+    );
+    expect_error_exact(&text, 10, "triangle[0].vertices");
+}
+
+#[test]
+fn unknown_material_type() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\nshiny = { type = \"metal\" }  # line 6\n";
+    let err = expect_error_exact(text, 6, "materials.shiny.type");
+    assert!(err.to_string().contains("\"metal\""), "{err}");
+}
+
+#[test]
+fn unknown_light_type() {
+    let text =
+        with_base("[[light]]\ntype = \"area\"  # line 10\nposition = [0, 5, 0]\npower = 10\n");
+    expect_error_exact(&text, 10, "light[0].type");
+}
+
+// ----- materials by name -----
+
+#[test]
+fn undefined_material() {
+    let text = with_base(
+        r#"[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = "white"
+
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = "gold"   # line 17
+"#,
+    );
+    let err = expect_error_exact(&text, 17, "sphere[1].material");
+    let message = err.to_string();
+    assert!(message.contains("\"gold\""), "{message}");
+    // The message lists what is defined, in file order.
+    assert!(message.contains("\"white\", \"glass\""), "{message}");
+}
+
+#[test]
+fn undefined_material_on_a_triangle() {
+    let text = with_base(
+        "[[triangle]]\nvertices = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\nmaterial = \"Glass\"  # line 11\n",
+    );
+    expect_error_exact(&text, 11, "triangle[0].material");
+}
+
+// ----- numbers -----
+
+#[test]
+fn nan_value() {
+    let text = with_base(
+        "[[sphere]]\ncenter = [0, 0, 0]\nradius = nan   # line 11\nmaterial = \"white\"\n",
+    );
+    let err = expect_error_exact(&text, 11, "sphere[0].radius");
+    assert!(err.to_string().contains("finite"), "{err}");
+}
+
+#[test]
+fn inf_value_in_a_vector() {
+    let text = "[camera]\nposition = [0, inf, 10]   # line 2\nlook_at = [0, 0, 0]\nfov = 60\n";
+    expect_error_exact(text, 2, "camera.position");
+}
+
+#[test]
+fn negative_inf_power() {
+    let text =
+        with_base("[[light]]\ntype = \"point\"\nposition = [0, 5, 0]\npower = -inf  # line 12\n");
+    expect_error_exact(&text, 12, "light[0].power");
+}
+
+#[test]
+fn number_beyond_f32_range_is_not_finite() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[image]\nexposure = 1e39   # line 6\n";
+    let err = expect_error_exact(text, 6, "image.exposure");
+    assert!(err.to_string().contains("finite"), "{err}");
+}
+
+#[test]
+fn nan_in_a_material() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\ng = { type = \"dielectric\", ior = nan }  # line 6\n";
+    expect_error_exact(text, 6, "materials.g.ior");
+}
+
+#[test]
+fn non_finite_triangle_vertex() {
+    let text = with_base(
+        "[[triangle]]\nvertices = [[0, 0, 0], [1, nan, 0], [0, 1, 0]]   # line 10\nmaterial = \"white\"\n",
+    );
+    expect_error(&text, 10, "triangle[0].vertices");
+}
+
+#[test]
+fn radius_zero() {
+    let text =
+        with_base("[[sphere]]\ncenter = [0, 0, 0]\nradius = 0   # line 11\nmaterial = \"white\"\n");
+    expect_error_exact(&text, 11, "sphere[0].radius");
+}
+
+#[test]
+fn radius_negative() {
+    let text = with_base(
+        "[[sphere]]\ncenter = [0, 0, 0]\nradius = -1.5   # line 11\nmaterial = \"white\"\n",
+    );
+    expect_error_exact(&text, 11, "sphere[0].radius");
+}
+
+#[test]
+fn sphere_light_radius_zero() {
+    let text = with_base(
+        "[[light]]\ntype = \"sphere\"\ncenter = [0, 5, 0]\nradius = 0   # line 12\npower = 10\n",
+    );
+    expect_error_exact(&text, 12, "light[0].radius");
+}
+
+#[test]
+fn power_zero() {
+    let text =
+        with_base("[[light]]\ntype = \"point\"\nposition = [0, 5, 0]\npower = 0   # line 12\n");
+    expect_error_exact(&text, 12, "light[0].power");
+}
+
+#[test]
+fn power_negative() {
+    let text = with_base(
+        "[[light]]\ntype = \"point\"\nposition = [0, 5, 0]\npower = 10\n\n[[light]]\ntype = \"sphere\"\ncenter = [0, 5, 0]\nradius = 1\npower = -3   # line 18\n",
+    );
+    expect_error_exact(&text, 18, "light[1].power");
+}
+
+#[test]
+fn ior_zero() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\ng = { type = \"dielectric\", ior = 0 }  # line 6\n";
+    expect_error_exact(text, 6, "materials.g.ior");
+}
+
+#[test]
+fn ior_negative() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n\n[materials.g]\ntype = \"dielectric\"\nior = -1.5  # line 8\n";
+    expect_error_exact(text, 8, "materials.g.ior");
+}
+
+#[test]
+fn albedo_above_one() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\nw = { type = \"diffuse\", albedo = [0.5, 1.2, 0.5] }  # line 6\n";
+    expect_error_exact(text, 6, "materials.w.albedo");
+}
+
+#[test]
+fn albedo_negative() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\nok = { type = \"diffuse\", albedo = [1, 1, 1] }\nw = { type = \"diffuse\", albedo = [-0.1, 0, 0] }  # line 7\n";
+    expect_error_exact(text, 7, "materials.w.albedo");
+}
+
+#[test]
+fn mirror_tint_out_of_range() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\nm = { type = \"mirror\", tint = [2, 2, 2] }  # line 6\n";
+    expect_error_exact(text, 6, "materials.m.tint");
+}
+
+#[test]
+fn light_color_negative() {
+    let text = with_base(
+        "[[light]]\ntype = \"point\"\nposition = [0, 5, 0]\npower = 10\ncolor = [1, -1, 1]   # line 13\n",
+    );
+    expect_error_exact(&text, 13, "light[0].color");
+}
+
+#[test]
+fn background_negative() {
+    let text = with_base("[render]\nbackground = [0, 0, -0.5]   # line 10\n");
+    expect_error_exact(&text, 10, "render.background");
+}
+
+// ----- the camera -----
+
+#[test]
+fn look_at_equals_position() {
+    let text = "[camera]\nposition = [1, 2, 3]\nlook_at = [1, 2, 3]   # line 3\nfov = 60\n";
+    expect_error_exact(text, 3, "camera.look_at");
+}
+
+#[test]
+fn up_parallel_to_view_direction() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nup = [0, 0, -3]   # line 4\nfov = 60\n";
+    let err = expect_error_exact(text, 4, "camera.up");
+    assert!(err.to_string().contains("parallel"), "{err}");
+}
+
+#[test]
+fn default_up_parallel_to_view_direction() {
+    // Looking straight down with the default up [0, 1, 0]: the error points at the [camera] table.
+    let text = "\n[camera]   # line 2\nposition = [0, 10, 0]\nlook_at = [0, 0, 0]\nfov = 60\n";
+    let err = expect_error_exact(text, 2, "camera.up");
+    assert!(err.to_string().contains("default up"), "{err}");
+}
+
+#[test]
+fn up_zero() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\nup = [0, 0, 0]   # line 5\n";
+    expect_error_exact(text, 5, "camera.up");
+}
+
+#[test]
+fn fov_zero() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 0   # line 4\n";
+    expect_error_exact(text, 4, "camera.fov");
+}
+
+#[test]
+fn fov_180() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 180.0   # line 4\n";
+    expect_error_exact(text, 4, "camera.fov");
+}
+
+#[test]
+fn fov_negative() {
+    let text = "[camera]\nfov = -30   # line 2\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n";
+    expect_error_exact(text, 2, "camera.fov");
+}
+
+#[test]
+fn aperture_negative() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\naperture = -0.1   # line 5\n";
+    expect_error_exact(text, 5, "camera.aperture");
+}
+
+#[test]
+fn focus_distance_zero() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\nfocus_distance = 0   # line 5\n";
+    expect_error_exact(text, 5, "camera.focus_distance");
+}
+
+// ----- [image] and [render] -----
+
+#[test]
+fn width_zero() {
+    let text = with_base("[image]\nwidth = 0   # line 10\n");
+    expect_error_exact(&text, 10, "image.width");
+}
+
+#[test]
+fn height_too_large() {
+    let text = with_base("[image]\nwidth = 64\nheight = 65537   # line 11\n");
+    expect_error_exact(&text, 11, "image.height");
+}
+
+#[test]
+fn too_many_pixels() {
+    let text = with_base("[image]\nwidth = 65536   # line 10\nheight = 8192\n");
+    let err = expect_error_exact(&text, 10, "image.width");
+    assert!(err.to_string().contains("pixels"), "{err}");
+}
+
+#[test]
+fn exposure_negative() {
+    let text = with_base("[image]\nexposure = -1   # line 10\n");
+    expect_error_exact(&text, 10, "image.exposure");
+}
+
+#[test]
+fn gamma_zero() {
+    let text = with_base("[image]\ngamma = 0   # line 10\n");
+    expect_error_exact(&text, 10, "image.gamma");
+}
+
+#[test]
+fn gamma_unknown_name() {
+    let text = with_base("[image]\ngamma = \"linear\"   # line 10\n");
+    let err = expect_error_exact(&text, 10, "image.gamma");
+    assert!(err.to_string().contains("\"srgb\""), "{err}");
+}
+
+#[test]
+fn samples_zero() {
+    let text = with_base("[render]\nsamples = 0   # line 10\n");
+    expect_error_exact(&text, 10, "render.samples");
+}
+
+#[test]
+fn samples_as_float() {
+    let text = with_base("[render]\nsamples = 64.0   # line 10\n");
+    expect_error_exact(&text, 10, "render.samples");
+}
+
+#[test]
+fn max_bounces_negative() {
+    let text = with_base("[render]\nmax_bounces = -1   # line 10\n");
+    expect_error_exact(&text, 10, "render.max_bounces");
+}
+
+#[test]
+fn seed_above_u32() {
+    let text = with_base("[render]\nseed = 4294967296   # line 10\n");
+    expect_error_exact(&text, 10, "render.seed");
+}
+
+#[test]
+fn seed_negative() {
+    let text = with_base("[render]\nsamples = 4\nseed = -1   # line 11\n");
+    expect_error_exact(&text, 11, "render.seed");
+}
+
+#[test]
+fn seed_beyond_i64() {
+    let text = with_base("[render]\nseed = 18446744073709551615   # line 10\n");
+    let err = expect_error_exact(&text, 10, "render.seed");
+    assert!(err.to_string().contains("out of range"), "{err}");
+}
+
+#[test]
+fn unknown_filter() {
+    let text = with_base("[render]\nfilter = \"tent\"   # line 10\n");
+    let err = expect_error_exact(&text, 10, "render.filter");
+    assert!(err.to_string().contains("\"gaussian\""), "{err}");
+}
+
+#[test]
+fn filter_sigma_zero() {
+    let text = with_base("[render]\nfilter_sigma = 0   # line 10\n");
+    expect_error_exact(&text, 10, "render.filter_sigma");
+}
+
+// ----- meshes -----
+
+#[test]
+fn mesh_not_supported() {
+    let text =
+        with_base("\n[[mesh]]   # line 10\nobj = \"models/bunny.obj\"\nmaterial = \"white\"\n");
+    let err = expect_error_exact(&text, 10, "mesh[0]");
+    assert!(err.to_string().contains("not supported yet"), "{err}");
+}
+
+// ----- nothing panics -----
+
+#[test]
+fn no_prefix_of_a_scene_panics() {
+    // Every truncation of a full scene is either valid or an error; none may panic. Truncating at
+    // every char boundary exercises half-written keys, arrays, strings and tables.
+    let text = with_base(
+        r#"
+[image]
+width = 64
+height = 48
+gamma = "srgb"
+
+[render]
+seed = 7
+background = [0.1, 0.1, 0.1]
+
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = "glass"
+
+[[triangle]]
+vertices = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+material = "white"
+
+[[light]]
+type = "sphere"
+center = [0, 5, 0]
+radius = 0.5
+power = 100
+"#,
+    );
+    Scene::from_toml_str(&text, None).expect("the full text is valid");
+    for (end, _) in text.char_indices() {
+        if let Err(err) = Scene::from_toml_str(&text[..end], None) {
+            assert!(!err.to_string().contains('\n'), "{err}");
+        }
+    }
+}
+
+#[test]
+fn extreme_numbers_do_not_panic() {
+    let texts = [
+        "[camera]\nposition = [3e38, 3e38, 3e38]\nlook_at = [-3e38, -3e38, -3e38]\nfov = 60\n",
+        "[camera]\nposition = [0, 0, 1e-45]\nlook_at = [0, 0, 0]\nfov = 60\n",
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 9223372036854775807\n",
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[image]\nwidth = -9223372036854775808\n",
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[image]\nwidth = 65536\nheight = 65536\n",
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[render]\nsamples = 99999999999999999999999999\n",
+        "",
+        "\u{feff}",
+        "[[sphere]]\n[[sphere]]\n",
+        "camera = 5\n",
+        "sphere = [1, 2]\n",
+        "[camera.position]\nx = 1\n",
+    ];
+    for text in texts {
+        // Either result is fine; reaching the next iteration is the test.
+        let _ = Scene::from_toml_str(text, None);
+    }
+}
