@@ -63,7 +63,13 @@ impl Film {
             mean.push(m);
             variance.push(v);
         }
-        Film { width, height, spp, mean, variance }
+        Film {
+            width,
+            height,
+            spp,
+            mean,
+            variance,
+        }
     }
 
     /// The mean radiance of pixel (x, y), (0, 0) the top-left.
@@ -73,7 +79,12 @@ impl Film {
 
     /// Mean over all pixels and channels.
     pub fn average(&self) -> f64 {
-        let total: f64 = self.mean.iter().flat_map(|p| p.iter()).map(|&v| v as f64).sum();
+        let total: f64 = self
+            .mean
+            .iter()
+            .flat_map(|p| p.iter())
+            .map(|&v| v as f64)
+            .sum();
         total / (self.mean.len() * 3).max(1) as f64
     }
 
@@ -81,10 +92,19 @@ impl Film {
     /// sqrt(mean over pixels and channels of Var[pixel estimate]) / mean(image). NaN below 2 spp or for a
     /// black image.
     pub fn estimated_rel_error(&self) -> f64 {
-        let var: f64 = self.variance.iter().flat_map(|p| p.iter()).map(|&v| v as f64).sum();
+        let var: f64 = self
+            .variance
+            .iter()
+            .flat_map(|p| p.iter())
+            .map(|&v| v as f64)
+            .sum();
         let var = var / (self.variance.len() * 3).max(1) as f64;
         let mean = self.average();
-        if !var.is_finite() || mean <= 0.0 { f64::NAN } else { var.sqrt() / mean }
+        if !var.is_finite() || mean <= 0.0 {
+            f64::NAN
+        } else {
+            var.sqrt() / mean
+        }
     }
 
     /// The 8-bit display image: v = clamp(exposure L, 0, 1), then v^(1/gamma) or the sRGB curve.
@@ -95,7 +115,11 @@ impl Film {
             let encoded = match settings.gamma {
                 Gamma::Power(g) => v.powf(1.0 / g),
                 Gamma::Srgb => {
-                    if v <= 0.0031308 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
+                    if v <= 0.0031308 {
+                        12.92 * v
+                    } else {
+                        1.055 * v.powf(1.0 / 2.4) - 0.055
+                    }
                 }
             };
             (encoded * 255.0).round().clamp(0.0, 255.0) as u8
@@ -122,22 +146,35 @@ impl Film {
         })?;
         let mut bytes = std::io::Cursor::new(Vec::new());
         let encoded = match format {
-            OutputFormat::Png => self.to_rgb8(settings).write_to(&mut bytes, image::ImageFormat::Png),
-            OutputFormat::Exr => self.to_rgb32f().write_to(&mut bytes, image::ImageFormat::OpenExr),
+            OutputFormat::Png => self
+                .to_rgb8(settings)
+                .write_to(&mut bytes, image::ImageFormat::Png),
+            OutputFormat::Exr => self
+                .to_rgb32f()
+                .write_to(&mut bytes, image::ImageFormat::OpenExr),
         };
-        encoded.map_err(|e| crate::Error::Io { path: path.to_path_buf(), message: e.to_string() })?;
+        encoded.map_err(|e| crate::Error::Io {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         write_atomically(path, bytes.get_ref())
     }
 }
 
 fn temp_path_for(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
 }
 
 /// Writes `bytes` to `path` through a temporary file and a rename.
 pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), crate::Error> {
-    let io_err = |e: std::io::Error| crate::Error::Io { path: path.to_path_buf(), message: e.to_string() };
+    let io_err = |e: std::io::Error| crate::Error::Io {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
     let tmp = temp_path_for(path);
     let result = (|| {
         let mut f = std::fs::File::create(&tmp)?;

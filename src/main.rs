@@ -12,7 +12,11 @@ use vkpath::render::{Budget, RenderOptions, Renderer, StopReason, render_progres
 use vkpath::{Error, Scene};
 
 #[derive(Parser)]
-#[command(name = "vkpath", version, about = "A physically based path tracer on Vulkan compute")]
+#[command(
+    name = "vkpath",
+    version,
+    about = "A physically based path tracer on Vulkan compute"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -124,9 +128,11 @@ fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
     if let Some(r) = &a.roulette_depth {
         o.roulette_depth = match r.as_str() {
             "off" => u32::MAX,
-            s => s
-                .parse()
-                .map_err(|_| usage(format!("--roulette-depth takes a number of bounces or \"off\", not \"{s}\".")))?,
+            s => s.parse().map_err(|_| {
+                usage(format!(
+                    "--roulette-depth takes a number of bounces or \"off\", not \"{s}\"."
+                ))
+            })?,
         };
     }
     Ok(o)
@@ -140,7 +146,9 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
     }
     let budget_time = match a.time {
         Some(t) if !(t.is_finite() && t > 0.0) => {
-            return Err(usage(format!("--time must be a positive number of seconds, not {t}.")));
+            return Err(usage(format!(
+                "--time must be a positive number of seconds, not {t}."
+            )));
         }
         Some(t) => Some(Duration::from_secs_f64(t)),
         None => None,
@@ -154,7 +162,11 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
     };
     apply_overrides(&mut scene, &a)?;
     let options = render_options(&a)?;
-    let outputs = if a.outputs.is_empty() { vec![PathBuf::from(format!("{}.png", scene.stem()))] } else { a.outputs.clone() };
+    let outputs = if a.outputs.is_empty() {
+        vec![PathBuf::from(format!("{}.png", scene.stem()))]
+    } else {
+        a.outputs.clone()
+    };
     for o in &outputs {
         if vkpath::film::OutputFormat::from_path(o).is_none() {
             return Err(usage(format!(
@@ -174,29 +186,36 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
 
     let ctx = GpuContext::new(&ContextOptions::default())?;
     let mut renderer = Renderer::new(&ctx, &scene, &options)?;
-    let budget = Budget { spp: scene.render.samples, time: budget_time, checkpoint_every: a.progress_every };
+    let budget = Budget {
+        spp: scene.render.samples,
+        time: budget_time,
+        checkpoint_every: a.progress_every,
+    };
     let bar = if !a.quiet && std::io::stderr().is_terminal() {
         let bar = indicatif::ProgressBar::new(scene.render.samples as u64);
         bar.set_style(
-            indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} spp ({per_sec}, eta {eta})")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            indicatif::ProgressStyle::with_template(
+                "{elapsed_precise} [{bar:40}] {pos}/{len} spp ({per_sec}, eta {eta})",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
         Some(bar)
     } else {
         None
     };
-    let (reason, elapsed) = render_progressive(&mut renderer, &options, &budget, &stop, |r, report| {
-        if let Some(bar) = &bar {
-            bar.set_position(report.samples_done as u64);
-        }
-        if report.checkpoint && report.samples_done < budget.spp {
-            let film = r.film()?;
-            for o in &outputs {
-                film.write(o, &scene.image)?;
+    let (reason, elapsed) =
+        render_progressive(&mut renderer, &options, &budget, &stop, |r, report| {
+            if let Some(bar) = &bar {
+                bar.set_position(report.samples_done as u64);
             }
-        }
-        Ok(())
-    })?;
+            if report.checkpoint && report.samples_done < budget.spp {
+                let film = r.film()?;
+                for o in &outputs {
+                    film.write(o, &scene.image)?;
+                }
+            }
+            Ok(())
+        })?;
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
@@ -209,7 +228,10 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
         film.write(o, &scene.image)?;
     }
     if reason == StopReason::Interrupted && !a.quiet {
-        eprintln!("vkpath: interrupted; wrote the image with {} samples per pixel.", film.spp);
+        eprintln!(
+            "vkpath: interrupted; wrote the image with {} samples per pixel.",
+            film.spp
+        );
     }
     let validation_errors = ctx.validation_errors();
     let seconds = elapsed.as_secs_f64();
@@ -248,7 +270,9 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
 
 fn run_info(json: bool) -> Result<i32, Error> {
     let devices = vkpath::gpu::context::list_devices()?;
-    let substring = std::env::var("VKPATH_DEVICE").ok().filter(|s| !s.is_empty());
+    let substring = std::env::var("VKPATH_DEVICE")
+        .ok()
+        .filter(|s| !s.is_empty());
     let (chosen, reason) = vkpath::gpu::context::choose_device(&devices, substring.as_deref())?;
     if json {
         let v = serde_json::json!({ "devices": devices, "chosen": chosen, "reason": reason });
@@ -257,16 +281,34 @@ fn run_info(json: bool) -> Result<i32, Error> {
     }
     for d in &devices {
         let mark = if d.index == chosen { "*" } else { " " };
-        println!("{mark} [{}] {} ({}, Vulkan {})", d.index, d.name, d.device_type, d.api_version);
+        println!(
+            "{mark} [{}] {} ({}, Vulkan {})",
+            d.index, d.name, d.device_type, d.api_version
+        );
     }
     let d = &devices[chosen];
     println!("chosen: [{}] {}, because {}", d.index, d.name, reason);
     println!("limits:");
-    println!("  max compute workgroup count:       {:?}", d.max_compute_workgroup_count);
-    println!("  max compute workgroup invocations: {}", d.max_compute_workgroup_invocations);
-    println!("  max storage buffer range:          {} bytes", d.max_storage_buffer_range);
-    println!("  max memory allocation size:        {} bytes", d.max_memory_allocation_size);
-    println!("  device-local memory:               {} bytes", d.device_local_memory_bytes);
+    println!(
+        "  max compute workgroup count:       {:?}",
+        d.max_compute_workgroup_count
+    );
+    println!(
+        "  max compute workgroup invocations: {}",
+        d.max_compute_workgroup_invocations
+    );
+    println!(
+        "  max storage buffer range:          {} bytes",
+        d.max_storage_buffer_range
+    );
+    println!(
+        "  max memory allocation size:        {} bytes",
+        d.max_memory_allocation_size
+    );
+    println!(
+        "  device-local memory:               {} bytes",
+        d.device_local_memory_bytes
+    );
     Ok(0)
 }
 

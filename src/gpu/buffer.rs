@@ -30,7 +30,8 @@ impl Buffer {
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let device = &ctx.device;
         // SAFETY: valid create info; the buffer is destroyed in Drop or below on failure.
-        let raw = unsafe { device.create_buffer(&info, None) }.map_err(|e| GpuError::vk("vkCreateBuffer", e))?;
+        let raw = unsafe { device.create_buffer(&info, None) }
+            .map_err(|e| GpuError::vk("vkCreateBuffer", e))?;
         let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
         let allocation = {
             let mut guard = ctx.allocator();
@@ -53,18 +54,29 @@ impl Buffer {
                 return Err(GpuError::Alloc(format!("{name} ({size} bytes): {e}")));
             }
         };
-        if let Err(e) = unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) } {
+        if let Err(e) =
+            unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
+        {
             if let Some(a) = ctx.allocator().as_mut() {
                 let _ = a.free(allocation);
             }
             unsafe { device.destroy_buffer(raw, None) };
             return Err(GpuError::vk("vkBindBufferMemory", e));
         }
-        Ok(Buffer { ctx: ctx.clone(), raw, allocation: Some(allocation), size })
+        Ok(Buffer {
+            ctx: ctx.clone(),
+            raw,
+            allocation: Some(allocation),
+            size,
+        })
     }
 
     /// A host-visible storage buffer holding `data` (uploaded now).
-    pub fn storage_from<T: bytemuck::Pod>(ctx: &Arc<GpuContext>, name: &str, data: &[T]) -> Result<Buffer, GpuError> {
+    pub fn storage_from<T: bytemuck::Pod>(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        data: &[T],
+    ) -> Result<Buffer, GpuError> {
         let bytes: &[u8] = bytemuck::cast_slice(data);
         let mut b = Buffer::new(
             ctx,
@@ -78,7 +90,11 @@ impl Buffer {
     }
 
     /// A host-visible uniform buffer holding `value`.
-    pub fn uniform_from<T: bytemuck::Pod>(ctx: &Arc<GpuContext>, name: &str, value: &T) -> Result<Buffer, GpuError> {
+    pub fn uniform_from<T: bytemuck::Pod>(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        value: &T,
+    ) -> Result<Buffer, GpuError> {
         let mut b = Buffer::new(
             ctx,
             name,

@@ -47,7 +47,10 @@ unsafe extern "system" fn debug_callback(
     data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
     user: *mut c_void,
 ) -> vk::Bool32 {
-    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) && !user.is_null() && !data.is_null() {
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
+        && !user.is_null()
+        && !data.is_null()
+    {
         // SAFETY: `user` is the DebugSink boxed in GpuContext, alive until the messenger is destroyed;
         // `data` is valid for the duration of the callback.
         let sink = unsafe { &*(user as *const DebugSink) };
@@ -66,7 +69,11 @@ pub struct GpuContext {
     // Keeps the Vulkan loader library loaded for as long as the instance lives.
     _entry: ash::Entry,
     pub(crate) instance: ash::Instance,
-    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT, Box<DebugSink>)>,
+    debug: Option<(
+        ash::ext::debug_utils::Instance,
+        vk::DebugUtilsMessengerEXT,
+        Box<DebugSink>,
+    )>,
     pub(crate) device: ash::Device,
     pub(crate) queue: Mutex<vk::Queue>,
     pub(crate) queue_family: u32,
@@ -103,7 +110,9 @@ fn load_entry() -> Result<ash::Entry, GpuError> {
 }
 
 fn env_flag(name: &str) -> bool {
-    std::env::var(name).map(|v| !v.is_empty() && v != "0").unwrap_or(false)
+    std::env::var(name)
+        .map(|v| !v.is_empty() && v != "0")
+        .unwrap_or(false)
 }
 
 fn create_instance(entry: &ash::Entry, validation: bool) -> Result<ash::Instance, GpuError> {
@@ -118,9 +127,11 @@ fn create_instance(entry: &ash::Entry, validation: bool) -> Result<ash::Instance
         // SAFETY: plain query of the loader.
         let available = unsafe { entry.enumerate_instance_layer_properties() }
             .map_err(|e| GpuError::vk("vkEnumerateInstanceLayerProperties", e))?;
-        let found = available
-            .iter()
-            .any(|l| l.layer_name_as_c_str().map(|n| n == VALIDATION_LAYER).unwrap_or(false));
+        let found = available.iter().any(|l| {
+            l.layer_name_as_c_str()
+                .map(|n| n == VALIDATION_LAYER)
+                .unwrap_or(false)
+        });
         if !found {
             return Err(GpuError::ValidationUnavailable);
         }
@@ -168,7 +179,9 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
             vk::api_version_patch(v)
         ),
         driver_version: props.driver_version,
-        has_compute_queue: queues.iter().any(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE)),
+        has_compute_queue: queues
+            .iter()
+            .any(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE)),
         max_compute_workgroup_count: props.limits.max_compute_work_group_count,
         max_compute_workgroup_invocations: props.limits.max_compute_work_group_invocations,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
@@ -184,7 +197,12 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>, GpuError> {
     // SAFETY: the instance is valid; destroyed below.
     let pds = unsafe { instance.enumerate_physical_devices() };
     let result = pds
-        .map(|pds| pds.iter().enumerate().map(|(i, &pd)| describe(&instance, i, pd)).collect())
+        .map(|pds| {
+            pds.iter()
+                .enumerate()
+                .map(|(i, &pd)| describe(&instance, i, pd))
+                .collect()
+        })
         .map_err(|e| GpuError::vk("vkEnumeratePhysicalDevices", e));
     unsafe { instance.destroy_instance(None) };
     result
@@ -192,7 +210,10 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>, GpuError> {
 
 /// Chooses a device: by name substring when given, else the best-ranked type with a compute queue.
 /// Returns the index and a sentence saying why.
-pub fn choose_device(devices: &[DeviceInfo], substring: Option<&str>) -> Result<(usize, String), GpuError> {
+pub fn choose_device(
+    devices: &[DeviceInfo],
+    substring: Option<&str>,
+) -> Result<(usize, String), GpuError> {
     let usable: Vec<&DeviceInfo> = devices.iter().filter(|d| d.has_compute_queue).collect();
     if usable.is_empty() {
         return Err(GpuError::NoDevice);
@@ -202,7 +223,12 @@ pub fn choose_device(devices: &[DeviceInfo], substring: Option<&str>) -> Result<
         return usable
             .iter()
             .find(|d| d.name.to_lowercase().contains(&needle))
-            .map(|d| (d.index, format!("its name contains \"{sub}\" (VKPATH_DEVICE)")))
+            .map(|d| {
+                (
+                    d.index,
+                    format!("its name contains \"{sub}\" (VKPATH_DEVICE)"),
+                )
+            })
             .ok_or_else(|| GpuError::DeviceNotFound {
                 wanted: sub.to_string(),
                 available: usable.iter().map(|d| d.name.clone()).collect(),
@@ -215,7 +241,11 @@ pub fn choose_device(devices: &[DeviceInfo], substring: Option<&str>) -> Result<
         "CPU" => device_type_rank(vk::PhysicalDeviceType::CPU),
         _ => 4,
     };
-    let best = usable.iter().min_by_key(|d| (rank(d), d.index)).copied().ok_or(GpuError::NoDevice)?;
+    let best = usable
+        .iter()
+        .min_by_key(|d| (rank(d), d.index))
+        .copied()
+        .ok_or(GpuError::NoDevice)?;
     Ok((
         best.index,
         format!(
@@ -229,10 +259,11 @@ impl GpuContext {
     /// Creates the context on the preferred device (see [`choose_device`]).
     pub fn new(options: &ContextOptions) -> Result<Arc<GpuContext>, GpuError> {
         let validation = options.validation || env_flag("VKPATH_VALIDATION");
-        let substring = options
-            .device_substring
-            .clone()
-            .or_else(|| std::env::var("VKPATH_DEVICE").ok().filter(|s| !s.is_empty()));
+        let substring = options.device_substring.clone().or_else(|| {
+            std::env::var("VKPATH_DEVICE")
+                .ok()
+                .filter(|s| !s.is_empty())
+        });
         let entry = load_entry()?;
         let instance = create_instance(&entry, validation)?;
         // From here on, failures must destroy what was created: build in a closure and clean up on error.
@@ -242,7 +273,8 @@ impl GpuContext {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
                 .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING,
                 )
                 .message_type(
                     vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
@@ -260,7 +292,11 @@ impl GpuContext {
                 }
             }
         }
-        let cleanup_instance = |debug: &Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT, Box<DebugSink>)>| unsafe {
+        let cleanup_instance = |debug: &Option<(
+            ash::ext::debug_utils::Instance,
+            vk::DebugUtilsMessengerEXT,
+            Box<DebugSink>,
+        )>| unsafe {
             if let Some((loader, m, _)) = debug {
                 loader.destroy_debug_utils_messenger(*m, None);
             }
@@ -273,7 +309,11 @@ impl GpuContext {
                 return Err(GpuError::vk("vkEnumeratePhysicalDevices", e));
             }
         };
-        let infos: Vec<DeviceInfo> = pds.iter().enumerate().map(|(i, &pd)| describe(&instance, i, pd)).collect();
+        let infos: Vec<DeviceInfo> = pds
+            .iter()
+            .enumerate()
+            .map(|(i, &pd)| describe(&instance, i, pd))
+            .collect();
         let (index, reason) = match choose_device(&infos, substring.as_deref()) {
             Ok(c) => c,
             Err(e) => {

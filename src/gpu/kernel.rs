@@ -58,19 +58,29 @@ impl Kernel {
                 .map_err(|e| GpuError::vk("vkCreateDescriptorSetLayout", e))?;
             let set_layouts = [k.set_layout];
             k.pipeline_layout = device
-                .create_pipeline_layout(&vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts), None)
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts),
+                    None,
+                )
                 .map_err(|e| GpuError::vk("vkCreatePipelineLayout", e))?;
             let module = device
-                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&shader.spirv), None)
+                .create_shader_module(
+                    &vk::ShaderModuleCreateInfo::default().code(&shader.spirv),
+                    None,
+                )
                 .map_err(|e| GpuError::vk("vkCreateShaderModule", e))?;
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
-            let info = vk::ComputePipelineCreateInfo::default().stage(stage).layout(k.pipeline_layout);
-            let pipelines = device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None);
+            let info = vk::ComputePipelineCreateInfo::default()
+                .stage(stage)
+                .layout(k.pipeline_layout);
+            let pipelines =
+                device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None);
             device.destroy_shader_module(module, None);
-            k.pipeline = pipelines.map_err(|(_, e)| GpuError::vk("vkCreateComputePipelines", e))?[0];
+            k.pipeline =
+                pipelines.map_err(|(_, e)| GpuError::vk("vkCreateComputePipelines", e))?[0];
 
             let uniform_count = shader
                 .bindings
@@ -80,17 +90,30 @@ impl Kernel {
             let storage_count = shader.bindings.len() as u32 - uniform_count;
             let mut sizes = Vec::new();
             if uniform_count > 0 {
-                sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::UNIFORM_BUFFER, descriptor_count: uniform_count });
+                sizes.push(vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::UNIFORM_BUFFER,
+                    descriptor_count: uniform_count,
+                });
             }
             if storage_count > 0 {
-                sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: storage_count });
+                sizes.push(vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::STORAGE_BUFFER,
+                    descriptor_count: storage_count,
+                });
             }
             k.pool = device
-                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(1)
+                        .pool_sizes(&sizes),
+                    None,
+                )
                 .map_err(|e| GpuError::vk("vkCreateDescriptorPool", e))?;
             k.set = device
                 .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default().descriptor_pool(k.pool).set_layouts(&set_layouts),
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(k.pool)
+                        .set_layouts(&set_layouts),
                 )
                 .map_err(|e| GpuError::vk("vkAllocateDescriptorSets", e))?[0];
             k.command_pool = device
@@ -132,7 +155,13 @@ impl Kernel {
         }
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
             .iter()
-            .map(|b| [vk::DescriptorBufferInfo { buffer: b.raw, offset: 0, range: vk::WHOLE_SIZE }])
+            .map(|b| {
+                [vk::DescriptorBufferInfo {
+                    buffer: b.raw,
+                    offset: 0,
+                    range: vk::WHOLE_SIZE,
+                }]
+            })
             .collect();
         let writes: Vec<vk::WriteDescriptorSet> = self
             .bindings
@@ -153,7 +182,11 @@ impl Kernel {
 
     /// Records a dispatch of enough workgroups to cover `invocations` (x, y, z), and optionally a copy of
     /// `copy.0` into `copy.1` after it; submits and waits for completion.
-    pub fn run(&mut self, invocations: [u32; 3], copy: Option<(&Buffer, &Buffer)>) -> Result<(), GpuError> {
+    pub fn run(
+        &mut self,
+        invocations: [u32; 3],
+        copy: Option<(&Buffer, &Buffer)>,
+    ) -> Result<(), GpuError> {
         let groups = [0, 1, 2].map(|i| invocations[i].div_ceil(self.workgroup_size[i].max(1)));
         let max = self.ctx.limits.max_compute_work_group_count;
         if groups.iter().zip(max.iter()).any(|(g, m)| g > m) {
@@ -171,7 +204,8 @@ impl Kernel {
             device
                 .begin_command_buffer(
                     cb,
-                    &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
                 )
                 .map_err(|e| GpuError::vk("vkBeginCommandBuffer", e))?;
             if groups.iter().all(|&g| g > 0) {
@@ -201,7 +235,16 @@ impl Kernel {
                     &[],
                 );
                 let size = src.size().min(dst.size());
-                device.cmd_copy_buffer(cb, src.raw, dst.raw, &[vk::BufferCopy { src_offset: 0, dst_offset: 0, size }]);
+                device.cmd_copy_buffer(
+                    cb,
+                    src.raw,
+                    dst.raw,
+                    &[vk::BufferCopy {
+                        src_offset: 0,
+                        dst_offset: 0,
+                        size,
+                    }],
+                );
             }
             // Make all writes visible to the host once the fence signals.
             let barrier = vk::MemoryBarrier::default()
@@ -216,7 +259,9 @@ impl Kernel {
                 &[],
                 &[],
             );
-            device.end_command_buffer(cb).map_err(|e| GpuError::vk("vkEndCommandBuffer", e))?;
+            device
+                .end_command_buffer(cb)
+                .map_err(|e| GpuError::vk("vkEndCommandBuffer", e))?;
             let cbs = [cb];
             let submit = vk::SubmitInfo::default().command_buffers(&cbs);
             {
@@ -228,7 +273,9 @@ impl Kernel {
             device
                 .wait_for_fences(&[self.fence], true, u64::MAX)
                 .map_err(|e| GpuError::vk("vkWaitForFences", e))?;
-            device.reset_fences(&[self.fence]).map_err(|e| GpuError::vk("vkResetFences", e))?;
+            device
+                .reset_fences(&[self.fence])
+                .map_err(|e| GpuError::vk("vkResetFences", e))?;
         }
         Ok(())
     }

@@ -41,7 +41,10 @@ pub enum GpuError {
         "no Vulkan device name contains \"{wanted}\" (VKPATH_DEVICE); the devices found are: {}. Unset \
          VKPATH_DEVICE or give a part of one of these names.", available.join(", ")
     )]
-    DeviceNotFound { wanted: String, available: Vec<String> },
+    DeviceNotFound {
+        wanted: String,
+        available: Vec<String>,
+    },
     #[error(
         "the Khronos validation layer was requested (VKPATH_VALIDATION) but is not installed. Install it \
          with `sudo apt-get install -y vulkan-validationlayers` (or `./ci/setup.sh --test`), or unset \
@@ -53,15 +56,17 @@ pub enum GpuError {
          too long for the watchdog). Try fewer samples per pass or a smaller image."
     )]
     DeviceLost(&'static str),
-    #[error(
-        "the Vulkan device ran out of memory during {0}. Try a smaller image or scene."
-    )]
+    #[error("the Vulkan device ran out of memory during {0}. Try a smaller image or scene.")]
     OutOfMemory(&'static str),
-    #[error("Vulkan call {0} failed: {1}. This is likely a driver problem; try another device (VKPATH_DEVICE).")]
+    #[error(
+        "Vulkan call {0} failed: {1}. This is likely a driver problem; try another device (VKPATH_DEVICE)."
+    )]
     Vulkan(&'static str, vk::Result),
     #[error("GPU memory allocation failed: {0}. Try a smaller image or scene.")]
     Alloc(String),
-    #[error("the WGSL shader failed to compile: {0}. This is a bug in vkpath's shaders; please report it.")]
+    #[error(
+        "the WGSL shader failed to compile: {0}. This is a bug in vkpath's shaders; please report it."
+    )]
     Shader(String),
     #[error("{0}")]
     Usage(String),

@@ -22,13 +22,30 @@ impl GpuScene {
         let mut g = GpuScene::default();
         for m in &scene.materials {
             g.materials.push(match *m {
-                Material::Diffuse { albedo } => GpuMaterial { albedo: albedo.into(), kind: MAT_DIFFUSE, ..Default::default() },
-                Material::Mirror { tint } => GpuMaterial { albedo: tint.into(), kind: MAT_MIRROR, ..Default::default() },
-                Material::Dielectric { ior } => GpuMaterial { kind: MAT_DIELECTRIC, ior, ..Default::default() },
+                Material::Diffuse { albedo } => GpuMaterial {
+                    albedo: albedo.into(),
+                    kind: MAT_DIFFUSE,
+                    ..Default::default()
+                },
+                Material::Mirror { tint } => GpuMaterial {
+                    albedo: tint.into(),
+                    kind: MAT_MIRROR,
+                    ..Default::default()
+                },
+                Material::Dielectric { ior } => GpuMaterial {
+                    kind: MAT_DIELECTRIC,
+                    ior,
+                    ..Default::default()
+                },
             });
         }
         for s in &scene.spheres {
-            g.spheres.push(GpuSphere { center: s.center.into(), radius: s.radius, material: s.material, _pad: [0; 3] });
+            g.spheres.push(GpuSphere {
+                center: s.center.into(),
+                radius: s.radius,
+                material: s.material,
+                _pad: [0; 3],
+            });
         }
         for t in &scene.triangles {
             g.triangles.push(GpuTriangle {
@@ -41,21 +58,39 @@ impl GpuScene {
         }
         for l in &scene.lights {
             match *l {
-                Light::Point { position, power, color } => g.lights.push(GpuLight {
+                Light::Point {
+                    position,
+                    power,
+                    color,
+                } => g.lights.push(GpuLight {
                     position: position.into(),
                     // Radiant intensity of an isotropic point source: I = P / (4 pi) W/sr.
                     intensity: (color * (power / (4.0 * PI))).into(),
                     kind: LIGHT_POINT,
                     ..Default::default()
                 }),
-                Light::Sphere { center, radius, power, color } => {
+                Light::Sphere {
+                    center,
+                    radius,
+                    power,
+                    color,
+                } => {
                     // A sphere of radius r with uniform radiance Le emits P = Le * pi * 4 pi r^2
                     // (pi from the cosine-weighted hemisphere, 4 pi r^2 the area): Le = P / (4 pi^2 r^2).
                     let le = color * (power / (4.0 * PI * PI * radius * radius));
                     let material = g.materials.len() as u32;
-                    g.materials.push(GpuMaterial { kind: MAT_EMITTER, emission: le.into(), ..Default::default() });
+                    g.materials.push(GpuMaterial {
+                        kind: MAT_EMITTER,
+                        emission: le.into(),
+                        ..Default::default()
+                    });
                     let sphere_index = g.spheres.len() as u32;
-                    g.spheres.push(GpuSphere { center: center.into(), radius, material, _pad: [0; 3] });
+                    g.spheres.push(GpuSphere {
+                        center: center.into(),
+                        radius,
+                        material,
+                        _pad: [0; 3],
+                    });
                     g.lights.push(GpuLight {
                         position: center.into(),
                         radius,

@@ -11,10 +11,19 @@ use ash::vk;
 pub const LIBRARY: &[(&str, &str)] = &[
     ("rng.wgsl", include_str!("../../shaders/rng.wgsl")),
     ("sampling.wgsl", include_str!("../../shaders/sampling.wgsl")),
-    ("intersect.wgsl", include_str!("../../shaders/intersect.wgsl")),
-    ("materials.wgsl", include_str!("../../shaders/materials.wgsl")),
+    (
+        "intersect.wgsl",
+        include_str!("../../shaders/intersect.wgsl"),
+    ),
+    (
+        "materials.wgsl",
+        include_str!("../../shaders/materials.wgsl"),
+    ),
     ("camera.wgsl", include_str!("../../shaders/camera.wgsl")),
-    ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
+    (
+        "accumulate.wgsl",
+        include_str!("../../shaders/accumulate.wgsl"),
+    ),
 ];
 
 /// Scene buffers (bindings 0–4), scene queries and direct lighting.
@@ -60,9 +69,12 @@ pub struct CompiledShader {
 pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
     let module = naga::front::wgsl::parse_str(source)
         .map_err(|e| GpuError::Shader(e.emit_to_string(source).replace('\n', " ")))?;
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::empty())
-        .validate(&module)
-        .map_err(|e| GpuError::Shader(format!("{:?}", e.into_inner())))?;
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    )
+    .validate(&module)
+    .map_err(|e| GpuError::Shader(format!("{:?}", e.into_inner())))?;
     let entry = module
         .entry_points
         .iter()
@@ -86,12 +98,19 @@ pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
     for (_, var) in module.global_variables.iter() {
         let Some(rb) = &var.binding else { continue };
         if rb.group != 0 {
-            return Err(GpuError::Shader(format!("binding group {} used; only group 0 is supported", rb.group)));
+            return Err(GpuError::Shader(format!(
+                "binding group {} used; only group 0 is supported",
+                rb.group
+            )));
         }
         let descriptor_type = match var.space {
             naga::AddressSpace::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
             naga::AddressSpace::Storage { .. } => vk::DescriptorType::STORAGE_BUFFER,
-            other => return Err(GpuError::Shader(format!("unsupported binding address space {other:?}"))),
+            other => {
+                return Err(GpuError::Shader(format!(
+                    "unsupported binding address space {other:?}"
+                )));
+            }
         };
         bindings.push(BindingInfo {
             binding: rb.binding,
@@ -100,5 +119,11 @@ pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
         });
     }
     bindings.sort_by_key(|b| b.binding);
-    Ok(CompiledShader { module, info, spirv, bindings, workgroup_size })
+    Ok(CompiledShader {
+        module,
+        info,
+        spirv,
+        bindings,
+        workgroup_size,
+    })
 }

@@ -32,9 +32,15 @@ use std::sync::{Arc, OnceLock};
 pub fn context() -> Arc<GpuContext> {
     static CTX: OnceLock<Arc<GpuContext>> = OnceLock::new();
     CTX.get_or_init(|| {
-        let want = std::env::var("VKPATH_VALIDATION").map(|v| v != "0").unwrap_or(true);
-        let options = ContextOptions { validation: want, ..Default::default() };
-        GpuContext::new(&options).unwrap_or_else(|e| panic!("vkpath tests need a Vulkan device: {e}"))
+        let want = std::env::var("VKPATH_VALIDATION")
+            .map(|v| v != "0")
+            .unwrap_or(true);
+        let options = ContextOptions {
+            validation: want,
+            ..Default::default()
+        };
+        GpuContext::new(&options)
+            .unwrap_or_else(|e| panic!("vkpath tests need a Vulkan device: {e}"))
     })
     .clone()
 }
@@ -52,7 +58,13 @@ pub fn run_kernel<I: bytemuck::Pod, O: bytemuck::Pod>(
     let mut kernel = Kernel::new(ctx, &compiled)?;
     let input_buffer = Buffer::storage_from(ctx, "test input", input)?;
     let out_bytes = (output_len * std::mem::size_of::<O>()) as u64;
-    let mut output = Buffer::new(ctx, "test output", out_bytes, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuToCpu)?;
+    let mut output = Buffer::new(
+        ctx,
+        "test output",
+        out_bytes,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::GpuToCpu,
+    )?;
     output.write(&vec![0u8; output.size() as usize])?;
     kernel.bind(&[&input_buffer, &output])?;
     kernel.run([output_len as u32, 1, 1], None)?;

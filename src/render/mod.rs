@@ -30,7 +30,11 @@ pub struct RenderOptions {
 
 impl Default for RenderOptions {
     fn default() -> Self {
-        RenderOptions { roulette_depth: 3, samples_per_pass: None, target_pass_seconds: 0.25 }
+        RenderOptions {
+            roulette_depth: 3,
+            samples_per_pass: None,
+            target_pass_seconds: 0.25,
+        }
     }
 }
 
@@ -48,7 +52,11 @@ pub struct Renderer {
 
 impl Renderer {
     /// Compiles the kernel and uploads `scene`. The scene must have been validated (Scene::load does).
-    pub fn new(ctx: &Arc<GpuContext>, scene: &Scene, options: &RenderOptions) -> Result<Renderer, GpuError> {
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        scene: &Scene,
+        options: &RenderOptions,
+    ) -> Result<Renderer, GpuError> {
         let gpu = GpuScene::build(scene);
         let mut params = params_for(scene, options.roulette_depth);
         params.num_spheres = gpu.spheres.len() as u32;
@@ -71,7 +79,14 @@ impl Renderer {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             MemoryLocation::GpuToCpu,
         )?;
-        kernel.bind(&[&params_buffer, &spheres, &triangles, &materials, &lights, &accum])?;
+        kernel.bind(&[
+            &params_buffer,
+            &spheres,
+            &triangles,
+            &materials,
+            &lights,
+            &accum,
+        ])?;
         let mut r = Renderer {
             ctx: ctx.clone(),
             kernel,
@@ -104,7 +119,8 @@ impl Renderer {
         self.params.sample_start = self.samples_done;
         self.params.sample_count = spp;
         self.params_buffer.write(bytemuck::bytes_of(&self.params))?;
-        self.kernel.run([self.params.width, self.params.height, 1], None)?;
+        self.kernel
+            .run([self.params.width, self.params.height, 1], None)?;
         self.samples_done = end;
         Ok(())
     }
@@ -125,7 +141,12 @@ impl Renderer {
         let accum: &[GpuAccum] = bytemuck::try_cast_slice(bytes)
             .map_err(|e| GpuError::Usage(format!("accumulator readback: {e}")))?;
         let pixels = self.params.width as usize * self.params.height as usize;
-        Ok(Film::from_sums(self.params.width, self.params.height, self.samples_done, &accum[..pixels]))
+        Ok(Film::from_sums(
+            self.params.width,
+            self.params.height,
+            self.samples_done,
+            &accum[..pixels],
+        ))
     }
 }
 
@@ -193,8 +214,17 @@ pub fn render_progressive(
         renderer.run_pass(k)?;
         let dt = t0.elapsed().as_secs_f64();
         let done = renderer.samples_done();
-        let checkpoint = budget.checkpoint_every.is_some_and(|e| e > 0 && done % e == 0);
-        on_pass(renderer, &PassReport { samples_done: done, elapsed: start.elapsed(), checkpoint })?;
+        let checkpoint = budget
+            .checkpoint_every
+            .is_some_and(|e| e > 0 && done.is_multiple_of(e));
+        on_pass(
+            renderer,
+            &PassReport {
+                samples_done: done,
+                elapsed: start.elapsed(),
+                checkpoint,
+            },
+        )?;
         if options.samples_per_pass.is_none() && k == pass_spp {
             // Grow (at most doubling) or shrink the pass towards the target duration.
             let per_sample = dt / k as f64;

@@ -107,9 +107,18 @@ pub struct Triangle {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Radiant intensity `power * color / (4 pi)` W/sr in every direction.
-    Point { position: Vec3, power: f32, color: Vec3 },
+    Point {
+        position: Vec3,
+        power: f32,
+        color: Vec3,
+    },
     /// A visible sphere of uniform radiance `power * color / (4 pi^2 radius^2)`.
-    Sphere { center: Vec3, radius: f32, power: f32, color: Vec3 },
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        power: f32,
+        color: Vec3,
+    },
 }
 
 impl Scene {

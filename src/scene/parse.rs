@@ -1621,7 +1621,7 @@ power = 500
 
     #[test]
     fn the_embedded_default_scene_is_valid() {
-        if let Err(e) = parse_scene(super::super::DEFAULT_SCENE_TOML, None) {
+        if let Err(e) = parse_scene(crate::scene::DEFAULT_SCENE_TOML, None) {
             panic!("{e}");
         }
     }

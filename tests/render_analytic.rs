@@ -1,0 +1,467 @@
+//! Renders with known answers: each test compares the GPU image against an independent expectation
+//! (an analytic formula evaluated on the CPU in f64, or a statistical bound derived from the sample count).
+
+mod common;
+
+use common::*;
+use glam::DVec3;
+use std::f64::consts::PI;
+use vkpath::render::RenderOptions;
+
+/// The CPU twin of the shader's pinhole camera (camera.wgsl), in f64: the ray through film position
+/// (fx, fy) in pixels. Independent code, same documented convention (horizontal fov, y down).
+struct CpuCamera {
+    pos: DVec3,
+    right: DVec3,
+    up: DVec3,
+    forward: DVec3,
+    tan_half: f64,
+    w: f64,
+    h: f64,
+}
+
+impl CpuCamera {
+    fn new(pos: [f64; 3], look_at: [f64; 3], fov_deg: f64, w: u32, h: u32) -> CpuCamera {
+        let pos = DVec3::from(pos);
+        let forward = (DVec3::from(look_at) - pos).normalize();
+        let right = forward.cross(DVec3::Y).normalize();
+        let up = right.cross(forward);
+        CpuCamera {
+            pos,
+            right,
+            up,
+            forward,
+            tan_half: (fov_deg.to_radians() / 2.0).tan(),
+            w: w as f64,
+            h: h as f64,
+        }
+    }
+
+    fn ray(&self, px: u32, py: u32) -> DVec3 {
+        let (fx, fy) = (px as f64 + 0.5, py as f64 + 0.5);
+        let sx = (fx - self.w / 2.0) / (self.w / 2.0) * self.tan_half;
+        let sy = (self.h / 2.0 - fy) / (self.w / 2.0) * self.tan_half;
+        (self.forward + sx * self.right + sy * self.up).normalize()
+    }
+}
+
+/// Nearest positive intersection of a ray with a sphere, and how far the ray passes from grazing it
+/// (disc / r^2, small near the silhouette).
+fn hit_sphere(o: DVec3, d: DVec3, c: DVec3, r: f64) -> Option<(f64, f64)> {
+    let f = o - c;
+    let b = f.dot(d);
+    let disc = r * r - (f - b * d).length_squared();
+    if disc < 0.0 {
+        return None;
+    }
+    let t = -b - disc.sqrt();
+    (t > 0.0).then_some((t, disc / (r * r)))
+}
+
+fn sphere_under_point_light(light: [f64; 3], power: f64, albedo: f64) -> String {
+    format!(
+        r#"
+[camera]
+position = [0.0, 0.0, 50.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 30.0
+[image]
+width = 48
+height = 40
+[render]
+samples = 1
+max_bounces = 1
+filter = "none"
+[materials]
+white = {{ type = "diffuse", albedo = [{albedo}, {albedo}, {albedo}] }}
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 10.0
+material = "white"
+[[light]]
+type = "point"
+position = [{}, {}, {}]
+power = {power}
+"#,
+        light[0], light[1], light[2]
+    )
+}
+
+/// Direct lighting of a diffuse sphere by a point light, pixel by pixel, against the course's formula
+/// L = a/pi * P/(4 pi d^2) * cos(theta), evaluated in f64 on a CPU ray cast.
+#[test]
+fn diffuse_sphere_matches_point_light_formula() {
+    let (power, albedo) = (20000.0, 0.8);
+    for light in [[20.0, 20.0, 30.0], [-30.0, 5.0, 10.0], [0.0, -25.0, 25.0]] {
+        let s = scene(&sphere_under_point_light(light, power, albedo));
+        let film = render(&s);
+        let cam = CpuCamera::new([0.0, 0.0, 50.0], [0.0, 0.0, 0.0], 30.0, 48, 40);
+        let lp = DVec3::from(light);
+        let mut checked = 0;
+        for py in 0..40 {
+            for px in 0..48 {
+                let got = film.pixel(px, py);
+                let d = cam.ray(px, py);
+                let expected = match hit_sphere(cam.pos, d, DVec3::ZERO, 10.0) {
+                    // Pixels whose ray grazes the silhouette may legitimately hit on one side and miss on
+                    // the other after f32 rounding of the ray: skip the outermost sliver.
+                    Some((_, graze)) if graze < 1e-3 => continue,
+                    Some((t, _)) => {
+                        let p = cam.pos + t * d;
+                        let n = p.normalize();
+                        let to_l = lp - p;
+                        let cos = n.dot(to_l.normalize());
+                        if cos.abs() < 1e-3 {
+                            continue; // the terminator: the sign of a ~0 cosine is rounding
+                        }
+                        albedo / PI * power / (4.0 * PI * to_l.length_squared()) * cos.max(0.0)
+                    }
+                    None => 0.0,
+                };
+                for c in got {
+                    // f32 evaluation of the same formula: a few ulps of the camera ray and hit point,
+                    // amplified where the cosine is small. 2e-4 relative (plus 1e-6 absolute) is ~1000 ulps.
+                    let tol = 2e-4 * expected + 1e-6;
+                    assert!(
+                        (c as f64 - expected).abs() <= tol,
+                        "light {light:?}, pixel ({px},{py}): got {c}, expected {expected}"
+                    );
+                }
+                checked += 1;
+            }
+        }
+        assert!(checked > 1500, "only {checked} pixels checked");
+    }
+    assert_no_validation_errors();
+}
+
+fn load_scene_file(name: &str) -> vkpath::Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(name);
+    vkpath::Scene::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The furnace (scenes/furnace.toml): closed diffuse sphere, point light at its centre. Every wall point
+/// has L = P/(4 pi^2 R^2) (a + ... + a^n) = 1.0 for the scene's values. Without Russian roulette every
+/// path carries exactly that value, so each pixel must equal it to f32 rounding.
+#[test]
+fn furnace_is_exact_without_roulette() {
+    let s = load_scene_file("furnace.toml");
+    let (a, n, r, p) = (0.5f64, s.render.max_bounces as i32, 10.0f64, 4075.19f64);
+    let expected = p / (4.0 * PI * PI * r * r) * (1..=n).map(|k| a.powi(k)).sum::<f64>();
+    let options = RenderOptions {
+        roulette_depth: u32::MAX,
+        ..Default::default()
+    };
+    let film = render_passes(&s, &options, 1, 16);
+    for (i, px) in film.mean.iter().enumerate() {
+        for &c in px {
+            assert!(
+                (c as f64 - expected).abs() < 2e-5,
+                "pixel {i}: {c} vs {expected}"
+            );
+        }
+    }
+}
+
+/// The furnace with Russian roulette (the default): unbiased, so the image mean must agree with the
+/// analytic value within 5 standard errors, the standard error estimated from the per-pixel variances
+/// (pixels are independent: Var[mean of image] = sum Var[pixel] / N^2).
+#[test]
+fn furnace_mean_with_roulette_within_standard_error() {
+    let s = load_scene_file("furnace.toml");
+    let expected = 4075.19 / (4.0 * PI * PI * 100.0) * (1..=5).map(|k| 0.5f64.powi(k)).sum::<f64>();
+    let options = RenderOptions {
+        roulette_depth: 1,
+        ..Default::default()
+    };
+    let film = render_passes(&s, &options, 1, 64);
+    let npix = film.mean.len() as f64;
+    let mean: f64 = film.mean.iter().map(|p| p[0] as f64).sum::<f64>() / npix;
+    let var: f64 = film.variance.iter().map(|v| v[0] as f64).sum::<f64>() / (npix * npix);
+    let se = var.sqrt();
+    assert!(
+        se > 0.0 && se < 0.01,
+        "roulette should add some noise, se = {se}"
+    );
+    assert!(
+        (mean - expected).abs() < 5.0 * se,
+        "mean {mean} vs {expected} (se {se})"
+    );
+}
+
+fn sphere_light_scene(radius: f64, samples: u32) -> String {
+    format!(
+        r#"
+[camera]
+position = [0.0, 0.0, 50.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 30.0
+[image]
+width = 32
+height = 32
+[render]
+samples = {samples}
+max_bounces = 1
+filter = "none"
+[materials]
+white = {{ type = "diffuse", albedo = [0.8, 0.8, 0.8] }}
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 10.0
+material = "white"
+[[light]]
+type = "sphere"
+center = [25.0, 25.0, 30.0]
+radius = {radius}
+power = 20000.0
+"#
+    )
+}
+
+/// A sphere light of power P and radius r: wherever it lies wholly above a point's horizon, its
+/// irradiance there equals the point light's, P cos(theta) / (4 pi d^2), for every r (the sphere's
+/// radiance P/(4 pi^2 r^2) times its projected solid angle pi sin^2(theta_max) cos(theta)). So every such
+/// pixel must agree with the point-light formula within its own standard error, from r = 5 down to
+/// r = 1e-4 (where sampling must neither blow up nor lose precision). The course's estimator, which
+/// dropped the light-side cosine, fails this.
+#[test]
+fn sphere_light_matches_point_light_at_every_radius() {
+    let cam = CpuCamera::new([0.0, 0.0, 50.0], [0.0, 0.0, 0.0], 30.0, 32, 32);
+    let c = DVec3::new(25.0, 25.0, 30.0);
+    for radius in [5.0, 1.0, 1e-2, 1e-4] {
+        let film = render(&scene(&sphere_light_scene(radius, 64)));
+        let mut checked = 0;
+        let mut chi2 = 0.0;
+        for py in 0..32 {
+            for px in 0..32 {
+                let d = cam.ray(px, py);
+                let Some((t, graze)) = hit_sphere(cam.pos, d, DVec3::ZERO, 10.0) else {
+                    continue;
+                };
+                if graze < 1e-3 {
+                    continue;
+                }
+                let p = cam.pos + t * d;
+                let n = p.normalize();
+                let to_c = c - p;
+                let dist = to_c.length();
+                let cos = n.dot(to_c / dist);
+                let sin_max = radius / dist;
+                // Only where the whole light is above the horizon (cos > sin theta_max), with margin.
+                if cos < sin_max + 0.02 {
+                    continue;
+                }
+                let expected = 0.8 / PI * 20000.0 / (4.0 * PI * dist * dist) * cos;
+                let got = film.pixel(px, py)[0] as f64;
+                let var = film.variance[(py * 32 + px) as usize][0] as f64;
+                // Standard error from the pixel's own variance, plus f32 rounding of the formula.
+                let tol = 5.0 * var.sqrt() + 2e-4 * expected;
+                assert!(
+                    (got - expected).abs() <= tol,
+                    "radius {radius}, pixel ({px},{py}): got {got}, expected {expected}, sigma {}",
+                    var.sqrt()
+                );
+                if var > 0.0 {
+                    chi2 += (got - expected).powi(2) / var;
+                }
+                checked += 1;
+            }
+        }
+        assert!(
+            checked > 100,
+            "radius {radius}: only {checked} pixels checked"
+        );
+        // Unbiasedness across the image: the average squared z-score is ~1 for an unbiased estimator
+        // (a biased one, e.g. without the light-side cosine, gives z^2 >> 1 at r = 5).
+        if radius >= 1.0 {
+            let mean_z2 = chi2 / checked as f64;
+            assert!(mean_z2 < 2.0, "radius {radius}: mean z^2 = {mean_z2}");
+        }
+    }
+    assert_no_validation_errors();
+}
+
+/// A perfect mirror sphere with tint t under a uniform background B: every pixel that sees the mirror
+/// shows t * B (the reflected ray escapes a convex mirror), every other pixel B.
+#[test]
+fn mirror_reflects_known_colour() {
+    let s = scene(
+        r#"
+[camera]
+position = [0.0, 0.0, 30.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 40.0
+[image]
+width = 32
+height = 24
+[render]
+samples = 2
+max_bounces = 3
+filter = "none"
+background = [0.2, 0.5, 0.9]
+[materials]
+m = { type = "mirror", tint = [0.9, 0.5, 0.25] }
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 6.0
+material = "m"
+"#,
+    );
+    let film = render(&s);
+    let cam = CpuCamera::new([0.0, 0.0, 30.0], [0.0, 0.0, 0.0], 40.0, 32, 24);
+    let (b, t) = ([0.2f32, 0.5, 0.9], [0.9f32, 0.5, 0.25]);
+    let mut mirror_pixels = 0;
+    for py in 0..24 {
+        for px in 0..32 {
+            let hit = hit_sphere(cam.pos, cam.ray(px, py), DVec3::ZERO, 6.0);
+            if matches!(hit, Some((_, g)) if g < 1e-3) {
+                continue;
+            }
+            let got = film.pixel(px, py);
+            for ch in 0..3 {
+                let expected = if hit.is_some() { t[ch] * b[ch] } else { b[ch] };
+                assert!(
+                    (got[ch] - expected).abs() <= 1e-6,
+                    "pixel ({px},{py}) ch {ch}: {} vs {expected}",
+                    got[ch]
+                );
+            }
+            mirror_pixels += hit.is_some() as u32;
+        }
+    }
+    assert!(mirror_pixels > 50);
+}
+
+fn glass_scene(with_glass: bool, ior: f64, max_bounces: u32) -> String {
+    let glass = if with_glass {
+        format!("[[sphere]]\ncenter = [3.0, 0.0, 20.0]\nradius = 5.0\nmaterial = \"glass\"\n")
+    } else {
+        String::new()
+    };
+    format!(
+        r#"
+[camera]
+position = [0.0, 0.0, 50.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 30.0
+[image]
+width = 40
+height = 40
+[render]
+samples = 1
+max_bounces = {max_bounces}
+filter = "none"
+[materials]
+white = {{ type = "diffuse", albedo = [0.8, 0.8, 0.8] }}
+glass = {{ type = "dielectric", ior = {ior} }}
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 10.0
+material = "white"
+[[light]]
+type = "point"
+position = [-40.0, 30.0, 10.0]
+power = 30000.0
+{glass}"#
+    )
+}
+
+/// A dielectric of index 1 is no interface at all: Fresnel reflectance exactly 0 and the refracted ray
+/// is the incoming one, so a glass ball of ior 1 in front of a lit sphere changes nothing. Each crossing
+/// of its surface is a scattering event, so the image with the ball and 3 bounces (in, out, diffuse)
+/// must equal the image without it and 1 bounce. The light is placed so no shadow ray crosses the ball.
+/// As a control, ior 1.5 must change the image.
+#[test]
+fn glass_with_ior_one_is_invisible() {
+    let reference = render(&scene(&glass_scene(false, 1.0, 1)));
+    let with = render(&scene(&glass_scene(true, 1.0, 3)));
+    let mut max_rel = 0.0f64;
+    for (a, b) in reference.mean.iter().zip(&with.mean) {
+        for ch in 0..3 {
+            let (a, b) = (a[ch] as f64, b[ch] as f64);
+            // The ray is re-spawned twice (offset off each glass surface by its error bound), which moves
+            // the hit point by ~1e-6 units: allow 1e-4 relative.
+            max_rel = max_rel.max((a - b).abs() / a.abs().max(1e-3));
+        }
+    }
+    assert!(
+        max_rel < 1e-4,
+        "ior-1 glass changed the image: max relative difference {max_rel}"
+    );
+    let control = render(&scene(&glass_scene(true, 1.5, 3)));
+    let changed = reference
+        .mean
+        .iter()
+        .zip(&control.mean)
+        .filter(|(a, b)| (a[0] - b[0]).abs() > 1e-3)
+        .count();
+    assert!(
+        changed > 50,
+        "ior 1.5 glass should bend the view; only {changed} pixels changed"
+    );
+}
+
+/// Same scene + seed: bit-identical. Different seeds: different noise, same mean within the standard
+/// error of the difference.
+#[test]
+fn determinism_and_seed_independence() {
+    let mut s = load_scene_file("course.toml");
+    s.image.width = 48;
+    s.image.height = 48;
+    s.render.samples = 8;
+    let a = render(&s);
+    let b = render(&s);
+    assert_eq!(a.mean, b.mean, "same seed must give identical images");
+    s.render.seed = 12345;
+    let c = render(&s);
+    let differing = a.mean.iter().zip(&c.mean).filter(|(x, y)| x != y).count();
+    assert!(
+        differing > a.mean.len() / 2,
+        "another seed should change the noise ({differing} pixels differ)"
+    );
+    let n = a.mean.len() as f64;
+    let mean = |f: &vkpath::Film| f.mean.iter().map(|p| p[1] as f64).sum::<f64>() / n;
+    let var = |f: &vkpath::Film| f.variance.iter().map(|v| v[1] as f64).sum::<f64>() / (n * n);
+    let se = (var(&a) + var(&c)).sqrt();
+    assert!(
+        (mean(&a) - mean(&c)).abs() < 5.0 * se,
+        "means {} vs {} (se {se})",
+        mean(&a),
+        mean(&c)
+    );
+}
+
+/// N passes of k samples equal one pass of N k samples: each invocation adds samples in index order,
+/// whatever the split, so the sums are bit-identical.
+#[test]
+fn progressive_passes_equal_one_pass() {
+    let mut s = load_scene_file("course.toml");
+    s.image.width = 40;
+    s.image.height = 30;
+    let options = RenderOptions::default();
+    let one = render_passes(&s, &options, 1, 12);
+    let many = render_passes(&s, &options, 4, 3);
+    let mixed = {
+        let ctx = vkpath::gpu::testing::context();
+        let mut r = vkpath::Renderer::new(&ctx, &s, &options).unwrap();
+        for k in [1, 5, 2, 4] {
+            r.run_pass(k).unwrap();
+        }
+        r.film().unwrap()
+    };
+    assert_eq!(one.spp, 12);
+    assert_eq!(one.mean, many.mean);
+    assert_eq!(one.mean, mixed.mean);
+    assert_eq!(
+        one.variance
+            .iter()
+            .map(|v| v.map(f32::to_bits))
+            .collect::<Vec<_>>(),
+        many.variance
+            .iter()
+            .map(|v| v.map(f32::to_bits))
+            .collect::<Vec<_>>()
+    );
+}
