@@ -336,7 +336,7 @@ material = "m"
 
 fn glass_scene(with_glass: bool, ior: f64, max_bounces: u32) -> String {
     let glass = if with_glass {
-        format!("[[sphere]]\ncenter = [3.0, 0.0, 20.0]\nradius = 5.0\nmaterial = \"glass\"\n")
+        "[[sphere]]\ncenter = [3.0, 0.0, 20.0]\nradius = 5.0\nmaterial = \"glass\"\n".to_string()
     } else {
         String::new()
     };
