@@ -50,10 +50,10 @@ struct RenderArgs {
     #[arg(long)]
     spp: Option<u32>,
     /// Stop after the first pass that ends past this many seconds.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     time: Option<f64>,
     /// Stop when the estimated relative error falls below E (not supported yet).
-    #[arg(long = "target-error")]
+    #[arg(long = "target-error", allow_negative_numbers = true)]
     target_error: Option<f64>,
     /// Random seed (overrides the scene).
     #[arg(long)]
@@ -313,7 +313,17 @@ fn run_info(json: bool) -> Result<i32, Error> {
 }
 
 fn main() {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => e.exit(), // --help, --version: print and exit 0
+        Err(e) => {
+            // Clap's usage errors span several paragraphs; the contract asks for one.
+            let text = e.to_string();
+            let msg: Vec<&str> = text.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+            eprintln!("vkpath: {}", msg.join(" "));
+            std::process::exit(2);
+        }
+    };
     let result = match cli.command {
         Command::Render(a) => run_render(a),
         Command::Preview { scene } => Err(usage(format!(

@@ -1,0 +1,455 @@
+//! Every `#[repr(C)]` Pod struct in `src/gpu/types.rs` against the layout naga reflects from the
+//! production kernel's WGSL: member names in order, byte offsets, member types, struct sizes, alignment,
+//! and the stride of the storage-buffer arrays the renderer uploads them into.
+//!
+//! A mismatch here means the GPU reads a field from the wrong bytes: the render is silently wrong, or
+//! the buffer is too short and the validation layer (or the device) complains.
+
+use naga::{Module, TypeInner};
+use std::mem::{offset_of, size_of};
+use vkpath::gpu::types::{GpuAccum, GpuLight, GpuMaterial, GpuParams, GpuSphere, GpuTriangle};
+
+/// The production kernel, parsed (and validated, so the layouts are the ones the SPIR-V gets).
+fn kernel() -> Module {
+    let source = vkpath::gpu::shader::trace_source();
+    let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| {
+        panic!(
+            "the production kernel does not parse: {}",
+            e.emit_to_string(&source)
+        )
+    });
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| {
+        panic!(
+            "the production kernel does not validate: {:?}",
+            e.into_inner()
+        )
+    });
+    module
+}
+
+/// What a Rust field is in WGSL terms: a scalar (`f32`) or an `N`-component vector of one (`[f32; 3]`
+/// is `vec3<f32>`). Padding arrays (`_pad: [u32; 3]`) are expanded into scalars by [`check_struct`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Shape {
+    Scalar(&'static str),
+    Vector(u32, &'static str),
+}
+
+impl std::fmt::Display for Shape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Shape::Scalar(s) => f.write_str(s),
+            Shape::Vector(n, s) => write!(f, "vec{n}<{s}>"),
+        }
+    }
+}
+
+trait WgslShape {
+    const SHAPE: Shape;
+}
+
+impl WgslShape for f32 {
+    const SHAPE: Shape = Shape::Scalar("f32");
+}
+impl WgslShape for u32 {
+    const SHAPE: Shape = Shape::Scalar("u32");
+}
+impl WgslShape for i32 {
+    const SHAPE: Shape = Shape::Scalar("i32");
+}
+impl<const N: usize> WgslShape for [f32; N] {
+    const SHAPE: Shape = Shape::Vector(N as u32, "f32");
+}
+impl<const N: usize> WgslShape for [u32; N] {
+    const SHAPE: Shape = Shape::Vector(N as u32, "u32");
+}
+
+/// The shape of a field, inferred from an accessor closure so that the macro need not name its type.
+fn shape_of<T, F: WgslShape>(_field: fn(&T) -> &F) -> Shape {
+    F::SHAPE
+}
+
+/// One field of a Rust struct: its name, byte offset and WGSL shape.
+struct RustField {
+    name: &'static str,
+    offset: usize,
+    shape: Shape,
+}
+
+/// `fields!(GpuSphere: center, radius, material, _pad)`: the listed fields with their offsets and shapes.
+macro_rules! fields {
+    ($t:ty: $($f:ident),+ $(,)?) => {
+        vec![$(RustField {
+            name: stringify!($f),
+            offset: offset_of!($t, $f),
+            shape: shape_of(|s: &$t| &s.$f),
+        }),+]
+    };
+}
+
+fn is_padding(name: &str) -> bool {
+    name.starts_with("_pad")
+}
+
+/// The WGSL shape of a naga type, if it is a scalar or a vector of one.
+fn wgsl_shape(inner: &TypeInner) -> Option<Shape> {
+    let scalar = |s: naga::Scalar| match (s.kind, s.width) {
+        (naga::ScalarKind::Float, 4) => Some("f32"),
+        (naga::ScalarKind::Uint, 4) => Some("u32"),
+        (naga::ScalarKind::Sint, 4) => Some("i32"),
+        _ => None,
+    };
+    match inner {
+        TypeInner::Scalar(s) => scalar(*s).map(Shape::Scalar),
+        TypeInner::Vector { size, scalar: s } => scalar(*s).map(|n| Shape::Vector(*size as u32, n)),
+        _ => None,
+    }
+}
+
+/// Checks the WGSL struct `wgsl_name` against a Rust struct of `rust_size` bytes whose fields, in
+/// declaration order, are `fields` (every field must be listed: the list is also checked to cover the
+/// whole struct). Panics with a message naming the struct and the member at the first mismatch.
+fn check_struct(
+    module: &Module,
+    wgsl_name: &str,
+    rust_name: &str,
+    rust_size: usize,
+    fields: Vec<RustField>,
+) {
+    let (handle, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(wgsl_name))
+        .unwrap_or_else(|| {
+            panic!("struct {wgsl_name} (mirrored by {rust_name}) is not in the production kernel")
+        });
+    let TypeInner::Struct { members, span } = &ty.inner else {
+        panic!(
+            "WGSL type {wgsl_name} (mirrored by {rust_name}) is not a struct: {:?}",
+            ty.inner
+        );
+    };
+
+    // Rust padding arrays `_pad: [u32; N]` stand for N scalar WGSL members `_pad0`..: expand them, each
+    // 4 bytes after the previous one.
+    let mut expected = Vec::new();
+    for f in &fields {
+        match f.shape {
+            Shape::Vector(n, scalar) if is_padding(f.name) => {
+                for k in 0..n as usize {
+                    expected.push((
+                        format!("{}[{k}]", f.name),
+                        f.offset + 4 * k,
+                        Shape::Scalar(scalar),
+                    ));
+                }
+            }
+            shape => expected.push((f.name.to_string(), f.offset, shape)),
+        }
+    }
+
+    let wgsl_names: Vec<_> = members
+        .iter()
+        .map(|m| m.name.clone().unwrap_or_default())
+        .collect();
+    let rust_names: Vec<_> = expected.iter().map(|(n, ..)| n.clone()).collect();
+    assert_eq!(
+        members.len(),
+        expected.len(),
+        "{rust_name} vs WGSL {wgsl_name}: member count differs (padding arrays expanded)\n  WGSL: {wgsl_names:?}\n  Rust: {rust_names:?}"
+    );
+
+    let mut covered = 0usize;
+    for (i, (m, (rust_field, rust_offset, rust_shape))) in members.iter().zip(&expected).enumerate()
+    {
+        let wgsl_member = m.name.as_deref().unwrap_or("<unnamed>");
+        let names_match = if is_padding(rust_field) {
+            is_padding(wgsl_member)
+        } else {
+            wgsl_member == rust_field
+        };
+        assert!(
+            names_match,
+            "{rust_name} vs WGSL {wgsl_name}: member #{i} is `{wgsl_member}` in WGSL but `{rust_field}` in Rust\n  WGSL: {wgsl_names:?}\n  Rust: {rust_names:?}"
+        );
+        assert_eq!(
+            m.offset as usize, *rust_offset,
+            "{rust_name} vs WGSL {wgsl_name}: member `{wgsl_member}` is at byte {} in WGSL but field `{rust_field}` is at byte {rust_offset} in Rust",
+            m.offset
+        );
+        let member_inner = &module.types[m.ty].inner;
+        let wgsl = wgsl_shape(member_inner).unwrap_or_else(|| {
+            panic!("{rust_name} vs WGSL {wgsl_name}: member `{wgsl_member}` has a type this test does not know: {member_inner:?}")
+        });
+        assert_eq!(
+            wgsl, *rust_shape,
+            "{rust_name} vs WGSL {wgsl_name}: member `{wgsl_member}` is {wgsl} in WGSL but field `{rust_field}` is {rust_shape} in Rust"
+        );
+        let size = member_inner.size(module.to_ctx()) as usize;
+        assert!(
+            *rust_offset >= covered,
+            "{rust_name}: field `{rust_field}` at byte {rust_offset} overlaps the previous field, which ends at byte {covered}"
+        );
+        covered = rust_offset + size;
+    }
+    assert!(
+        covered <= rust_size,
+        "{rust_name}: its fields end at byte {covered}, past its size {rust_size}"
+    );
+
+    assert_eq!(
+        *span as usize, rust_size,
+        "{rust_name} vs WGSL {wgsl_name}: WGSL struct size (span) is {span} bytes, size_of::<{rust_name}>() is {rust_size}"
+    );
+
+    // Arrays of the struct in storage buffers use a stride of round_up(align, size): the struct size only
+    // when it is a multiple of the alignment.
+    let mut layouter = naga::proc::Layouter::default();
+    layouter
+        .update(module.to_ctx())
+        .expect("naga computes the kernel's layouts");
+    let layout = &layouter[handle];
+    let align = layout.alignment * 1;
+    assert_eq!(
+        align, 16,
+        "WGSL {wgsl_name} (mirrored by {rust_name}): alignment is {align}, expected 16 (it holds vec3/vec4 members)"
+    );
+    assert!(
+        layout.alignment.is_aligned(*span),
+        "WGSL {wgsl_name} (mirrored by {rust_name}): size {span} is not a multiple of its alignment {align}, so an array of it would have stride {} != size_of::<{rust_name}>() = {rust_size}",
+        layout.to_stride()
+    );
+    assert_eq!(
+        layout.to_stride() as usize,
+        rust_size,
+        "WGSL {wgsl_name} (mirrored by {rust_name}): array stride differs from the Rust size"
+    );
+}
+
+/// Checks that the global `var_name` is a runtime-sized array of `struct_name` whose stride is `rust_size`.
+fn check_storage_array(
+    module: &Module,
+    var_name: &str,
+    struct_name: &str,
+    rust_name: &str,
+    rust_size: usize,
+) {
+    let (_, var) = module
+        .global_variables
+        .iter()
+        .find(|(_, v)| v.name.as_deref() == Some(var_name))
+        .unwrap_or_else(|| panic!("the production kernel has no global `{var_name}`"));
+    assert!(
+        matches!(var.space, naga::AddressSpace::Storage { .. }),
+        "`{var_name}` should be a storage buffer, is {:?}",
+        var.space
+    );
+    let TypeInner::Array { base, size, stride } = &module.types[var.ty].inner else {
+        panic!(
+            "`{var_name}` should be an array<{struct_name}>, is {:?}",
+            module.types[var.ty]
+        );
+    };
+    assert_eq!(
+        module.types[*base].name.as_deref(),
+        Some(struct_name),
+        "`{var_name}` should be an array of {struct_name}"
+    );
+    assert_eq!(
+        *size,
+        naga::ArraySize::Dynamic,
+        "`{var_name}` should be a runtime-sized array"
+    );
+    assert_eq!(
+        *stride as usize, rust_size,
+        "`{var_name}`: array<{struct_name}> stride is {stride} bytes in WGSL but the host uploads {rust_name}s of {rust_size} bytes"
+    );
+}
+
+#[test]
+fn params_matches_wgsl() {
+    let module = kernel();
+    check_struct(
+        &module,
+        "Params",
+        "GpuParams",
+        size_of::<GpuParams>(),
+        fields!(GpuParams:
+            cam_position, lens_radius, cam_right, tan_half_fov, cam_up, focus_distance, cam_forward,
+            filter_sigma, background, filter_kind, width, height, max_bounces, seed, sample_start,
+            sample_count, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, _pad0),
+    );
+    // The uniform buffer holds one Params.
+    let (_, params) = module
+        .global_variables
+        .iter()
+        .find(|(_, v)| v.name.as_deref() == Some("params"))
+        .expect("the kernel has a `params` global");
+    assert_eq!(
+        params.space,
+        naga::AddressSpace::Uniform,
+        "`params` should be a uniform buffer"
+    );
+    assert_eq!(
+        module.types[params.ty].name.as_deref(),
+        Some("Params"),
+        "`params` should be a Params"
+    );
+}
+
+#[test]
+fn sphere_matches_wgsl() {
+    let module = kernel();
+    check_struct(
+        &module,
+        "Sphere",
+        "GpuSphere",
+        size_of::<GpuSphere>(),
+        fields!(GpuSphere: center, radius, material, _pad),
+    );
+    check_storage_array(
+        &module,
+        "spheres",
+        "Sphere",
+        "GpuSphere",
+        size_of::<GpuSphere>(),
+    );
+}
+
+#[test]
+fn triangle_matches_wgsl() {
+    let module = kernel();
+    check_struct(
+        &module,
+        "Triangle",
+        "GpuTriangle",
+        size_of::<GpuTriangle>(),
+        fields!(GpuTriangle: v0, material, v1, _pad0, v2, _pad1),
+    );
+    check_storage_array(
+        &module,
+        "triangles",
+        "Triangle",
+        "GpuTriangle",
+        size_of::<GpuTriangle>(),
+    );
+}
+
+#[test]
+fn material_matches_wgsl() {
+    let module = kernel();
+    check_struct(
+        &module,
+        "Material",
+        "GpuMaterial",
+        size_of::<GpuMaterial>(),
+        fields!(GpuMaterial: albedo, kind, emission, ior),
+    );
+    check_storage_array(
+        &module,
+        "materials",
+        "Material",
+        "GpuMaterial",
+        size_of::<GpuMaterial>(),
+    );
+}
+
+#[test]
+fn light_matches_wgsl() {
+    let module = kernel();
+    check_struct(
+        &module,
+        "Light",
+        "GpuLight",
+        size_of::<GpuLight>(),
+        fields!(GpuLight: position, radius, intensity, kind, sphere_index, _pad),
+    );
+    check_storage_array(
+        &module,
+        "lights",
+        "Light",
+        "GpuLight",
+        size_of::<GpuLight>(),
+    );
+}
+
+#[test]
+fn accum_matches_wgsl() {
+    let module = kernel();
+    check_struct(
+        &module,
+        "Accum",
+        "GpuAccum",
+        size_of::<GpuAccum>(),
+        fields!(GpuAccum: sum, sum_c, sum_sq, sum_sq_c),
+    );
+    check_storage_array(&module, "accum", "Accum", "GpuAccum", size_of::<GpuAccum>());
+}
+
+/// The kind constants the host writes must be the ones the shader compares against.
+#[test]
+fn kind_constants_match_wgsl() {
+    let module = kernel();
+    let constant = |name: &str| -> u32 {
+        let (_, c) = module
+            .constants
+            .iter()
+            .find(|(_, c)| c.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("the production kernel has no constant {name}"));
+        match module.global_expressions[c.init] {
+            naga::Expression::Literal(naga::Literal::U32(v)) => v,
+            ref other => panic!("constant {name} is not a u32 literal: {other:?}"),
+        }
+    };
+    use vkpath::gpu::types::*;
+    assert_eq!(constant("MAT_DIFFUSE"), MAT_DIFFUSE, "MAT_DIFFUSE");
+    assert_eq!(constant("MAT_MIRROR"), MAT_MIRROR, "MAT_MIRROR");
+    assert_eq!(constant("MAT_DIELECTRIC"), MAT_DIELECTRIC, "MAT_DIELECTRIC");
+    assert_eq!(constant("MAT_EMITTER"), MAT_EMITTER, "MAT_EMITTER");
+    assert_eq!(constant("LIGHT_POINT"), LIGHT_POINT, "LIGHT_POINT");
+    assert_eq!(constant("LIGHT_SPHERE"), LIGHT_SPHERE, "LIGHT_SPHERE");
+}
+
+/// The helper itself must catch a mismatch: a WGSL struct whose members are swapped relative to Rust.
+#[test]
+#[should_panic(
+    expected = "GpuMaterial vs WGSL Material: member #1 is `ior` in WGSL but `kind` in Rust"
+)]
+fn check_struct_reports_a_swapped_member() {
+    let module = naga::front::wgsl::parse_str(
+        "struct Material { albedo: vec3<f32>, ior: f32, emission: vec3<f32>, kind: u32, }\n\
+         @group(0) @binding(0) var<storage, read> m: array<Material>;\n",
+    )
+    .expect("test WGSL parses");
+    check_struct(
+        &module,
+        "Material",
+        "GpuMaterial",
+        size_of::<GpuMaterial>(),
+        fields!(GpuMaterial: albedo, kind, emission, ior),
+    );
+}
+
+/// ... and a member of the right name at the wrong offset.
+#[test]
+#[should_panic(
+    expected = "member `radius` is at byte 16 in WGSL but field `radius` is at byte 12 in Rust"
+)]
+fn check_struct_reports_a_wrong_offset() {
+    let module = naga::front::wgsl::parse_str(
+        "struct Sphere { center: vec3<f32>, @align(16) radius: f32, material: u32, _pad0: u32, _pad1: u32, _pad2: u32, }\n",
+    )
+    .expect("test WGSL parses");
+    check_struct(
+        &module,
+        "Sphere",
+        "GpuSphere",
+        size_of::<GpuSphere>(),
+        fields!(GpuSphere: center, radius, material, _pad),
+    );
+}
