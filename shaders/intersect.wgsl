@@ -181,3 +181,52 @@ fn offset_ray_origin(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, w: vec3<f32>) -
     if offset.z > 0.0 { po.z = next_float_up(po.z); } else if offset.z < 0.0 { po.z = next_float_down(po.z); }
     return po;
 }
+
+// --- Boxes ------------------------------------------------------------------------------------------
+// Ray against the axis-aligned box [lo, hi] by slabs (Kay & Kajiya), for a BVH: returns the distance at
+// which the ray enters the box, clamped to 0 when the origin is inside, or T_MISS when the box lies
+// entirely outside (0, t_max). `inv_d` is 1 / d per component, ±inf for a zero component.
+//
+// Conservative, after pbrt-v4 (Pharr, Jakob & Humphreys, "Physically Based Rendering", 4th ed., §6.8.2,
+// Bounds3::IntersectP): a slab distance (bound - o) * inv_d carries three roundings (the subtraction, the
+// product, and the reciprocal the caller took), so it is within a relative gamma(3) of the exact one;
+// scaling every far distance by 1 + 2 gamma(3) makes the computed interval contain the exact interval,
+// so a ray that meets the box is never culled by rounding. An axis where inv_d is ±inf (an axis-parallel
+// ray) is decided by position alone, lo <= o <= hi: the product 0 * inf = NaN is never formed, and no
+// result depends on how min/max or comparisons treat NaN (undefined in SPIR-V / WGSL). A flat box
+// (lo == hi on an axis) is a valid box: its slab interval is a single distance, widened as above.
+fn is_inf_or_nan(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
+}
+
+fn intersect_aabb(o: vec3<f32>, inv_d: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>, t_max: f32) -> f32 {
+    let widen = 1.0 + 2.0 * gamma_n(3.0);
+    var t0 = 0.0;
+    var t1 = t_max;
+    for (var k = 0u; k < 3u; k++) {
+        let ok = component(o, k);
+        let lk = component(lo, k);
+        let hk = component(hi, k);
+        let ik = component(inv_d, k);
+        if is_inf_or_nan(ik) {
+            if ok < lk || ok > hk {
+                return T_MISS;
+            }
+            continue;
+        }
+        var t_near = (lk - ok) * ik;
+        var t_far = (hk - ok) * ik;
+        if t_near > t_far {
+            let tmp = t_near;
+            t_near = t_far;
+            t_far = tmp;
+        }
+        t_far *= widen;
+        t0 = max(t0, t_near);
+        t1 = min(t1, t_far);
+    }
+    if t0 > t1 {
+        return T_MISS;
+    }
+    return t0;
+}

@@ -17,8 +17,8 @@ struct Params {
     height: u32,
     max_bounces: u32,
     seed: u32,
-    sample_start: u32, // index of the first sample of this pass
-    sample_count: u32, // samples per pixel in this pass
+    _pad1: u32,
+    _pad2: u32,
     num_spheres: u32,
     num_triangles: u32,
     num_lights: u32,

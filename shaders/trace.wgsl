@@ -1,8 +1,24 @@
-// trace.wgsl: the path-tracing kernel. One invocation per pixel and pass; it traces `sample_count` paths
-// (samples sample_start .. sample_start + sample_count) and adds each to the pixel's running sums in the
-// same order whatever the split into passes, so N passes of k samples give the same bits as one of N k.
+// trace.wgsl: the path-tracing kernel. One invocation traces one path: sample `sample_index` of one
+// pixel, added to the pixel's running sums. A pass of k samples is k dispatches in one command buffer, each
+// preceded by an update of `pass_constants.sample_index`, so the sums see the samples in index order
+// whatever the split into passes: N passes of k samples give the same bits as one pass of N k.
+// (Push constants would be the natural carrier, but the Khronos validation layer shipped with Debian 12,
+// 1.3.239, crashes in vkCmdPushConstants with naga's SPIR-V; a 16-byte buffer update costs the same.)
+//
+// Why not loop over the pass's samples inside one invocation? Mesa's lavapipe (llvmpipe) ends every loop
+// of an invocation once the invocation has run 65535 loop iterations in total (a guard in its code
+// generator against runaway shaders): a loop over samples, each looping over bounces and primitives, would
+// be cut silently. One path per invocation keeps each invocation's loops small and bounded.
+
+struct PassConstants {
+    sample_index: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
 
 @group(0) @binding(5) var<storage, read_write> accum: array<Accum>;
+@group(0) @binding(6) var<uniform> pass_constants: PassConstants;
 
 const FILTER_NONE: u32 = 0u;
 const FILTER_BOX: u32 = 1u;
@@ -115,10 +131,6 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let pixel = gid.y * params.width + gid.x;
-    var acc = accum[pixel];
-    for (var s = 0u; s < params.sample_count; s++) {
-        let radiance = trace_path(gid.xy, params.sample_start + s);
-        acc = accumulate_sample(acc, radiance, params.guard_one);
-    }
-    accum[pixel] = acc;
+    let radiance = trace_path(gid.xy, pass_constants.sample_index);
+    accum[pixel] = accumulate_sample(accum[pixel], radiance, params.guard_one);
 }

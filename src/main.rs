@@ -319,7 +319,11 @@ fn main() {
         Err(e) => {
             // Clap's usage errors span several paragraphs; the contract asks for one.
             let text = e.to_string();
-            let msg: Vec<&str> = text.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+            let msg: Vec<&str> = text
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
             eprintln!("vkpath: {}", msg.join(" "));
             std::process::exit(2);
         }

@@ -7,29 +7,16 @@
 
 use naga::{Module, TypeInner};
 use std::mem::{offset_of, size_of};
-use vkpath::gpu::types::{GpuAccum, GpuLight, GpuMaterial, GpuParams, GpuSphere, GpuTriangle};
+use vkpath::gpu::types::{
+    GpuAccum, GpuLight, GpuMaterial, GpuParams, GpuPassConstants, GpuSphere, GpuTriangle,
+};
 
 /// The production kernel, parsed (and validated, so the layouts are the ones the SPIR-V gets).
 fn kernel() -> Module {
-    let source = vkpath::gpu::shader::trace_source();
-    let module = naga::front::wgsl::parse_str(&source).unwrap_or_else(|e| {
-        panic!(
-            "the production kernel does not parse: {}",
-            e.emit_to_string(&source)
-        )
-    });
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::empty(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| {
-        panic!(
-            "the production kernel does not validate: {:?}",
-            e.into_inner()
-        )
-    });
-    module
+    // The same parse + validation + SPIR-V translation the renderer runs.
+    vkpath::gpu::shader::compile(&vkpath::gpu::shader::trace_source())
+        .unwrap_or_else(|e| panic!("the production kernel does not compile: {e}"))
+        .module
 }
 
 /// What a Rust field is in WGSL terms: a scalar (`f32`) or an `N`-component vector of one (`[f32; 3]`
@@ -215,9 +202,15 @@ fn check_struct(
         .expect("naga computes the kernel's layouts");
     let layout = &layouter[handle];
     let align = layout.alignment * 1;
+    // Structs with vec3/vec4 members align to 16; the Rust side pads to match. (Scalar-only structs such
+    // as the push-constant block align to 4.)
+    let has_vectors = fields
+        .iter()
+        .any(|f| matches!(f.shape, Shape::Vector(..)) && !is_padding(f.name));
+    let expected_align = if has_vectors { 16 } else { 4 };
     assert_eq!(
-        align, 16,
-        "WGSL {wgsl_name} (mirrored by {rust_name}): alignment is {align}, expected 16 (it holds vec3/vec4 members)"
+        align, expected_align,
+        "WGSL {wgsl_name} (mirrored by {rust_name}): alignment is {align}, expected {expected_align}"
     );
     assert!(
         layout.alignment.is_aligned(*span),
@@ -281,8 +274,8 @@ fn params_matches_wgsl() {
         size_of::<GpuParams>(),
         fields!(GpuParams:
             cam_position, lens_radius, cam_right, tan_half_fov, cam_up, focus_distance, cam_forward,
-            filter_sigma, background, filter_kind, width, height, max_bounces, seed, sample_start,
-            sample_count, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, _pad0),
+            filter_sigma, background, filter_kind, width, height, max_bounces, seed, _pad1,
+            _pad2, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, _pad0),
     );
     // The uniform buffer holds one Params.
     let (_, params) = module
@@ -452,4 +445,23 @@ fn check_struct_reports_a_wrong_offset() {
         size_of::<GpuSphere>(),
         fields!(GpuSphere: center, radius, material, _pad),
     );
+}
+
+#[test]
+fn pass_constants_match_wgsl() {
+    let module = kernel();
+    check_struct(
+        &module,
+        "PassConstants",
+        "GpuPassConstants",
+        size_of::<GpuPassConstants>(),
+        fields!(GpuPassConstants: sample_index, _pad),
+    );
+    let (_, var) = module
+        .global_variables
+        .iter()
+        .find(|(_, v)| v.name.as_deref() == Some("pass_constants"))
+        .expect("the kernel takes its sample index in `pass_constants`");
+    assert_eq!(var.space, naga::AddressSpace::Uniform);
+    assert_eq!(module.types[var.ty].name.as_deref(), Some("PassConstants"));
 }

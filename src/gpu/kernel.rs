@@ -10,6 +10,7 @@ pub struct Kernel {
     ctx: Arc<GpuContext>,
     bindings: Vec<BindingInfo>,
     workgroup_size: [u32; 3],
+    immediate_size: u32,
     set_layout: vk::DescriptorSetLayout,
     pipeline_layout: vk::PipelineLayout,
     pipeline: vk::Pipeline,
@@ -27,6 +28,7 @@ impl Kernel {
             ctx: ctx.clone(),
             bindings: shader.bindings.clone(),
             workgroup_size: shader.workgroup_size,
+            immediate_size: shader.immediate_size,
             set_layout: vk::DescriptorSetLayout::null(),
             pipeline_layout: vk::PipelineLayout::null(),
             pipeline: vk::Pipeline::null(),
@@ -180,22 +182,38 @@ impl Kernel {
         Ok(())
     }
 
-    /// Records a dispatch of enough workgroups to cover `invocations` (x, y, z), and optionally a copy of
-    /// `copy.0` into `copy.1` after it; submits and waits for completion.
-    pub fn run(
-        &mut self,
-        invocations: [u32; 3],
-        copy: Option<(&Buffer, &Buffer)>,
-    ) -> Result<(), GpuError> {
-        let groups = [0, 1, 2].map(|i| invocations[i].div_ceil(self.workgroup_size[i].max(1)));
+    /// Records `commands` into one command buffer, with a full memory barrier between consecutive
+    /// commands (each may read what the previous wrote) and one to the host at the end; submits and waits.
+    pub fn submit(&mut self, commands: &[Command<'_>]) -> Result<(), GpuError> {
         let max = self.ctx.limits.max_compute_work_group_count;
-        if groups.iter().zip(max.iter()).any(|(g, m)| g > m) {
-            return Err(GpuError::Usage(format!(
-                "dispatch of {groups:?} workgroups exceeds the device limit {max:?}"
-            )));
+        for c in commands {
+            if let Command::Dispatch {
+                invocations,
+                immediates,
+            } = c
+            {
+                let groups = self.groups(*invocations);
+                if groups.iter().zip(max.iter()).any(|(g, m)| g > m) {
+                    return Err(GpuError::Usage(format!(
+                        "dispatch of {groups:?} workgroups exceeds the device limit {max:?}"
+                    )));
+                }
+                if immediates.len() as u32 != self.immediate_size {
+                    return Err(GpuError::Usage(format!(
+                        "the kernel takes {} bytes of immediates, {} given",
+                        self.immediate_size,
+                        immediates.len()
+                    )));
+                }
+            }
         }
         let device = &self.ctx.device;
         let cb = self.command_buffer;
+        let all_access = vk::AccessFlags::SHADER_READ
+            | vk::AccessFlags::SHADER_WRITE
+            | vk::AccessFlags::TRANSFER_READ
+            | vk::AccessFlags::TRANSFER_WRITE;
+        let stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
         // SAFETY: the command buffer is idle (we wait below after every submit); handles are valid.
         unsafe {
             device
@@ -208,43 +226,69 @@ impl Kernel {
                         .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
                 )
                 .map_err(|e| GpuError::vk("vkBeginCommandBuffer", e))?;
-            if groups.iter().all(|&g| g > 0) {
-                device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-                device.cmd_bind_descriptor_sets(
-                    cb,
-                    vk::PipelineBindPoint::COMPUTE,
-                    self.pipeline_layout,
-                    0,
-                    &[self.set],
-                    &[],
-                );
-                device.cmd_dispatch(cb, groups[0], groups[1], groups[2]);
-            }
-            if let Some((src, dst)) = copy {
-                // The dispatch's shader writes must be visible to the transfer that reads them.
-                let barrier = vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
-                device.cmd_pipeline_barrier(
-                    cb,
-                    vk::PipelineStageFlags::COMPUTE_SHADER,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::DependencyFlags::empty(),
-                    &[barrier],
-                    &[],
-                    &[],
-                );
-                let size = src.size().min(dst.size());
-                device.cmd_copy_buffer(
-                    cb,
-                    src.raw,
-                    dst.raw,
-                    &[vk::BufferCopy {
-                        src_offset: 0,
-                        dst_offset: 0,
-                        size,
-                    }],
-                );
+            device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            device.cmd_bind_descriptor_sets(
+                cb,
+                vk::PipelineBindPoint::COMPUTE,
+                self.pipeline_layout,
+                0,
+                &[self.set],
+                &[],
+            );
+            for (i, c) in commands.iter().enumerate() {
+                if i > 0 {
+                    let barrier = vk::MemoryBarrier::default()
+                        .src_access_mask(all_access)
+                        .dst_access_mask(all_access);
+                    device.cmd_pipeline_barrier(
+                        cb,
+                        stages,
+                        stages,
+                        vk::DependencyFlags::empty(),
+                        &[barrier],
+                        &[],
+                        &[],
+                    );
+                }
+                match c {
+                    Command::Dispatch {
+                        invocations,
+                        immediates,
+                    } => {
+                        let groups = self.groups(*invocations);
+                        if !immediates.is_empty() {
+                            device.cmd_push_constants(
+                                cb,
+                                self.pipeline_layout,
+                                vk::ShaderStageFlags::COMPUTE,
+                                0,
+                                immediates,
+                            );
+                        }
+                        if groups.iter().all(|&g| g > 0) {
+                            device.cmd_dispatch(cb, groups[0], groups[1], groups[2]);
+                        }
+                    }
+                    Command::Update(buffer, bytes) => {
+                        device.cmd_update_buffer(cb, buffer.raw, 0, bytes)
+                    }
+                    Command::Zero(buffer) => {
+                        device.cmd_fill_buffer(cb, buffer.raw, 0, vk::WHOLE_SIZE, 0)
+                    }
+                    Command::Copy(src, dst) => {
+                        let size = src.size().min(dst.size());
+                        device.cmd_copy_buffer(
+                            cb,
+                            src.raw,
+                            dst.raw,
+                            &[vk::BufferCopy {
+                                src_offset: 0,
+                                dst_offset: 0,
+                                size,
+                            }],
+                        );
+                    }
+                }
             }
             // Make all writes visible to the host once the fence signals.
             let barrier = vk::MemoryBarrier::default()
@@ -252,7 +296,7 @@ impl Kernel {
                 .dst_access_mask(vk::AccessFlags::HOST_READ);
             device.cmd_pipeline_barrier(
                 cb,
-                vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+                stages,
                 vk::PipelineStageFlags::HOST,
                 vk::DependencyFlags::empty(),
                 &[barrier],
@@ -279,6 +323,26 @@ impl Kernel {
         }
         Ok(())
     }
+
+    fn groups(&self, invocations: [u32; 3]) -> [u32; 3] {
+        [0, 1, 2].map(|i| invocations[i].div_ceil(self.workgroup_size[i].max(1)))
+    }
+}
+
+/// One step of a [`Kernel::submit`].
+pub enum Command<'a> {
+    /// Run the kernel over `invocations` (x, y, z), with these bytes as its immediates (push constants).
+    Dispatch {
+        invocations: [u32; 3],
+        immediates: &'a [u8],
+    },
+    /// Write up to 64 KiB of bytes at the start of a buffer (created with TRANSFER_DST usage), in order
+    /// with the other commands.
+    Update(&'a Buffer, &'a [u8]),
+    /// Fill a buffer with zeros.
+    Zero(&'a Buffer),
+    /// Copy the start of one buffer into another.
+    Copy(&'a Buffer, &'a Buffer),
 }
 
 impl Drop for Kernel {

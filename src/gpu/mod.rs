@@ -18,7 +18,7 @@ pub mod types;
 
 pub use buffer::Buffer;
 pub use context::{ContextOptions, DeviceInfo, GpuContext};
-pub use kernel::Kernel;
+pub use kernel::{Command, Kernel};
 
 use ash::vk;
 

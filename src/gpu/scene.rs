@@ -106,7 +106,7 @@ impl GpuScene {
     }
 }
 
-/// The uniform parameters for a render of `scene` (the per-pass fields are filled in by the renderer).
+/// The uniform parameters for a render of `scene` (the primitive counts are filled in by the renderer).
 pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
     let cam = &scene.camera;
     // Camera frame: forward towards look_at, right = forward x up, up re-orthogonalised.
@@ -132,8 +132,8 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         height: scene.image.height,
         max_bounces: scene.render.max_bounces,
         seed: scene.render.seed,
-        sample_start: 0,
-        sample_count: 0,
+        _pad1: 0,
+        _pad2: 0,
         num_spheres: 0,
         num_triangles: 0,
         num_lights: 0,

@@ -63,6 +63,8 @@ pub struct CompiledShader {
     pub spirv: Vec<u32>,
     pub bindings: Vec<BindingInfo>,
     pub workgroup_size: [u32; 3],
+    /// Size in bytes of the `var<immediate>` block (push constants), 0 if the shader has none.
+    pub immediate_size: u32,
 }
 
 /// Parses, validates and translates WGSL with one compute entry point `main`.
@@ -71,7 +73,7 @@ pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
         .map_err(|e| GpuError::Shader(e.emit_to_string(source).replace('\n', " ")))?;
     let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::empty(),
+        naga::valid::Capabilities::IMMEDIATES,
     )
     .validate(&module)
     .map_err(|e| GpuError::Shader(format!("{:?}", e.into_inner())))?;
@@ -95,7 +97,12 @@ pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
     let spirv = naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
         .map_err(|e| GpuError::Shader(e.to_string()))?;
     let mut bindings = Vec::new();
+    let mut immediate_size = 0;
     for (_, var) in module.global_variables.iter() {
+        if var.space == naga::AddressSpace::Immediate {
+            immediate_size = module.types[var.ty].inner.size(module.to_ctx());
+            continue;
+        }
         let Some(rb) = &var.binding else { continue };
         if rb.group != 0 {
             return Err(GpuError::Shader(format!(
@@ -125,5 +132,6 @@ pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
         spirv,
         bindings,
         workgroup_size,
+        immediate_size,
     })
 }

@@ -1,6 +1,9 @@
 //! Shader unit tests via readback: run a small WGSL test kernel that calls the shader library over an
 //! input buffer, and get its output buffer back as Pod values.
 //!
+//! Lavapipe ends an invocation's loops after 65535 iterations in total (see trace.wgsl): a test that needs
+//! more work per element carries its state across several runs of a [`TestKernel`].
+//!
 //! A test kernel is WGSL appended to the library (`shaders/*.wgsl`, the same source the renderer uses).
 //! It declares its input at binding 0 and its output at binding 1, and an entry point `main` with one
 //! invocation per output element:
@@ -22,7 +25,7 @@
 //! # Ok::<(), vkpath::gpu::GpuError>(())
 //! ```
 
-use super::{Buffer, ContextOptions, GpuContext, GpuError, Kernel, shader};
+use super::{Buffer, Command, ContextOptions, GpuContext, GpuError, Kernel, shader};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 use std::sync::{Arc, OnceLock};
@@ -45,6 +48,50 @@ pub fn context() -> Arc<GpuContext> {
     .clone()
 }
 
+/// A test kernel compiled once and run as often as needed (e.g. to carry state across dispatches).
+pub struct TestKernel {
+    ctx: Arc<GpuContext>,
+    kernel: Kernel,
+}
+
+impl TestKernel {
+    /// Compiles `kernel_source` after the shader library.
+    pub fn new(ctx: &Arc<GpuContext>, kernel_source: &str) -> Result<TestKernel, GpuError> {
+        let source = shader::compose(&[("test kernel", kernel_source)]);
+        let compiled = shader::compile(&source)?;
+        Ok(TestKernel {
+            ctx: ctx.clone(),
+            kernel: Kernel::new(ctx, &compiled)?,
+        })
+    }
+
+    /// Runs one invocation per output element over `input` and returns the `output_len` outputs.
+    pub fn run<I: bytemuck::Pod, O: bytemuck::Pod>(
+        &mut self,
+        input: &[I],
+        output_len: usize,
+    ) -> Result<Vec<O>, GpuError> {
+        let ctx = &self.ctx;
+        let input_buffer = Buffer::storage_from(ctx, "test input", input)?;
+        let out_bytes = (output_len * std::mem::size_of::<O>()) as u64;
+        let mut output = Buffer::new(
+            ctx,
+            "test output",
+            out_bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::GpuToCpu,
+        )?;
+        output.write(&vec![0u8; output.size() as usize])?;
+        self.kernel.bind(&[&input_buffer, &output])?;
+        self.kernel.submit(&[Command::Dispatch {
+            invocations: [output_len as u32, 1, 1],
+            immediates: &[],
+        }])?;
+        let bytes = &output.read_bytes()?[..out_bytes as usize];
+        Ok(bytemuck::pod_collect_to_vec(bytes))
+    }
+}
+
 /// Compiles `kernel_source` after the shader library, runs one invocation per output element over
 /// `input`, and returns the `output_len` elements of the output buffer.
 pub fn run_kernel<I: bytemuck::Pod, O: bytemuck::Pod>(
@@ -53,21 +100,5 @@ pub fn run_kernel<I: bytemuck::Pod, O: bytemuck::Pod>(
     input: &[I],
     output_len: usize,
 ) -> Result<Vec<O>, GpuError> {
-    let source = shader::compose(&[("test kernel", kernel_source)]);
-    let compiled = shader::compile(&source)?;
-    let mut kernel = Kernel::new(ctx, &compiled)?;
-    let input_buffer = Buffer::storage_from(ctx, "test input", input)?;
-    let out_bytes = (output_len * std::mem::size_of::<O>()) as u64;
-    let mut output = Buffer::new(
-        ctx,
-        "test output",
-        out_bytes,
-        vk::BufferUsageFlags::STORAGE_BUFFER,
-        MemoryLocation::GpuToCpu,
-    )?;
-    output.write(&vec![0u8; output.size() as usize])?;
-    kernel.bind(&[&input_buffer, &output])?;
-    kernel.run([output_len as u32, 1, 1], None)?;
-    let bytes = &output.read_bytes()?[..out_bytes as usize];
-    Ok(bytemuck::pod_collect_to_vec(bytes))
+    TestKernel::new(ctx, kernel_source)?.run(input, output_len)
 }

@@ -25,14 +25,22 @@ pub struct GpuParams {
     pub height: u32,
     pub max_bounces: u32,
     pub seed: u32,
-    pub sample_start: u32,
-    pub sample_count: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
     pub num_spheres: u32,
     pub num_triangles: u32,
     pub num_lights: u32,
     pub roulette_depth: u32,
     pub guard_one: f32,
     pub _pad0: u32,
+}
+
+/// The per-dispatch immediate (push constant) of trace.wgsl: which sample this dispatch traces.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPassConstants {
+    pub sample_index: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Mirrors `Sphere` in scene.wgsl.

@@ -1,20 +1,23 @@
 //! The progressive renderer: uploads a scene, dispatches passes of samples, reads back the film.
 //!
-//! Each pass traces samples `[start, start + k)` of every pixel and adds them, one by one and in index
-//! order, to per-pixel Kahan sums on the GPU. Because a sample's random numbers depend only on (pixel,
+//! Each pass traces samples `[start, start + k)` of every pixel, one dispatch per sample (one path per
+//! invocation, see trace.wgsl), and adds them in index order to per-pixel Kahan sums on the GPU. Because a sample's random numbers depend only on (pixel,
 //! sample index, dimension, seed), the image after N passes of k samples is bit-identical to one pass of
 //! N k samples: pass sizes are free to adapt to time budgets and progress reports.
 
 use crate::film::Film;
 use crate::gpu::scene::{GpuScene, params_for};
-use crate::gpu::types::{GpuAccum, GpuParams};
-use crate::gpu::{Buffer, GpuContext, GpuError, Kernel, shader};
+use crate::gpu::types::{GpuAccum, GpuParams, GpuPassConstants};
+use crate::gpu::{Buffer, Command, GpuContext, GpuError, Kernel, shader};
 use crate::scene::Scene;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
+
+/// The most samples (dispatches) recorded into one command buffer; a pass of more is several submits.
+const MAX_DISPATCHES_PER_SUBMIT: u32 = 256;
 
 /// Renderer settings that are not part of the scene file.
 #[derive(Clone, Debug)]
@@ -43,10 +46,11 @@ pub struct Renderer {
     ctx: Arc<GpuContext>,
     kernel: Kernel,
     params: GpuParams,
-    params_buffer: Buffer,
     accum: Buffer,
-    // Scene buffers: bound to the kernel, kept alive with it.
-    _scene_buffers: Vec<Buffer>,
+    readback: Buffer,
+    pass_constants: Buffer,
+    // Parameter and scene buffers: bound to the kernel, kept alive with it.
+    _bound_buffers: Vec<Buffer>,
     samples_done: u32,
 }
 
@@ -70,14 +74,31 @@ impl Renderer {
         let materials = Buffer::storage_from(ctx, "materials", &gpu.materials)?;
         let lights = Buffer::storage_from(ctx, "lights", &gpu.lights)?;
         let pixels = scene.image.width as u64 * scene.image.height as u64;
-        // Host-visible: the kernel reads and writes each pixel's sums once per pass, so this costs little
-        // even over PCIe, and the host reads the film without a copy.
+        // Device-local: every sample reads and writes its pixel's sums. The host reads them through a
+        // copy into a host-visible buffer when it wants the film.
+        let accum_bytes = pixels * std::mem::size_of::<GpuAccum>() as u64;
         let accum = Buffer::new(
             ctx,
             "accumulator",
-            pixels * std::mem::size_of::<GpuAccum>() as u64,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
+            accum_bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )?;
+        let readback = Buffer::new(
+            ctx,
+            "film readback",
+            accum_bytes,
+            vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
+        )?;
+        let pass_constants = Buffer::new(
+            ctx,
+            "pass constants",
+            std::mem::size_of::<GpuPassConstants>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
         )?;
         kernel.bind(&[
             &params_buffer,
@@ -86,14 +107,16 @@ impl Renderer {
             &materials,
             &lights,
             &accum,
+            &pass_constants,
         ])?;
         let mut r = Renderer {
             ctx: ctx.clone(),
             kernel,
             params,
-            params_buffer,
             accum,
-            _scene_buffers: vec![spheres, triangles, materials, lights],
+            readback,
+            pass_constants,
+            _bound_buffers: vec![params_buffer, spheres, triangles, materials, lights],
             samples_done: 0,
         };
         r.reset()?;
@@ -102,26 +125,42 @@ impl Renderer {
 
     /// Clears the accumulator: the next pass starts again at sample 0.
     pub fn reset(&mut self) -> Result<(), GpuError> {
-        let zeros = vec![0u8; self.accum.size() as usize];
-        self.accum.write(&zeros)?;
+        self.kernel.submit(&[Command::Zero(&self.accum)])?;
         self.samples_done = 0;
         Ok(())
     }
 
     /// Traces `spp` more samples per pixel and waits for them.
     pub fn run_pass(&mut self, spp: u32) -> Result<(), GpuError> {
-        if spp == 0 {
-            return Ok(());
-        }
-        let Some(end) = self.samples_done.checked_add(spp) else {
+        if self.samples_done.checked_add(spp).is_none() {
             return Err(GpuError::Usage("more than 2^32 samples per pixel".into()));
-        };
-        self.params.sample_start = self.samples_done;
-        self.params.sample_count = spp;
-        self.params_buffer.write(bytemuck::bytes_of(&self.params))?;
-        self.kernel
-            .run([self.params.width, self.params.height, 1], None)?;
-        self.samples_done = end;
+        }
+        let invocations = [self.params.width, self.params.height, 1];
+        let mut left = spp;
+        while left > 0 {
+            let k = left.min(MAX_DISPATCHES_PER_SUBMIT);
+            let constants: Vec<GpuPassConstants> = (0..k)
+                .map(|i| GpuPassConstants {
+                    sample_index: self.samples_done + i,
+                    _pad: [0; 3],
+                })
+                .collect();
+            let commands: Vec<Command> = constants
+                .iter()
+                .flat_map(|c| {
+                    [
+                        Command::Update(&self.pass_constants, bytemuck::bytes_of(c)),
+                        Command::Dispatch {
+                            invocations,
+                            immediates: &[],
+                        },
+                    ]
+                })
+                .collect();
+            self.kernel.submit(&commands)?;
+            self.samples_done += k;
+            left -= k;
+        }
         Ok(())
     }
 
@@ -136,8 +175,10 @@ impl Renderer {
     }
 
     /// Reads the accumulator back as a film (means and variances, linear radiance).
-    pub fn film(&self) -> Result<Film, GpuError> {
-        let bytes = self.accum.read_bytes()?;
+    pub fn film(&mut self) -> Result<Film, GpuError> {
+        self.kernel
+            .submit(&[Command::Copy(&self.accum, &self.readback)])?;
+        let bytes = self.readback.read_bytes()?;
         let accum: &[GpuAccum] = bytemuck::try_cast_slice(bytes)
             .map_err(|e| GpuError::Usage(format!("accumulator readback: {e}")))?;
         let pixels = self.params.width as usize * self.params.height as usize;
@@ -187,7 +228,7 @@ pub fn render_progressive(
     options: &RenderOptions,
     budget: &Budget,
     stop: &AtomicBool,
-    mut on_pass: impl FnMut(&Renderer, &PassReport) -> Result<(), crate::Error>,
+    mut on_pass: impl FnMut(&mut Renderer, &PassReport) -> Result<(), crate::Error>,
 ) -> Result<(StopReason, Duration), crate::Error> {
     let start = Instant::now();
     let mut pass_spp = options.samples_per_pass.unwrap_or(1).max(1);
