@@ -465,3 +465,37 @@ fn progressive_passes_equal_one_pass() {
             .collect::<Vec<_>>()
     );
 }
+
+/// On lavapipe, a scene whose longest path could exceed the driver's loop budget is refused up front
+/// (with the limit named) rather than rendered with paths silently cut short; elsewhere it renders.
+#[test]
+fn loop_budget_is_enforced_on_lavapipe() {
+    let mut s = load_scene_file("course.toml");
+    s.image.width = 8;
+    s.image.height = 8;
+    s.render.max_bounces = 100_000;
+    let ctx = vkpath::gpu::testing::context();
+    let result = vkpath::Renderer::new(&ctx, &s, &RenderOptions::default());
+    if ctx.device_info().name.contains("llvmpipe") {
+        let err = result
+            .err()
+            .expect("a 100000-bounce course scene exceeds lavapipe's loop budget");
+        let msg = err.to_string();
+        assert!(
+            msg.contains("65535") && msg.contains("max_bounces"),
+            "{msg}"
+        );
+        // The bound it suggests must itself be accepted.
+        let max_ok: u32 = msg
+            .split("max_bounces to ")
+            .nth(1)
+            .and_then(|t| t.split(' ').next())
+            .unwrap()
+            .parse()
+            .unwrap();
+        s.render.max_bounces = max_ok;
+        assert!(vkpath::Renderer::new(&ctx, &s, &RenderOptions::default()).is_ok());
+    } else {
+        assert!(result.is_ok());
+    }
+}

@@ -68,6 +68,10 @@ pub enum GpuError {
         "the WGSL shader failed to compile: {0}. This is a bug in vkpath's shaders; please report it."
     )]
     Shader(String),
+    /// The scene or image exceeds what this device can do (the message names the limit).
+    #[error("{0}")]
+    Limit(String),
+    /// A misuse of the GPU layer's API (a bug in the caller).
     #[error("{0}")]
     Usage(String),
 }

@@ -19,6 +19,23 @@ use std::time::{Duration, Instant};
 /// The most samples (dispatches) recorded into one command buffer; a pass of more is several submits.
 const MAX_DISPATCHES_PER_SUBMIT: u32 = 256;
 
+/// Lavapipe (Mesa's llvmpipe) ends all loops of an invocation once it has run 65535 loop iterations in
+/// total. A path's loops are bounded (bounces x (primitives + lights x primitives)), so the renderer
+/// refuses, up front and with the limit named, a scene whose longest possible path would exceed this
+/// on such a device, instead of rendering it silently wrong. (The BVH will make the per-ray count
+/// logarithmic; real GPUs have no such limit.)
+pub const LAVAPIPE_LOOP_BUDGET: u64 = 65_535;
+
+/// An upper bound on the loop iterations one path can run in trace.wgsl: for each of max_bounces + 1
+/// ray casts, the primitive loop of the closest hit, and for each light, one shadow query over the
+/// primitives, plus the loop bookkeeping.
+pub fn worst_case_loop_iterations(gpu: &GpuScene, max_bounces: u32) -> u64 {
+    let prims = gpu.spheres.len() as u64 + gpu.triangles.len() as u64;
+    let lights = gpu.lights.len() as u64;
+    let per_cast = prims + lights * (prims + 1) + 1;
+    (max_bounces as u64 + 1) * per_cast + 1
+}
+
 /// Renderer settings that are not part of the scene file.
 #[derive(Clone, Debug)]
 pub struct RenderOptions {
@@ -62,6 +79,22 @@ impl Renderer {
         options: &RenderOptions,
     ) -> Result<Renderer, GpuError> {
         let gpu = GpuScene::build(scene);
+        let device = &ctx.device_info().name;
+        let iterations = worst_case_loop_iterations(&gpu, scene.render.max_bounces);
+        if device.contains("llvmpipe") && iterations > LAVAPIPE_LOOP_BUDGET {
+            let per_bounce = worst_case_loop_iterations(&gpu, 0);
+            let max_ok = (LAVAPIPE_LOOP_BUDGET / per_bounce).saturating_sub(1);
+            return Err(GpuError::Limit(format!(
+                "this scene is too heavy for {device}: a path of up to {} bounces over {} primitives and {} \
+                 lights could run {iterations} shader loop iterations, and lavapipe stops every loop of an \
+                 invocation after {LAVAPIPE_LOOP_BUDGET}, which would cut paths short silently. Lower \
+                 max_bounces to {max_ok} or less (Russian roulette keeps the result unbiased), use fewer \
+                 primitives, or render on a GPU (VKPATH_DEVICE).",
+                scene.render.max_bounces,
+                gpu.spheres.len() + gpu.triangles.len(),
+                gpu.lights.len()
+            )));
+        }
         let mut params = params_for(scene, options.roulette_depth);
         params.num_spheres = gpu.spheres.len() as u32;
         params.num_triangles = gpu.triangles.len() as u32;
