@@ -63,9 +63,11 @@ fn sphere_cone_one_minus_cos(r: f32, d2: f32) -> f32 {
 }
 
 // Box–Muller: two independent N(0, sigma^2) offsets from two uniforms.
-// 1 - u1 lies in (0, 1], so the logarithm is finite.
+// 1 - u1 lies in (0, 1], so the logarithm is finite. Vulkan bounds log only to an absolute 2^-21 on
+// [0.5, 2] (lavapipe's log(1 - 2^-24) is 73% too large), so log of a value just below 1 may come out
+// positive: the max keeps the root from being NaN.
 fn sample_gaussian2(u: vec2<f32>, sigma: f32) -> vec2<f32> {
-    let r = sigma * sqrt(-2.0 * log(1.0 - u.x));
+    let r = sigma * sqrt(max(0.0, -2.0 * log(1.0 - u.x)));
     let phi = TWO_PI * u.y;
     return vec2<f32>(r * cos(phi), r * sin(phi));
 }

@@ -674,3 +674,16 @@ fn extreme_numbers_do_not_panic() {
         let _ = Scene::from_toml_str(text, None);
     }
 }
+
+#[test]
+fn sphere_light_too_small_for_f32() {
+    let text = "[camera]\nposition = [0.0, 0.0, 10.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 60.0\n\n[[light]]\ntype = \"sphere\"\ncenter = [0.0, 5.0, 0.0]\nradius = 1e-20\npower = 100.0\n";
+    let e = vkpath::scene::Scene::from_toml_str(text, Some(std::path::Path::new("bad.toml")))
+        .unwrap_err();
+    assert_eq!(e.line(), Some(9));
+    assert_eq!(e.key(), Some("light[0].radius"));
+    assert!(e.to_string().contains("point light"), "{e}");
+    // A small but representable radius is fine.
+    let ok = text.replace("1e-20", "1e-6");
+    assert!(vkpath::scene::Scene::from_toml_str(&ok, None).is_ok());
+}

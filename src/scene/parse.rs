@@ -833,7 +833,25 @@ impl Checker<'_> {
                     &key("radius"),
                     "a sphere light needs a radius",
                 )?;
+                let radius_span = radius.span();
                 let radius = self.positive_radius(radius, &key("radius"), "sphere light")?;
+                // The shader works with the light's radiance P / (4 pi^2 r^2) in f32: a radius so small
+                // that it overflows (r below ~1e-18) cannot be rendered as a sphere.
+                let radiance =
+                    power as f64 / (4.0 * std::f64::consts::PI.powi(2) * (radius as f64).powi(2));
+                if radiance > f32::MAX as f64 / 16.0
+                    || (radius as f64).powi(2) < f32::MIN_POSITIVE as f64
+                {
+                    return Err(self.error(
+                        radius_span,
+                        &key("radius"),
+                        format!(
+                            "a sphere light of radius {radius} and power {power} W has a radiance of {radiance:e}, \
+                             beyond what 32-bit floats hold"
+                        ),
+                        "Use a point light for a source this small (it is the same light as the radius goes to 0).",
+                    ));
+                }
                 (
                     &["center", "radius"],
                     Light::Sphere {

@@ -1,0 +1,1055 @@
+//! The sampling routines (shaders/sampling.wgsl), read back from the GPU and checked on the CPU in f64.
+//!
+//! * Distributions: Pearson's chi-square goodness of fit of 2^20 GPU samples, binned in (1 - cos theta,
+//!   phi) for directions (axis-relative, computed without cancellation so that tiny cones bin exactly),
+//!   and in (radial CDF, phi) for the Gaussian and the disk. Expected counts come from Gauss–Legendre
+//!   quadrature of the documented pdf over each bin; the sum over all bins is asserted to be 1 (the pdf
+//!   integrates to 1). Significance level ALPHA = 1e-4 with fixed seeds; each test has a negative twin
+//!   that asserts a huge statistic for a slightly wrong pdf (uniform instead of cosine hemisphere, a 2%
+//!   wider cone, a 5% wider Gaussian, ...), so the test could fail.
+//! * Monte Carlo: estimates of integrals with known values (f / pdf averaged) within 5 standard errors.
+//! * The sphere-light cone as the light shrinks to a point: `sphere_cone_one_minus_cos` against the f64
+//!   value, the solid-angle estimate against the point-light irradiance, and directions inside the cone.
+//!   A naive f32 `1 - sqrt(1 - r^2/d^2)` (on the CPU) is asserted to fail the same checks: the evidence
+//!   that the cancellation-free form is what makes them pass.
+
+use std::f64::consts::PI;
+use std::sync::OnceLock;
+use vkpath::gpu::testing;
+
+const WARPS: &str = include_str!("../shaders/tests/sampling_warps.wgsl");
+const SPHERE_CONE: &str = include_str!("../shaders/tests/sampling_sphere_cone.wgsl");
+
+/// Significance level of every chi-square test.
+const ALPHA: f64 = 1e-4;
+/// Samples per chi-square test: 1024 cells expecting ~1000 each.
+const N: usize = 1 << 20;
+/// Unit roundoff of f32.
+const U32: f64 = f32::EPSILON as f64 / 2.0;
+
+// ---------------------------------------------------------------------------------------------------
+// Statistics (the same helpers as tests/shader_rng.rs; no dependency on a statistics crate).
+
+/// erfc(x), the Chebyshev fit of Numerical Recipes in C, 2nd ed., §6.2 (`erfcc`): fractional error below
+/// 1.2e-7 for every x, far finer than the statistics below need.
+fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let poly = -z * z - 1.265_512_23
+        + t * (1.000_023_68
+            + t * (0.374_091_96
+                + t * (0.096_784_18
+                    + t * (-0.186_288_06
+                        + t * (0.278_868_07
+                            + t * (-1.135_203_98
+                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    let r = t * poly.exp();
+    if x >= 0.0 { r } else { 2.0 - r }
+}
+
+/// The z with P(Z > z) = p for a standard normal Z, by bisection on erfc (p < 0.5).
+fn normal_upper_quantile(p: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0f64, 40.0f64);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if 0.5 * erfc(mid / std::f64::consts::SQRT_2) > p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The chi-square value exceeded with probability `p` at `dof` degrees of freedom, by the
+/// Wilson–Hilferty approximation (E. B. Wilson and M. M. Hilferty, "The distribution of chi-square",
+/// PNAS 17(12), 1931): (X/k)^(1/3) is nearly normal with mean 1 - 2/(9k) and variance 2/(9k). Its
+/// relative error is below 1% for k >= 10 at these tail probabilities (checked against tables below).
+fn chi2_critical(dof: usize, p: f64) -> f64 {
+    let k = dof as f64;
+    let z = normal_upper_quantile(p);
+    let v = 2.0 / (9.0 * k);
+    k * (1.0 - v + z * v.sqrt()).powi(3)
+}
+
+struct Chi2 {
+    stat: f64,
+    dof: usize,
+    critical: f64,
+}
+
+impl Chi2 {
+    fn passes(&self) -> bool {
+        self.stat <= self.critical
+    }
+}
+
+/// Pearson's chi-square of observed counts against expected counts. Cells expected to hold fewer than 5
+/// are pooled, smallest first, until each pool expects at least 5 (the usual validity rule; pbrt-v3's
+/// `Chi2Test` does the same), so the statistic is close to its chi-square law.
+fn chi2(observed: &[f64], expected: &[f64]) -> Chi2 {
+    assert_eq!(observed.len(), expected.len());
+    let mut cells: Vec<(f64, f64)> = observed
+        .iter()
+        .copied()
+        .zip(expected.iter().copied())
+        .collect();
+    cells.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut pooled: Vec<(f64, f64)> = Vec::new();
+    // The open pool: observed, expected, number of cells in it.
+    let mut pool = (0.0, 0.0, 0usize);
+    for (o, e) in cells {
+        if e < 5.0 || pool.2 > 0 {
+            pool = (pool.0 + o, pool.1 + e, pool.2 + 1);
+            if pool.1 >= 5.0 {
+                pooled.push((pool.0, pool.1));
+                pool = (0.0, 0.0, 0);
+            }
+        } else {
+            pooled.push((o, e));
+        }
+    }
+    if pool.2 > 0 {
+        match pooled.last_mut() {
+            Some(last) => {
+                last.0 += pool.0;
+                last.1 += pool.1;
+            }
+            None => pooled.push((pool.0, pool.1)),
+        }
+    }
+    let stat = pooled
+        .iter()
+        .map(|&(o, e)| {
+            if e > 0.0 {
+                (o - e) * (o - e) / e
+            } else if o > 0.0 {
+                f64::INFINITY
+            } else {
+                0.0
+            }
+        })
+        .sum();
+    let dof = pooled.len().saturating_sub(1).max(1);
+    Chi2 {
+        stat,
+        dof,
+        critical: chi2_critical(dof, ALPHA),
+    }
+}
+
+/// Gauss–Legendre nodes and weights on [-1, 1], by Newton's iteration on P_n (Numerical Recipes §4.5,
+/// `gauleg`); exact for polynomials of degree 2n - 1.
+fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
+    (0..n)
+        .map(|i| {
+            let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+            let mut dp = 1.0;
+            for _ in 0..100 {
+                let (mut p0, mut p1) = (1.0, x);
+                for k in 2..=n {
+                    let k = k as f64;
+                    let p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
+                    p0 = p1;
+                    p1 = p2;
+                }
+                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+                let dx = p1 / dp;
+                x -= dx;
+                if dx.abs() < 1e-15 {
+                    break;
+                }
+            }
+            (x, 2.0 / ((1.0 - x * x) * dp * dp))
+        })
+        .collect()
+}
+
+/// The integral of f(a, phi) over [a0, a1] x [p0, p1], 16 x 16 Gauss–Legendre points.
+fn quad2(f: &dyn Fn(f64, f64) -> f64, a0: f64, a1: f64, p0: f64, p1: f64) -> f64 {
+    static GL: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
+    let gl = GL.get_or_init(|| gauss_legendre(16));
+    let (ha, hp) = (0.5 * (a1 - a0), 0.5 * (p1 - p0));
+    let mut s = 0.0;
+    for &(xa, wa) in gl {
+        for &(xp, wp) in gl {
+            s += wa * wp * f(a0 + ha * (xa + 1.0), p0 + hp * (xp + 1.0));
+        }
+    }
+    s * ha * hp
+}
+
+/// A 2-D histogram on (a, phi): bins [a_k, a_k+1) x equal phi bins over [0, 2 pi), and one more cell for
+/// samples outside [a_0, a_K] (expected: whatever probability the bins leave, normally none).
+struct Grid {
+    a_edges: Vec<f64>,
+    n_phi: usize,
+}
+
+impl Grid {
+    fn new(a_edges: Vec<f64>, n_phi: usize) -> Grid {
+        Grid { a_edges, n_phi }
+    }
+
+    /// Equal-probability edges from an inverse CDF: a_k = inv(k / k_bins).
+    fn from_inverse_cdf(k_bins: usize, n_phi: usize, inv: impl Fn(f64) -> f64) -> Grid {
+        Grid::new(
+            (0..=k_bins)
+                .map(|k| inv(k as f64 / k_bins as f64))
+                .collect(),
+            n_phi,
+        )
+    }
+
+    fn cells(&self) -> usize {
+        (self.a_edges.len() - 1) * self.n_phi + 1
+    }
+
+    fn cell(&self, a: f64, phi: f64) -> usize {
+        let k = self.a_edges.len() - 1;
+        if !(a >= self.a_edges[0] && a <= self.a_edges[k] && phi.is_finite()) {
+            return k * self.n_phi; // outside (NaN lands here too)
+        }
+        let i = (self.a_edges.partition_point(|&e| e <= a) - 1).min(k - 1);
+        let step = 2.0 * PI / self.n_phi as f64;
+        let j = ((phi.rem_euclid(2.0 * PI) / step) as usize).min(self.n_phi - 1);
+        i * self.n_phi + j
+    }
+
+    /// The probability of each cell (the last: outside) under `prob(a0, a1, phi0, phi1)`, and their sum
+    /// over the grid proper (1 when the pdf integrates to 1 over the grid).
+    fn probabilities(&self, prob: &dyn Fn(f64, f64, f64, f64) -> f64) -> (Vec<f64>, f64) {
+        let step = 2.0 * PI / self.n_phi as f64;
+        let mut p = Vec::with_capacity(self.cells());
+        for w in self.a_edges.windows(2) {
+            for j in 0..self.n_phi {
+                p.push(prob(w[0], w[1], j as f64 * step, (j + 1) as f64 * step));
+            }
+        }
+        let total: f64 = p.iter().sum();
+        p.push((1.0 - total).max(0.0));
+        (p, total)
+    }
+
+    /// Pearson's chi-square of `samples` (a, phi) against `prob`.
+    fn chi2(&self, samples: &[(f64, f64)], prob: &dyn Fn(f64, f64, f64, f64) -> f64) -> Chi2 {
+        let mut obs = vec![0.0; self.cells()];
+        for &(a, phi) in samples {
+            obs[self.cell(a, phi)] += 1.0;
+        }
+        let (p, _) = self.probabilities(prob);
+        let n = samples.len() as f64;
+        let exp: Vec<f64> = p.iter().map(|p| p * n).collect();
+        chi2(&obs, &exp)
+    }
+}
+
+/// The probability of a cell by quadrature of a density over (a, phi).
+fn by_quadrature(pdf: impl Fn(f64, f64) -> f64) -> impl Fn(f64, f64, f64, f64) -> f64 {
+    move |a0, a1, p0, p1| quad2(&pdf, a0, a1, p0, p1)
+}
+
+/// Asserts that a chi-square test passes and says so.
+fn assert_fits(what: &str, t: &Chi2) {
+    eprintln!(
+        "{what}: chi2 = {:.1} (critical {:.1}, dof {})",
+        t.stat, t.critical, t.dof
+    );
+    assert!(
+        t.passes(),
+        "{what}: chi2 {} > critical {} (dof {}, ALPHA {ALPHA})",
+        t.stat,
+        t.critical,
+        t.dof
+    );
+}
+
+/// Asserts that a chi-square test rejects a wrong hypothesis by far: at least `factor` times the
+/// critical value, where a correct one would sit near its dof.
+fn assert_rejects(what: &str, t: &Chi2, factor: f64) {
+    eprintln!(
+        "{what} (wrong pdf): chi2 = {:.1} (critical {:.1}, dof {})",
+        t.stat, t.critical, t.dof
+    );
+    assert!(
+        t.stat > factor * t.critical,
+        "{what}: chi2 {} is not > {factor} x critical {}",
+        t.stat,
+        t.critical
+    );
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Vectors in f64 and the directions' coordinates.
+
+type V3 = [f64; 3];
+
+fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: V3, b: V3) -> V3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn length(a: V3) -> f64 {
+    dot(a, a).sqrt()
+}
+
+fn normalize(a: V3) -> V3 {
+    let l = length(a);
+    a.map(|x| x / l)
+}
+
+fn to_f64(a: [f32; 3]) -> V3 {
+    a.map(|x| x as f64)
+}
+
+/// A CPU orthonormal basis (t, b) around unit `axis`, independent of the shader's frame: the tests only
+/// rely on the distributions being symmetric about the axis.
+fn cpu_basis(axis: V3) -> (V3, V3) {
+    let helper = if axis[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let t = normalize(cross(helper, axis));
+    (t, cross(axis, t))
+}
+
+/// (1 - cos theta, phi) of direction `w` about `axis`. 1 - cos = sin^2 / (1 + cos) with
+/// sin^2 = |w x axis|^2 / |w|^2: no cancellation, so a cone of half-angle 1e-5 still bins exactly
+/// (for axes along a coordinate axis, whose frame is exact). Below the horizon: 1 - cos > 1.
+fn cone_coords(w: V3, axis: V3, basis: (V3, V3)) -> (f64, f64) {
+    let l = length(w);
+    let cos = dot(w, axis) / l;
+    let sin2 = dot(cross(w, axis), cross(w, axis)) / (l * l);
+    let a = if cos > 0.0 {
+        sin2 / (1.0 + cos)
+    } else {
+        1.0 - cos
+    };
+    let phi = dot(w, basis.1).atan2(dot(w, basis.0)).rem_euclid(2.0 * PI);
+    (a, phi)
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Running the warps on the GPU (shaders/tests/sampling_warps.wgsl).
+
+#[derive(Clone, Copy, Debug)]
+enum Warp {
+    Cosine { n: [f32; 3] },
+    Cone { axis: [f32; 3], omc: f32 },
+    SphereCone { axis: [f32; 3], r: f32, d2: f32 },
+    Gaussian { sigma: f32 },
+    Disk,
+}
+
+fn header(w: Warp, seed: u32) -> [[f32; 4]; 2] {
+    let s = seed as f32;
+    assert_eq!(s as u32, seed, "the seed travels as an f32");
+    match w {
+        Warp::Cosine { n } => [[0.0, s, 0.0, 0.0], [n[0], n[1], n[2], 0.0]],
+        Warp::Cone { axis, omc } => [[1.0, s, 0.0, 0.0], [axis[0], axis[1], axis[2], omc]],
+        Warp::SphereCone { axis, r, d2 } => [[2.0, s, r, d2], [axis[0], axis[1], axis[2], 0.0]],
+        Warp::Gaussian { sigma } => [[3.0, s, 0.0, 0.0], [0.0, 0.0, 0.0, sigma]],
+        Warp::Disk => [[4.0, s, 0.0, 0.0], [0.0; 4]],
+    }
+}
+
+fn run(input: &[[f32; 4]], count: usize) -> Vec<[f32; 4]> {
+    let out = testing::run_kernel(&testing::context(), WARPS, input, count).expect("kernel");
+    let errors = testing::context().validation_errors();
+    assert!(errors.is_empty(), "validation errors: {errors:?}");
+    out
+}
+
+/// `count` samples of `w` from the renderer's random numbers (rng_new(i, 0, seed), rng_next2).
+fn warp(w: Warp, seed: u32, count: usize) -> Vec<[f32; 4]> {
+    run(&header(w, seed), count)
+}
+
+/// One sample of `w` per given uniform pair.
+fn warp_given(w: Warp, us: &[[f32; 2]]) -> Vec<[f32; 4]> {
+    let mut input = header(w, 0).to_vec();
+    input.extend(us.iter().map(|u| [u[0], u[1], 0.0, 0.0]));
+    run(&input, us.len())
+}
+
+fn xyz(o: &[f32; 4]) -> V3 {
+    [o[0] as f64, o[1] as f64, o[2] as f64]
+}
+
+/// The largest uniform the RNG returns, 1 - 2^-24, and a grid of extreme uniform pairs.
+const U_MAX: f32 = 1.0 - f32::EPSILON / 2.0;
+
+fn extreme_us() -> Vec<[f32; 2]> {
+    let edge = [0.0, f32::EPSILON / 2.0, 1e-3, 0.25, 0.5, 0.999, U_MAX];
+    edge.iter()
+        .flat_map(|&x| edge.iter().map(move |&y| [x, y]))
+        .collect()
+}
+
+/// The f64 cone of a sphere of radius r at squared distance d2, without cancellation.
+fn one_minus_cos_f64(r: f64, d2: f64) -> f64 {
+    let s2 = (r * r / d2).min(1.0);
+    s2 / (1.0 + (1.0 - s2).sqrt())
+}
+
+/// The naive f32 formula, on the CPU: what the shader would compute without the rewrite.
+fn one_minus_cos_naive_f32(r: f32, d2: f32) -> f32 {
+    1.0 - (1.0 - (r * r / d2).min(1.0)).sqrt()
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Cosine-weighted hemisphere: pdf cos(theta) / pi.
+
+const COS_NORMALS: [[f32; 3]; 2] = [[0.0, 0.0, 1.0], [0.267_261_24, 0.534_522_5, -0.801_783_7]];
+
+fn cosine_samples(k: usize) -> &'static [[f32; 4]] {
+    static S: [OnceLock<Vec<[f32; 4]>>; 2] = [OnceLock::new(), OnceLock::new()];
+    S[k].get_or_init(|| warp(Warp::Cosine { n: COS_NORMALS[k] }, 1000 + k as u32, N))
+}
+
+fn cosine_coords(k: usize) -> Vec<(f64, f64)> {
+    let n = normalize(to_f64(COS_NORMALS[k]));
+    let basis = cpu_basis(n);
+    cosine_samples(k)
+        .iter()
+        .map(|o| cone_coords(xyz(o), n, basis))
+        .collect()
+}
+
+/// 32 x 32 cells with equal expected counts: in a = 1 - cos, P(a < x) = 1 - (1 - x)^2.
+fn cosine_grid() -> Grid {
+    Grid::from_inverse_cdf(32, 32, |p| 1.0 - (1.0 - p).sqrt())
+}
+
+/// The pdf per unit (a, phi) = per steradian (d omega = d(cos) d phi): cos / pi.
+fn cosine_pdf(a: f64, _phi: f64) -> f64 {
+    (1.0 - a) / PI
+}
+
+/// Chi-square for the +z normal and for a normal with negative z (the other branch of the shader's
+/// frame), and the pdf integrates to 1 over the hemisphere.
+#[test]
+fn cosine_hemisphere_chi_square() {
+    let grid = cosine_grid();
+    let (_, total) = grid.probabilities(&by_quadrature(cosine_pdf));
+    assert!((total - 1.0).abs() < 1e-12, "cos/pi integrates to {total}");
+    for (k, n) in COS_NORMALS.iter().enumerate() {
+        let t = grid.chi2(&cosine_coords(k), &by_quadrature(cosine_pdf));
+        assert_fits(&format!("cosine hemisphere, n = {n:?}"), &t);
+    }
+}
+
+/// The test rejects the uniform hemisphere (pdf 1/(2 pi); statistic ~300 times the critical value) and
+/// a slightly wrong lobe cos^1.1 (normalised: 2.1 cos^1.1 / (2 pi); ~3 times) for the same GPU samples.
+#[test]
+fn cosine_hemisphere_chi_square_rejects_wrong_pdfs() {
+    let grid = cosine_grid();
+    let s = cosine_coords(1);
+    let uniform = |_a: f64, _p: f64| 1.0 / (2.0 * PI);
+    let (_, total) = grid.probabilities(&by_quadrature(uniform));
+    assert!((total - 1.0).abs() < 1e-12);
+    assert_rejects(
+        "uniform hemisphere",
+        &grid.chi2(&s, &by_quadrature(uniform)),
+        50.0,
+    );
+    let lobe = |a: f64, _p: f64| 2.1 * (1.0 - a).powf(1.1) / (2.0 * PI);
+    let (_, total) = grid.probabilities(&by_quadrature(lobe));
+    assert!((total - 1.0).abs() < 1e-6, "cos^1.1 integrates to {total}");
+    assert_rejects("cos^1.1 lobe", &grid.chi2(&s, &by_quadrature(lobe)), 2.0);
+}
+
+/// Monte Carlo: the integral of cos^2 over the hemisphere is 2 pi / 3; the estimator f / pdf = pi cos
+/// has variance pi^2 (1/2 - 4/9) = pi^2 / 18. Within 5 standard errors. Every sample is a unit vector
+/// in the upper hemisphere.
+#[test]
+fn cosine_hemisphere_monte_carlo_and_domain() {
+    for (k, &normal) in COS_NORMALS.iter().enumerate() {
+        let n = normalize(to_f64(normal));
+        let s = cosine_samples(k);
+        let mut sum = 0.0;
+        for o in s {
+            let w = xyz(o);
+            assert!((length(w) - 1.0).abs() < 8.0 * U32, "not unit: {w:?}");
+            let c = dot(w, n);
+            assert!(c > 0.0, "below the horizon: {w:?}");
+            sum += PI * c;
+        }
+        let est = sum / s.len() as f64;
+        let se = (PI * PI / 18.0 / s.len() as f64).sqrt();
+        eprintln!("int cos^2: {est} vs {} (se {se:.1e})", 2.0 * PI / 3.0);
+        assert!((est - 2.0 * PI / 3.0).abs() < 5.0 * se, "estimate {est}");
+    }
+}
+
+/// Extreme uniforms (0, 2^-24, 1 - 2^-24, ...) and awkward normals (the poles, where the shader's frame
+/// switches branch, and a coordinate axis): unit, finite, cos(theta) = sqrt(1 - u1) as documented.
+#[test]
+fn cosine_hemisphere_extremes() {
+    let us = extreme_us();
+    let normals: [[f32; 3]; 6] = [
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        [1.0, 0.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [1e-20, 0.0, -1.0],
+        [0.6, 0.0, -0.8],
+    ];
+    for n in normals {
+        let out = warp_given(Warp::Cosine { n }, &us);
+        let n64 = to_f64(n);
+        for (u, o) in us.iter().zip(&out) {
+            let w = xyz(o);
+            assert!(w.iter().all(|x| x.is_finite()), "n {n:?} u {u:?}: {w:?}");
+            // Unit: the frame is orthonormal to a few ulps.
+            assert!(
+                (length(w) - 1.0).abs() < 8.0 * U32,
+                "n {n:?} u {u:?}: |w| = {}",
+                length(w)
+            );
+            let want = (1.0 - u[0] as f64).sqrt();
+            assert!(
+                (dot(w, n64) - want).abs() < 8.0 * U32,
+                "n {n:?} u {u:?}: cos {} vs {want}",
+                dot(w, n64)
+            );
+            assert!(dot(w, n64) > 0.0);
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Uniform cone, as the sphere light samples it.
+
+/// Axis (1, 2, 3)/sqrt(14): no symmetry of the frame helps.
+const AXIS: [f32; 3] = [0.267_261_24, 0.534_522_5, 0.801_783_7];
+
+struct ConeCase {
+    axis: [f32; 3],
+    r: f32,
+    d2: f32,
+}
+
+/// A big cone (r/d = 0.9, half-angle 64 degrees) about a generic axis, and a tiny one (r/d = 1e-5:
+/// 1 - cos = 5e-11, so cos(theta) rounds to 1 in f32) about -z, whose frame is exact so that its
+/// directions can be binned.
+const CONES: [ConeCase; 2] = [
+    ConeCase {
+        axis: AXIS,
+        r: 0.9,
+        d2: 1.0,
+    },
+    ConeCase {
+        axis: [0.0, 0.0, -1.0],
+        r: 1e-5,
+        d2: 1.0,
+    },
+];
+
+fn cone_samples(k: usize) -> &'static [[f32; 4]] {
+    static S: [OnceLock<Vec<[f32; 4]>>; 2] = [OnceLock::new(), OnceLock::new()];
+    let c = &CONES[k];
+    S[k].get_or_init(|| {
+        warp(
+            Warp::SphereCone {
+                axis: c.axis,
+                r: c.r,
+                d2: c.d2,
+            },
+            2000 + k as u32,
+            N,
+        )
+    })
+}
+
+/// The samples in (1 - cos, phi) and the exact f64 1 - cos(theta_max) of the cone.
+fn cone_coords_of(k: usize) -> (Vec<(f64, f64)>, f64) {
+    let c = &CONES[k];
+    let axis = normalize(to_f64(c.axis));
+    let basis = cpu_basis(axis);
+    let s = cone_samples(k)
+        .iter()
+        .map(|o| cone_coords(xyz(o), axis, basis))
+        .collect();
+    (s, one_minus_cos_f64(c.r as f64, c.d2 as f64))
+}
+
+/// Uniform in the cone: pdf 1 / (2 pi (1 - cos theta_max)) per steradian; 32 equal bins of a = 1 - cos.
+fn uniform_cone(omc: f64) -> impl Fn(f64, f64) -> f64 {
+    move |a, _| {
+        if a <= omc {
+            1.0 / (2.0 * PI * omc)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Uniform in the cone, for the big and the tiny cone, with the cone from `sphere_cone_one_minus_cos` as
+/// the renderer samples sphere lights; the pdf integrates to 1 over the cone.
+#[test]
+fn cone_chi_square_big_and_tiny() {
+    for (k, cone) in CONES.iter().enumerate() {
+        let (s, omc) = cone_coords_of(k);
+        let grid = Grid::from_inverse_cdf(32, 32, |p| p * omc);
+        let (_, total) = grid.probabilities(&by_quadrature(uniform_cone(omc)));
+        assert!(
+            (total - 1.0).abs() < 1e-12,
+            "the cone pdf integrates to {total}"
+        );
+        assert_fits(
+            &format!("cone r/d = {}", cone.r),
+            &grid.chi2(&s, &by_quadrature(uniform_cone(omc))),
+        );
+    }
+}
+
+/// The cone test rejects a cone 2% wider in 1 - cos (1% in angle) and, for the big cone, directions
+/// uniform in theta instead of in solid angle (a classic mistake: P(theta in [t0, t1]) = (t1 - t0) /
+/// theta_max).
+#[test]
+fn cone_chi_square_rejects_wrong_pdfs() {
+    for (k, cone) in CONES.iter().enumerate() {
+        let (s, omc) = cone_coords_of(k);
+        let wide = 1.02 * omc;
+        let grid = Grid::from_inverse_cdf(32, 32, |p| p * wide);
+        assert_rejects(
+            &format!("cone r/d = {} 2% wider", cone.r),
+            &grid.chi2(&s, &by_quadrature(uniform_cone(wide))),
+            10.0,
+        );
+    }
+    let (s, omc) = cone_coords_of(0);
+    let theta = |a: f64| 2.0 * (a / 2.0).sqrt().asin();
+    let theta_max = theta(omc);
+    let grid = Grid::from_inverse_cdf(32, 32, |p| p * omc);
+    let uniform_theta = |a0: f64, a1: f64, p0: f64, p1: f64| {
+        (theta(a1) - theta(a0)) / theta_max * (p1 - p0) / (2.0 * PI)
+    };
+    assert_rejects(
+        "cone uniform in theta",
+        &grid.chi2(&s, &uniform_theta),
+        10.0,
+    );
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The sphere light as it shrinks to a point.
+
+const RATIOS: [f64; 8] = [0.5, 0.1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7];
+
+/// `sphere_cone_one_minus_cos(r, d2)` against the f64 value of the same f32 inputs, for r/d from 0.5 down
+/// to 1e-7 and distances from 1e-3 to 1e4. The f32 evaluation is r*r, /d2, 1 - s2, sqrt, 1 + cos, and one
+/// division: six operations, each within 3 ulps on Vulkan (the spec's bounds for division and sqrt are
+/// 2.5 and 3 ulps; the others are correctly rounded), and only the last two touch the small quantity, whose
+/// errors do not cancel: 16 ulps (2^-19 ~ 1.9e-6) bounds the relative error.
+///
+/// The naive `1 - sqrt(1 - s2)` in f32 (on the CPU, correctly rounded) loses everything to cancellation:
+/// asserted to be off by more than 1% at r/d = 1e-3 (it is 7%) and by 100% (zero) below r/d = 1.7e-4,
+/// where s2 <= 2^-25 and 1 - s2 rounds to 1.
+#[test]
+fn sphere_cone_matches_f64_as_light_shrinks() {
+    let mut input = Vec::new();
+    for &ratio in &RATIOS {
+        for d in [1e-3f64, 1.0, 37.5, 1e4] {
+            input.push([(ratio * d) as f32, (d * d) as f32, 0.0, 0.0]);
+        }
+    }
+    // A sphere touching or containing the point: the cone is the hemisphere (1 - cos = 1), not NaN.
+    input.push([1.0, 1.0, 0.0, 0.0]);
+    input.push([2.0, 1.0, 0.0, 0.0]);
+    let out: Vec<f32> =
+        testing::run_kernel(&testing::context(), SPHERE_CONE, &input, input.len()).expect("kernel");
+    let tol = 16.0 * 2.0 * U32;
+    for (q, &got) in input.iter().zip(&out) {
+        let (r, d2) = (q[0], q[1]);
+        let want = one_minus_cos_f64(r as f64, d2 as f64);
+        let rel = (got as f64 - want).abs() / want;
+        let naive = one_minus_cos_naive_f32(r, d2);
+        let naive_rel = (naive as f64 - want).abs() / want;
+        eprintln!(
+            "r/d = {:.1e}: gpu rel err {rel:.1e}, naive f32 rel err {naive_rel:.1e}",
+            r as f64 / (d2 as f64).sqrt()
+        );
+        assert!(got.is_finite() && got > 0.0, "r {r} d2 {d2}: {got}");
+        assert!(
+            rel <= tol,
+            "r {r} d2 {d2}: {got} vs {want} (rel {rel:.2e} > {tol:.2e})"
+        );
+        // The pdf of the cone, 1 / (2 pi omc), is finite (the renderer multiplies by 2 pi omc instead).
+        assert!((1.0 / (2.0 * std::f32::consts::PI * got)).is_finite());
+        let ratio = (r as f64) / (d2 as f64).sqrt();
+        if ratio < 2e-3 {
+            assert!(
+                naive_rel > 1e-2,
+                "naive f32 at r/d {ratio:.1e} unexpectedly good: {naive_rel:.1e}"
+            );
+        }
+        if ratio < 2e-4 {
+            assert_eq!(naive, 0.0, "naive f32 at r/d {ratio:.1e}");
+        }
+    }
+}
+
+/// The irradiance from a sphere light of radiance Le at distance d, on a surface facing it, estimated as
+/// the renderer does (sample the cone, average Le cos(theta) * 2 pi (1 - cos theta_max)): it equals
+/// Le pi sin^2(theta_max) = Le pi r^2 / d^2 exactly for any r < d, which is the irradiance I / d^2 of the
+/// point light of intensity I = Le pi r^2 it tends to. 2^16 samples per radius, within 5 standard errors
+/// plus 16 ulps of rounding. The naive cone formula would give an irradiance 100% wrong (zero) at
+/// r/d <= 1e-4: asserted on the CPU.
+#[test]
+fn sphere_light_irradiance_converges_to_point_light() {
+    let le = 3.0f64;
+    for &ratio in &RATIOS {
+        for d in [1.0f64, 100.0] {
+            let (r, d2) = ((ratio * d) as f32, (d * d) as f32);
+            let out = warp(Warp::SphereCone { axis: AXIS, r, d2 }, 77, 1 << 16);
+            let axis = normalize(to_f64(AXIS));
+            let vals: Vec<f64> = out
+                .iter()
+                .map(|o| le * dot(xyz(o), axis) * 2.0 * PI * o[3] as f64)
+                .collect();
+            let n = vals.len() as f64;
+            let mean = vals.iter().sum::<f64>() / n;
+            let var = vals.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1.0);
+            let point = le * PI * (r as f64) * (r as f64) / d2 as f64;
+            let rel = (mean - point).abs() / point;
+            let bound = 5.0 * (var / n).sqrt() / point + 32.0 * U32;
+            // The naive cone, with the exact mean cosine over it (1 - omc/2).
+            let omc_naive = one_minus_cos_naive_f32(r, d2) as f64;
+            let naive = le * 2.0 * PI * omc_naive * (1.0 - omc_naive / 2.0);
+            let naive_rel = (naive - point).abs() / point;
+            eprintln!(
+                "r/d = {ratio:.0e}, d = {d}: E rel err {rel:.1e} (bound {bound:.1e}); naive {naive_rel:.1e}"
+            );
+            assert!(
+                rel <= bound,
+                "r/d {ratio} d {d}: E {mean} vs point light {point}"
+            );
+            if ratio <= 1e-4 {
+                assert!(
+                    naive_rel >= 0.99,
+                    "naive irradiance at r/d {ratio}: rel err {naive_rel}"
+                );
+            }
+        }
+    }
+}
+
+/// Directions sampled in sphere-light cones from r/d = 0.5 down to 1e-7, about a generic axis and
+/// including extreme uniforms: finite, unit, and inside the cone. The angle from the axis is computed in
+/// f64 from the f32 direction, whose components carry absolute errors of a few ulps of 1, so the allowed
+/// slack is 8 * 2^-24 rad beyond theta_max (which is asin(r/d)).
+#[test]
+fn sphere_cone_directions_inside_cone() {
+    let us = extreme_us();
+    for &ratio in &RATIOS {
+        let (r, d2) = (ratio as f32, 1.0f32);
+        let axis = normalize(to_f64(AXIS));
+        let theta_max = ratio.asin();
+        let mut out = warp(Warp::SphereCone { axis: AXIS, r, d2 }, 5, 1 << 14);
+        out.extend(warp_given(Warp::SphereCone { axis: AXIS, r, d2 }, &us));
+        let mut widest: f64 = 0.0;
+        for o in &out {
+            let w = xyz(o);
+            assert!(w.iter().all(|x| x.is_finite()), "r/d {ratio}: {w:?}");
+            assert!(
+                (length(w) - 1.0).abs() < 8.0 * U32,
+                "r/d {ratio}: |w| = {}",
+                length(w)
+            );
+            let angle = length(cross(w, axis)).atan2(dot(w, axis));
+            widest = widest.max(angle);
+            assert!(
+                angle <= theta_max + 8.0 * U32,
+                "r/d {ratio}: angle {angle} > {theta_max}"
+            );
+        }
+        // And the samples fill the cone: the widest is near the edge.
+        assert!(
+            widest > 0.9 * theta_max,
+            "r/d {ratio}: widest {widest} of {theta_max}"
+        );
+    }
+}
+
+/// sample_cone at its limits: an empty cone (1 - cos = 0) returns the axis; the full sphere (1 - cos = 2)
+/// and the hemisphere stay unit and finite for extreme uniforms.
+#[test]
+fn cone_limits() {
+    let us = extreme_us();
+    let axis = normalize(to_f64(AXIS));
+    for omc in [0.0f32, 1e-30, 1.0, 2.0] {
+        let out = warp_given(Warp::Cone { axis: AXIS, omc }, &us);
+        for (u, o) in us.iter().zip(&out) {
+            let w = xyz(o);
+            assert!(w.iter().all(|x| x.is_finite()), "omc {omc} u {u:?}: {w:?}");
+            assert!(
+                (length(w) - 1.0).abs() < 8.0 * U32,
+                "omc {omc} u {u:?}: |w| = {}",
+                length(w)
+            );
+            let want = 1.0 - u[0] as f64 * omc as f64;
+            assert!(
+                (dot(w, axis) - want).abs() < 8.0 * U32,
+                "omc {omc} u {u:?}: cos {} vs {want}",
+                dot(w, axis)
+            );
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Box–Muller.
+
+const SIGMA: f32 = 0.7;
+
+fn gaussian_samples() -> &'static [[f32; 4]] {
+    static S: OnceLock<Vec<[f32; 4]>> = OnceLock::new();
+    S.get_or_init(|| warp(Warp::Gaussian { sigma: SIGMA }, 3000, N))
+}
+
+/// Samples as (F(r), phi), with F(r) = 1 - exp(-r^2 / (2 sigma^2)) the Rayleigh CDF of the radius: for a
+/// 2-D normal, F(r) and phi are independent and uniform on [0, 1) x [0, 2 pi).
+fn gaussian_coords(sigma: f64) -> Vec<(f64, f64)> {
+    gaussian_samples()
+        .iter()
+        .map(|o| {
+            let (x, y) = (o[0] as f64, o[1] as f64);
+            (
+                -(-(x * x + y * y) / (2.0 * sigma * sigma)).exp_m1(),
+                y.atan2(x).rem_euclid(2.0 * PI),
+            )
+        })
+        .collect()
+}
+
+/// The 2-D normal density in (F, phi) coordinates, by quadrature of the density in (r, phi): the cell
+/// [F0, F1] x [p0, p1] is the annulus sector [r(F0), r(F1)], r(F) = sigma sqrt(-2 ln(1 - F)), integrated
+/// as N(r) r dr dphi with N(r) = exp(-r^2 / 2 sigma^2) / (2 pi sigma^2). The outermost cell is cut at
+/// 40 sigma (the mass beyond is e^-800).
+fn gaussian_cell(sigma: f64) -> impl Fn(f64, f64, f64, f64) -> f64 {
+    move |f0, f1, p0, p1| {
+        let r = |f: f64| {
+            if f >= 1.0 {
+                40.0 * sigma
+            } else {
+                sigma * (-2.0 * (-f).ln_1p()).sqrt()
+            }
+        };
+        let (r0, r1) = (r(f0), r(f1));
+        let density = |r: f64, _p: f64| {
+            (-(r * r) / (2.0 * sigma * sigma)).exp() / (2.0 * PI * sigma * sigma) * r
+        };
+        // Split the radial range into pieces of sigma/8 so that the quadrature stays exact to ~1e-15.
+        let pieces = (((r1 - r0) / (sigma / 8.0)).ceil() as usize).max(1);
+        let h = (r1 - r0) / pieces as f64;
+        (0..pieces)
+            .map(|i| quad2(&density, r0 + i as f64 * h, r0 + (i + 1) as f64 * h, p0, p1))
+            .sum()
+    }
+}
+
+#[test]
+fn gaussian_chi_square_and_moments() {
+    let sigma = SIGMA as f64;
+    let grid = Grid::from_inverse_cdf(32, 32, |p| p);
+    let (_, total) = grid.probabilities(&gaussian_cell(sigma));
+    assert!(
+        (total - 1.0).abs() < 1e-10,
+        "the 2-D normal integrates to {total}"
+    );
+    assert_fits(
+        "Box-Muller (F(r), phi)",
+        &grid.chi2(&gaussian_coords(sigma), &gaussian_cell(sigma)),
+    );
+    // Moments: E x = E y = 0, E x^2 = E y^2 = sigma^2, E xy = 0, each within 5 standard errors
+    // (sd of x: sigma; of x^2: sqrt(2) sigma^2; of xy: sigma^2).
+    let s = gaussian_samples();
+    let n = s.len() as f64;
+    let mean = |f: &dyn Fn(&[f32; 4]) -> f64| s.iter().map(f).sum::<f64>() / n;
+    let (s2, sn) = (sigma * sigma, n.sqrt());
+    let mx = mean(&|o| o[0] as f64);
+    let my = mean(&|o| o[1] as f64);
+    let mxx = mean(&|o| (o[0] as f64).powi(2));
+    let myy = mean(&|o| (o[1] as f64).powi(2));
+    let mxy = mean(&|o| o[0] as f64 * o[1] as f64);
+    eprintln!("moments: {mx:.2e} {my:.2e} {mxx:.5} {myy:.5} {mxy:.2e} (sigma^2 = {s2})");
+    assert!(mx.abs() < 5.0 * sigma / sn && my.abs() < 5.0 * sigma / sn);
+    assert!(
+        (mxx - s2).abs() < 5.0 * 2f64.sqrt() * s2 / sn
+            && (myy - s2).abs() < 5.0 * 2f64.sqrt() * s2 / sn
+    );
+    assert!(mxy.abs() < 5.0 * s2 / sn);
+}
+
+/// The test rejects a 5% wider Gaussian, and the classic Box–Muller slip of dropping the factor 2 under
+/// the root (a Gaussian of sigma / sqrt 2).
+#[test]
+fn gaussian_chi_square_rejects_wrong_sigma() {
+    let sigma = SIGMA as f64;
+    let grid = Grid::from_inverse_cdf(32, 32, |p| p);
+    let s = gaussian_coords(sigma);
+    // The same cells, with probabilities of a Gaussian of another width.
+    for (what, other) in [
+        ("sigma x 1.05", 1.05 * sigma),
+        ("sigma / sqrt 2", sigma / 2f64.sqrt()),
+    ] {
+        let cell = gaussian_cell(other);
+        let shifted = move |f0: f64, f1: f64, p0: f64, p1: f64| {
+            // A cell in the F of sigma is the annulus [r0, r1]: its F under `other`.
+            let r = |f: f64| {
+                if f >= 1.0 {
+                    f64::INFINITY
+                } else {
+                    sigma * (-2.0 * (-f).ln_1p()).sqrt()
+                }
+            };
+            let g = |r: f64| -(-(r * r) / (2.0 * other * other)).exp_m1();
+            cell(g(r(f0)), g(r(f1)).min(1.0), p0, p1)
+        };
+        assert_rejects(what, &grid.chi2(&s, &shifted), 5.0);
+    }
+}
+
+/// Box–Muller at extreme uniforms: u1 = 0 gives r = 0, u1 = 1 - 2^-24 (the largest the RNG returns) gives
+/// the largest radius, sigma sqrt(2 ln 2^24) = 5.77 sigma (the tail beyond, of mass 2^-24, is cut); all
+/// finite, and the radius matches sigma sqrt(-2 ln(1 - u1)) where the logarithm is well conditioned.
+#[test]
+fn gaussian_extremes() {
+    let us = extreme_us();
+    let out = warp_given(Warp::Gaussian { sigma: SIGMA }, &us);
+    let sigma = SIGMA as f64;
+    for (u, o) in us.iter().zip(&out) {
+        let (x, y) = (o[0] as f64, o[1] as f64);
+        assert!(x.is_finite() && y.is_finite(), "u {u:?}: ({x}, {y})");
+        let r = x.hypot(y);
+        let want = sigma * (-2.0 * (-(u[0] as f64)).ln_1p()).sqrt();
+        if u[0] == 0.0 {
+            assert_eq!(r, 0.0);
+        } else if u[0] >= 0.25 {
+            // |log(1 - u1)| >= 0.29 here, so Vulkan's absolute bound 2^-21 on log is a relative error
+            // below 2e-6 (1e-6 in r); sqrt and the products add a few ulps.
+            assert!((r - want).abs() <= 1e-5 * want, "u {u:?}: r {r} vs {want}");
+        } else {
+            // Near u1 = 0 the GPU's log(1 - u1) is only bounded to an absolute 2^-21 (lavapipe's radius
+            // at u1 = 2^-24 is 32% too large), so only r^2 <= 2 sigma^2 (u1 + 2^-21), +1%, is asserted.
+            let bound = sigma * (2.0 * (u[0] as f64 + 2f64.powi(-21))).sqrt() * 1.01;
+            assert!(r <= bound, "u {u:?}: r {r} vs {want} (bound {bound})");
+        }
+    }
+    let top = us
+        .iter()
+        .position(|u| u[0] == U_MAX)
+        .expect("U_MAX in the grid");
+    let r = (out[top][0] as f64).hypot(out[top][1] as f64);
+    assert!(
+        (r / sigma - (48.0 * 2f64.ln()).sqrt()).abs() < 1e-5,
+        "largest radius {r}"
+    );
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Uniform disk.
+
+fn disk_coords() -> Vec<(f64, f64)> {
+    warp(Warp::Disk, 4000, N)
+        .iter()
+        .map(|o| {
+            let (x, y) = (o[0] as f64, o[1] as f64);
+            (x * x + y * y, y.atan2(x).rem_euclid(2.0 * PI))
+        })
+        .collect()
+}
+
+fn disk_samples() -> &'static [(f64, f64)] {
+    static S: OnceLock<Vec<(f64, f64)>> = OnceLock::new();
+    S.get_or_init(disk_coords)
+}
+
+/// Uniform on the unit disk: pdf 1/pi per area; in (a = r^2, phi), dA = r dr dphi = da dphi / 2, so the
+/// density is 1 / (2 pi). 32 equal bins of r^2.
+#[test]
+fn disk_chi_square() {
+    let grid = Grid::from_inverse_cdf(32, 32, |p| p);
+    let pdf = |_a: f64, _p: f64| 1.0 / (2.0 * PI);
+    let (_, total) = grid.probabilities(&by_quadrature(pdf));
+    assert!((total - 1.0).abs() < 1e-12);
+    let s = disk_samples();
+    assert_fits("uniform disk", &grid.chi2(s, &by_quadrature(pdf)));
+    assert!(
+        s.iter().all(|&(a, _)| a < 1.0),
+        "a sample outside the unit disk"
+    );
+}
+
+/// The test rejects the naive polar mapping r = u1 (uniform in radius, crowding the centre):
+/// P(r^2 in [a0, a1]) = sqrt(a1) - sqrt(a0).
+#[test]
+fn disk_chi_square_rejects_uniform_radius() {
+    let grid = Grid::from_inverse_cdf(32, 32, |p| p);
+    let naive =
+        |a0: f64, a1: f64, p0: f64, p1: f64| (a1.sqrt() - a0.sqrt()) * (p1 - p0) / (2.0 * PI);
+    assert_rejects(
+        "disk uniform in r",
+        &grid.chi2(disk_samples(), &naive),
+        50.0,
+    );
+}
+
+#[test]
+fn disk_extremes() {
+    let us = extreme_us();
+    let out = warp_given(Warp::Disk, &us);
+    for (u, o) in us.iter().zip(&out) {
+        let (x, y) = (o[0] as f64, o[1] as f64);
+        assert!(x.is_finite() && y.is_finite());
+        let r = x.hypot(y);
+        assert!(r <= 1.0, "u {u:?}: r {r}");
+        assert!(
+            (r - (u[0] as f64).sqrt()).abs() < 8.0 * U32,
+            "u {u:?}: r {r}"
+        );
+    }
+}
+
+/// Far below any useful light size, r^2 leaves the f32 range: for r >= 1e-18 (r^2 >= 1e-36, a normal
+/// f32) the cone is still exact to 32 ulps; below ~1.1e-19 r^2 is subnormal (lavapipe keeps subnormals:
+/// r/d = 1e-20 still gives 5e-41; a device that flushes them gives 0) and below ~3.7e-23 it is 0. The
+/// cone then comes out smaller than the truth or 0, never negative or NaN. (The host's sphere-light
+/// radiance P / (4 pi^2 r^2) overflows to inf at such radii, and inf * 0 is NaN: see the report.)
+#[test]
+fn sphere_cone_underflow_limit() {
+    let input: Vec<[f32; 4]> = [1e-10f32, 1e-15, 1e-18, 1e-19, 1e-20, 1e-25, 1e-30]
+        .iter()
+        .map(|&r| [r, 1.0, 0.0, 0.0])
+        .collect();
+    let out: Vec<f32> =
+        testing::run_kernel(&testing::context(), SPHERE_CONE, &input, input.len()).expect("kernel");
+    for (q, &got) in input.iter().zip(&out) {
+        let want = one_minus_cos_f64(q[0] as f64, 1.0);
+        eprintln!("r/d = {:e}: {got:e} vs {want:e}", q[0]);
+        assert!(got.is_finite() && got >= 0.0, "r {}: {got}", q[0]);
+        if q[0] >= 1e-18 {
+            assert!(
+                (got as f64 - want).abs() <= 32.0 * U32 * want,
+                "r {}: {got} vs {want}",
+                q[0]
+            );
+        } else {
+            assert!(
+                (got as f64) <= want * (1.0 + 32.0 * U32),
+                "r {}: {got} vs {want}",
+                q[0]
+            );
+        }
+    }
+}
