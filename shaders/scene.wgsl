@@ -67,6 +67,26 @@ struct Light {
     _pad2: u32,
 }
 
+// --- Specialisation ---------------------------------------------------------------------------------
+// Pipeline-overridable constants, one per feature a scene may or may not use. The generic kernel keeps
+// the defaults (everything on); for a given scene the host sets each from the scene's feature set
+// (src/gpu/features.rs), naga folds them into constants, and src/gpu/shader.rs prunes every
+// `if FEATURE { ... }` whose condition became `false` before the SPIR-V is written: an absent feature
+// leaves no code at all. Guards are written `if HAS_X { if runtime_test { ... } }` so that the outer
+// condition is a bare constant. A present feature runs exactly the generic code, so both kernels give
+// the same bits.
+override HAS_SPHERES: bool = true;
+override HAS_TRIANGLES: bool = true;
+override HAS_DIFFUSE: bool = true;
+override HAS_MIRROR: bool = true;
+override HAS_DIELECTRIC: bool = true;
+override HAS_EMITTERS: bool = true; // sphere lights are visible spheres with an emitting material
+override HAS_POINT_LIGHTS: bool = true;
+override HAS_SPHERE_LIGHTS: bool = true;
+override HAS_LENS: bool = true; // aperture > 0
+override HAS_ROULETTE: bool = true;
+override HAS_BACKGROUND: bool = true;
+
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
@@ -88,18 +108,22 @@ struct Hit {
 // surface (offset_ray_origin), so t_min is 0.
 fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
     var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
-    for (var i = 0u; i < params.num_spheres; i++) {
-        let s = spheres[i];
-        let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
-        if t < hit.t {
-            hit = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0));
+    if HAS_SPHERES {
+        for (var i = 0u; i < params.num_spheres; i++) {
+            let s = spheres[i];
+            let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
+            if t < hit.t {
+                hit = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0));
+            }
         }
     }
-    for (var i = 0u; i < params.num_triangles; i++) {
-        let tri = triangles[i];
-        let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
-        if th.t < hit.t {
-            hit = Hit(th.t, PRIM_TRIANGLE, i, th.b);
+    if HAS_TRIANGLES {
+        for (var i = 0u; i < params.num_triangles; i++) {
+            let tri = triangles[i];
+            let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
+            if th.t < hit.t {
+                hit = Hit(th.t, PRIM_TRIANGLE, i, th.b);
+            }
         }
     }
     return hit;
@@ -107,16 +131,20 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
 
 // Is anything in the way over (0, t_max)? Stops at the first blocker.
 fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
-    for (var i = 0u; i < params.num_spheres; i++) {
-        let s = spheres[i];
-        if intersect_sphere(o, d, s.center, s.radius, 0.0, t_max) < t_max {
-            return true;
+    if HAS_SPHERES {
+        for (var i = 0u; i < params.num_spheres; i++) {
+            let s = spheres[i];
+            if intersect_sphere(o, d, s.center, s.radius, 0.0, t_max) < t_max {
+                return true;
+            }
         }
     }
-    for (var i = 0u; i < params.num_triangles; i++) {
-        let tri = triangles[i];
-        if intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, t_max).t < t_max {
-            return true;
+    if HAS_TRIANGLES {
+        for (var i = 0u; i < params.num_triangles; i++) {
+            let tri = triangles[i];
+            if intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, t_max).t < t_max {
+                return true;
+            }
         }
     }
     return false;
@@ -131,16 +159,29 @@ struct Surface {
     material: u32,
 }
 
-fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
-    if hit.prim_kind == PRIM_SPHERE {
-        let s = spheres[hit.prim_index];
-        let sp = sphere_surface_point(o, d, hit.t, s.center, s.radius);
-        return Surface(sp.p, sp.err, normalize(sp.p - s.center), s.material);
-    }
+fn sphere_surface(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
+    let s = spheres[hit.prim_index];
+    let sp = sphere_surface_point(o, d, hit.t, s.center, s.radius);
+    return Surface(sp.p, sp.err, normalize(sp.p - s.center), s.material);
+}
+
+fn triangle_surface(hit: Hit) -> Surface {
     let tri = triangles[hit.prim_index];
     let sp = triangle_surface_point(tri.v0, tri.v1, tri.v2, hit.b);
     let n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
     return Surface(sp.p, sp.err, n, tri.material);
+}
+
+fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
+    if HAS_TRIANGLES {
+        if HAS_SPHERES {
+            if hit.prim_kind == PRIM_SPHERE {
+                return sphere_surface(o, d, hit);
+            }
+        }
+        return triangle_surface(hit);
+    }
+    return sphere_surface(o, d, hit);
 }
 
 // Irradiance-like sum over all lights of Le * cos(theta) / pdf at a surface point with facing normal n
@@ -154,40 +195,55 @@ fn direct_light(sp: Surface, n: vec3<f32>, rng: ptr<function, Rng>) -> vec3<f32>
     var e = vec3<f32>(0.0);
     for (var i = 0u; i < params.num_lights; i++) {
         let light = lights[i];
-        if light.kind == LIGHT_POINT {
-            let to_light = light.position - sp.p;
-            let dist2 = dot(to_light, to_light);
-            let dist = sqrt(dist2);
-            let wi = to_light / dist;
-            let cos_theta = dot(n, wi);
-            if cos_theta <= 0.0 || dist2 == 0.0 {
-                continue;
+        if HAS_POINT_LIGHTS {
+            if light.kind == LIGHT_POINT {
+                e += point_light_irradiance(sp, n, light);
             }
-            let o = offset_ray_origin(sp.p, sp.err, n, wi);
-            // Stop short of the light itself by a relative 1e-4, since a point light has no surface.
-            if !scene_occluded(o, wi, dist * (1.0 - 1.0e-4)) {
-                e += light.intensity * cos_theta / dist2;
-            }
-        } else {
-            let u = rng_next2(rng);
-            let to_center = light.position - sp.p;
-            let d2 = dot(to_center, to_center);
-            if d2 <= light.radius * light.radius {
-                continue; // inside the light: it does not illuminate its own interior
-            }
-            let omc = sphere_cone_one_minus_cos(light.radius, d2);
-            let wi = sample_cone(to_center / sqrt(d2), omc, u);
-            let cos_theta = dot(n, wi);
-            if cos_theta <= 0.0 {
-                continue;
-            }
-            // Visible if the first thing the ray meets is this light's own sphere.
-            let o = offset_ray_origin(sp.p, sp.err, n, wi);
-            let hit = scene_intersect(o, wi, T_MISS);
-            if hit.prim_kind == PRIM_SPHERE && hit.prim_index == light.sphere_index {
-                e += light.intensity * cos_theta * (TWO_PI * omc);
+        }
+        if HAS_SPHERE_LIGHTS {
+            if light.kind == LIGHT_SPHERE {
+                e += sphere_light_irradiance(sp, n, light, rng);
             }
         }
     }
     return e;
+}
+
+fn point_light_irradiance(sp: Surface, n: vec3<f32>, light: Light) -> vec3<f32> {
+    let to_light = light.position - sp.p;
+    let dist2 = dot(to_light, to_light);
+    let dist = sqrt(dist2);
+    let wi = to_light / dist;
+    let cos_theta = dot(n, wi);
+    if cos_theta <= 0.0 || dist2 == 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let o = offset_ray_origin(sp.p, sp.err, n, wi);
+    // Stop short of the light itself by a relative 1e-4, since a point light has no surface.
+    if scene_occluded(o, wi, dist * (1.0 - 1.0e-4)) {
+        return vec3<f32>(0.0);
+    }
+    return light.intensity * cos_theta / dist2;
+}
+
+fn sphere_light_irradiance(sp: Surface, n: vec3<f32>, light: Light, rng: ptr<function, Rng>) -> vec3<f32> {
+    let u = rng_next2(rng);
+    let to_center = light.position - sp.p;
+    let d2 = dot(to_center, to_center);
+    if d2 <= light.radius * light.radius {
+        return vec3<f32>(0.0); // inside the light: it does not illuminate its own interior
+    }
+    let omc = sphere_cone_one_minus_cos(light.radius, d2);
+    let wi = sample_cone(to_center / sqrt(d2), omc, u);
+    let cos_theta = dot(n, wi);
+    if cos_theta <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    // Visible if the first thing the ray meets is this light's own sphere.
+    let o = offset_ray_origin(sp.p, sp.err, n, wi);
+    let hit = scene_intersect(o, wi, T_MISS);
+    if hit.prim_kind == PRIM_SPHERE && hit.prim_index == light.sphere_index {
+        return light.intensity * cos_theta * (TWO_PI * omc);
+    }
+    return vec3<f32>(0.0);
 }

@@ -23,13 +23,17 @@ struct PassConstants {
 const FILTER_NONE: u32 = 0u;
 const FILTER_BOX: u32 = 1u;
 const FILTER_GAUSSIAN: u32 = 2u;
+// The pixel filter: read from `params` by the generic kernel; a constant when specialised (the switch
+// on a constant then folds to one case).
+override FILTER_FROM_PARAMS: bool = true;
+override FILTER_KIND: u32 = 0u;
 
 // Position on the film of one sample of pixel `px`, importance-sampled from the pixel filter: the
 // filter's weight is then 1 for every sample, and the pixel value is the plain mean of its samples.
 fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
     let center = vec2<f32>(px) + vec2<f32>(0.5);
     let u = rng_next2(rng);
-    switch params.filter_kind {
+    switch select(FILTER_KIND, params.filter_kind, FILTER_FROM_PARAMS) {
         case FILTER_BOX: {
             return vec2<f32>(px) + u;
         }
@@ -48,10 +52,19 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
 fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     var rng = rng_new(px.y * params.width + px.x, sample, params.seed);
     let film = film_position(px, &rng);
-    let lens = sample_uniform_disk(rng_next2(&rng));
+    // The lens sample is dimension 1 whether or not there is a lens, so that a pinhole-specialised kernel
+    // draws every later number at the same dimension as the generic one.
+    var lens = vec2<f32>(0.0);
+    var lens_radius = 0.0;
+    if HAS_LENS {
+        lens = sample_uniform_disk(rng_next2(&rng));
+        lens_radius = params.lens_radius;
+    } else {
+        rng.dim += 1u;
+    }
     let cam = camera_ray(params.cam_position, params.cam_right, params.cam_up, params.cam_forward,
                          params.tan_half_fov, params.width, params.height, film,
-                         params.lens_radius, params.focus_distance, lens);
+                         lens_radius, params.focus_distance, lens);
     var o = cam.o;
     var d = cam.d;
     var beta = vec3<f32>(1.0);
@@ -63,16 +76,20 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     loop {
         let hit = scene_intersect(o, d, T_MISS);
         if hit.prim_kind == PRIM_NONE {
-            radiance += beta * params.background;
+            if HAS_BACKGROUND {
+                radiance += beta * params.background;
+            }
             break;
         }
         let sp = surface_at(o, d, hit);
         let mat = materials[sp.material];
-        if mat.kind == MAT_EMITTER {
-            if count_emission {
-                radiance += beta * mat.emission;
+        if HAS_EMITTERS {
+            if mat.kind == MAT_EMITTER {
+                if count_emission {
+                    radiance += beta * mat.emission;
+                }
+                break;
             }
-            break;
         }
         if bounces >= params.max_bounces {
             break;
@@ -81,9 +98,9 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         // Both faces scatter: shade with the normal on the side the ray came from.
         let entering = dot(d, sp.n) < 0.0;
         let n = select(-sp.n, sp.n, entering);
-        var wi: vec3<f32>;
-        switch mat.kind {
-            case MAT_DIFFUSE: {
+        var wi = vec3<f32>(0.0);
+        if HAS_DIFFUSE {
+            if mat.kind == MAT_DIFFUSE {
                 // Next-event estimation: f = albedo / pi times sum of Le cos / pdf.
                 radiance += beta * mat.albedo * INV_PI * direct_light(sp, n, &rng);
                 // Continue with a cosine-weighted direction: f cos / pdf = (albedo/pi) cos / (cos/pi) = albedo.
@@ -91,12 +108,16 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
                 beta *= mat.albedo;
                 count_emission = false;
             }
-            case MAT_MIRROR: {
+        }
+        if HAS_MIRROR {
+            if mat.kind == MAT_MIRROR {
                 wi = reflect_dir(d, n);
                 beta *= mat.albedo;
                 count_emission = true;
             }
-            default: { // MAT_DIELECTRIC
+        }
+        if HAS_DIELECTRIC {
+            if mat.kind == MAT_DIELECTRIC {
                 // eta = n_t / n_i: entering goes from the outside (index 1) into the material.
                 let eta = select(1.0 / mat.ior, mat.ior, entering);
                 let f = fresnel_dielectric(-dot(d, n), eta);
@@ -114,12 +135,14 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         o = offset_ray_origin(sp.p, sp.err, n, wi);
         d = wi;
         // Russian roulette (unbiased): past roulette_depth, continue with probability q and divide by q.
-        if bounces >= params.roulette_depth {
-            let q = clamp(max(beta.x, max(beta.y, beta.z)), 0.05, 0.95);
-            if rng_next(&rng) >= q {
-                break;
+        if HAS_ROULETTE {
+            if bounces >= params.roulette_depth {
+                let q = clamp(max(beta.x, max(beta.y, beta.z)), 0.05, 0.95);
+                if rng_next(&rng) >= q {
+                    break;
+                }
+                beta /= q;
             }
-            beta /= q;
         }
     }
     return radiance;

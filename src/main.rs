@@ -82,6 +82,9 @@ struct RenderArgs {
     /// Start Russian roulette after this many bounces ("off" disables it). Default 3.
     #[arg(long = "roulette-depth")]
     roulette_depth: Option<String>,
+    /// Run the one all-features kernel instead of the kernel specialised for this scene.
+    #[arg(long)]
+    generic: bool,
 }
 
 fn usage(msg: impl Into<String>) -> Error {
@@ -118,7 +121,10 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
 }
 
 fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
-    let mut o = RenderOptions::default();
+    let mut o = RenderOptions {
+        generic: a.generic,
+        ..Default::default()
+    };
     if let Some(k) = a.samples_per_pass {
         if k == 0 {
             return Err(usage("--samples-per-pass must be at least 1."));
@@ -252,6 +258,8 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
             "stop_reason": reason,
             "outputs": outputs.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
             "validation_errors": validation_errors.len(),
+            "kernel": if renderer.features() == &vkpath::gpu::features::FeatureSet::generic() { "generic" } else { "specialised" },
+            "features_absent": renderer.features().absent(),
         });
         println!("{json}");
     }

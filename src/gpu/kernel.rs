@@ -146,25 +146,31 @@ impl Kernel {
         &self.bindings
     }
 
-    /// Points the descriptor set at `buffers`, one per binding, in binding order.
-    pub fn bind(&mut self, buffers: &[&Buffer]) -> Result<(), GpuError> {
-        if buffers.len() != self.bindings.len() {
-            return Err(GpuError::Usage(format!(
-                "kernel has {} bindings but {} buffers were given",
-                self.bindings.len(),
-                buffers.len()
-            )));
+    /// Whether the (specialised, compacted) shader still uses binding `binding`.
+    pub fn uses_binding(&self, binding: u32) -> bool {
+        self.bindings.iter().any(|b| b.binding == binding)
+    }
+
+    /// Points the descriptor set at the buffers given as (binding, buffer). Every binding the shader uses
+    /// must be given; bindings it does not use (compacted away by specialisation) are skipped.
+    pub fn bind(&mut self, buffers: &[(u32, &Buffer)]) -> Result<(), GpuError> {
+        let mut infos = Vec::with_capacity(self.bindings.len());
+        for b in &self.bindings {
+            let buffer = buffers
+                .iter()
+                .find(|(n, _)| *n == b.binding)
+                .ok_or_else(|| {
+                    GpuError::Usage(format!(
+                        "no buffer given for binding {} (`{}`)",
+                        b.binding, b.name
+                    ))
+                })?;
+            infos.push([vk::DescriptorBufferInfo {
+                buffer: buffer.1.raw,
+                offset: 0,
+                range: vk::WHOLE_SIZE,
+            }]);
         }
-        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = buffers
-            .iter()
-            .map(|b| {
-                [vk::DescriptorBufferInfo {
-                    buffer: b.raw,
-                    offset: 0,
-                    range: vk::WHOLE_SIZE,
-                }]
-            })
-            .collect();
         let writes: Vec<vk::WriteDescriptorSet> = self
             .bindings
             .iter()

@@ -10,6 +10,7 @@
 
 pub mod buffer;
 pub mod context;
+pub mod features;
 pub mod kernel;
 pub mod scene;
 pub mod shader;

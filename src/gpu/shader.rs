@@ -67,16 +67,44 @@ pub struct CompiledShader {
     pub immediate_size: u32,
 }
 
-/// Parses, validates and translates WGSL with one compute entry point `main`.
+/// Parses, validates and translates WGSL with one compute entry point `main`, its `override` constants
+/// left at their defaults.
 pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
-    let module = naga::front::wgsl::parse_str(source)
-        .map_err(|e| GpuError::Shader(e.emit_to_string(source).replace('\n', " ")))?;
-    let info = naga::valid::Validator::new(
+    compile_with(source, &[])
+}
+
+fn validate(module: &naga::Module) -> Result<naga::valid::ModuleInfo, GpuError> {
+    naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::IMMEDIATES,
     )
-    .validate(&module)
-    .map_err(|e| GpuError::Shader(format!("{:?}", e.into_inner())))?;
+    .validate(module)
+    .map_err(|e| GpuError::Shader(format!("{:?}", e.into_inner())))
+}
+
+/// Parses WGSL, sets the named `override` constants, folds them (naga's `process_overrides`), removes
+/// every `if` whose condition became a constant (keeping the branch taken: see [`prune_constant_ifs`])
+/// and every function no longer called, then translates to SPIR-V. With no constants given the module is
+/// the generic one, defaults and all, and nothing is pruned.
+pub fn compile_with(source: &str, constants: &[(&str, f64)]) -> Result<CompiledShader, GpuError> {
+    let module = naga::front::wgsl::parse_str(source)
+        .map_err(|e| GpuError::Shader(e.emit_to_string(source).replace('\n', " ")))?;
+    let info = validate(&module)?;
+    // Always fold: the SPIR-V writer takes no overrides. With no constants given, the defaults (the generic
+    // kernel: every feature on) are folded, and pruning only flattens `if true` blocks.
+    let mut values = naga::back::PipelineConstants::default();
+    for (name, value) in constants {
+        values.insert((*name).to_string(), *value);
+    }
+    let entry = Some((naga::ShaderStage::Compute, "main"));
+    let (folded, _) =
+        naga::back::pipeline_constants::process_overrides(&module, &info, entry, &values)
+            .map_err(|e| GpuError::Shader(format!("specialisation failed: {e}")))?;
+    let mut module = folded.into_owned();
+    prune_constant_ifs(&mut module);
+    naga::compact::compact(&mut module, naga::compact::KeepUnused::No);
+    let info = validate(&module)?;
+
     let entry = module
         .entry_points
         .iter()
@@ -134,4 +162,124 @@ pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
         workgroup_size,
         immediate_size,
     })
+}
+
+/// The value of a boolean expression that is a constant after specialisation.
+fn constant_bool(
+    expr: naga::Handle<naga::Expression>,
+    expressions: &naga::Arena<naga::Expression>,
+    module_constants: &naga::Arena<naga::Constant>,
+    globals: &naga::Arena<naga::Expression>,
+) -> Option<bool> {
+    let literal = |e: &naga::Expression| match e {
+        naga::Expression::Literal(naga::Literal::Bool(b)) => Some(*b),
+        _ => None,
+    };
+    match &expressions[expr] {
+        naga::Expression::Constant(c) => literal(&globals[module_constants[*c].init]),
+        e => literal(e),
+    }
+}
+
+/// Replaces `if c { A } else { B }` by `A` or `B` wherever `c` is a constant, in every function: the code of
+/// an absent feature is gone from the module before it is written as SPIR-V, so no driver ever compiles it.
+pub fn prune_constant_ifs(module: &mut naga::Module) {
+    fn prune(
+        block: naga::Block,
+        is_const: &dyn Fn(naga::Handle<naga::Expression>) -> Option<bool>,
+    ) -> naga::Block {
+        use naga::Statement as S;
+        let mut out = naga::Block::with_capacity(block.len());
+        for (statement, span) in block.span_into_iter() {
+            let statement = match statement {
+                S::If {
+                    condition,
+                    accept,
+                    reject,
+                } => match is_const(condition) {
+                    Some(true) => S::Block(prune(accept, is_const)),
+                    Some(false) => S::Block(prune(reject, is_const)),
+                    None => S::If {
+                        condition,
+                        accept: prune(accept, is_const),
+                        reject: prune(reject, is_const),
+                    },
+                },
+                S::Block(b) => S::Block(prune(b, is_const)),
+                S::Loop {
+                    body,
+                    continuing,
+                    break_if,
+                } => S::Loop {
+                    body: prune(body, is_const),
+                    continuing: prune(continuing, is_const),
+                    break_if,
+                },
+                S::Switch { selector, cases } => S::Switch {
+                    selector,
+                    cases: cases
+                        .into_iter()
+                        .map(|c| naga::SwitchCase {
+                            body: prune(c.body, is_const),
+                            ..c
+                        })
+                        .collect(),
+                },
+                other => other,
+            };
+            out.push(statement, span);
+        }
+        out
+    }
+    let constants = &module.constants;
+    let globals = &module.global_expressions;
+    let functions = module
+        .functions
+        .iter_mut()
+        .map(|(_, f)| f)
+        .chain(module.entry_points.iter_mut().map(|e| &mut e.function));
+    for f in functions {
+        let expressions = &f.expressions;
+        let is_const = |e| constant_bool(e, expressions, constants, globals);
+        let body = std::mem::take(&mut f.body);
+        f.body = prune(body, &is_const);
+        // `let` names of expressions that only the removed code evaluated must go too, or compaction
+        // would keep them (and whatever they refer to, such as a removed function's call result).
+        let mut live = std::collections::HashSet::new();
+        collect_evaluated(&f.body, &mut live);
+        let expressions = &f.expressions;
+        f.named_expressions
+            .retain(|h, _| live.contains(h) || expressions[*h].needs_pre_emit());
+    }
+}
+
+/// The expressions a block evaluates: those its `Emit` statements cover and its calls' results.
+fn collect_evaluated(
+    block: &naga::Block,
+    live: &mut std::collections::HashSet<naga::Handle<naga::Expression>>,
+) {
+    use naga::Statement as S;
+    for statement in block.iter() {
+        match statement {
+            S::Emit(range) => live.extend(range.clone()),
+            S::Call {
+                result: Some(r), ..
+            } => {
+                live.insert(*r);
+            }
+            S::Block(b) => collect_evaluated(b, live),
+            S::If { accept, reject, .. } => {
+                collect_evaluated(accept, live);
+                collect_evaluated(reject, live);
+            }
+            S::Loop {
+                body, continuing, ..
+            } => {
+                collect_evaluated(body, live);
+                collect_evaluated(continuing, live);
+            }
+            S::Switch { cases, .. } => cases.iter().for_each(|c| collect_evaluated(&c.body, live)),
+            _ => {}
+        }
+    }
 }

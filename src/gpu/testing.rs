@@ -82,7 +82,7 @@ impl TestKernel {
             MemoryLocation::GpuToCpu,
         )?;
         output.write(&vec![0u8; output.size() as usize])?;
-        self.kernel.bind(&[&input_buffer, &output])?;
+        self.kernel.bind(&[(0, &input_buffer), (1, &output)])?;
         self.kernel.submit(&[Command::Dispatch {
             invocations: [output_len as u32, 1, 1],
             immediates: &[],

@@ -6,14 +6,18 @@
 //! N k samples: pass sizes are free to adapt to time budgets and progress reports.
 
 use crate::film::Film;
+use crate::gpu::features::FeatureSet;
 use crate::gpu::scene::{GpuScene, params_for};
+use crate::gpu::shader::CompiledShader;
 use crate::gpu::types::{GpuAccum, GpuParams, GpuPassConstants};
 use crate::gpu::{Buffer, Command, GpuContext, GpuError, Kernel, shader};
 use crate::scene::Scene;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
+use std::collections::HashMap;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 /// The most samples (dispatches) recorded into one command buffer; a pass of more is several submits.
@@ -46,6 +50,8 @@ pub struct RenderOptions {
     pub samples_per_pass: Option<u32>,
     /// Target duration of one pass when adapting (keeps Ctrl-C, `--time` and progress responsive).
     pub target_pass_seconds: f64,
+    /// Run the one all-features kernel instead of the one specialised for the scene (for comparison).
+    pub generic: bool,
 }
 
 impl Default for RenderOptions {
@@ -54,6 +60,7 @@ impl Default for RenderOptions {
             roulette_depth: 3,
             samples_per_pass: None,
             target_pass_seconds: 0.25,
+            generic: false,
         }
     }
 }
@@ -69,6 +76,30 @@ pub struct Renderer {
     // Parameter and scene buffers: bound to the kernel, kept alive with it.
     _bound_buffers: Vec<Buffer>,
     samples_done: u32,
+    features: FeatureSet,
+}
+
+/// The compiled kernel for a feature set, compiled once per process (naga's work; the driver's pipeline
+/// compile happens per renderer).
+pub fn kernel_for(features: &FeatureSet) -> Result<Arc<CompiledShader>, GpuError> {
+    static CACHE: OnceLock<Mutex<HashMap<FeatureSet, Arc<CompiledShader>>>> = OnceLock::new();
+    let cache = CACHE.get_or_init(Default::default);
+    if let Some(hit) = cache
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .get(features)
+    {
+        return Ok(hit.clone());
+    }
+    let compiled = Arc::new(shader::compile_with(
+        &shader::trace_source(),
+        &features.pipeline_constants(),
+    )?);
+    cache
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .insert(*features, compiled.clone());
+    Ok(compiled)
 }
 
 impl Renderer {
@@ -99,13 +130,29 @@ impl Renderer {
         params.num_spheres = gpu.spheres.len() as u32;
         params.num_triangles = gpu.triangles.len() as u32;
         params.num_lights = gpu.lights.len() as u32;
-        let compiled = shader::compile(&shader::trace_source())?;
+        let features = if options.generic {
+            FeatureSet::generic()
+        } else {
+            FeatureSet::of(&gpu, &params)
+        };
+        let compiled = kernel_for(&features)?;
         let mut kernel = Kernel::new(ctx, &compiled)?;
         let params_buffer = Buffer::uniform_from(ctx, "params", &params)?;
-        let spheres = Buffer::storage_from(ctx, "spheres", &gpu.spheres)?;
-        let triangles = Buffer::storage_from(ctx, "triangles", &gpu.triangles)?;
-        let materials = Buffer::storage_from(ctx, "materials", &gpu.materials)?;
-        let lights = Buffer::storage_from(ctx, "lights", &gpu.lights)?;
+        // Upload only the arrays the (specialised) kernel still reads: a scene without triangles has no
+        // triangle buffer at all.
+        let mut bound = vec![(0, params_buffer)];
+        if kernel.uses_binding(1) {
+            bound.push((1, Buffer::storage_from(ctx, "spheres", &gpu.spheres)?));
+        }
+        if kernel.uses_binding(2) {
+            bound.push((2, Buffer::storage_from(ctx, "triangles", &gpu.triangles)?));
+        }
+        if kernel.uses_binding(3) {
+            bound.push((3, Buffer::storage_from(ctx, "materials", &gpu.materials)?));
+        }
+        if kernel.uses_binding(4) {
+            bound.push((4, Buffer::storage_from(ctx, "lights", &gpu.lights)?));
+        }
         let pixels = scene.image.width as u64 * scene.image.height as u64;
         // Device-local: every sample reads and writes its pixel's sums. The host reads them through a
         // copy into a host-visible buffer when it wants the film.
@@ -133,15 +180,10 @@ impl Renderer {
             vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuOnly,
         )?;
-        kernel.bind(&[
-            &params_buffer,
-            &spheres,
-            &triangles,
-            &materials,
-            &lights,
-            &accum,
-            &pass_constants,
-        ])?;
+        let mut bindings: Vec<(u32, &Buffer)> = bound.iter().map(|(n, b)| (*n, b)).collect();
+        bindings.push((5, &accum));
+        bindings.push((6, &pass_constants));
+        kernel.bind(&bindings)?;
         let mut r = Renderer {
             ctx: ctx.clone(),
             kernel,
@@ -149,8 +191,9 @@ impl Renderer {
             accum,
             readback,
             pass_constants,
-            _bound_buffers: vec![params_buffer, spheres, triangles, materials, lights],
+            _bound_buffers: bound.into_iter().map(|(_, b)| b).collect(),
             samples_done: 0,
+            features,
         };
         r.reset()?;
         Ok(r)
@@ -195,6 +238,11 @@ impl Renderer {
             left -= k;
         }
         Ok(())
+    }
+
+    /// The features the kernel was specialised for (all of them for the generic kernel).
+    pub fn features(&self) -> &FeatureSet {
+        &self.features
     }
 
     /// Samples per pixel accumulated so far.

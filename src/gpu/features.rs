@@ -1,0 +1,115 @@
+//! The feature set of a scene: which parts of the kernel it needs. The renderer specialises the kernel
+//! for it (see `shaders/scene.wgsl`, "Specialisation"), so that a scene pays only for what it uses.
+
+use super::scene::GpuScene;
+use super::types::{
+    GpuParams, LIGHT_POINT, LIGHT_SPHERE, MAT_DIELECTRIC, MAT_DIFFUSE, MAT_EMITTER, MAT_MIRROR,
+};
+
+/// One flag per overridable feature of the kernel; `filter` is the pixel filter as a constant, or `None`
+/// to read it from the parameters at run time (the generic kernel).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct FeatureSet {
+    pub spheres: bool,
+    pub triangles: bool,
+    pub diffuse: bool,
+    pub mirror: bool,
+    pub dielectric: bool,
+    pub emitters: bool,
+    pub point_lights: bool,
+    pub sphere_lights: bool,
+    pub lens: bool,
+    pub roulette: bool,
+    pub background: bool,
+    pub filter: Option<u32>,
+}
+
+impl FeatureSet {
+    /// Everything on: the one kernel that renders any scene.
+    pub fn generic() -> FeatureSet {
+        FeatureSet {
+            spheres: true,
+            triangles: true,
+            diffuse: true,
+            mirror: true,
+            dielectric: true,
+            emitters: true,
+            point_lights: true,
+            sphere_lights: true,
+            lens: true,
+            roulette: true,
+            background: true,
+            filter: None,
+        }
+    }
+
+    /// What `scene` (as uploaded, with its parameters) needs. Materials count only when an object uses
+    /// them; a light kind only when present.
+    pub fn of(scene: &GpuScene, params: &GpuParams) -> FeatureSet {
+        let used_kinds: Vec<u32> = scene
+            .spheres
+            .iter()
+            .map(|s| s.material)
+            .chain(scene.triangles.iter().map(|t| t.material))
+            .filter_map(|m| scene.materials.get(m as usize).map(|m| m.kind))
+            .collect();
+        let uses = |kind| used_kinds.contains(&kind);
+        FeatureSet {
+            spheres: !scene.spheres.is_empty(),
+            triangles: !scene.triangles.is_empty(),
+            diffuse: uses(MAT_DIFFUSE),
+            mirror: uses(MAT_MIRROR),
+            dielectric: uses(MAT_DIELECTRIC),
+            emitters: uses(MAT_EMITTER),
+            point_lights: scene.lights.iter().any(|l| l.kind == LIGHT_POINT),
+            sphere_lights: scene.lights.iter().any(|l| l.kind == LIGHT_SPHERE),
+            lens: params.lens_radius > 0.0,
+            // The roulette test runs after scattering event `bounces` (1..=max_bounces).
+            roulette: params.roulette_depth <= params.max_bounces,
+            background: params.background.iter().any(|&c| c != 0.0),
+            filter: Some(params.filter_kind),
+        }
+    }
+
+    /// The values of the kernel's `override` constants (naga takes them as f64).
+    pub fn pipeline_constants(&self) -> Vec<(&'static str, f64)> {
+        let b = |v: bool| if v { 1.0 } else { 0.0 };
+        vec![
+            ("HAS_SPHERES", b(self.spheres)),
+            ("HAS_TRIANGLES", b(self.triangles)),
+            ("HAS_DIFFUSE", b(self.diffuse)),
+            ("HAS_MIRROR", b(self.mirror)),
+            ("HAS_DIELECTRIC", b(self.dielectric)),
+            ("HAS_EMITTERS", b(self.emitters)),
+            ("HAS_POINT_LIGHTS", b(self.point_lights)),
+            ("HAS_SPHERE_LIGHTS", b(self.sphere_lights)),
+            ("HAS_LENS", b(self.lens)),
+            ("HAS_ROULETTE", b(self.roulette)),
+            ("HAS_BACKGROUND", b(self.background)),
+            ("FILTER_FROM_PARAMS", b(self.filter.is_none())),
+            ("FILTER_KIND", self.filter.unwrap_or(0) as f64),
+        ]
+    }
+
+    /// The features this set leaves out, by name (for reports).
+    pub fn absent(&self) -> Vec<&'static str> {
+        let flags = [
+            ("spheres", self.spheres),
+            ("triangles", self.triangles),
+            ("diffuse", self.diffuse),
+            ("mirror", self.mirror),
+            ("dielectric", self.dielectric),
+            ("emitters", self.emitters),
+            ("point_lights", self.point_lights),
+            ("sphere_lights", self.sphere_lights),
+            ("lens", self.lens),
+            ("roulette", self.roulette),
+            ("background", self.background),
+        ];
+        flags
+            .iter()
+            .filter(|(_, on)| !on)
+            .map(|(n, _)| *n)
+            .collect()
+    }
+}

@@ -1,0 +1,165 @@
+//! Per-scene specialisation: the kernel compiled for a scene's feature set renders exactly what the
+//! generic kernel renders, and the code of absent features is gone before the driver sees the SPIR-V.
+
+mod common;
+
+use common::*;
+use vkpath::gpu::features::FeatureSet;
+use vkpath::render::{RenderOptions, kernel_for};
+
+fn scene_files() -> Vec<std::path::PathBuf> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    assert!(
+        files.len() >= 14,
+        "expected the course scenes, found {files:?}"
+    );
+    files
+}
+
+/// Every scene in scenes/, specialised and generic, same seed: the same bits. A present feature runs the
+/// generic code unchanged and absent ones draw no random numbers, so nothing may differ (not even by
+/// float reassociation: both kernels evaluate the same expressions in the same order).
+#[test]
+fn specialised_equals_generic_for_every_scene() {
+    for path in scene_files() {
+        let mut s = vkpath::Scene::load(&path).unwrap();
+        s.image.width = 24;
+        s.image.height = 24;
+        let specialised = render_passes(&s, &RenderOptions::default(), 1, 4);
+        let generic = render_passes(
+            &s,
+            &RenderOptions {
+                generic: true,
+                ..Default::default()
+            },
+            1,
+            4,
+        );
+        assert_eq!(
+            specialised.mean,
+            generic.mean,
+            "{}: specialised and generic images differ",
+            path.display()
+        );
+        assert!(
+            specialised.average() > 0.0,
+            "{}: black image",
+            path.display()
+        );
+    }
+}
+
+fn function_names(features: &FeatureSet) -> Vec<String> {
+    let compiled = kernel_for(features).unwrap();
+    compiled
+        .module
+        .functions
+        .iter()
+        .filter_map(|(_, f)| f.name.clone())
+        .collect()
+}
+
+/// The course's first steps use only diffuse spheres and a point light: their kernel has no triangle
+/// test, no Fresnel, no refraction, no cone sampling, no lens, and no triangle buffer; the generic kernel
+/// has all of them. The SPIR-V shrinks accordingly.
+#[test]
+fn absent_features_leave_no_code() {
+    let s = vkpath::Scene::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/03-shadows.toml"),
+    )
+    .unwrap();
+    let gpu = vkpath::gpu::scene::GpuScene::build(&s);
+    let params = vkpath::gpu::scene::params_for(&s, RenderOptions::default().roulette_depth);
+    let features = FeatureSet::of(&gpu, &params);
+    assert!(features.spheres && features.diffuse && features.point_lights);
+    assert!(
+        !features.triangles
+            && !features.mirror
+            && !features.dielectric
+            && !features.sphere_lights
+            && !features.lens
+    );
+
+    let trimmed = function_names(&features);
+    let generic = function_names(&FeatureSet::generic());
+    for f in [
+        "intersect_triangle",
+        "fresnel_dielectric",
+        "refract_dir",
+        "sample_cone",
+        "sample_uniform_disk",
+        "triangle_surface",
+    ] {
+        assert!(
+            generic.iter().any(|n| n == f),
+            "the generic kernel should contain {f}"
+        );
+        assert!(
+            !trimmed.iter().any(|n| n == f),
+            "the diffuse/point-light kernel still contains {f}"
+        );
+    }
+    let spirv_trimmed = kernel_for(&features).unwrap().spirv.len();
+    let spirv_generic = kernel_for(&FeatureSet::generic()).unwrap().spirv.len();
+    assert!(
+        (spirv_trimmed as f64) < 0.8 * spirv_generic as f64,
+        "SPIR-V words: specialised {spirv_trimmed}, generic {spirv_generic}"
+    );
+    let bindings: Vec<u32> = kernel_for(&features)
+        .unwrap()
+        .bindings
+        .iter()
+        .map(|b| b.binding)
+        .collect();
+    assert!(
+        !bindings.contains(&2),
+        "no triangle buffer binding without triangles: {bindings:?}"
+    );
+}
+
+/// The feature set follows the scene: materials count only when an object uses them, the lens only with
+/// an aperture, roulette only when it can trigger, the background only when it is not black.
+#[test]
+fn feature_set_follows_the_scene() {
+    let base = r#"
+[camera]
+position = [0.0, 0.0, 10.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 60.0
+[render]
+max_bounces = 2
+[materials]
+white = { type = "diffuse", albedo = [0.5, 0.5, 0.5] }
+glass = { type = "dielectric", ior = 1.5 }
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "white"
+"#;
+    let features = |text: &str, roulette_depth: u32| {
+        let s = scene(text);
+        let gpu = vkpath::gpu::scene::GpuScene::build(&s);
+        FeatureSet::of(&gpu, &vkpath::gpu::scene::params_for(&s, roulette_depth))
+    };
+    let f = features(base, 3);
+    assert!(!f.dielectric, "glass is defined but unused");
+    assert!(
+        !f.roulette,
+        "roulette from depth 3 never triggers with max_bounces = 2"
+    );
+    assert!(!f.lens && !f.background && !f.point_lights && !f.sphere_lights && !f.emitters);
+    assert_eq!(f.filter, Some(2), "gaussian by default");
+    assert!(features(base, 2).roulette);
+    let with = base
+        .replace("fov = 60.0", "fov = 60.0\naperture = 0.5")
+        .replace("[render]", "[render]\nbackground = [0.0, 0.1, 0.0]")
+        + "[[light]]\ntype = \"sphere\"\ncenter = [0.0, 5.0, 0.0]\nradius = 1.0\npower = 10.0\n";
+    let f = features(&with, 3);
+    assert!(f.lens && f.background && f.sphere_lights && f.emitters && !f.point_lights);
+}
