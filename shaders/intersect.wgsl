@@ -74,7 +74,7 @@ fn sphere_surface_point(o: vec3<f32>, d: vec3<f32>, t: f32, center: vec3<f32>, r
 // JCGT 2(1), 2013): translate the vertices to the ray origin, shear so that the ray is the +z axis, and
 // evaluate the three 2-D edge functions. A point on a shared edge gets the same edge-function value from
 // both triangles, so a ray through an edge or vertex of a closed mesh always hits at least one of them.
-// Zero-area triangles have det = 0 and are never hit.
+// Zero-area triangles and rays parallel to the plane are never hit (see the world-space test below).
 struct TriangleHit {
     t: f32,
     // Barycentric coordinates of the hit (b0 for v0, b1 for v1, b2 for v2).
@@ -124,6 +124,18 @@ fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, 
     let e2 = bx * ay - by * ax;
     // Both signs present: the ray passes outside. Zeros (on an edge) count as inside, for either winding.
     if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+        return miss;
+    }
+    // Degenerate configurations, decided in world space where they are exact: the sheared edge functions
+    // above carry rounding, so for a zero-area triangle (collinear vertices) or a ray lying in the
+    // triangle's plane they can describe a sliver of nonzero area around the ray and report a hit whose
+    // barycentrics, t and normal are noise (the normal of a zero-area triangle is normalize(0) = NaN).
+    // (v1 - v0) x (v2 - v0) . d is exactly 0 for such inputs whenever the edge vectors and products are
+    // exact in f32 (as for vertices on a common grid, or axis-aligned triangles); pbrt-v4 makes the same
+    // world-space test for zero area. Rays that this rejects without being exactly parallel lie within
+    // about 1e-7 rad of the plane, the same measure-zero set that the det == 0 test below gives up.
+    let ng = cross(v1 - v0, v2 - v0);
+    if dot(ng, d) == 0.0 {
         return miss;
     }
     let det = e0 + e1 + e2;

@@ -43,7 +43,7 @@ fn sigint_writes_the_samples_done_so_far() {
         serde_json::from_slice(&out.stdout).expect("one JSON object on stdout");
     assert_eq!(json["stop_reason"], "interrupted");
     let spp = json["spp"].as_u64().unwrap();
-    assert!(spp >= 1 && spp < 1_000_000, "spp = {spp}");
+    assert!((1..1_000_000).contains(&spp), "spp = {spp}");
     let png = image::open(dir.path().join("out.png"))
         .expect("a valid PNG")
         .to_rgb8();
