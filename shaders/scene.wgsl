@@ -1,71 +1,5 @@
-// scene.wgsl: the scene buffers, closest-hit and visibility queries over them, and direct lighting.
-// Struct layouts here are mirrored by `#[repr(C)]` Pod types in src/gpu/types.rs; a test holds each
-// Rust layout against the layout naga reflects from this file.
-
-struct Params {
-    cam_position: vec3<f32>,
-    lens_radius: f32,
-    cam_right: vec3<f32>,
-    tan_half_fov: f32,
-    cam_up: vec3<f32>,
-    focus_distance: f32,
-    cam_forward: vec3<f32>,
-    filter_sigma: f32,
-    background: vec3<f32>,
-    filter_kind: u32, // 0 none, 1 box, 2 gaussian
-    width: u32,
-    height: u32,
-    max_bounces: u32,
-    seed: u32,
-    _pad1: u32,
-    _pad2: u32,
-    num_spheres: u32,
-    num_triangles: u32,
-    num_lights: u32,
-    roulette_depth: u32, // Russian roulette from this many scattering events on
-    guard_one: f32, // always 1.0; see accumulate.wgsl
-    _pad0: u32,
-}
-
-struct Sphere {
-    center: vec3<f32>,
-    radius: f32,
-    material: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
-struct Triangle {
-    v0: vec3<f32>,
-    material: u32,
-    v1: vec3<f32>,
-    _pad0: u32,
-    v2: vec3<f32>,
-    _pad1: u32,
-}
-
-struct Material {
-    albedo: vec3<f32>, // diffuse albedo or mirror tint
-    kind: u32,
-    emission: vec3<f32>, // radiance of an emitter, W sr^-1 m^-2
-    ior: f32,
-}
-
-const LIGHT_POINT: u32 = 0u;
-const LIGHT_SPHERE: u32 = 1u;
-
-struct Light {
-    position: vec3<f32>, // point position or sphere centre
-    radius: f32,
-    // point: radiant intensity I = P color / (4 pi) (W/sr); sphere: radiance Le = P color / (4 pi^2 r^2)
-    intensity: vec3<f32>,
-    kind: u32,
-    sphere_index: u32, // for sphere lights: the index of its emitter sphere in `spheres`
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
+// scene.wgsl: closest-hit and visibility queries over the scene buffers (scene_data.wgsl), and direct
+// lighting, with the override constants that specialise them.
 
 // --- Specialisation ---------------------------------------------------------------------------------
 // Pipeline-overridable constants, one per feature a scene may or may not use. The generic kernel keeps
@@ -86,12 +20,9 @@ override HAS_SPHERE_LIGHTS: bool = true;
 override HAS_LENS: bool = true; // aperture > 0
 override HAS_ROULETTE: bool = true;
 override HAS_BACKGROUND: bool = true;
-
-@group(0) @binding(0) var<uniform> params: Params;
-@group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
-@group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
-@group(0) @binding(3) var<storage, read> materials: array<Material>;
-@group(0) @binding(4) var<storage, read> lights: array<Light>;
+// Exactly one material kind (counting emitters) / one light kind in the scene: the kind tests go.
+override SINGLE_MATERIAL_KIND: bool = false;
+override SINGLE_LIGHT_KIND: bool = false;
 
 const PRIM_NONE: u32 = 0u;
 const PRIM_SPHERE: u32 = 1u;
@@ -172,6 +103,19 @@ fn triangle_surface(hit: Hit) -> Surface {
     return Surface(sp.p, sp.err, n, tri.material);
 }
 
+// The material index of a hit, without computing the surface point.
+fn hit_material(hit: Hit) -> u32 {
+    if HAS_TRIANGLES {
+        if HAS_SPHERES {
+            if hit.prim_kind == PRIM_SPHERE {
+                return spheres[hit.prim_index].material;
+            }
+        }
+        return triangles[hit.prim_index].material;
+    }
+    return spheres[hit.prim_index].material;
+}
+
 fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
     if HAS_TRIANGLES {
         if HAS_SPHERES {
@@ -196,12 +140,12 @@ fn direct_light(sp: Surface, n: vec3<f32>, rng: ptr<function, Rng>) -> vec3<f32>
     for (var i = 0u; i < params.num_lights; i++) {
         let light = lights[i];
         if HAS_POINT_LIGHTS {
-            if light.kind == LIGHT_POINT {
+            if SINGLE_LIGHT_KIND || light.kind == LIGHT_POINT {
                 e += point_light_irradiance(sp, n, light);
             }
         }
         if HAS_SPHERE_LIGHTS {
-            if light.kind == LIGHT_SPHERE {
+            if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
                 e += sphere_light_irradiance(sp, n, light, rng);
             }
         }

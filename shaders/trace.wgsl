@@ -10,16 +10,6 @@
 // generator against runaway shaders): a loop over samples, each looping over bounces and primitives, would
 // be cut silently. One path per invocation keeps each invocation's loops small and bounded.
 
-struct PassConstants {
-    sample_index: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
-}
-
-@group(0) @binding(5) var<storage, read_write> accum: array<Accum>;
-@group(0) @binding(6) var<uniform> pass_constants: PassConstants;
-
 const FILTER_NONE: u32 = 0u;
 const FILTER_BOX: u32 = 1u;
 const FILTER_GAUSSIAN: u32 = 2u;
@@ -81,8 +71,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
             }
             break;
         }
-        let sp = surface_at(o, d, hit);
-        let mat = materials[sp.material];
+        let mat = materials[hit_material(hit)];
         if HAS_EMITTERS {
             if mat.kind == MAT_EMITTER {
                 if count_emission {
@@ -95,12 +84,13 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
             break;
         }
         bounces += 1u;
+        let sp = surface_at(o, d, hit);
         // Both faces scatter: shade with the normal on the side the ray came from.
         let entering = dot(d, sp.n) < 0.0;
         let n = select(-sp.n, sp.n, entering);
         var wi = vec3<f32>(0.0);
         if HAS_DIFFUSE {
-            if mat.kind == MAT_DIFFUSE {
+            if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
                 // Next-event estimation: f = albedo / pi times sum of Le cos / pdf.
                 radiance += beta * mat.albedo * INV_PI * direct_light(sp, n, &rng);
                 // Continue with a cosine-weighted direction: f cos / pdf = (albedo/pi) cos / (cos/pi) = albedo.
@@ -110,14 +100,14 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
             }
         }
         if HAS_MIRROR {
-            if mat.kind == MAT_MIRROR {
+            if SINGLE_MATERIAL_KIND || mat.kind == MAT_MIRROR {
                 wi = reflect_dir(d, n);
                 beta *= mat.albedo;
                 count_emission = true;
             }
         }
         if HAS_DIELECTRIC {
-            if mat.kind == MAT_DIELECTRIC {
+            if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIELECTRIC {
                 // eta = n_t / n_i: entering goes from the outside (index 1) into the material.
                 let eta = select(1.0 / mat.ior, mat.ior, entering);
                 let f = fresnel_dielectric(-dot(d, n), eta);

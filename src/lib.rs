@@ -18,6 +18,7 @@
 //!
 //! The library never prints; errors are values ([`Error`]).
 
+pub mod bench;
 pub mod film;
 pub mod gpu;
 pub mod render;

@@ -31,9 +31,35 @@ enum Command {
         /// Scene file.
         scene: PathBuf,
     },
+    /// Benchmarks that report measured ratios.
+    #[command(subcommand)]
+    Bench(BenchCommand),
     /// List the Vulkan devices, the one chosen and why, and its limits.
     Info {
         /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Samples/s of each scene with its specialised kernel, the generic kernel and (for diffuse/point-light
+    /// scenes) a hand-trimmed kernel, as a Markdown table.
+    Specialisation {
+        /// Scene files (default: every .toml in ./scenes).
+        scenes: Vec<PathBuf>,
+        #[arg(long, default_value_t = 128)]
+        width: u32,
+        #[arg(long, default_value_t = 128)]
+        height: u32,
+        /// Samples per pixel of each timed pass.
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// Timed passes per kernel (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        runs: u32,
+        /// Print the rows as JSON instead of a table.
         #[arg(long)]
         json: bool,
     },
@@ -276,6 +302,53 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
     Ok(0)
 }
 
+fn run_bench(b: BenchCommand) -> Result<i32, Error> {
+    match b {
+        BenchCommand::Specialisation {
+            scenes,
+            width,
+            height,
+            spp,
+            runs,
+            json,
+        } => {
+            if width == 0 || height == 0 || spp == 0 || runs == 0 {
+                return Err(usage(
+                    "--width, --height, --spp and --runs must be at least 1.",
+                ));
+            }
+            let scenes = if scenes.is_empty() {
+                vkpath::bench::scene_files(std::path::Path::new("scenes"))?
+            } else {
+                scenes
+            };
+            if scenes.is_empty() {
+                return Err(usage("no scene files given and none found in ./scenes."));
+            }
+            let ctx = GpuContext::new(&ContextOptions::default())?;
+            let settings = vkpath::bench::BenchSettings {
+                width,
+                height,
+                spp,
+                runs,
+            };
+            let rows = vkpath::bench::specialisation(&ctx, &scenes, settings)?;
+            if json {
+                println!(
+                    "{}",
+                    serde_json::json!({ "device": ctx.device_info().name, "rows": rows })
+                );
+            } else {
+                print!(
+                    "{}",
+                    vkpath::bench::specialisation_table(&rows, settings, &ctx.device_info().name)
+                );
+            }
+            Ok(0)
+        }
+    }
+}
+
 fn run_info(json: bool) -> Result<i32, Error> {
     let devices = vkpath::gpu::context::list_devices()?;
     let substring = std::env::var("VKPATH_DEVICE")
@@ -343,6 +416,7 @@ fn main() {
             scene.display()
         ))),
         Command::Info { json } => run_info(json),
+        Command::Bench(b) => run_bench(b),
     };
     match result {
         Ok(code) => std::process::exit(code),

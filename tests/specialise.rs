@@ -163,3 +163,26 @@ material = "white"
     let f = features(&with, 3);
     assert!(f.lens && f.background && f.sphere_lights && f.emitters && !f.point_lights);
 }
+
+/// The hand-trimmed kernel (shaders/bench/) that bounds the specialised one in the benchmark follows
+/// trace.wgsl step for step: on a scene of diffuse spheres and point lights it renders the same bits.
+#[test]
+fn trimmed_kernel_renders_the_same_image() {
+    let mut s = vkpath::Scene::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/07-indirect.toml"),
+    )
+    .unwrap();
+    s.image.width = 24;
+    s.image.height = 24;
+    let specialised = render_passes(&s, &RenderOptions::default(), 1, 4);
+    let trimmed_kernel = std::sync::Arc::new(
+        vkpath::gpu::shader::compile(&vkpath::gpu::shader::trimmed_source()).unwrap(),
+    );
+    let ctx = vkpath::gpu::testing::context();
+    let mut r =
+        vkpath::Renderer::with_kernel(&ctx, &s, &RenderOptions::default(), trimmed_kernel).unwrap();
+    r.run_pass(4).unwrap();
+    let trimmed = r.film().unwrap();
+    assert_eq!(specialised.mean, trimmed.mean);
+    assert_no_validation_errors();
+}

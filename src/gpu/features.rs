@@ -25,6 +25,18 @@ pub struct FeatureSet {
 }
 
 impl FeatureSet {
+    /// Exactly one material kind is used (emitters included), so the kernel need not test the kind.
+    pub fn single_material_kind(&self) -> bool {
+        [self.diffuse, self.mirror, self.dielectric, self.emitters].iter().filter(|&&b| b).count() == 1
+    }
+
+    /// Exactly one light kind is present.
+    pub fn single_light_kind(&self) -> bool {
+        self.point_lights != self.sphere_lights
+    }
+}
+
+impl FeatureSet {
     /// Everything on: the one kernel that renders any scene.
     pub fn generic() -> FeatureSet {
         FeatureSet {
@@ -86,6 +98,8 @@ impl FeatureSet {
             ("HAS_LENS", b(self.lens)),
             ("HAS_ROULETTE", b(self.roulette)),
             ("HAS_BACKGROUND", b(self.background)),
+            ("SINGLE_MATERIAL_KIND", b(self.single_material_kind())),
+            ("SINGLE_LIGHT_KIND", b(self.single_light_kind())),
             ("FILTER_FROM_PARAMS", b(self.filter.is_none())),
             ("FILTER_KIND", self.filter.unwrap_or(0) as f64),
         ]

@@ -26,10 +26,27 @@ pub const LIBRARY: &[(&str, &str)] = &[
     ),
 ];
 
-/// Scene buffers (bindings 0–4), scene queries and direct lighting.
+/// The render kernels' data: structs and bindings 0–6.
+pub const SCENE_DATA: (&str, &str) = (
+    "scene_data.wgsl",
+    include_str!("../../shaders/scene_data.wgsl"),
+);
+/// Scene queries and direct lighting, with the specialisation constants.
 pub const SCENE: (&str, &str) = ("scene.wgsl", include_str!("../../shaders/scene.wgsl"));
 /// The path-tracing kernel (binding 5: the accumulator).
 pub const TRACE: (&str, &str) = ("trace.wgsl", include_str!("../../shaders/trace.wgsl"));
+
+/// A kernel written by hand for diffuse spheres and point lights only: the bound that specialisation is
+/// measured against (`vkpath bench specialisation`).
+pub const TRIMMED_DIFFUSE_POINT: (&str, &str) = (
+    "bench/trimmed_diffuse_point.wgsl",
+    include_str!("../../shaders/bench/trimmed_diffuse_point.wgsl"),
+);
+
+/// The full source of the hand-trimmed benchmark kernel.
+pub fn trimmed_source() -> String {
+    compose(&[SCENE_DATA, SCENE, TRIMMED_DIFFUSE_POINT])
+}
 
 /// Concatenates the library with extra modules, marking where each file starts so that naga's error
 /// messages can be traced back to a file.
@@ -45,7 +62,7 @@ pub fn compose(extra: &[(&str, &str)]) -> String {
 
 /// The full source of the production kernel.
 pub fn trace_source() -> String {
-    compose(&[SCENE, TRACE])
+    compose(&[SCENE_DATA, SCENE, TRACE])
 }
 
 /// One resource binding of a compiled shader, reflected from the WGSL.

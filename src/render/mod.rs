@@ -109,6 +109,26 @@ impl Renderer {
         scene: &Scene,
         options: &RenderOptions,
     ) -> Result<Renderer, GpuError> {
+        Renderer::build(ctx, scene, options, None)
+    }
+
+    /// A renderer running a kernel of the caller's (for benchmarks: e.g. a hand-trimmed kernel). It must
+    /// use the bindings of `shaders/scene_data.wgsl`.
+    pub fn with_kernel(
+        ctx: &Arc<GpuContext>,
+        scene: &Scene,
+        options: &RenderOptions,
+        kernel: Arc<CompiledShader>,
+    ) -> Result<Renderer, GpuError> {
+        Renderer::build(ctx, scene, options, Some(kernel))
+    }
+
+    fn build(
+        ctx: &Arc<GpuContext>,
+        scene: &Scene,
+        options: &RenderOptions,
+        custom_kernel: Option<Arc<CompiledShader>>,
+    ) -> Result<Renderer, GpuError> {
         let gpu = GpuScene::build(scene);
         let device = &ctx.device_info().name;
         let iterations = worst_case_loop_iterations(&gpu, scene.render.max_bounces);
@@ -135,7 +155,10 @@ impl Renderer {
         } else {
             FeatureSet::of(&gpu, &params)
         };
-        let compiled = kernel_for(&features)?;
+        let compiled = match custom_kernel {
+            Some(k) => k,
+            None => kernel_for(&features)?,
+        };
         let mut kernel = Kernel::new(ctx, &compiled)?;
         let params_buffer = Buffer::uniform_from(ctx, "params", &params)?;
         // Upload only the arrays the (specialised) kernel still reads: a scene without triangles has no

@@ -1,0 +1,173 @@
+//! Benchmarks that report measured ratios (`vkpath bench ...`). Nothing here asserts a time: the numbers
+//! are printed for the README and for people comparing machines.
+
+use crate::gpu::features::FeatureSet;
+use crate::gpu::{GpuContext, shader};
+use crate::render::{RenderOptions, Renderer};
+use crate::{Error, Scene};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Image size, samples per pixel of each timed pass, and how many timed passes per variant.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub runs: u32,
+}
+
+/// One scene's line of the specialisation benchmark: samples per second of each kernel (median of the
+/// runs), and the specialised/generic ratio.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SpecialisationRow {
+    pub scene: String,
+    pub absent: Vec<&'static str>,
+    pub specialised_samples_per_second: f64,
+    pub generic_samples_per_second: f64,
+    pub ratio: f64,
+    /// For scenes the hand-trimmed kernel can render (diffuse spheres, point lights, pixel centre,
+    /// pinhole, black background): its samples per second, and specialised/trimmed.
+    pub trimmed_samples_per_second: Option<f64>,
+    pub specialised_over_trimmed: Option<f64>,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Whether the hand-trimmed kernel renders this feature set exactly.
+fn trimmed_applies(f: &FeatureSet) -> bool {
+    f.spheres
+        && f.diffuse
+        && f.point_lights
+        && !(f.triangles
+            || f.mirror
+            || f.dielectric
+            || f.emitters
+            || f.sphere_lights
+            || f.lens
+            || f.background)
+        && f.filter == Some(0)
+}
+
+/// Times each scene with its specialised kernel, the generic kernel and (where it applies) the trimmed
+/// kernel. Runs alternate between the kernels so that a slow moment of the machine hits all of them.
+pub fn specialisation(
+    ctx: &Arc<GpuContext>,
+    scenes: &[PathBuf],
+    settings: BenchSettings,
+) -> Result<Vec<SpecialisationRow>, Error> {
+    let trimmed_kernel = Arc::new(shader::compile(&shader::trimmed_source())?);
+    let mut rows = Vec::new();
+    for path in scenes {
+        let mut scene = Scene::load(path)?;
+        scene.image.width = settings.width;
+        scene.image.height = settings.height;
+        let specialised = Renderer::new(ctx, &scene, &RenderOptions::default())?;
+        let features = *specialised.features();
+        let generic = Renderer::new(
+            ctx,
+            &scene,
+            &RenderOptions {
+                generic: true,
+                ..Default::default()
+            },
+        )?;
+        let mut renderers = vec![specialised, generic];
+        if trimmed_applies(&features) {
+            renderers.push(Renderer::with_kernel(
+                ctx,
+                &scene,
+                &RenderOptions::default(),
+                trimmed_kernel.clone(),
+            )?);
+        }
+        let mut times = vec![Vec::new(); renderers.len()];
+        // One untimed pass each: the driver may finish compiling on first use.
+        for r in renderers.iter_mut() {
+            r.run_pass(1)?;
+        }
+        for run in 0..settings.runs {
+            for k in 0..renderers.len() {
+                let i = (k + run as usize) % renderers.len();
+                let r = &mut renderers[i];
+                r.reset()?;
+                let t0 = Instant::now();
+                r.run_pass(settings.spp)?;
+                times[i].push(t0.elapsed().as_secs_f64());
+            }
+        }
+        let samples = settings.width as f64 * settings.height as f64 * settings.spp as f64;
+        let rate: Vec<f64> = times.into_iter().map(|t| samples / median(t)).collect();
+        rows.push(SpecialisationRow {
+            scene: path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            absent: features.absent(),
+            specialised_samples_per_second: rate[0],
+            generic_samples_per_second: rate[1],
+            ratio: rate[0] / rate[1],
+            trimmed_samples_per_second: rate.get(2).copied(),
+            specialised_over_trimmed: rate.get(2).map(|t| rate[0] / t),
+        });
+    }
+    Ok(rows)
+}
+
+/// The scene files of a directory, sorted by name.
+pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
+    let entries = std::fs::read_dir(dir).map_err(|e| Error::Io {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+/// The rows as a Markdown table.
+pub fn specialisation_table(
+    rows: &[SpecialisationRow],
+    settings: BenchSettings,
+    device: &str,
+) -> String {
+    let mut out = format!(
+        "Specialised vs generic kernel, {}x{}, {} spp per timed pass, median of {} runs, on {device}.\n\n\
+         | scene | absent features | specialised Msamples/s | generic Msamples/s | specialised / generic | specialised / hand-trimmed |\n\
+         | --- | --- | ---: | ---: | ---: | ---: |\n",
+        settings.width, settings.height, settings.spp, settings.runs
+    );
+    for r in rows {
+        out.push_str(&format!(
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {} |\n",
+            r.scene,
+            if r.absent.is_empty() {
+                "none".to_string()
+            } else {
+                r.absent.join(", ")
+            },
+            r.specialised_samples_per_second / 1e6,
+            r.generic_samples_per_second / 1e6,
+            r.ratio,
+            r.specialised_over_trimmed
+                .map(|x| format!("{x:.3}"))
+                .unwrap_or_else(|| "".into()),
+        ));
+    }
+    out
+}
