@@ -11,51 +11,15 @@
 //! by <= 2u sqrt(3) rad, plus u for the rounding of sx, sy and 2u for the normalisation: ~8u. We allow
 //! ANGLE_TOL = 16u ~ 9.5e-7 rad (a factor 2).
 
+mod common;
+
+use common::vec::{V3, add, cross, dot, length, normalize, scale, sub, widen};
 use vkpath::gpu::testing;
 
 const KERNEL: &str = include_str!("../shaders/tests/camera_rays.wgsl");
 
 const U: f64 = f32::EPSILON as f64 / 2.0;
 const ANGLE_TOL: f64 = 16.0 * U;
-
-type V3 = [f64; 3];
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn length(a: V3) -> f64 {
-    dot(a, a).sqrt()
-}
-
-fn normalize(a: V3) -> V3 {
-    let l = length(a);
-    a.map(|x| x / l)
-}
-
-fn add(a: V3, b: V3) -> V3 {
-    std::array::from_fn(|k| a[k] + b[k])
-}
-
-fn sub(a: V3, b: V3) -> V3 {
-    std::array::from_fn(|k| a[k] - b[k])
-}
-
-fn scale(a: V3, s: f64) -> V3 {
-    a.map(|x| x * s)
-}
-
-fn widen(a: [f32; 3]) -> V3 {
-    a.map(|x| x as f64)
-}
 
 /// The angle between two directions, accurate for tiny angles (atan2 of |a x b| and a . b).
 fn angle(a: V3, b: V3) -> f64 {

@@ -17,6 +17,9 @@
 //!   max(1, 1/eta) (the size of d / eta before normalisation): Snell's law, unit length and coplanarity
 //!   are checked to 16u max(1, 1/eta).
 
+mod common;
+
+use common::vec::{V3, cross, dot, length, normalize};
 use vkpath::gpu::testing;
 
 const EVAL: &str = include_str!("../shaders/tests/fresnel_eval.wgsl");
@@ -244,29 +247,6 @@ fn sweep_against_reference() {
 
 // ---------------------------------------------------------------------------------------------------
 // Refraction.
-
-type V3 = [f64; 3];
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn length(a: V3) -> f64 {
-    dot(a, a).sqrt()
-}
-
-fn normalize(a: V3) -> V3 {
-    let l = length(a);
-    a.map(|x| x / l)
-}
 
 fn to_f64(a: [f32; 4]) -> V3 {
     [a[0] as f64, a[1] as f64, a[2] as f64]

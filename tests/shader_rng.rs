@@ -12,124 +12,16 @@
 //! how rarely a correct generator would fail for an arbitrary seed. Each test is shown to have power by
 //! a companion negative test that feeds it a slightly wrong distribution and asserts a huge statistic.
 
+mod common;
+
+use common::stats::{Chi2, assert_fits, chi2, chi2_critical, normal_upper_quantile};
 use vkpath::gpu::testing;
 
 const STREAM: &str = include_str!("../shaders/tests/rng_stream.wgsl");
 const BITS: &str = include_str!("../shaders/tests/rng_bits.wgsl");
 
-/// Significance level of every chi-square test.
-const ALPHA: f64 = 1e-4;
-
 // ---------------------------------------------------------------------------------------------------
-// Statistics (the same helpers as tests/shader_sampling.rs; no dependency on a statistics crate).
-
-/// erfc(x), the Chebyshev fit of Numerical Recipes in C, 2nd ed., §6.2 (`erfcc`): fractional error below
-/// 1.2e-7 for every x, far finer than the statistics below need.
-fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let poly = -z * z - 1.265_512_23
-        + t * (1.000_023_68
-            + t * (0.374_091_96
-                + t * (0.096_784_18
-                    + t * (-0.186_288_06
-                        + t * (0.278_868_07
-                            + t * (-1.135_203_98
-                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
-    let r = t * poly.exp();
-    if x >= 0.0 { r } else { 2.0 - r }
-}
-
-/// The z with P(Z > z) = p for a standard normal Z, by bisection on erfc (p < 0.5).
-fn normal_upper_quantile(p: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0f64, 40.0f64);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if 0.5 * erfc(mid / std::f64::consts::SQRT_2) > p {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
-/// The chi-square value exceeded with probability `p` at `dof` degrees of freedom, by the
-/// Wilson–Hilferty approximation (E. B. Wilson and M. M. Hilferty, "The distribution of chi-square",
-/// PNAS 17(12), 1931): (X/k)^(1/3) is nearly normal with mean 1 - 2/(9k) and variance 2/(9k). Its
-/// relative error is below 1% for k >= 10 at these tail probabilities (checked against tables below).
-fn chi2_critical(dof: usize, p: f64) -> f64 {
-    let k = dof as f64;
-    let z = normal_upper_quantile(p);
-    let v = 2.0 / (9.0 * k);
-    k * (1.0 - v + z * v.sqrt()).powi(3)
-}
-
-struct Chi2 {
-    stat: f64,
-    dof: usize,
-    critical: f64,
-}
-
-impl Chi2 {
-    fn passes(&self) -> bool {
-        self.stat <= self.critical
-    }
-}
-
-/// Pearson's chi-square of observed counts against expected counts. Cells expected to hold fewer than 5
-/// are pooled, smallest first, until each pool expects at least 5 (the usual validity rule; pbrt-v3's
-/// `Chi2Test` does the same), so the statistic is close to its chi-square law.
-fn chi2(observed: &[f64], expected: &[f64]) -> Chi2 {
-    assert_eq!(observed.len(), expected.len());
-    let mut cells: Vec<(f64, f64)> = observed
-        .iter()
-        .copied()
-        .zip(expected.iter().copied())
-        .collect();
-    cells.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let mut pooled: Vec<(f64, f64)> = Vec::new();
-    // The open pool: observed, expected, number of cells in it.
-    let mut pool = (0.0, 0.0, 0usize);
-    for (o, e) in cells {
-        if e < 5.0 || pool.2 > 0 {
-            pool = (pool.0 + o, pool.1 + e, pool.2 + 1);
-            if pool.1 >= 5.0 {
-                pooled.push((pool.0, pool.1));
-                pool = (0.0, 0.0, 0);
-            }
-        } else {
-            pooled.push((o, e));
-        }
-    }
-    if pool.2 > 0 {
-        match pooled.last_mut() {
-            Some(last) => {
-                last.0 += pool.0;
-                last.1 += pool.1;
-            }
-            None => pooled.push((pool.0, pool.1)),
-        }
-    }
-    let stat = pooled
-        .iter()
-        .map(|&(o, e)| {
-            if e > 0.0 {
-                (o - e) * (o - e) / e
-            } else if o > 0.0 {
-                f64::INFINITY
-            } else {
-                0.0
-            }
-        })
-        .sum();
-    let dof = pooled.len().saturating_sub(1).max(1);
-    Chi2 {
-        stat,
-        dof,
-        critical: chi2_critical(dof, ALPHA),
-    }
-}
+// Statistics: the chi-square helpers and ALPHA are in tests/common/stats.rs.
 
 /// Pearson's correlation coefficient.
 fn correlation(a: &[f64], b: &[f64]) -> f64 {
@@ -330,17 +222,7 @@ fn uniform_chi_square() {
     for (word, c) in [("x", 0), ("y", 2)] {
         let v: Vec<f64> = out.iter().map(|o| o[c] as f64).collect();
         let t = uniform_chi2(&v, 256);
-        eprintln!(
-            "word {word}: chi2 = {:.1} (critical {:.1}, dof {})",
-            t.stat, t.critical, t.dof
-        );
-        assert!(
-            t.passes(),
-            "word {word}: chi2 {} > {} (dof {})",
-            t.stat,
-            t.critical,
-            t.dof
-        );
+        assert_fits(&format!("word {word}"), &t);
         // Mean and variance of U[0,1): 1/2 and 1/12, within 5 standard errors.
         let n = v.len() as f64;
         let mean = v.iter().sum::<f64>() / n;

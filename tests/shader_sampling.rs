@@ -13,6 +13,10 @@
 //!   A naive f32 `1 - sqrt(1 - r^2/d^2)` (on the CPU) is asserted to fail the same checks: the evidence
 //!   that the cancellation-free form is what makes them pass.
 
+mod common;
+
+use common::stats::{Chi2, assert_fits, assert_rejects, chi2};
+use common::vec::{V3, cross, dot, length, normalize, widen};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 use vkpath::gpu::testing;
@@ -20,123 +24,13 @@ use vkpath::gpu::testing;
 const WARPS: &str = include_str!("../shaders/tests/sampling_warps.wgsl");
 const SPHERE_CONE: &str = include_str!("../shaders/tests/sampling_sphere_cone.wgsl");
 
-/// Significance level of every chi-square test.
-const ALPHA: f64 = 1e-4;
 /// Samples per chi-square test: 1024 cells expecting ~1000 each.
 const N: usize = 1 << 20;
 /// Unit roundoff of f32.
 const U32: f64 = f32::EPSILON as f64 / 2.0;
 
 // ---------------------------------------------------------------------------------------------------
-// Statistics (the same helpers as tests/shader_rng.rs; no dependency on a statistics crate).
-
-/// erfc(x), the Chebyshev fit of Numerical Recipes in C, 2nd ed., §6.2 (`erfcc`): fractional error below
-/// 1.2e-7 for every x, far finer than the statistics below need.
-fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    let poly = -z * z - 1.265_512_23
-        + t * (1.000_023_68
-            + t * (0.374_091_96
-                + t * (0.096_784_18
-                    + t * (-0.186_288_06
-                        + t * (0.278_868_07
-                            + t * (-1.135_203_98
-                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
-    let r = t * poly.exp();
-    if x >= 0.0 { r } else { 2.0 - r }
-}
-
-/// The z with P(Z > z) = p for a standard normal Z, by bisection on erfc (p < 0.5).
-fn normal_upper_quantile(p: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0f64, 40.0f64);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if 0.5 * erfc(mid / std::f64::consts::SQRT_2) > p {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
-}
-
-/// The chi-square value exceeded with probability `p` at `dof` degrees of freedom, by the
-/// Wilson–Hilferty approximation (E. B. Wilson and M. M. Hilferty, "The distribution of chi-square",
-/// PNAS 17(12), 1931): (X/k)^(1/3) is nearly normal with mean 1 - 2/(9k) and variance 2/(9k). Its
-/// relative error is below 1% for k >= 10 at these tail probabilities (checked against tables below).
-fn chi2_critical(dof: usize, p: f64) -> f64 {
-    let k = dof as f64;
-    let z = normal_upper_quantile(p);
-    let v = 2.0 / (9.0 * k);
-    k * (1.0 - v + z * v.sqrt()).powi(3)
-}
-
-struct Chi2 {
-    stat: f64,
-    dof: usize,
-    critical: f64,
-}
-
-impl Chi2 {
-    fn passes(&self) -> bool {
-        self.stat <= self.critical
-    }
-}
-
-/// Pearson's chi-square of observed counts against expected counts. Cells expected to hold fewer than 5
-/// are pooled, smallest first, until each pool expects at least 5 (the usual validity rule; pbrt-v3's
-/// `Chi2Test` does the same), so the statistic is close to its chi-square law.
-fn chi2(observed: &[f64], expected: &[f64]) -> Chi2 {
-    assert_eq!(observed.len(), expected.len());
-    let mut cells: Vec<(f64, f64)> = observed
-        .iter()
-        .copied()
-        .zip(expected.iter().copied())
-        .collect();
-    cells.sort_by(|a, b| a.1.total_cmp(&b.1));
-    let mut pooled: Vec<(f64, f64)> = Vec::new();
-    // The open pool: observed, expected, number of cells in it.
-    let mut pool = (0.0, 0.0, 0usize);
-    for (o, e) in cells {
-        if e < 5.0 || pool.2 > 0 {
-            pool = (pool.0 + o, pool.1 + e, pool.2 + 1);
-            if pool.1 >= 5.0 {
-                pooled.push((pool.0, pool.1));
-                pool = (0.0, 0.0, 0);
-            }
-        } else {
-            pooled.push((o, e));
-        }
-    }
-    if pool.2 > 0 {
-        match pooled.last_mut() {
-            Some(last) => {
-                last.0 += pool.0;
-                last.1 += pool.1;
-            }
-            None => pooled.push((pool.0, pool.1)),
-        }
-    }
-    let stat = pooled
-        .iter()
-        .map(|&(o, e)| {
-            if e > 0.0 {
-                (o - e) * (o - e) / e
-            } else if o > 0.0 {
-                f64::INFINITY
-            } else {
-                0.0
-            }
-        })
-        .sum();
-    let dof = pooled.len().saturating_sub(1).max(1);
-    Chi2 {
-        stat,
-        dof,
-        critical: chi2_critical(dof, ALPHA),
-    }
-}
+// Statistics: the chi-square helpers and ALPHA are in tests/common/stats.rs; binning and quadrature here.
 
 /// Gauss–Legendre nodes and weights on [-1, 1], by Newton's iteration on P_n (Numerical Recipes §4.5,
 /// `gauleg`); exact for polynomials of degree 2n - 1.
@@ -249,65 +143,8 @@ fn by_quadrature(pdf: impl Fn(f64, f64) -> f64) -> impl Fn(f64, f64, f64, f64) -
     move |a0, a1, p0, p1| quad2(&pdf, a0, a1, p0, p1)
 }
 
-/// Asserts that a chi-square test passes and says so.
-fn assert_fits(what: &str, t: &Chi2) {
-    eprintln!(
-        "{what}: chi2 = {:.1} (critical {:.1}, dof {})",
-        t.stat, t.critical, t.dof
-    );
-    assert!(
-        t.passes(),
-        "{what}: chi2 {} > critical {} (dof {}, ALPHA {ALPHA})",
-        t.stat,
-        t.critical,
-        t.dof
-    );
-}
-
-/// Asserts that a chi-square test rejects a wrong hypothesis by far: at least `factor` times the
-/// critical value, where a correct one would sit near its dof.
-fn assert_rejects(what: &str, t: &Chi2, factor: f64) {
-    eprintln!(
-        "{what} (wrong pdf): chi2 = {:.1} (critical {:.1}, dof {})",
-        t.stat, t.critical, t.dof
-    );
-    assert!(
-        t.stat > factor * t.critical,
-        "{what}: chi2 {} is not > {factor} x critical {}",
-        t.stat,
-        t.critical
-    );
-}
-
 // ---------------------------------------------------------------------------------------------------
 // Vectors in f64 and the directions' coordinates.
-
-type V3 = [f64; 3];
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn length(a: V3) -> f64 {
-    dot(a, a).sqrt()
-}
-
-fn normalize(a: V3) -> V3 {
-    let l = length(a);
-    a.map(|x| x / l)
-}
-
-fn to_f64(a: [f32; 3]) -> V3 {
-    a.map(|x| x as f64)
-}
 
 /// A CPU orthonormal basis (t, b) around unit `axis`, independent of the shader's frame: the tests only
 /// rely on the distributions being symmetric about the axis.
@@ -416,7 +253,7 @@ fn cosine_samples(k: usize) -> &'static [[f32; 4]] {
 }
 
 fn cosine_coords(k: usize) -> Vec<(f64, f64)> {
-    let n = normalize(to_f64(COS_NORMALS[k]));
+    let n = normalize(widen(COS_NORMALS[k]));
     let basis = cpu_basis(n);
     cosine_samples(k)
         .iter()
@@ -473,7 +310,7 @@ fn cosine_hemisphere_chi_square_rejects_wrong_pdfs() {
 #[test]
 fn cosine_hemisphere_monte_carlo_and_domain() {
     for (k, &normal) in COS_NORMALS.iter().enumerate() {
-        let n = normalize(to_f64(normal));
+        let n = normalize(widen(normal));
         let s = cosine_samples(k);
         let mut sum = 0.0;
         for o in s {
@@ -505,7 +342,7 @@ fn cosine_hemisphere_extremes() {
     ];
     for n in normals {
         let out = warp_given(Warp::Cosine { n }, &us);
-        let n64 = to_f64(n);
+        let n64 = widen(n);
         for (u, o) in us.iter().zip(&out) {
             let w = xyz(o);
             assert!(w.iter().all(|x| x.is_finite()), "n {n:?} u {u:?}: {w:?}");
@@ -573,7 +410,7 @@ fn cone_samples(k: usize) -> &'static [[f32; 4]] {
 /// The samples in (1 - cos, phi) and the exact f64 1 - cos(theta_max) of the cone.
 fn cone_coords_of(k: usize) -> (Vec<(f64, f64)>, f64) {
     let c = &CONES[k];
-    let axis = normalize(to_f64(c.axis));
+    let axis = normalize(widen(c.axis));
     let basis = cpu_basis(axis);
     let s = cone_samples(k)
         .iter()
@@ -712,7 +549,7 @@ fn sphere_light_irradiance_converges_to_point_light() {
         for d in [1.0f64, 100.0] {
             let (r, d2) = ((ratio * d) as f32, (d * d) as f32);
             let out = warp(Warp::SphereCone { axis: AXIS, r, d2 }, 77, 1 << 16);
-            let axis = normalize(to_f64(AXIS));
+            let axis = normalize(widen(AXIS));
             let vals: Vec<f64> = out
                 .iter()
                 .map(|o| le * dot(xyz(o), axis) * 2.0 * PI * o[3] as f64)
@@ -753,7 +590,7 @@ fn sphere_cone_directions_inside_cone() {
     let us = extreme_us();
     for &ratio in &RATIOS {
         let (r, d2) = (ratio as f32, 1.0f32);
-        let axis = normalize(to_f64(AXIS));
+        let axis = normalize(widen(AXIS));
         let theta_max = ratio.asin();
         let mut out = warp(Warp::SphereCone { axis: AXIS, r, d2 }, 5, 1 << 14);
         out.extend(warp_given(Warp::SphereCone { axis: AXIS, r, d2 }, &us));
@@ -786,7 +623,7 @@ fn sphere_cone_directions_inside_cone() {
 #[test]
 fn cone_limits() {
     let us = extreme_us();
-    let axis = normalize(to_f64(AXIS));
+    let axis = normalize(widen(AXIS));
     for omc in [0.0f32, 1e-30, 1.0, 2.0] {
         let out = warp_given(Warp::Cone { axis: AXIS, omc }, &us);
         for (u, o) in us.iter().zip(&out) {

@@ -27,7 +27,11 @@ pub struct FeatureSet {
 impl FeatureSet {
     /// Exactly one material kind is used (emitters included), so the kernel need not test the kind.
     pub fn single_material_kind(&self) -> bool {
-        [self.diffuse, self.mirror, self.dielectric, self.emitters].iter().filter(|&&b| b).count() == 1
+        [self.diffuse, self.mirror, self.dielectric, self.emitters]
+            .iter()
+            .filter(|&&b| b)
+            .count()
+            == 1
     }
 
     /// Exactly one light kind is present.

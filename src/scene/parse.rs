@@ -157,7 +157,7 @@ struct RawCamera {
 
 /// Integers are read as `i64` (TOML's integer type) so that a negative or huge value gets a message
 /// about its allowed range rather than serde's "expected u32".
-#[derive(Deserialize)]
+#[derive(Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawImage {
     width: Option<Spanned<i64>>,
@@ -166,7 +166,7 @@ struct RawImage {
     gamma: Option<Spanned<RawGamma>>,
 }
 
-#[derive(Deserialize)]
+#[derive(Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawRender {
     samples: Option<Spanned<i64>>,
@@ -361,15 +361,13 @@ impl Checker<'_> {
         let c = raw.get_ref();
         let position = self.vec3(&c.position, "camera.position")?;
         let look_at = self.vec3(&c.look_at, "camera.look_at")?;
-        let fov_deg = self.number(&c.fov, "camera.fov")?;
-        if !(fov_deg > 0.0 && fov_deg < 180.0) {
-            return Err(self.error(
-                c.fov.span(),
-                "camera.fov",
-                format!("the field of view must be strictly between 0 and 180 degrees, got {fov_deg}"),
-                "fov is the horizontal angle across the image width in degrees; 60 is a typical value.",
-            ));
-        }
+        let fov_deg = self.number_unless(
+            &c.fov,
+            "camera.fov",
+            |fov| !(fov > 0.0 && fov < 180.0),
+            "the field of view must be strictly between 0 and 180 degrees",
+            "fov is the horizontal angle across the image width in degrees; 60 is a typical value.",
+        )?;
         if look_at == position {
             return Err(self.error(
                 c.look_at.span(),
@@ -417,32 +415,24 @@ impl Checker<'_> {
             ));
         }
 
-        let aperture = match &c.aperture {
-            Some(a) => self.number(a, "camera.aperture")?,
-            None => 0.0,
-        };
-        if aperture < 0.0 {
-            return Err(self.error(
-                span_of(&c.aperture, raw),
+        let aperture = c.aperture.as_ref().map_or(Ok(0.0), |a| {
+            self.number_unless(
+                a,
                 "camera.aperture",
-                format!("the aperture (lens radius) must be >= 0, got {aperture}"),
+                |a| a < 0.0,
+                "the aperture (lens radius) must be >= 0",
                 "Use 0 for a pinhole camera, or a positive lens radius in scene units for depth of field.",
-            ));
-        }
+            )
+        })?;
 
         let focus_distance = match &c.focus_distance {
-            Some(d) => {
-                let d_value = self.number(d, "camera.focus_distance")?;
-                if d_value <= 0.0 {
-                    return Err(self.error(
-                        d.span(),
-                        "camera.focus_distance",
-                        format!("the focus distance must be > 0, got {d_value}"),
-                        "Give the distance along the view axis to the plane in focus, in scene units, or leave it out to focus on look_at.",
-                    ));
-                }
-                d_value
-            }
+            Some(d) => self.number_unless(
+                d,
+                "camera.focus_distance",
+                |d| d <= 0.0,
+                "the focus distance must be > 0",
+                "Give the distance along the view axis to the plane in focus, in scene units, or leave it out to focus on look_at.",
+            )?,
             None => {
                 // The default, |look_at - position|, can exceed f32's range for extreme coordinates.
                 let d = view_length as f32;
@@ -469,25 +459,18 @@ impl Checker<'_> {
     }
 
     fn image(&self, raw: Option<&RawImage>) -> Result<ImageSettings, SceneError> {
-        let Some(raw) = raw else {
-            return Ok(ImageSettings {
-                width: 512,
-                height: 512,
-                exposure: 1.0,
-                gamma: Gamma::Power(2.2),
-            });
-        };
+        // A missing [image] table is an empty one: every key takes its default below.
+        let empty = RawImage::default();
+        let raw = raw.unwrap_or(&empty);
         const MAX_SIDE: u32 = 65536;
         const MAX_PIXELS: u64 = 1 << 28;
         let side_hint = "Image sides are in pixels, between 1 and 65536.";
-        let width = match &raw.width {
-            Some(w) => self.integer(w, "image.width", 1, MAX_SIDE, side_hint)?,
-            None => 512,
-        };
-        let height = match &raw.height {
-            Some(h) => self.integer(h, "image.height", 1, MAX_SIDE, side_hint)?,
-            None => 512,
-        };
+        let width = raw.width.as_ref().map_or(Ok(512), |w| {
+            self.integer(w, "image.width", 1, MAX_SIDE, side_hint)
+        })?;
+        let height = raw.height.as_ref().map_or(Ok(512), |h| {
+            self.integer(h, "image.height", 1, MAX_SIDE, side_hint)
+        })?;
         let pixels = u64::from(width) * u64::from(height);
         if pixels > MAX_PIXELS {
             // Both defaults are small, so at least one side was given; point at it.
@@ -504,37 +487,26 @@ impl Checker<'_> {
             ));
         }
 
-        let exposure = match &raw.exposure {
-            Some(e) => {
-                let value = self.number(e, "image.exposure")?;
-                if value < 0.0 {
-                    return Err(self.error(
-                        e.span(),
-                        "image.exposure",
-                        format!("the exposure must be >= 0, got {value}"),
-                        "Exposure is a linear multiplier on radiance before the display transform; 1 leaves it unchanged.",
-                    ));
-                }
-                value
-            }
-            None => 1.0,
-        };
+        let exposure = raw.exposure.as_ref().map_or(Ok(1.0), |e| {
+            self.number_unless(
+                e,
+                "image.exposure",
+                |e| e < 0.0,
+                "the exposure must be >= 0",
+                "Exposure is a linear multiplier on radiance before the display transform; 1 leaves it unchanged.",
+            )
+        })?;
 
         let gamma = match &raw.gamma {
             None => Gamma::Power(2.2),
             Some(g) => match g.get_ref() {
-                RawGamma::Number(value) => {
-                    let value = self.number(&Spanned::new(g.span(), *value), "image.gamma")?;
-                    if value <= 0.0 {
-                        return Err(self.error(
-                            g.span(),
-                            "image.gamma",
-                            format!("a numeric gamma must be > 0, got {value}"),
-                            "Use 2.2 (the default) or the string \"srgb\".",
-                        ));
-                    }
-                    Gamma::Power(value)
-                }
+                RawGamma::Number(value) => Gamma::Power(self.number_unless(
+                    &Spanned::new(g.span(), *value),
+                    "image.gamma",
+                    |gamma| gamma <= 0.0,
+                    "a numeric gamma must be > 0",
+                    "Use 2.2 (the default) or the string \"srgb\".",
+                )?),
                 RawGamma::Name(name) if name == "srgb" => Gamma::Srgb,
                 RawGamma::Name(name) => {
                     return Err(self.error(
@@ -556,46 +528,36 @@ impl Checker<'_> {
     }
 
     fn render(&self, raw: Option<&RawRender>) -> Result<RenderSettings, SceneError> {
-        let Some(raw) = raw else {
-            return Ok(RenderSettings {
-                samples: 64,
-                max_bounces: 5,
-                seed: 0,
-                filter: Filter::Gaussian,
-                filter_sigma: 0.5,
-                background: Vec3::ZERO,
-            });
-        };
-        let samples = match &raw.samples {
-            Some(s) => self.integer(
+        // A missing [render] table is an empty one: every key takes its default below.
+        let empty = RawRender::default();
+        let raw = raw.unwrap_or(&empty);
+        let samples = raw.samples.as_ref().map_or(Ok(64), |s| {
+            self.integer(
                 s,
                 "render.samples",
                 1,
                 u32::MAX,
                 "samples is the number of paths per pixel; it must be at least 1.",
-            )?,
-            None => 64,
-        };
-        let max_bounces = match &raw.max_bounces {
-            Some(b) => self.integer(
+            )
+        })?;
+        let max_bounces = raw.max_bounces.as_ref().map_or(Ok(5), |b| {
+            self.integer(
                 b,
                 "render.max_bounces",
                 0,
                 u32::MAX,
                 "max_bounces counts scattering events per path; 0 shows lights and the background only.",
-            )?,
-            None => 5,
-        };
-        let seed = match &raw.seed {
-            Some(s) => self.integer(
+            )
+        })?;
+        let seed = raw.seed.as_ref().map_or(Ok(0), |s| {
+            self.integer(
                 s,
                 "render.seed",
                 0,
                 u32::MAX,
                 "The seed is a 32-bit unsigned integer.",
-            )?,
-            None => 0,
-        };
+            )
+        })?;
         let filter = match &raw.filter {
             None => Filter::Gaussian,
             Some(f) => match f.get_ref().as_str() {
@@ -612,36 +574,24 @@ impl Checker<'_> {
                 }
             },
         };
-        let filter_sigma = match &raw.filter_sigma {
-            Some(s) => {
-                let value = self.number(s, "render.filter_sigma")?;
-                if value <= 0.0 {
-                    return Err(self.error(
-                        s.span(),
-                        "render.filter_sigma",
-                        format!("the filter's standard deviation must be > 0, got {value}"),
-                        "filter_sigma is in pixels; 0.5 is the default. Use filter = \"none\" for no filtering.",
-                    ));
-                }
-                value
-            }
-            None => 0.5,
-        };
-        let background = match &raw.background {
-            Some(b) => {
-                let value = self.vec3(b, "render.background")?;
-                if value.min_element() < 0.0 {
-                    return Err(self.error(
-                        b.span(),
-                        "render.background",
-                        format!("background radiance cannot be negative, got {value}"),
-                        "Give a linear RGB radiance with components >= 0; [0, 0, 0] is black.",
-                    ));
-                }
-                value
-            }
-            None => Vec3::ZERO,
-        };
+        let filter_sigma = raw.filter_sigma.as_ref().map_or(Ok(0.5), |s| {
+            self.number_unless(
+                s,
+                "render.filter_sigma",
+                |sigma| sigma <= 0.0,
+                "the filter's standard deviation must be > 0",
+                "filter_sigma is in pixels; 0.5 is the default. Use filter = \"none\" for no filtering.",
+            )
+        })?;
+        let background = raw.background.as_ref().map_or(Ok(Vec3::ZERO), |b| {
+            self.vec3_unless(
+                b,
+                "render.background",
+                |b| b.min_element() < 0.0,
+                "background radiance cannot be negative",
+                "Give a linear RGB radiance with components >= 0; [0, 0, 0] is black.",
+            )
+        })?;
         Ok(RenderSettings {
             samples,
             max_bounces,
@@ -666,33 +616,25 @@ impl Checker<'_> {
                     &key("albedo"),
                     "a diffuse material needs an albedo",
                 )?;
-                let value = self.vec3(albedo, &key("albedo"))?;
-                if !in_unit_range(value) {
-                    return Err(self.error(
-                        albedo.span(),
-                        &key("albedo"),
-                        format!("every albedo component must be in [0, 1], got {value}"),
-                        "Albedo is the fraction of light reflected per channel; energy conservation needs it in [0, 1].",
-                    ));
-                }
-                (&["albedo"], Material::Diffuse { albedo: value })
+                let albedo = self.vec3_unless(
+                    albedo,
+                    &key("albedo"),
+                    |a| !in_unit_range(a),
+                    "every albedo component must be in [0, 1]",
+                    "Albedo is the fraction of light reflected per channel; energy conservation needs it in [0, 1].",
+                )?;
+                (&["albedo"], Material::Diffuse { albedo })
             }
             "mirror" => {
-                let tint = match &m.tint {
-                    Some(t) => {
-                        let value = self.vec3(t, &key("tint"))?;
-                        if !in_unit_range(value) {
-                            return Err(self.error(
-                                t.span(),
-                                &key("tint"),
-                                format!("every tint component must be in [0, 1], got {value}"),
-                                "The tint scales reflected light per channel; leave it out for a perfect white mirror.",
-                            ));
-                        }
-                        value
-                    }
-                    None => Vec3::ONE,
-                };
+                let tint = m.tint.as_ref().map_or(Ok(Vec3::ONE), |t| {
+                    self.vec3_unless(
+                        t,
+                        &key("tint"),
+                        |t| !in_unit_range(t),
+                        "every tint component must be in [0, 1]",
+                        "The tint scales reflected light per channel; leave it out for a perfect white mirror.",
+                    )
+                })?;
                 (&["tint"], Material::Mirror { tint })
             }
             "dielectric" => {
@@ -702,16 +644,14 @@ impl Checker<'_> {
                     &key("ior"),
                     "a dielectric material needs an ior",
                 )?;
-                let value = self.number(ior, &key("ior"))?;
-                if value <= 0.0 {
-                    return Err(self.error(
-                        ior.span(),
-                        &key("ior"),
-                        format!("the index of refraction must be > 0, got {value}"),
-                        "Glass is about 1.5, water 1.33; the outside medium has ior 1.",
-                    ));
-                }
-                (&["ior"], Material::Dielectric { ior: value })
+                let ior = self.number_unless(
+                    ior,
+                    &key("ior"),
+                    |ior| ior <= 0.0,
+                    "the index of refraction must be > 0",
+                    "Glass is about 1.5, water 1.33; the outside medium has ior 1.",
+                )?;
+                (&["ior"], Material::Dielectric { ior })
             }
             other => {
                 return Err(self.error(
@@ -776,30 +716,22 @@ impl Checker<'_> {
     fn light(&self, i: usize, raw: &Spanned<RawLight>) -> Result<Light, SceneError> {
         let l = raw.get_ref();
         let key = |field: &str| format!("light[{i}].{field}");
-        let power = self.number(&l.power, &key("power"))?;
-        if power <= 0.0 {
-            return Err(self.error(
-                l.power.span(),
-                &key("power"),
-                format!("a light's power must be > 0, got {power}"),
-                "power is the light's total emitted flux in watts; remove the light rather than giving it no power.",
-            ));
-        }
-        let color = match &l.color {
-            Some(c) => {
-                let value = self.vec3(c, &key("color"))?;
-                if value.min_element() < 0.0 {
-                    return Err(self.error(
-                        c.span(),
-                        &key("color"),
-                        format!("light color components cannot be negative, got {value}"),
-                        "color multiplies power per channel; use components >= 0 ([1, 1, 1] is white).",
-                    ));
-                }
-                value
-            }
-            None => Vec3::ONE,
-        };
+        let power = self.number_unless(
+            &l.power,
+            &key("power"),
+            |p| p <= 0.0,
+            "a light's power must be > 0",
+            "power is the light's total emitted flux in watts; remove the light rather than giving it no power.",
+        )?;
+        let color = l.color.as_ref().map_or(Ok(Vec3::ONE), |c| {
+            self.vec3_unless(
+                c,
+                &key("color"),
+                |c| c.min_element() < 0.0,
+                "light color components cannot be negative",
+                "color multiplies power per channel; use components >= 0 ([1, 1, 1] is white).",
+            )
+        })?;
         let kind = l.kind.get_ref().as_str();
         let (allowed, light): (&[&str], _) = match kind {
             "point" => {
@@ -945,16 +877,56 @@ impl Checker<'_> {
     }
 
     fn positive_radius(&self, v: &Spanned<f32>, key: &str, what: &str) -> Result<f32, SceneError> {
-        let radius = self.number(v, key)?;
-        if radius <= 0.0 {
-            return Err(self.error(
-                v.span(),
-                key,
-                format!("the radius must be > 0, got {radius}"),
-                format!("Give every {what} a positive radius in scene units."),
-            ));
+        self.number_unless(
+            v,
+            key,
+            |r| r <= 0.0,
+            "the radius must be > 0",
+            &format!("Give every {what} a positive radius in scene units."),
+        )
+    }
+
+    /// A finite number that `bad` does not reject (see [`Checker::reject_if`]).
+    fn number_unless(
+        &self,
+        v: &Spanned<f32>,
+        key: &str,
+        bad: impl FnOnce(f32) -> bool,
+        problem: &str,
+        hint: &str,
+    ) -> Result<f32, SceneError> {
+        let value = self.number(v, key)?;
+        self.reject_if(v, key, value, bad, problem, hint)
+    }
+
+    /// Three finite numbers that `bad` does not reject (see [`Checker::reject_if`]).
+    fn vec3_unless(
+        &self,
+        v: &Spanned<RawVec3>,
+        key: &str,
+        bad: impl FnOnce(Vec3) -> bool,
+        problem: &str,
+        hint: &str,
+    ) -> Result<Vec3, SceneError> {
+        let value = self.vec3(v, key)?;
+        self.reject_if(v, key, value, bad, problem, hint)
+    }
+
+    /// `value`, read from `v`, unless `bad(value)`: then an error at `v` saying `{problem}, got {value}`.
+    fn reject_if<T: Copy + fmt::Display, S>(
+        &self,
+        v: &Spanned<S>,
+        key: &str,
+        value: T,
+        bad: impl FnOnce(T) -> bool,
+        problem: &str,
+        hint: &str,
+    ) -> Result<T, SceneError> {
+        if bad(value) {
+            Err(self.error(v.span(), key, format!("{problem}, got {value}"), hint))
+        } else {
+            Ok(value)
         }
-        Ok(radius)
     }
 
     /// A key that serde treats as optional because only some `type`s need it. Reported like serde's
@@ -1121,11 +1093,6 @@ impl Checker<'_> {
             SEE_CONTRACT,
         )
     }
-}
-
-/// The span of an optional value, or of its table when the value was left out.
-fn span_of<T, U>(value: &Option<Spanned<T>>, table: &Spanned<U>) -> Range<usize> {
-    value.as_ref().map_or_else(|| table.span(), Spanned::span)
 }
 
 fn in_unit_range(v: Vec3) -> bool {

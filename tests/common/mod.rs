@@ -2,6 +2,9 @@
 //! (Khronos validation on) and check that the validation layer stayed silent.
 #![allow(dead_code)]
 
+pub mod stats;
+pub mod vec;
+
 use vkpath::gpu::testing;
 use vkpath::render::{RenderOptions, Renderer};
 use vkpath::{Film, Scene};
