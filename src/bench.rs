@@ -93,23 +93,7 @@ pub fn specialisation(
                 trimmed_kernel.clone(),
             )?);
         }
-        let mut times = vec![Vec::new(); renderers.len()];
-        // One untimed pass each: the driver may finish compiling on first use.
-        for r in renderers.iter_mut() {
-            r.run_pass(1)?;
-        }
-        for run in 0..settings.runs {
-            for k in 0..renderers.len() {
-                let i = (k + run as usize) % renderers.len();
-                let r = &mut renderers[i];
-                r.reset()?;
-                let t0 = Instant::now();
-                r.run_pass(settings.spp)?;
-                times[i].push(t0.elapsed().as_secs_f64());
-            }
-        }
-        let samples = settings.width as f64 * settings.height as f64 * settings.spp as f64;
-        let rate: Vec<f64> = times.into_iter().map(|t| samples / median(t)).collect();
+        let rate = time_renderers(&mut renderers, settings)?;
         rows.push(SpecialisationRow {
             scene: path
                 .file_name()
@@ -124,6 +108,97 @@ pub fn specialisation(
         });
     }
     Ok(rows)
+}
+
+/// One line of the ablation: the cost of putting one absent feature's code back into a scene's kernel.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AblationRow {
+    pub scene: String,
+    pub feature: &'static str,
+    /// samples/s of the specialised kernel divided by samples/s with this feature's code added back.
+    pub gain: f64,
+}
+
+/// For each scene and each feature its specialised kernel leaves out, times the specialised kernel
+/// against the same kernel with that one feature switched back on (its code present, never used):
+/// the speed-up each absence buys.
+pub fn ablation(
+    ctx: &Arc<GpuContext>,
+    scenes: &[PathBuf],
+    settings: BenchSettings,
+) -> Result<Vec<AblationRow>, Error> {
+    let mut rows = Vec::new();
+    for path in scenes {
+        let mut scene = Scene::load(path)?;
+        scene.image.width = settings.width;
+        scene.image.height = settings.height;
+        let base = Renderer::new(ctx, &scene, &RenderOptions::default())?;
+        let features = *base.features();
+        let mut variants = vec![base];
+        let mut names = Vec::new();
+        for name in features.absent() {
+            let mut with = features;
+            with.enable(name);
+            let kernel = crate::render::kernel_for(&with)?;
+            variants.push(Renderer::with_kernel(
+                ctx,
+                &scene,
+                &RenderOptions::default(),
+                kernel,
+            )?);
+            names.push(name);
+        }
+        let rate = time_renderers(&mut variants, settings)?;
+        for (i, name) in names.into_iter().enumerate() {
+            rows.push(AblationRow {
+                scene: path
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+                feature: name,
+                gain: rate[0] / rate[i + 1],
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// Median samples/s of each renderer over `settings.runs` timed passes, interleaved.
+fn time_renderers(renderers: &mut [Renderer], settings: BenchSettings) -> Result<Vec<f64>, Error> {
+    let mut times = vec![Vec::new(); renderers.len()];
+    // One untimed pass each: the driver may finish compiling on first use.
+    for r in renderers.iter_mut() {
+        r.run_pass(1)?;
+    }
+    for run in 0..settings.runs {
+        for k in 0..renderers.len() {
+            // Rotate the order each run so that a slow moment of the machine hits every variant alike.
+            let i = (k + run as usize) % renderers.len();
+            let r = &mut renderers[i];
+            r.reset()?;
+            let t0 = Instant::now();
+            r.run_pass(settings.spp)?;
+            times[i].push(t0.elapsed().as_secs_f64());
+        }
+    }
+    let samples = settings.width as f64 * settings.height as f64 * settings.spp as f64;
+    Ok(times.into_iter().map(|t| samples / median(t)).collect())
+}
+
+/// The ablation as a Markdown table.
+pub fn ablation_table(rows: &[AblationRow], settings: BenchSettings, device: &str) -> String {
+    let mut out = format!(
+        "Speed-up bought by each absent feature (specialised kernel vs the same with that feature's code put back), \
+         {}x{}, {} spp per timed pass, median of {} runs, on {device}.\n\n| scene | feature | gain |\n| --- | --- | ---: |\n",
+        settings.width, settings.height, settings.spp, settings.runs
+    );
+    for r in rows {
+        out.push_str(&format!(
+            "| {} | {} | {:.3} |\n",
+            r.scene, r.feature, r.gain
+        ));
+    }
+    out
 }
 
 /// The scene files of a directory, sorted by name.

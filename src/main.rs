@@ -62,6 +62,9 @@ enum BenchCommand {
         /// Print the rows as JSON instead of a table.
         #[arg(long)]
         json: bool,
+        /// Instead, measure what each absent feature's absence gains (one kernel per feature put back).
+        #[arg(long)]
+        ablation: bool,
     },
 }
 
@@ -311,6 +314,7 @@ fn run_bench(b: BenchCommand) -> Result<i32, Error> {
             spp,
             runs,
             json,
+            ablation,
         } => {
             if width == 0 || height == 0 || spp == 0 || runs == 0 {
                 return Err(usage(
@@ -332,6 +336,16 @@ fn run_bench(b: BenchCommand) -> Result<i32, Error> {
                 spp,
                 runs,
             };
+            let device = &ctx.device_info().name;
+            if ablation {
+                let rows = vkpath::bench::ablation(&ctx, &scenes, settings)?;
+                if json {
+                    println!("{}", serde_json::json!({ "device": device, "rows": rows }));
+                } else {
+                    print!("{}", vkpath::bench::ablation_table(&rows, settings, device));
+                }
+                return Ok(0);
+            }
             let rows = vkpath::bench::specialisation(&ctx, &scenes, settings)?;
             if json {
                 println!(

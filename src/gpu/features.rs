@@ -109,6 +109,24 @@ impl FeatureSet {
         ]
     }
 
+    /// Switches the feature named as in [`FeatureSet::absent`] on (its code back in the kernel).
+    pub fn enable(&mut self, name: &str) {
+        match name {
+            "spheres" => self.spheres = true,
+            "triangles" => self.triangles = true,
+            "diffuse" => self.diffuse = true,
+            "mirror" => self.mirror = true,
+            "dielectric" => self.dielectric = true,
+            "emitters" => self.emitters = true,
+            "point_lights" => self.point_lights = true,
+            "sphere_lights" => self.sphere_lights = true,
+            "lens" => self.lens = true,
+            "roulette" => self.roulette = true,
+            "background" => self.background = true,
+            _ => {}
+        }
+    }
+
     /// The features this set leaves out, by name (for reports).
     pub fn absent(&self) -> Vec<&'static str> {
         let flags = [
