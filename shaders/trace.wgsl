@@ -2,8 +2,8 @@
 // pixel, added to the pixel's running sums. A pass of k samples is k dispatches in one command buffer, each
 // preceded by an update of `pass_constants.sample_index`, so the sums see the samples in index order
 // whatever the split into passes: N passes of k samples give the same bits as one pass of N k.
-// (Push constants would be the natural carrier, but the Khronos validation layer shipped with Debian 12,
-// 1.3.239, crashes in vkCmdPushConstants with naga's SPIR-V; a 16-byte buffer update costs the same.)
+// (A push constant would do as well; a 16-byte vkCmdUpdateBuffer costs the same and keeps every input of
+// the kernel a buffer binding.)
 //
 // Why not loop over the pass's samples inside one invocation? Mesa's lavapipe (llvmpipe) ends every loop
 // of an invocation once the invocation has run 65535 loop iterations in total (a guard in its code

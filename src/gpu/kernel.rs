@@ -10,7 +10,6 @@ pub struct Kernel {
     ctx: Arc<GpuContext>,
     bindings: Vec<BindingInfo>,
     workgroup_size: [u32; 3],
-    immediate_size: u32,
     set_layout: vk::DescriptorSetLayout,
     pipeline_layout: vk::PipelineLayout,
     pipeline: vk::Pipeline,
@@ -28,7 +27,6 @@ impl Kernel {
             ctx: ctx.clone(),
             bindings: shader.bindings.clone(),
             workgroup_size: shader.workgroup_size,
-            immediate_size: shader.immediate_size,
             set_layout: vk::DescriptorSetLayout::null(),
             pipeline_layout: vk::PipelineLayout::null(),
             pipeline: vk::Pipeline::null(),
@@ -193,22 +191,11 @@ impl Kernel {
     pub fn submit(&mut self, commands: &[Command<'_>]) -> Result<(), GpuError> {
         let max = self.ctx.limits.max_compute_work_group_count;
         for c in commands {
-            if let Command::Dispatch {
-                invocations,
-                immediates,
-            } = c
-            {
+            if let Command::Dispatch { invocations } = c {
                 let groups = self.groups(*invocations);
                 if groups.iter().zip(max.iter()).any(|(g, m)| g > m) {
                     return Err(GpuError::Usage(format!(
                         "dispatch of {groups:?} workgroups exceeds the device limit {max:?}"
-                    )));
-                }
-                if immediates.len() as u32 != self.immediate_size {
-                    return Err(GpuError::Usage(format!(
-                        "the kernel takes {} bytes of immediates, {} given",
-                        self.immediate_size,
-                        immediates.len()
                     )));
                 }
             }
@@ -257,20 +244,8 @@ impl Kernel {
                     );
                 }
                 match c {
-                    Command::Dispatch {
-                        invocations,
-                        immediates,
-                    } => {
+                    Command::Dispatch { invocations } => {
                         let groups = self.groups(*invocations);
-                        if !immediates.is_empty() {
-                            device.cmd_push_constants(
-                                cb,
-                                self.pipeline_layout,
-                                vk::ShaderStageFlags::COMPUTE,
-                                0,
-                                immediates,
-                            );
-                        }
                         if groups.iter().all(|&g| g > 0) {
                             device.cmd_dispatch(cb, groups[0], groups[1], groups[2]);
                         }
@@ -337,11 +312,8 @@ impl Kernel {
 
 /// One step of a [`Kernel::submit`].
 pub enum Command<'a> {
-    /// Run the kernel over `invocations` (x, y, z), with these bytes as its immediates (push constants).
-    Dispatch {
-        invocations: [u32; 3],
-        immediates: &'a [u8],
-    },
+    /// Run the kernel over `invocations` (x, y, z).
+    Dispatch { invocations: [u32; 3] },
     /// Write up to 64 KiB of bytes at the start of a buffer (created with TRANSFER_DST usage), in order
     /// with the other commands.
     Update(&'a Buffer, &'a [u8]),

@@ -80,8 +80,6 @@ pub struct CompiledShader {
     pub spirv: Vec<u32>,
     pub bindings: Vec<BindingInfo>,
     pub workgroup_size: [u32; 3],
-    /// Size in bytes of the `var<immediate>` block (push constants), 0 if the shader has none.
-    pub immediate_size: u32,
 }
 
 /// Parses, validates and translates WGSL with one compute entry point `main`, its `override` constants
@@ -93,7 +91,7 @@ pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
 fn validate(module: &naga::Module) -> Result<naga::valid::ModuleInfo, GpuError> {
     naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::IMMEDIATES,
+        naga::valid::Capabilities::empty(),
     )
     .validate(module)
     .map_err(|e| GpuError::Shader(format!("{:?}", e.into_inner())))
@@ -142,12 +140,7 @@ pub fn compile_with(source: &str, constants: &[(&str, f64)]) -> Result<CompiledS
     let spirv = naga::back::spv::write_vec(&module, &info, &options, Some(&pipeline))
         .map_err(|e| GpuError::Shader(e.to_string()))?;
     let mut bindings = Vec::new();
-    let mut immediate_size = 0;
     for (_, var) in module.global_variables.iter() {
-        if var.space == naga::AddressSpace::Immediate {
-            immediate_size = module.types[var.ty].inner.size(module.to_ctx());
-            continue;
-        }
         let Some(rb) = &var.binding else { continue };
         if rb.group != 0 {
             return Err(GpuError::Shader(format!(
@@ -177,7 +170,6 @@ pub fn compile_with(source: &str, constants: &[(&str, f64)]) -> Result<CompiledS
         spirv,
         bindings,
         workgroup_size,
-        immediate_size,
     })
 }
 

@@ -85,7 +85,6 @@ impl TestKernel {
         self.kernel.bind(&[(0, &input_buffer), (1, &output)])?;
         self.kernel.submit(&[Command::Dispatch {
             invocations: [output_len as u32, 1, 1],
-            immediates: &[],
         }])?;
         let bytes = &output.read_bytes()?[..out_bytes as usize];
         Ok(bytemuck::pod_collect_to_vec(bytes))

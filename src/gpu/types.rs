@@ -35,7 +35,8 @@ pub struct GpuParams {
     pub _pad0: u32,
 }
 
-/// The per-dispatch immediate (push constant) of trace.wgsl: which sample this dispatch traces.
+/// Mirrors `PassConstants` in scene_data.wgsl: which sample the next dispatch traces (updated in the
+/// command buffer before each dispatch).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuPassConstants {

@@ -251,7 +251,6 @@ impl Renderer {
                         Command::Update(&self.pass_constants, bytemuck::bytes_of(c)),
                         Command::Dispatch {
                             invocations,
-                            immediates: &[],
                         },
                     ]
                 })
