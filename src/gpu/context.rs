@@ -79,6 +79,7 @@ pub struct GpuContext {
     pub(crate) queue_family: u32,
     pub(crate) allocator: Mutex<Option<Allocator>>,
     pub(crate) limits: vk::PhysicalDeviceLimits,
+    pub(crate) pipeline_cache: vk::PipelineCache,
     info: DeviceInfo,
     reason: String,
 }
@@ -355,6 +356,11 @@ impl GpuContext {
             }
         };
         let limits = unsafe { instance.get_physical_device_properties(physical) }.limits;
+        // One pipeline cache for the context: renderers of the same feature set (same SPIR-V) reuse the
+        // driver's compiled pipeline instead of compiling it again. A failure just means no cache.
+        let pipeline_cache =
+            unsafe { device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
+                .unwrap_or(vk::PipelineCache::null());
         Ok(Arc::new(GpuContext {
             _entry: entry,
             instance,
@@ -364,6 +370,7 @@ impl GpuContext {
             queue_family,
             allocator: Mutex::new(Some(allocator)),
             limits,
+            pipeline_cache,
             info: infos[index].clone(),
             reason,
         }))
@@ -405,6 +412,8 @@ impl Drop for GpuContext {
             let _ = self.device.device_wait_idle();
             // The allocator frees its memory blocks: it must go before the device.
             self.allocator().take();
+            self.device
+                .destroy_pipeline_cache(self.pipeline_cache, None);
             self.device.destroy_device(None);
             if let Some((loader, m, _)) = &self.debug {
                 loader.destroy_debug_utils_messenger(*m, None);

@@ -76,8 +76,7 @@ impl Kernel {
             let info = vk::ComputePipelineCreateInfo::default()
                 .stage(stage)
                 .layout(k.pipeline_layout);
-            let pipelines =
-                device.create_compute_pipelines(vk::PipelineCache::null(), &[info], None);
+            let pipelines = device.create_compute_pipelines(ctx.pipeline_cache, &[info], None);
             device.destroy_shader_module(module, None);
             k.pipeline =
                 pipelines.map_err(|(_, e)| GpuError::vk("vkCreateComputePipelines", e))?[0];
