@@ -150,6 +150,17 @@ fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, 
     if !(t > t_min && t < t_max) {
         return miss;
     }
+    // A ray that starts exactly in the triangle's plane does not hit it: t is 0 in exact arithmetic but
+    // comes out of the sheared edge functions as rounding noise of either sign. This happens on
+    // axis-aligned meshes at exact coordinates (a floor at y = 0): the spawned origin's error bound
+    // along the normal is 0 there (its coordinate is exact), so offset_ray_origin leaves it in the plane,
+    // and the ray would re-hit its own surface or a coplanar neighbour. The world-space test is exact in
+    // that case ((v0 - o) . ng is 0 exactly), and can reject only origins within rounding of the plane,
+    // whose t is noise anyway. (pbrt-v4 instead bounds t's rounding error, §6.8.7; that bound also
+    // rejects close hits on large triangles, which tests/shader_intersect.rs shows to be accurate.)
+    if dot(ng, v0 - o) == 0.0 {
+        return miss;
+    }
     return TriangleHit(t, vec3<f32>(e0, e1, e2) / det);
 }
 

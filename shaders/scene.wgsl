@@ -11,6 +11,15 @@
 // the same bits.
 override HAS_SPHERES: bool = true;
 override HAS_TRIANGLES: bool = true;
+// Triangles are found through the BVH (bvh.wgsl) when the scene has one (more than 16 triangles: the
+// host uploads no nodes for fewer, and the generic kernel then finds `bvh_nodes` empty); otherwise by a
+// loop over every triangle, which is also the reference the BVH is tested and benchmarked against.
+override HAS_BVH: bool = true;
+override HAS_TRIANGLE_LOOP: bool = true;
+// Meshes: interpolated vertex normals, albedo textures, and either (the per-triangle shading data).
+override HAS_SMOOTH_NORMALS: bool = true;
+override HAS_TEXTURES: bool = true;
+override HAS_MESH_SHADING: bool = true;
 override HAS_DIFFUSE: bool = true;
 override HAS_MIRROR: bool = true;
 override HAS_DIELECTRIC: bool = true;
@@ -48,7 +57,17 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
             }
         }
     }
-    if HAS_TRIANGLES {
+    // Spheres first: a hit on one (a wall of the course's box, say) shortens the ray the BVH then walks.
+    if HAS_BVH {
+        if arrayLength(&bvh_nodes) > 0u {
+            let th = bvh_intersect(o, d, hit.t, false);
+            if th.prim_kind != PRIM_NONE {
+                hit = th;
+            }
+            return hit;
+        }
+    }
+    if HAS_TRIANGLE_LOOP {
         for (var i = 0u; i < params.num_triangles; i++) {
             let tri = triangles[i];
             let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
@@ -70,7 +89,12 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
             }
         }
     }
-    if HAS_TRIANGLES {
+    if HAS_BVH {
+        if arrayLength(&bvh_nodes) > 0u {
+            return bvh_intersect(o, d, t_max, true).prim_kind != PRIM_NONE;
+        }
+    }
+    if HAS_TRIANGLE_LOOP {
         for (var i = 0u; i < params.num_triangles; i++) {
             let tri = triangles[i];
             if intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, t_max).t < t_max {
@@ -82,25 +106,71 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
 }
 
 // Surface data at a hit: position with its error bound, geometric normal (outward for spheres,
-// (v1 - v0) x (v2 - v0) for triangles), material index.
+// (v1 - v0) x (v2 - v0) for triangles), material index; for meshes, the shading normal and the texture's
+// albedo.
 struct Surface {
     p: vec3<f32>,
     err: vec3<f32>,
     n: vec3<f32>,
     material: u32,
+    // The shading normal, on the same side as n: the interpolated vertex normal when `shading_normal`, else n.
+    ns: vec3<f32>,
+    shading_normal: bool,
+    // The texture's albedo at the hit, when `textured`: it replaces the material's albedo (or tint).
+    albedo: vec3<f32>,
+    textured: bool,
 }
 
 fn sphere_surface(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
     let s = spheres[hit.prim_index];
     let sp = sphere_surface_point(o, d, hit.t, s.center, s.radius);
-    return Surface(sp.p, sp.err, normalize(sp.p - s.center), s.material);
+    let n = normalize(sp.p - s.center);
+    return Surface(sp.p, sp.err, n, s.material, n, false, vec3<f32>(0.0), false);
+}
+
+fn mesh_normal(v: MeshVertex) -> vec3<f32> {
+    return vec3<f32>(v.nx, v.ny, v.nz);
 }
 
 fn triangle_surface(hit: Hit) -> Surface {
     let tri = triangles[hit.prim_index];
     let sp = triangle_surface_point(tri.v0, tri.v1, tri.v2, hit.b);
     let n = normalize(cross(tri.v1 - tri.v0, tri.v2 - tri.v0));
-    return Surface(sp.p, sp.err, n, tri.material);
+    var s = Surface(sp.p, sp.err, n, tri.material, n, false, vec3<f32>(0.0), false);
+    if HAS_MESH_SHADING {
+        let face = mesh_faces[hit.prim_index];
+        if face.mesh != NO_MESH {
+            let mesh = meshes[face.mesh];
+            let v0 = mesh_vertices[face.vertices.x];
+            let v1 = mesh_vertices[face.vertices.y];
+            let v2 = mesh_vertices[face.vertices.z];
+            let b = hit.b;
+            if HAS_SMOOTH_NORMALS {
+                if (mesh.flags & MESH_SMOOTH) != 0u {
+                    // Phong normal interpolation: the barycentric mix of the vertex normals, renormalised.
+                    // Shared vertices give both triangles of an edge the same normal along it, so shading
+                    // is continuous across edges. A mix that vanishes (opposed or missing normals) keeps
+                    // the geometric normal.
+                    let ns = b.x * mesh_normal(v0) + b.y * mesh_normal(v1) + b.z * mesh_normal(v2);
+                    let len2 = dot(ns, ns);
+                    if len2 > 1.0e-12 {
+                        let unit = ns * inverseSqrt(len2);
+                        s.ns = select(-unit, unit, dot(unit, n) >= 0.0);
+                        s.shading_normal = true;
+                    }
+                }
+            }
+            if HAS_TEXTURES {
+                if (mesh.flags & MESH_TEXTURED) != 0u {
+                    let uv = b.x * vec2<f32>(v0.u, v0.v) + b.y * vec2<f32>(v1.u, v1.v)
+                           + b.z * vec2<f32>(v2.u, v2.v);
+                    s.albedo = texture_bilinear(mesh, uv);
+                    s.textured = true;
+                }
+            }
+        }
+    }
+    return s;
 }
 
 // The material index of a hit, without computing the surface point.
@@ -135,30 +205,46 @@ fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
 //  * Sphere light: sample a direction uniformly in the cone the sphere subtends (pdf 1/(2 pi (1-cos_max)));
 //    the estimate Le cos(theta) / pdf is unbiased for the irradiance from the sphere, light-side cosine
 //    included (the cone measure already accounts for it), and converges to the point light as r -> 0.
-fn direct_light(sp: Surface, n: vec3<f32>, rng: ptr<function, Rng>) -> vec3<f32> {
+//
+// n is the facing geometric normal and ns the facing shading normal (the same vector except on smooth
+// meshes). With shading normals, a light counts only when it is above the geometric surface too (a
+// shadow ray towards a light below it would start on the far side), and its cosine is the shading one.
+fn direct_light(sp: Surface, n: vec3<f32>, ns: vec3<f32>, rng: ptr<function, Rng>) -> vec3<f32> {
     var e = vec3<f32>(0.0);
     for (var i = 0u; i < params.num_lights; i++) {
         let light = lights[i];
         if HAS_POINT_LIGHTS {
             if SINGLE_LIGHT_KIND || light.kind == LIGHT_POINT {
-                e += point_light_irradiance(sp, n, light);
+                e += point_light_irradiance(sp, n, ns, light);
             }
         }
         if HAS_SPHERE_LIGHTS {
             if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
-                e += sphere_light_irradiance(sp, n, light, rng);
+                e += sphere_light_irradiance(sp, n, ns, light, rng);
             }
         }
     }
     return e;
 }
 
-fn point_light_irradiance(sp: Surface, n: vec3<f32>, light: Light) -> vec3<f32> {
+// The cosine factor of direct light arriving along wi: dot(n, wi), or with a shading normal dot(ns, wi)
+// provided the light is above the geometric surface.
+fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 {
+    var cos_theta = dot(n, wi);
+    if HAS_SMOOTH_NORMALS {
+        if sp.shading_normal && cos_theta > 0.0 {
+            cos_theta = dot(ns, wi);
+        }
+    }
+    return cos_theta;
+}
+
+fn point_light_irradiance(sp: Surface, n: vec3<f32>, ns: vec3<f32>, light: Light) -> vec3<f32> {
     let to_light = light.position - sp.p;
     let dist2 = dot(to_light, to_light);
     let dist = sqrt(dist2);
     let wi = to_light / dist;
-    let cos_theta = dot(n, wi);
+    let cos_theta = light_cosine(sp, n, ns, wi);
     if cos_theta <= 0.0 || dist2 == 0.0 {
         return vec3<f32>(0.0);
     }
@@ -170,7 +256,7 @@ fn point_light_irradiance(sp: Surface, n: vec3<f32>, light: Light) -> vec3<f32> 
     return light.intensity * cos_theta / dist2;
 }
 
-fn sphere_light_irradiance(sp: Surface, n: vec3<f32>, light: Light, rng: ptr<function, Rng>) -> vec3<f32> {
+fn sphere_light_irradiance(sp: Surface, n: vec3<f32>, ns: vec3<f32>, light: Light, rng: ptr<function, Rng>) -> vec3<f32> {
     let u = rng_next2(rng);
     let to_center = light.position - sp.p;
     let d2 = dot(to_center, to_center);
@@ -179,7 +265,7 @@ fn sphere_light_irradiance(sp: Surface, n: vec3<f32>, light: Light, rng: ptr<fun
     }
     let omc = sphere_cone_one_minus_cos(light.radius, d2);
     let wi = sample_cone(to_center / sqrt(d2), omc, u);
-    let cos_theta = dot(n, wi);
+    let cos_theta = light_cosine(sp, n, ns, wi);
     if cos_theta <= 0.0 {
         return vec3<f32>(0.0);
     }

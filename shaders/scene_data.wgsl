@@ -68,18 +68,72 @@ struct Light {
     _pad2: u32,
 }
 
+// Triangle meshes (see src/scene/bvh.rs and src/gpu/scene.rs). An interior BVH node holds the boxes of its
+// two children; a child reference is a node index, or a leaf (BVH_LEAF set, see bvh.wgsl).
+struct BvhNode {
+    lo_a: vec3<f32>,
+    child_a: u32,
+    hi_a: vec3<f32>,
+    child_b: u32,
+    lo_b: vec3<f32>,
+    _pad0: u32,
+    hi_b: vec3<f32>,
+    _pad1: u32,
+}
+
+const NO_MESH: u32 = 0xffffffffu;
+const MESH_SMOOTH: u32 = 1u;
+const MESH_TEXTURED: u32 = 2u;
+
+// Shading data of triangle i (same index as `triangles`): its three vertices in `mesh_vertices` and its
+// mesh in `meshes`, or mesh == NO_MESH for a triangle without (flat and untextured).
+struct MeshFace {
+    vertices: vec3<u32>,
+    mesh: u32,
+}
+
+// A shading normal (unit, world space; zero means "use the geometric normal") and texture coordinates.
+struct MeshVertex {
+    nx: f32,
+    ny: f32,
+    nz: f32,
+    u: f32,
+    v: f32,
+}
+
+struct MeshInfo {
+    texture_offset: u32, // first texel in `texels`
+    texture_width: u32,
+    texture_height: u32,
+    flags: u32, // MESH_SMOOTH | MESH_TEXTURED
+}
+
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
 @group(0) @binding(3) var<storage, read> materials: array<Material>;
 @group(0) @binding(4) var<storage, read> lights: array<Light>;
+@group(0) @binding(7) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(8) var<storage, read> mesh_faces: array<MeshFace>;
+@group(0) @binding(9) var<storage, read> mesh_vertices: array<MeshVertex>;
+@group(0) @binding(10) var<storage, read> meshes: array<MeshInfo>;
+// Every texture's texels, RGBA8 with sRGB-encoded colour (r in the low byte), rows from the top.
+@group(0) @binding(11) var<storage, read> texels: array<u32>;
 
-// The render target: per-pixel running sums, and which sample the current dispatch traces.
+// The render target: per-pixel running sums, and which sample the current dispatch traces over which
+// pixels. An image too large for one buffer or one dispatch is cut (src/render/mod.rs, "Tiles"): each
+// strip of whole rows has its own accumulator, whose entry 0 is pixel `accum_base` (row-major over the
+// whole image), and each dispatch covers one tile of a strip, the pixels from (tile_x0, tile_y0)
+// (included) to (tile_x1, tile_y1) (excluded). Untiled, that is the whole image and accum_base = 0.
 struct PassConstants {
     sample_index: u32,
+    accum_base: u32,
+    tile_x0: u32,
+    tile_y0: u32,
+    tile_x1: u32,
+    tile_y1: u32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 @group(0) @binding(5) var<storage, read_write> accum: array<Accum>;

@@ -88,21 +88,38 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         // Both faces scatter: shade with the normal on the side the ray came from.
         let entering = dot(d, sp.n) < 0.0;
         let n = select(-sp.n, sp.n, entering);
+        // Smooth meshes scatter about their interpolated normal ns (on the same side as n); everything
+        // else about n. A direction chosen about ns can still point below the geometric surface near a
+        // silhouette; such a path ends there (absorbed), rather than leaking through the mesh. That
+        // loses a little energy at grazing angles, the usual price of shading normals (pbrt-v4 §10.1).
+        var ns = n;
+        if HAS_SMOOTH_NORMALS {
+            ns = select(-sp.ns, sp.ns, entering);
+        }
+        // A texture replaces the material's albedo (diffuse) or tint (mirror).
+        var albedo = mat.albedo;
+        if HAS_TEXTURES {
+            if sp.textured {
+                albedo = sp.albedo;
+            }
+        }
         var wi = vec3<f32>(0.0);
+        // Whether wi must leave on the side the ray came from (reflection) rather than cross (refraction).
+        var reflected = true;
         if HAS_DIFFUSE {
             if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
                 // Next-event estimation: f = albedo / pi times sum of Le cos / pdf.
-                radiance += beta * mat.albedo * INV_PI * direct_light(sp, n, &rng);
+                radiance += beta * albedo * INV_PI * direct_light(sp, n, ns, &rng);
                 // Continue with a cosine-weighted direction: f cos / pdf = (albedo/pi) cos / (cos/pi) = albedo.
-                wi = sample_cosine_hemisphere(n, rng_next2(&rng));
-                beta *= mat.albedo;
+                wi = sample_cosine_hemisphere(ns, rng_next2(&rng));
+                beta *= albedo;
                 count_emission = false;
             }
         }
         if HAS_MIRROR {
             if SINGLE_MATERIAL_KIND || mat.kind == MAT_MIRROR {
-                wi = reflect_dir(d, n);
-                beta *= mat.albedo;
+                wi = reflect_dir(d, ns);
+                beta *= albedo;
                 count_emission = true;
             }
         }
@@ -110,16 +127,22 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
             if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIELECTRIC {
                 // eta = n_t / n_i: entering goes from the outside (index 1) into the material.
                 let eta = select(1.0 / mat.ior, mat.ior, entering);
-                let f = fresnel_dielectric(-dot(d, n), eta);
+                let f = fresnel_dielectric(-dot(d, ns), eta);
                 // Choose reflection with probability F, refraction with 1 - F: the weights F/F and
                 // (1-F)/(1-F) cancel, so beta is unchanged (radiance scaling by eta^2 is not applied:
                 // it cancels along any path that enters and leaves the same medium).
                 if rng_next(&rng) < f {
-                    wi = reflect_dir(d, n);
+                    wi = reflect_dir(d, ns);
                 } else {
-                    wi = refract_dir(d, n, eta);
+                    wi = refract_dir(d, ns, eta);
+                    reflected = false;
                 }
                 count_emission = true;
+            }
+        }
+        if HAS_SMOOTH_NORMALS {
+            if sp.shading_normal && (dot(wi, n) > 0.0) != reflected {
+                break;
             }
         }
         o = offset_ray_origin(sp.p, sp.err, n, wi);
@@ -140,10 +163,14 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if gid.x >= params.width || gid.y >= params.height {
+    // The dispatch covers one tile (see PassConstants); the pixel, and so its random numbers, do not
+    // depend on the tiling.
+    let pc = pass_constants;
+    let px = gid.xy + vec2<u32>(pc.tile_x0, pc.tile_y0);
+    if px.x >= pc.tile_x1 || px.y >= pc.tile_y1 || px.x >= params.width || px.y >= params.height {
         return;
     }
-    let pixel = gid.y * params.width + gid.x;
-    let radiance = trace_path(gid.xy, pass_constants.sample_index);
-    accum[pixel] = accumulate_sample(accum[pixel], radiance, params.guard_one);
+    let slot = px.y * params.width + px.x - pc.accum_base;
+    let radiance = trace_path(px, pass_constants.sample_index);
+    accum[slot] = accumulate_sample(accum[slot], radiance, params.guard_one);
 }

@@ -19,6 +19,8 @@
 //! The library never prints; errors are values ([`Error`]).
 
 pub mod bench;
+pub mod bench_mesh;
+pub mod checkpoint;
 pub mod film;
 pub mod gpu;
 pub mod render;
@@ -45,13 +47,17 @@ pub enum Error {
     /// Bad flags or arguments.
     #[error("{0}")]
     Usage(String),
+    /// A checkpoint or partial render that cannot be used: unreadable, damaged, or of another render.
+    /// The message says which and what to do.
+    #[error("{}: {message}", path.display())]
+    Checkpoint { path: PathBuf, message: String },
 }
 
 impl Error {
     /// The CLI's exit status: 2 for bad input (scene, flags), 1 for everything else.
     pub fn exit_code(&self) -> i32 {
         match self {
-            Error::Scene(_) | Error::Usage(_) => 2,
+            Error::Scene(_) | Error::Usage(_) | Error::Checkpoint { .. } => 2,
             Error::Gpu(_) | Error::Io { .. } => 1,
         }
     }

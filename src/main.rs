@@ -7,8 +7,11 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
+use vkpath::checkpoint::Checkpoint;
 use vkpath::gpu::{ContextOptions, GpuContext};
-use vkpath::render::{Budget, RenderOptions, Renderer, StopReason, render_progressive};
+use vkpath::render::{
+    Budget, Fault, RenderOptions, Renderer, SaveEvery, StopReason, render_progressive,
+};
 use vkpath::{Error, Scene};
 
 #[derive(Parser)]
@@ -25,12 +28,14 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (the embedded course scene when none is given) to PNG/EXR.
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Open a window and watch the render converge (not supported yet).
     Preview {
         /// Scene file.
         scene: PathBuf,
     },
+    /// Combine partial renders (checkpoints of disjoint --sample-range's) into the image of their union.
+    Merge(MergeArgs),
     /// Benchmarks that report measured ratios.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -114,6 +119,46 @@ struct RenderArgs {
     /// Run the one all-features kernel instead of the kernel specialised for this scene.
     #[arg(long)]
     generic: bool,
+    /// Save the accumulation state to this file (atomically) every --checkpoint-every, and when the
+    /// render ends or is interrupted (Ctrl-C, SIGTERM).
+    #[arg(long)]
+    checkpoint: Option<PathBuf>,
+    /// How often to save the checkpoint: N samples per pixel, or a duration such as 30s, 10m, 1h.
+    /// Default: 60s.
+    #[arg(long = "checkpoint-every")]
+    checkpoint_every: Option<String>,
+    /// Go on from a checkpoint of this render (same scene, flags and vkpath version), to the same bits
+    /// as a render that never stopped. New checkpoints go to this file unless --checkpoint names another.
+    #[arg(long)]
+    resume: Option<PathBuf>,
+    /// Render only the sample indices A..B (A included, B excluded) of every pixel: a partial render,
+    /// to be combined with `vkpath merge` (save it with --checkpoint).
+    #[arg(long = "sample-range")]
+    sample_range: Option<String>,
+    /// Cut the image into tiles of at most WxH pixels (one dispatch each) and strips of at most H rows
+    /// (one accumulator buffer each), instead of the adaptive cut. The image is the same.
+    #[arg(long)]
+    tile: Option<String>,
+    /// Target duration of one dispatch in milliseconds (default 100): tiles adapt so that a dispatch
+    /// stays well under a desktop GPU's watchdog. The image is the same.
+    #[arg(long = "dispatch-ms", allow_negative_numbers = true)]
+    dispatch_ms: Option<f64>,
+}
+
+#[derive(Args)]
+struct MergeArgs {
+    /// Partial renders: checkpoint files written by `vkpath render --sample-range A..B --checkpoint FILE`.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// Output image; repeatable; .png or .exr.
+    #[arg(short = 'o', long = "output")]
+    outputs: Vec<PathBuf>,
+    /// Also write the merged state as a checkpoint (to merge further, or resume with more samples).
+    #[arg(long)]
+    checkpoint: Option<PathBuf>,
+    /// Print one JSON object on stdout when done.
+    #[arg(long)]
+    json: bool,
 }
 
 fn usage(msg: impl Into<String>) -> Error {
@@ -170,7 +215,132 @@ fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
             })?,
         };
     }
+    if let Some(t) = &a.tile {
+        let bad = || {
+            usage(format!(
+                "--tile takes WxH, a tile's width and height in pixels (each at least 1), e.g. 256x256, not \"{t}\"."
+            ))
+        };
+        let (w, h) = t.split_once(['x', 'X']).ok_or_else(bad)?;
+        let w: u32 = w.trim().parse().map_err(|_| bad())?;
+        let h: u32 = h.trim().parse().map_err(|_| bad())?;
+        if w == 0 || h == 0 {
+            return Err(bad());
+        }
+        o.max_tile = Some([w, h]);
+    }
+    if let Some(ms) = a.dispatch_ms {
+        if !(ms.is_finite() && ms > 0.0) {
+            return Err(usage(format!(
+                "--dispatch-ms must be a positive number of milliseconds, not {ms}."
+            )));
+        }
+        o.target_dispatch_seconds = ms / 1000.0;
+    }
+    // A test hook: simulate a device fault (docs/reliability.md).
+    if let Some(f) = std::env::var("VKPATH_FAULT").ok().filter(|v| !v.is_empty()) {
+        o.fault = Some(Fault::parse(&f).ok_or_else(|| {
+            usage(format!(
+                "VKPATH_FAULT={f} is not a fault to simulate: use device-lost@N, out-of-memory or shader, or unset it."
+            ))
+        })?);
+    }
     Ok(o)
+}
+
+/// What is on disk when a render fails part-way, for the error message: the last checkpoint and the
+/// last image written, with their sample counts.
+#[derive(Default)]
+struct Saved {
+    checkpoint: Option<(PathBuf, u32)>,
+    image: Option<(PathBuf, u32)>,
+}
+
+impl Saved {
+    /// One sentence per file still on disk, to append to the error's paragraph.
+    fn hint(&self) -> String {
+        let mut s = String::new();
+        if let Some((p, n)) = &self.checkpoint {
+            s.push_str(&format!(
+                " The last checkpoint, {} ({n} samples per pixel), is intact: go on with --resume {}.",
+                p.display(),
+                p.display()
+            ));
+        }
+        if let Some((p, n)) = &self.image {
+            s.push_str(&format!(
+                " The last progress image, {} ({n} samples per pixel), is intact.",
+                p.display()
+            ));
+        }
+        s
+    }
+}
+
+/// `--checkpoint-every`: `N` samples per pixel, or a duration `Ns`, `Nm`, `Nh`.
+fn parse_save_every(text: &str) -> Result<SaveEvery, Error> {
+    let bad = || {
+        usage(format!(
+            "--checkpoint-every takes a number of samples per pixel (e.g. 64) or a duration (e.g. 30s, 10m, 1h), not \"{text}\"."
+        ))
+    };
+    let t = text.trim();
+    let (number, unit) = match t.char_indices().last() {
+        Some((i, 's')) => (&t[..i], 1.0),
+        Some((i, 'm')) => (&t[..i], 60.0),
+        Some((i, 'h')) => (&t[..i], 3600.0),
+        _ => {
+            let n: u32 = t.parse().map_err(|_| bad())?;
+            if n == 0 {
+                return Err(bad());
+            }
+            return Ok(SaveEvery::Samples(n));
+        }
+    };
+    let v: f64 = number.trim().parse().map_err(|_| bad())?;
+    let seconds = v * unit;
+    if !(seconds.is_finite() && seconds > 0.0 && seconds < 1e9) {
+        return Err(bad());
+    }
+    Ok(SaveEvery::Time(Duration::from_secs_f64(seconds)))
+}
+
+/// `--sample-range A..B`: the half-open range of sample indices [A, B), A < B.
+fn parse_sample_range(text: &str) -> Result<[u32; 2], Error> {
+    let bad = |why: &str| {
+        usage(format!(
+            "--sample-range takes A..B, the sample indices from A (included) to B (excluded) with 0 <= A < B < 2^32, e.g. 0..64; \"{text}\" {why}."
+        ))
+    };
+    let (a, b) = text.split_once("..").ok_or_else(|| bad("has no \"..\""))?;
+    let a: u32 = a
+        .trim()
+        .parse()
+        .map_err(|_| bad("does not start with a number"))?;
+    let b: u32 = b
+        .trim()
+        .parse()
+        .map_err(|_| bad("does not end with a number"))?;
+    if a >= b {
+        return Err(bad("is empty"));
+    }
+    Ok([a, b])
+}
+
+/// Ctrl-C, SIGTERM and SIGHUP end the render after the pass in flight (the outputs and the checkpoint are
+/// then written); a second one exits at once (every file on disk is still whole: they are written
+/// atomically).
+fn install_stop_handler() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    // If a handler cannot be installed (e.g. one already exists in an embedding), a signal just kills us.
+    let _ = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            eprintln!("vkpath: interrupted twice; exiting now without writing.");
+            std::process::exit(130);
+        }
+    });
+    stop
 }
 
 fn run_render(a: RenderArgs) -> Result<i32, Error> {
@@ -191,6 +361,28 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
     if a.progress_every == Some(0) {
         return Err(usage("--progress-every must be at least 1."));
     }
+    let range = a
+        .sample_range
+        .as_deref()
+        .map(parse_sample_range)
+        .transpose()?;
+    if range.is_some() && a.spp.is_some() {
+        return Err(usage(
+            "--spp and --sample-range both set the samples to render; give one of them.",
+        ));
+    }
+    // Checkpoints go to --checkpoint, or back into the file resumed from.
+    let checkpoint_path = a.checkpoint.clone().or_else(|| a.resume.clone());
+    let save_every = match (&a.checkpoint_every, &checkpoint_path) {
+        (Some(_), None) => {
+            return Err(usage(
+                "--checkpoint-every needs --checkpoint FILE (or --resume FILE) to say where to save.",
+            ));
+        }
+        (Some(text), Some(_)) => Some(parse_save_every(text)?),
+        (None, Some(_)) => Some(SaveEvery::Time(Duration::from_secs(60))),
+        (None, None) => None,
+    };
     let mut scene = match &a.scene {
         Some(path) => Scene::load(path)?,
         None => Scene::default_scene(),
@@ -210,51 +402,129 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
             )));
         }
     }
+    // A damaged or foreign file is refused before any device work.
+    let resumed = a
+        .resume
+        .as_deref()
+        .map(|p| Checkpoint::read(p).map(|c| (p.to_path_buf(), c)))
+        .transpose()?;
 
-    // Ctrl-C ends the render after the pass in flight; the outputs are then written.
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        // If a handler cannot be installed (e.g. one already exists in an embedding), Ctrl-C just kills us.
-        let _ = ctrlc::set_handler(move || stop.store(true, Ordering::SeqCst));
-    }
-
+    let stop = install_stop_handler();
     let ctx = GpuContext::new(&ContextOptions::default())?;
     let mut renderer = Renderer::new(&ctx, &scene, &options)?;
+    // The samples this run must end with: B - A of a range, else the scene's (or --spp's) count.
+    let target_spp = match range {
+        Some([a0, b0]) => b0 - a0,
+        None => scene.render.samples,
+    };
+    match (&resumed, range) {
+        (Some((path, c)), range) => {
+            c.check_identity(path, &renderer.identity())?;
+            // A partial render goes on only within its own range (else other samples would be rendered).
+            let held = vkpath::checkpoint::show_ranges(&c.header.ranges);
+            let first = c.header.ranges.first().map_or(0, |r| r[0]);
+            let refusal = match range {
+                Some([a0, b0])
+                    if c.header.ranges.len() != 1 || first != a0 || c.next_sample() > b0 =>
+                {
+                    Some(format!(
+                        "this checkpoint holds the samples {held}, which is not the start of --sample-range {a0}..{b0}. Resume it with the --sample-range it was made with."
+                    ))
+                }
+                None if first != 0 => Some(format!(
+                    "this is a partial render of the samples {held}: resume it with its --sample-range {first}..B, or combine it with the other parts with `vkpath merge`."
+                )),
+                _ => None,
+            };
+            if let Some(message) = refusal {
+                return Err(Error::Checkpoint {
+                    path: path.clone(),
+                    message,
+                });
+            }
+            renderer.restore(&c.header.ranges, &c.accum)?;
+            if !a.quiet {
+                let device = &ctx.device_info().name;
+                if &c.header.device != device {
+                    eprintln!(
+                        "vkpath: warning: the checkpoint was computed on {}, this render runs on {device}; the image is a valid estimate, but bit-for-bit equality with an uninterrupted render is promised only on the same device.",
+                        c.header.device
+                    );
+                }
+            }
+        }
+        (None, Some([a0, _])) => renderer.start_at(a0)?,
+        (None, None) => {}
+    }
+    let resumed_samples = renderer.samples_done();
+    drop(resumed);
+
     let budget = Budget {
-        spp: scene.render.samples,
+        spp: target_spp,
         time: budget_time,
-        checkpoint_every: a.progress_every,
+        progress_every: a.progress_every,
+        save_every,
     };
     let bar = if !a.quiet && std::io::stderr().is_terminal() {
-        let bar = indicatif::ProgressBar::new(scene.render.samples as u64);
+        let bar = indicatif::ProgressBar::new(target_spp as u64);
         bar.set_style(
             indicatif::ProgressStyle::with_template(
                 "{elapsed_precise} [{bar:40}] {pos}/{len} spp ({per_sec}, eta {eta})",
             )
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
         );
+        bar.set_position(resumed_samples as u64);
         Some(bar)
     } else {
         None
     };
-    let (reason, elapsed) =
-        render_progressive(&mut renderer, &options, &budget, &stop, |r, report| {
-            if let Some(bar) = &bar {
-                bar.set_position(report.samples_done as u64);
+    // What is on disk, for the message if the render fails part-way (a lost device).
+    let saved = std::cell::RefCell::new(Saved::default());
+    if let (Some(p), true, None) = (&checkpoint_path, resumed_samples > 0, &a.checkpoint) {
+        saved.borrow_mut().checkpoint = Some((p.clone(), resumed_samples));
+    }
+    let save_checkpoint = |r: &mut Renderer| -> Result<(), Error> {
+        if let Some(path) = &checkpoint_path {
+            Checkpoint::of(r, &scene)?.write(path)?;
+            saved.borrow_mut().checkpoint = Some((path.clone(), r.samples_done()));
+        }
+        Ok(())
+    };
+    let fail = |e: Error| -> Result<i32, Error> {
+        if let Some(bar) = &bar {
+            bar.abandon();
+        }
+        eprintln!("vkpath: error: {e}{}", saved.borrow().hint());
+        Ok(e.exit_code())
+    };
+    let rendered = render_progressive(&mut renderer, &options, &budget, &stop, |r, report| {
+        if let Some(bar) = &bar {
+            bar.set_position(report.samples_done as u64);
+        }
+        let ending = report.samples_done >= budget.spp;
+        if report.progress && !ending {
+            let film = r.film()?;
+            for o in &outputs {
+                film.write(o, &scene.image)?;
+                saved.borrow_mut().image = Some((o.clone(), film.spp));
             }
-            if report.checkpoint && report.samples_done < budget.spp {
-                let film = r.film()?;
-                for o in &outputs {
-                    film.write(o, &scene.image)?;
-                }
-            }
-            Ok(())
-        })?;
+        }
+        if report.save_state && !ending {
+            save_checkpoint(r)?;
+        }
+        Ok(())
+    });
+    let (reason, elapsed) = match rendered {
+        Ok(v) => v,
+        Err(e) => return fail(e),
+    };
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
-    let film = renderer.film()?;
+    let film = match renderer.film() {
+        Ok(f) => f,
+        Err(e) => return fail(e.into()),
+    };
     if film.spp == 0 {
         eprintln!("vkpath: interrupted before the first pass ended; no image was written.");
         return Ok(1);
@@ -262,15 +532,25 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
     for o in &outputs {
         film.write(o, &scene.image)?;
     }
+    save_checkpoint(&mut renderer)?;
     if reason == StopReason::Interrupted && !a.quiet {
         eprintln!(
-            "vkpath: interrupted; wrote the image with {} samples per pixel.",
-            film.spp
+            "vkpath: interrupted; wrote the image with {} samples per pixel{}.",
+            film.spp,
+            match &checkpoint_path {
+                Some(p) => format!(
+                    " and the checkpoint {} (go on with --resume {})",
+                    p.display(),
+                    p.display()
+                ),
+                None => String::new(),
+            }
         );
     }
     let validation_errors = ctx.validation_errors();
     let seconds = elapsed.as_secs_f64();
-    let samples = scene.image.width as f64 * scene.image.height as f64 * film.spp as f64;
+    let traced = film.spp - resumed_samples;
+    let samples = scene.image.width as f64 * scene.image.height as f64 * traced as f64;
     if a.json {
         let rel = film.estimated_rel_error();
         let json = serde_json::json!({
@@ -287,8 +567,13 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
             "stop_reason": reason,
             "outputs": outputs.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
             "validation_errors": validation_errors.len(),
-            "kernel": if renderer.features() == &vkpath::gpu::features::FeatureSet::generic() { "generic" } else { "specialised" },
+            "kernel": vkpath::checkpoint::kernel_name(renderer.features()),
             "features_absent": renderer.features().absent(),
+            "sample_ranges": renderer.ranges(),
+            "strips": renderer.tile_layout().strips.len(),
+            "tiles_per_sample": renderer.tiles_per_sample(),
+            "resumed_spp": resumed_samples,
+            "checkpoint": checkpoint_path.as_ref().map(|p| p.display().to_string()),
         });
         println!("{json}");
     }
@@ -301,6 +586,53 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
             validation_errors.len()
         );
         return Ok(1);
+    }
+    Ok(0)
+}
+
+fn run_merge(m: MergeArgs) -> Result<i32, Error> {
+    if m.outputs.is_empty() && m.checkpoint.is_none() {
+        return Err(usage(
+            "vkpath merge needs somewhere to write: -o OUT.png / -o OUT.exr and/or --checkpoint FILE.",
+        ));
+    }
+    for o in &m.outputs {
+        if vkpath::film::OutputFormat::from_path(o).is_none() {
+            return Err(usage(format!(
+                "cannot tell the image format of output {}: use a .png or .exr extension.",
+                o.display()
+            )));
+        }
+    }
+    let mut parts = Vec::with_capacity(m.parts.len());
+    for p in &m.parts {
+        parts.push((p.clone(), Checkpoint::read(p)?));
+    }
+    let merged = vkpath::checkpoint::merge(&parts)?;
+    drop(parts);
+    let film = merged.film();
+    let settings = merged.image_settings();
+    for o in &m.outputs {
+        film.write(o, &settings)?;
+    }
+    if let Some(path) = &m.checkpoint {
+        merged.write(path)?;
+    }
+    if m.json {
+        let rel = film.estimated_rel_error();
+        let json = serde_json::json!({
+            "scene": merged.header.scene,
+            "width": film.width,
+            "height": film.height,
+            "spp": film.spp,
+            "parts": m.parts.len(),
+            "sample_ranges": merged.header.ranges,
+            "estimated_rel_error": if rel.is_finite() { serde_json::json!(rel) } else { serde_json::Value::Null },
+            "device": merged.header.device,
+            "outputs": m.outputs.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+            "checkpoint": m.checkpoint.as_ref().map(|p| p.display().to_string()),
+        });
+        println!("{json}");
     }
     Ok(0)
 }
@@ -424,12 +756,13 @@ fn main() {
         }
     };
     let result = match cli.command {
-        Command::Render(a) => run_render(a),
+        Command::Render(a) => run_render(*a),
         Command::Preview { scene } => Err(usage(format!(
             "`vkpath preview {}`: the windowed preview is not supported yet in this version of vkpath; use `vkpath render --progress-every N` and watch the output file.",
             scene.display()
         ))),
         Command::Info { json } => run_info(json),
+        Command::Merge(m) => run_merge(m),
         Command::Bench(b) => run_bench(b),
     };
     match result {

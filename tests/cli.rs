@@ -717,9 +717,9 @@ fn scene_error_look_at_equals_position() {
 }
 
 #[test]
-fn scene_error_mesh_not_supported() {
+fn scene_error_mesh_obj_missing() {
     let text = format!("{BASE}{SPHERE}[[mesh]]\nobj = \"bunny.obj\"\nmaterial = \"white\"\n");
-    expect_scene_error(&text, 12, "mesh");
+    expect_scene_error(&text, 13, "mesh[0].obj");
 }
 
 // ---------------------------------------------------------------------------------------------------

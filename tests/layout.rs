@@ -455,7 +455,15 @@ fn pass_constants_match_wgsl() {
         "PassConstants",
         "GpuPassConstants",
         size_of::<GpuPassConstants>(),
-        fields!(GpuPassConstants: sample_index, _pad),
+        fields!(
+            GpuPassConstants: sample_index,
+            accum_base,
+            tile_x0,
+            tile_y0,
+            tile_x1,
+            tile_y1,
+            _pad
+        ),
     );
     let (_, var) = module
         .global_variables
@@ -464,4 +472,95 @@ fn pass_constants_match_wgsl() {
         .expect("the kernel takes its sample index in `pass_constants`");
     assert_eq!(var.space, naga::AddressSpace::Uniform);
     assert_eq!(module.types[var.ty].name.as_deref(), Some("PassConstants"));
+}
+
+// ----- meshes and the BVH (src/gpu/types.rs, shaders/scene_data.wgsl, shaders/bvh.wgsl) -----
+
+#[test]
+fn mesh_structs_match_wgsl() {
+    use vkpath::gpu::types::{GpuBvhNode, GpuMeshFace, GpuMeshInfo, GpuMeshVertex};
+    let module = kernel();
+    check_struct(
+        &module,
+        "BvhNode",
+        "GpuBvhNode",
+        size_of::<GpuBvhNode>(),
+        fields!(GpuBvhNode: lo_a, child_a, hi_a, child_b, lo_b, _pad0, hi_b, _pad1),
+    );
+    check_storage_array(
+        &module,
+        "bvh_nodes",
+        "BvhNode",
+        "GpuBvhNode",
+        size_of::<GpuBvhNode>(),
+    );
+    check_struct(
+        &module,
+        "MeshFace",
+        "GpuMeshFace",
+        size_of::<GpuMeshFace>(),
+        fields!(GpuMeshFace: vertices, mesh),
+    );
+    check_storage_array(
+        &module,
+        "mesh_faces",
+        "MeshFace",
+        "GpuMeshFace",
+        size_of::<GpuMeshFace>(),
+    );
+    check_struct(
+        &module,
+        "MeshVertex",
+        "GpuMeshVertex",
+        size_of::<GpuMeshVertex>(),
+        fields!(GpuMeshVertex: nx, ny, nz, u, v),
+    );
+    check_storage_array(
+        &module,
+        "mesh_vertices",
+        "MeshVertex",
+        "GpuMeshVertex",
+        size_of::<GpuMeshVertex>(),
+    );
+    check_struct(
+        &module,
+        "MeshInfo",
+        "GpuMeshInfo",
+        size_of::<GpuMeshInfo>(),
+        fields!(GpuMeshInfo: texture_offset, texture_width, texture_height, flags),
+    );
+    check_storage_array(
+        &module,
+        "meshes",
+        "MeshInfo",
+        "GpuMeshInfo",
+        size_of::<GpuMeshInfo>(),
+    );
+}
+
+/// The BVH's encoding and limits, and the mesh flags, as the host writes them and the shader reads them.
+#[test]
+fn bvh_and_mesh_constants_match_wgsl() {
+    use vkpath::scene::bvh;
+    let module = kernel();
+    let constant = |name: &str| -> u32 {
+        let (_, c) = module
+            .constants
+            .iter()
+            .find(|(_, c)| c.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("the production kernel has no constant {name}"));
+        match module.global_expressions[c.init] {
+            naga::Expression::Literal(naga::Literal::U32(v)) => v,
+            ref other => panic!("constant {name} is not a u32 literal: {other:?}"),
+        }
+    };
+    assert_eq!(constant("BVH_LEAF"), bvh::LEAF);
+    assert_eq!(constant("BVH_LEAF_COUNT_BITS"), bvh::LEAF_COUNT_BITS);
+    assert_eq!(constant("BVH_LEAF_COUNT_MASK"), bvh::LEAF_COUNT_MASK);
+    assert_eq!(constant("BVH_STACK_SIZE") as usize, bvh::STACK_SIZE);
+    assert_eq!(constant("BVH_MAX_STEPS"), bvh::MAX_STEPS);
+    use vkpath::gpu::types::{MESH_SMOOTH, MESH_TEXTURED, NO_MESH};
+    assert_eq!(constant("NO_MESH"), NO_MESH);
+    assert_eq!(constant("MESH_SMOOTH"), MESH_SMOOTH);
+    assert_eq!(constant("MESH_TEXTURED"), MESH_TEXTURED);
 }

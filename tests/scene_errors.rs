@@ -605,11 +605,13 @@ fn filter_sigma_zero() {
 // ----- meshes -----
 
 #[test]
-fn mesh_not_supported() {
+fn mesh_obj_missing() {
+    // (More OBJ and texture errors, with real files, are in tests/mesh.rs.)
     let text =
-        with_base("\n[[mesh]]   # line 10\nobj = \"models/bunny.obj\"\nmaterial = \"white\"\n");
-    let err = expect_error_exact(&text, 10, "mesh[0]");
-    assert!(err.to_string().contains("not supported yet"), "{err}");
+        with_base("\n[[mesh]]\nobj = \"models/bunny.obj\"   # line 11\nmaterial = \"white\"\n");
+    let err = expect_error_exact(&text, 11, "mesh[0].obj");
+    assert!(err.to_string().contains("models/bunny.obj"), "{err}");
+    assert!(err.to_string().contains("cannot read"), "{err}");
 }
 
 // ----- nothing panics -----

@@ -45,7 +45,8 @@ fn trimmed_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         bounces += 1u;
         let s = spheres[hit.prim_index];
         let sp3 = sphere_surface_point(o, d, hit.t, s.center, s.radius);
-        let sp = Surface(sp3.p, sp3.err, normalize(sp3.p - s.center), s.material);
+        let sn = normalize(sp3.p - s.center);
+        let sp = Surface(sp3.p, sp3.err, sn, s.material, sn, false, vec3<f32>(0.0), false);
         let mat = materials[sp.material];
         let n = select(-sp.n, sp.n, dot(d, sp.n) < 0.0);
         var e = vec3<f32>(0.0);
@@ -81,10 +82,13 @@ fn trimmed_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    if gid.x >= params.width || gid.y >= params.height {
+    // Tiles as in trace.wgsl.
+    let pc = pass_constants;
+    let px = gid.xy + vec2<u32>(pc.tile_x0, pc.tile_y0);
+    if px.x >= pc.tile_x1 || px.y >= pc.tile_y1 || px.x >= params.width || px.y >= params.height {
         return;
     }
-    let pixel = gid.y * params.width + gid.x;
-    let radiance = trimmed_path(gid.xy, pass_constants.sample_index);
-    accum[pixel] = accumulate_sample(accum[pixel], radiance, params.guard_one);
+    let slot = px.y * params.width + px.x - pc.accum_base;
+    let radiance = trimmed_path(px, pass_constants.sample_index);
+    accum[slot] = accumulate_sample(accum[slot], radiance, params.guard_one);
 }

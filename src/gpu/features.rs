@@ -4,6 +4,7 @@
 use super::scene::GpuScene;
 use super::types::{
     GpuParams, LIGHT_POINT, LIGHT_SPHERE, MAT_DIELECTRIC, MAT_DIFFUSE, MAT_EMITTER, MAT_MIRROR,
+    MESH_SMOOTH, MESH_TEXTURED,
 };
 
 /// One flag per overridable feature of the kernel; `filter` is the pixel filter as a constant, or `None`
@@ -12,6 +13,16 @@ use super::types::{
 pub struct FeatureSet {
     pub spheres: bool,
     pub triangles: bool,
+    /// Triangles are found through the BVH (scenes of more than `scene::BVH_MIN_TRIANGLES` triangles);
+    /// otherwise by a loop over every triangle, which is also the reference that tests and the scaling
+    /// benchmark compare the BVH against.
+    pub bvh: bool,
+    /// The loop over every triangle (scenes without a BVH; the generic kernel has both).
+    pub triangle_loop: bool,
+    /// Some mesh interpolates vertex normals (`smooth`).
+    pub smooth_normals: bool,
+    /// Some mesh has a texture.
+    pub textures: bool,
     pub diffuse: bool,
     pub mirror: bool,
     pub dielectric: bool,
@@ -46,6 +57,10 @@ impl FeatureSet {
         FeatureSet {
             spheres: true,
             triangles: true,
+            bvh: true,
+            triangle_loop: true,
+            smooth_normals: true,
+            textures: true,
             diffuse: true,
             mirror: true,
             dielectric: true,
@@ -70,9 +85,14 @@ impl FeatureSet {
             .filter_map(|m| scene.materials.get(m as usize).map(|m| m.kind))
             .collect();
         let uses = |kind| used_kinds.contains(&kind);
+        let mesh_flag = |flag| scene.meshes.iter().any(|m| m.flags & flag != 0);
         FeatureSet {
             spheres: !scene.spheres.is_empty(),
             triangles: !scene.triangles.is_empty(),
+            bvh: !scene.bvh_nodes.is_empty(),
+            triangle_loop: !scene.triangles.is_empty() && scene.bvh_nodes.is_empty(),
+            smooth_normals: mesh_flag(MESH_SMOOTH),
+            textures: mesh_flag(MESH_TEXTURED),
             diffuse: uses(MAT_DIFFUSE),
             mirror: uses(MAT_MIRROR),
             dielectric: uses(MAT_DIELECTRIC),
@@ -93,6 +113,11 @@ impl FeatureSet {
         vec![
             ("HAS_SPHERES", b(self.spheres)),
             ("HAS_TRIANGLES", b(self.triangles)),
+            ("HAS_BVH", b(self.bvh)),
+            ("HAS_TRIANGLE_LOOP", b(self.triangle_loop)),
+            ("HAS_SMOOTH_NORMALS", b(self.smooth_normals)),
+            ("HAS_TEXTURES", b(self.textures)),
+            ("HAS_MESH_SHADING", b(self.smooth_normals || self.textures)),
             ("HAS_DIFFUSE", b(self.diffuse)),
             ("HAS_MIRROR", b(self.mirror)),
             ("HAS_DIELECTRIC", b(self.dielectric)),
@@ -113,7 +138,13 @@ impl FeatureSet {
     pub fn enable(&mut self, name: &str) {
         match name {
             "spheres" => self.spheres = true,
-            "triangles" => self.triangles = true,
+            "triangles" => {
+                self.triangles = true;
+                self.bvh = true;
+                self.triangle_loop = true;
+            }
+            "smooth_normals" => self.smooth_normals = true,
+            "textures" => self.textures = true,
             "diffuse" => self.diffuse = true,
             "mirror" => self.mirror = true,
             "dielectric" => self.dielectric = true,
@@ -132,6 +163,8 @@ impl FeatureSet {
         let flags = [
             ("spheres", self.spheres),
             ("triangles", self.triangles),
+            ("smooth_normals", self.smooth_normals),
+            ("textures", self.textures),
             ("diffuse", self.diffuse),
             ("mirror", self.mirror),
             ("dielectric", self.dielectric),

@@ -54,7 +54,8 @@ pub enum GpuError {
     ValidationUnavailable,
     #[error(
         "the Vulkan device was lost during {0} (a driver crash or a GPU reset, often a dispatch that ran \
-         too long for the watchdog). Try fewer samples per pass or a smaller image."
+         too long for the watchdog). Try a shorter --dispatch-ms (smaller tiles), fewer samples per \
+         pass or a smaller image."
     )]
     DeviceLost(&'static str),
     #[error("the Vulkan device ran out of memory during {0}. Try a smaller image or scene.")]

@@ -33,6 +33,10 @@ pub const SCENE_DATA: (&str, &str) = (
 );
 /// Scene queries and direct lighting, with the specialisation constants.
 pub const SCENE: (&str, &str) = ("scene.wgsl", include_str!("../../shaders/scene.wgsl"));
+/// The triangle BVH's traversal (bindings 2 and 7).
+pub const BVH: (&str, &str) = ("bvh.wgsl", include_str!("../../shaders/bvh.wgsl"));
+/// Albedo textures: sRGB decoding and bilinear filtering (bindings 10 and 11).
+pub const TEXTURE: (&str, &str) = ("texture.wgsl", include_str!("../../shaders/texture.wgsl"));
 /// The path-tracing kernel (binding 5: the accumulator).
 pub const TRACE: (&str, &str) = ("trace.wgsl", include_str!("../../shaders/trace.wgsl"));
 
@@ -45,7 +49,7 @@ pub const TRIMMED_DIFFUSE_POINT: (&str, &str) = (
 
 /// The full source of the hand-trimmed benchmark kernel.
 pub fn trimmed_source() -> String {
-    compose(&[SCENE_DATA, SCENE, TRIMMED_DIFFUSE_POINT])
+    compose(&[SCENE_DATA, BVH, TEXTURE, SCENE, TRIMMED_DIFFUSE_POINT])
 }
 
 /// Concatenates the library with extra modules, marking where each file starts so that naga's error
@@ -62,7 +66,7 @@ pub fn compose(extra: &[(&str, &str)]) -> String {
 
 /// The full source of the production kernel.
 pub fn trace_source() -> String {
-    compose(&[SCENE_DATA, SCENE, TRACE])
+    compose(&[SCENE_DATA, BVH, TEXTURE, SCENE, TRACE])
 }
 
 /// One resource binding of a compiled shader, reflected from the WGSL.

@@ -35,13 +35,20 @@ pub struct GpuParams {
     pub _pad0: u32,
 }
 
-/// Mirrors `PassConstants` in scene_data.wgsl: which sample the next dispatch traces (updated in the
-/// command buffer before each dispatch).
+/// Mirrors `PassConstants` in scene_data.wgsl: which sample the next dispatch traces, over which tile,
+/// into which accumulator strip (updated in the command buffer before each dispatch).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuPassConstants {
     pub sample_index: u32,
-    pub _pad: [u32; 3],
+    /// The pixel index (row-major over the whole image) of the bound accumulator's first entry.
+    pub accum_base: u32,
+    /// The tile: the pixels from (tile_x0, tile_y0) (included) to (tile_x1, tile_y1) (excluded).
+    pub tile_x0: u32,
+    pub tile_y0: u32,
+    pub tile_x1: u32,
+    pub tile_y1: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Mirrors `Sphere` in scene.wgsl.
@@ -108,7 +115,65 @@ pub struct GpuAccum {
     pub sum_sq_c: [f32; 4],
 }
 
+/// Mirrors `BvhNode` in scene_data.wgsl: an interior node of the triangle BVH with the boxes of both its
+/// children, so that the traversal can order and cull them before fetching them (see `scene::bvh`).
+/// `child_a` / `child_b` are node indices, or leaf references with `scene::bvh::LEAF` set.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuBvhNode {
+    pub lo_a: [f32; 3],
+    pub child_a: u32,
+    pub hi_a: [f32; 3],
+    pub child_b: u32,
+    pub lo_b: [f32; 3],
+    pub _pad0: u32,
+    pub hi_b: [f32; 3],
+    pub _pad1: u32,
+}
+
+/// No mesh: `GpuMeshFace::mesh` of a triangle that has no shading data (a `[[triangle]]` or a flat,
+/// untextured mesh).
+pub const NO_MESH: u32 = u32::MAX;
+/// `GpuMeshInfo::flags`: interpolate the vertex normals / sample the texture.
+pub const MESH_SMOOTH: u32 = 1;
+pub const MESH_TEXTURED: u32 = 2;
+
+/// Mirrors `MeshFace` in scene_data.wgsl: the shading vertices of triangle i (same index as in
+/// `triangles`) and the mesh it belongs to.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMeshFace {
+    pub vertices: [u32; 3],
+    pub mesh: u32,
+}
+
+/// Mirrors `MeshVertex` in scene_data.wgsl: a shading normal (world space, unit, or zero for "use the
+/// geometric normal") and texture coordinates. Scalars only, so 20 bytes with no padding.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMeshVertex {
+    pub nx: f32,
+    pub ny: f32,
+    pub nz: f32,
+    pub u: f32,
+    pub v: f32,
+}
+
+/// Mirrors `MeshInfo` in scene_data.wgsl: per mesh, its flags and its texture's place in `texels`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMeshInfo {
+    pub texture_offset: u32,
+    pub texture_width: u32,
+    pub texture_height: u32,
+    pub flags: u32,
+}
+
 const _: () = assert!(std::mem::size_of::<GpuParams>() == 128);
+const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuMeshFace>() == 16);
+const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);
+const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 32);

@@ -5,9 +5,11 @@
 //! sample index, dimension, seed), the image after N passes of k samples is bit-identical to one pass of
 //! N k samples: pass sizes are free to adapt to time budgets and progress reports.
 
+pub mod tiles;
+
 use crate::film::Film;
 use crate::gpu::features::FeatureSet;
-use crate::gpu::scene::{GpuScene, params_for};
+use crate::gpu::scene::{GpuScene, SceneStats, params_for};
 use crate::gpu::shader::CompiledShader;
 use crate::gpu::types::{GpuAccum, GpuParams, GpuPassConstants};
 use crate::gpu::{Buffer, Command, GpuContext, GpuError, Kernel, shader};
@@ -20,8 +22,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
-/// The most samples (dispatches) recorded into one command buffer; a pass of more is several submits.
-const MAX_DISPATCHES_PER_SUBMIT: u32 = 256;
+/// The most dispatches recorded into one command buffer; a pass of more is several submits.
+const MAX_DISPATCHES_PER_SUBMIT: u64 = 256;
+
+/// Pixels per dispatch before the renderer has timed a pass (then it adapts, see
+/// [`RenderOptions::target_dispatch_seconds`]).
+const INITIAL_TILE_PIXELS: u64 = 1 << 18;
 
 /// Lavapipe (Mesa's llvmpipe) ends all loops of an invocation once it has run 65535 loop iterations in
 /// total. A path's loops are bounded (bounces x (primitives + lights x primitives)), so the renderer
@@ -31,12 +37,27 @@ const MAX_DISPATCHES_PER_SUBMIT: u32 = 256;
 pub const LAVAPIPE_LOOP_BUDGET: u64 = 65_535;
 
 /// An upper bound on the loop iterations one path can run in trace.wgsl: for each of max_bounces + 1
-/// ray casts, the primitive loop of the closest hit, and for each light, one shadow query over the
-/// primitives, plus the loop bookkeeping.
+/// ray casts, one scene query for the closest hit, and for each light, one shadow query, plus the loop
+/// bookkeeping. A query loops over the spheres, then walks the triangle BVH (shaders/bvh.wgsl).
+///
+/// One BVH walk runs at most `bvh::MAX_STEPS` iterations (2048), whatever the number of triangles: that
+/// cap is what lets a 10^6-triangle mesh fit lavapipe's budget, and it is far above what a ray needs in
+/// a SAH tree (about 2 log2(N) nodes and a few leaves; `tests/bvh.rs` measures it). A small tree needs
+/// fewer: a walk visits each interior node at most once, tests each triangle at most once, skips at most
+/// one stacked entry per interior node and ends with one more iteration, so it runs at most
+/// 2 nodes + triangles + 1 iterations. With the course's settings (5 bounces, one light) a mesh of any
+/// size costs at most 12 walks, 24,576 iterations.
 pub fn worst_case_loop_iterations(gpu: &GpuScene, max_bounces: u32) -> u64 {
-    let prims = gpu.spheres.len() as u64 + gpu.triangles.len() as u64;
+    let triangles = gpu.triangles.len() as u64;
+    let walk = if triangles == 0 {
+        0
+    } else {
+        (2 * gpu.bvh_nodes.len() as u64 + triangles + 1)
+            .min(u64::from(crate::scene::bvh::MAX_STEPS))
+    };
+    let per_query = gpu.spheres.len() as u64 + walk;
     let lights = gpu.lights.len() as u64;
-    let per_cast = prims + lights * (prims + 1) + 1;
+    let per_cast = per_query + lights * (per_query + 1) + 1;
     (max_bounces as u64 + 1) * per_cast + 1
 }
 
@@ -52,6 +73,44 @@ pub struct RenderOptions {
     pub target_pass_seconds: f64,
     /// Run the one all-features kernel instead of the one specialised for the scene (for comparison).
     pub generic: bool,
+    /// Target duration of one dispatch (one sample over one tile): the tiles adapt so that a dispatch
+    /// takes about this long, well under the second or two after which a desktop GPU's watchdog resets
+    /// the device. The image does not depend on it.
+    pub target_dispatch_seconds: f64,
+    /// A fixed largest tile (width, height) in pixels instead of adaptive tiles: the image is then cut
+    /// into strips of at most that many rows (one accumulator each) and tiles of that size. The image
+    /// does not depend on it (`--tile`; tests use it to tile small images).
+    pub max_tile: Option<[u32; 2]>,
+    /// A fault to inject, for testing what the caller does when the device fails (`VKPATH_FAULT`).
+    pub fault: Option<Fault>,
+}
+
+/// Faults the renderer can be told to simulate, so that the handling of each (messages, exit codes,
+/// files left intact) can be tested on any device. The CLI reads them from `VKPATH_FAULT`:
+/// `device-lost@N`, `out-of-memory`, `shader`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fault {
+    /// The device is lost during pass `N` (1-based), after part of the pass was submitted.
+    DeviceLostAtPass(u32),
+    /// Allocating the accumulator fails with VK_ERROR_OUT_OF_DEVICE_MEMORY.
+    OutOfMemory,
+    /// The kernel fails to compile.
+    Shader,
+}
+
+impl Fault {
+    /// Parses `VKPATH_FAULT`'s value.
+    pub fn parse(text: &str) -> Option<Fault> {
+        match text.trim() {
+            "out-of-memory" => Some(Fault::OutOfMemory),
+            "shader" => Some(Fault::Shader),
+            t => t
+                .strip_prefix("device-lost@")
+                .and_then(|n| n.parse().ok())
+                .filter(|&n| n > 0)
+                .map(Fault::DeviceLostAtPass),
+        }
+    }
 }
 
 impl Default for RenderOptions {
@@ -61,8 +120,17 @@ impl Default for RenderOptions {
             samples_per_pass: None,
             target_pass_seconds: 0.25,
             generic: false,
+            target_dispatch_seconds: 0.1,
+            max_tile: None,
+            fault: None,
         }
     }
+}
+
+/// One strip of whole rows of the image and its accumulator (see [`tiles`]).
+struct Strip {
+    rows: [u32; 2],
+    buffer: Buffer,
 }
 
 /// A scene uploaded to the device with its kernel and accumulator.
@@ -70,13 +138,36 @@ pub struct Renderer {
     ctx: Arc<GpuContext>,
     kernel: Kernel,
     params: GpuParams,
-    accum: Buffer,
-    readback: Buffer,
+    /// The accumulator, one buffer per strip of rows (one strip unless the image is large).
+    strips: Vec<Strip>,
+    /// Which strip's accumulator is bound (binding 5).
+    bound_strip: usize,
+    layout: tiles::TileLayout,
+    /// The current budget of pixels per dispatch (adapted to `target_dispatch_seconds`).
+    tile_pixels: u64,
+    target_dispatch_seconds: f64,
+    /// Host-visible, as large as the largest strip: film readback and checkpoint restore go through it.
+    staging: Buffer,
     pass_constants: Buffer,
-    // Parameter and scene buffers: bound to the kernel, kept alive with it.
-    _bound_buffers: Vec<Buffer>,
+    // Parameter and scene buffers with their bindings: bound to the kernel, kept alive with it.
+    bound: Vec<(u32, Buffer)>,
+    /// Set when a pass failed part-way: the accumulator then holds an unknown part of it, and reading
+    /// it (a film, a checkpoint) or adding to it is refused.
+    poisoned: Option<String>,
+    fault: Option<Fault>,
+    /// Passes run (for [`Fault::DeviceLostAtPass`]).
+    passes: u32,
+    /// Triangles, BVH size and build time, scene bytes (`--json`).
+    scene_stats: SceneStats,
+    /// The sample index the next dispatch traces.
+    next_sample: u32,
+    /// Samples per pixel in the accumulator.
     samples_done: u32,
+    /// The sample indices in the accumulator: sorted disjoint `[start, end)` ranges (see checkpoint.rs).
+    ranges: Vec<[u32; 2]>,
     features: FeatureSet,
+    /// [`crate::checkpoint::content_hash`] of the scene as uploaded.
+    content_hash: u64,
 }
 
 /// The compiled kernel for a feature set, compiled once per process (naga's work; the driver's pipeline
@@ -155,10 +246,26 @@ impl Renderer {
         } else {
             FeatureSet::of(&gpu, &params)
         };
+        let content_hash = crate::checkpoint::content_hash(scene, &gpu, &params);
         let compiled = match custom_kernel {
             Some(k) => k,
+            None if options.fault == Some(Fault::Shader) => {
+                return Err(GpuError::Shader(
+                    "error: injected fault (VKPATH_FAULT=shader)".into(),
+                ));
+            }
             None => kernel_for(&features)?,
         };
+        // Refuse, before allocating anything, what the device cannot hold.
+        let layout = tiles::TileLayout::new(
+            params.width,
+            params.height,
+            [compiled.workgroup_size[0], compiled.workgroup_size[1]],
+            tiles::TileLimits::of(ctx),
+            options.max_tile,
+        )
+        .map_err(|e| GpuError::Limit(format!("{e}. Render a narrower image.")))?;
+        check_device_memory(ctx, &gpu, &layout)?;
         let mut kernel = Kernel::new(ctx, &compiled)?;
         let params_buffer = Buffer::uniform_from(ctx, "params", &params)?;
         // Upload only the arrays the (specialised) kernel still reads: a scene without triangles has no
@@ -167,33 +274,64 @@ impl Renderer {
         if kernel.uses_binding(1) {
             bound.push((1, Buffer::storage_from(ctx, "spheres", &gpu.spheres)?));
         }
-        if kernel.uses_binding(2) {
-            bound.push((2, Buffer::storage_from(ctx, "triangles", &gpu.triangles)?));
-        }
         if kernel.uses_binding(3) {
             bound.push((3, Buffer::storage_from(ctx, "materials", &gpu.materials)?));
         }
         if kernel.uses_binding(4) {
             bound.push((4, Buffer::storage_from(ctx, "lights", &gpu.lights)?));
         }
-        let pixels = scene.image.width as u64 * scene.image.height as u64;
-        // Device-local: every sample reads and writes its pixel's sums. The host reads them through a
-        // copy into a host-visible buffer when it wants the film.
-        let accum_bytes = pixels * std::mem::size_of::<GpuAccum>() as u64;
-        let accum = Buffer::new(
+        // The mesh arrays can be large (64 bytes per BVH node, 48 per triangle): they live in device-local
+        // memory, uploaded through a staging copy (gpu::scene::upload_device_local).
+        use crate::gpu::scene::upload_device_local as upload;
+        if kernel.uses_binding(2) {
+            bound.push((2, upload(ctx, &mut kernel, "triangles", &gpu.triangles)?));
+        }
+        if kernel.uses_binding(7) {
+            bound.push((7, upload(ctx, &mut kernel, "bvh nodes", &gpu.bvh_nodes)?));
+        }
+        if kernel.uses_binding(8) {
+            bound.push((8, upload(ctx, &mut kernel, "mesh faces", &gpu.mesh_faces)?));
+        }
+        if kernel.uses_binding(9) {
+            bound.push((
+                9,
+                upload(ctx, &mut kernel, "mesh vertices", &gpu.mesh_vertices)?,
+            ));
+        }
+        if kernel.uses_binding(10) {
+            bound.push((10, Buffer::storage_from(ctx, "meshes", &gpu.meshes)?));
+        }
+        if kernel.uses_binding(11) {
+            bound.push((11, upload(ctx, &mut kernel, "texels", &gpu.texels)?));
+        }
+        // Device-local: every sample reads and writes its pixel's sums, one buffer per strip of rows. The
+        // host reads them (and restores them) through a copy to (from) a host-visible staging buffer.
+        if options.fault == Some(Fault::OutOfMemory) {
+            return Err(GpuError::OutOfMemory(
+                "vkAllocateMemory (injected: VKPATH_FAULT=out-of-memory)",
+            ));
+        }
+        let mut strips = Vec::with_capacity(layout.strips.len());
+        for (i, rows) in layout.strips.iter().enumerate() {
+            let buffer = Buffer::new(
+                ctx,
+                "accumulator",
+                layout.strip_pixels(i) * tiles::ACCUM_BYTES_PER_PIXEL,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_SRC
+                    | vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuOnly,
+            )?;
+            strips.push(Strip {
+                rows: *rows,
+                buffer,
+            });
+        }
+        let staging = Buffer::new(
             ctx,
-            "accumulator",
-            accum_bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_SRC
-                | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-        )?;
-        let readback = Buffer::new(
-            ctx,
-            "film readback",
-            accum_bytes,
-            vk::BufferUsageFlags::TRANSFER_DST,
+            "accumulator staging",
+            layout.max_strip_bytes(),
+            vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::GpuToCpu,
         )?;
         let pass_constants = Buffer::new(
@@ -204,61 +342,262 @@ impl Renderer {
             MemoryLocation::GpuOnly,
         )?;
         let mut bindings: Vec<(u32, &Buffer)> = bound.iter().map(|(n, b)| (*n, b)).collect();
-        bindings.push((5, &accum));
+        bindings.push((5, &strips[0].buffer));
         bindings.push((6, &pass_constants));
         kernel.bind(&bindings)?;
         let mut r = Renderer {
             ctx: ctx.clone(),
             kernel,
             params,
-            accum,
-            readback,
+            strips,
+            bound_strip: 0,
+            layout,
+            tile_pixels: INITIAL_TILE_PIXELS,
+            target_dispatch_seconds: options.target_dispatch_seconds,
+            staging,
             pass_constants,
-            _bound_buffers: bound.into_iter().map(|(_, b)| b).collect(),
+            bound,
+            poisoned: None,
+            fault: options.fault,
+            passes: 0,
+            scene_stats: gpu.stats,
+            next_sample: 0,
             samples_done: 0,
+            ranges: Vec::new(),
             features,
+            content_hash,
         };
         r.reset()?;
         Ok(r)
     }
 
+    /// What uploading the scene made and cost: triangles, BVH nodes, BVH build time, bytes.
+    pub fn scene_stats(&self) -> &SceneStats {
+        &self.scene_stats
+    }
+
     /// Clears the accumulator: the next pass starts again at sample 0.
     pub fn reset(&mut self) -> Result<(), GpuError> {
-        self.kernel.submit(&[Command::Zero(&self.accum)])?;
+        self.start_at(0)
+    }
+
+    /// Clears the accumulator; the next pass traces samples from index `first_sample` on (a partial
+    /// render of a sample range, `--sample-range`).
+    pub fn start_at(&mut self, first_sample: u32) -> Result<(), GpuError> {
+        let zero: Vec<Command> = self
+            .strips
+            .iter()
+            .map(|s| Command::Zero(&s.buffer))
+            .collect();
+        self.kernel.submit(&zero)?;
+        self.next_sample = first_sample;
         self.samples_done = 0;
+        self.ranges.clear();
+        self.poisoned = None;
         Ok(())
     }
 
-    /// Traces `spp` more samples per pixel and waits for them.
+    fn check_usable(&self) -> Result<(), GpuError> {
+        match &self.poisoned {
+            None => Ok(()),
+            Some(why) => Err(GpuError::Usage(format!(
+                "the accumulator holds part of a pass that failed ({why}); start again (reset, start_at \
+                 or restore a checkpoint)"
+            ))),
+        }
+    }
+
+    /// Points binding 5 at strip `i`'s accumulator.
+    fn bind_strip(&mut self, i: usize) -> Result<(), GpuError> {
+        if self.bound_strip == i {
+            return Ok(());
+        }
+        let mut bindings: Vec<(u32, &Buffer)> = self.bound.iter().map(|(n, b)| (*n, b)).collect();
+        bindings.push((5, &self.strips[i].buffer));
+        bindings.push((6, &self.pass_constants));
+        self.kernel.bind(&bindings)?;
+        self.bound_strip = i;
+        Ok(())
+    }
+
+    /// Traces `spp` more samples per pixel (the next `spp` sample indices) and waits for them.
+    ///
+    /// Each sample is one dispatch per tile of each strip (see [`tiles`]); a pixel's samples are added in
+    /// index order whatever the tiling. If a submit fails part-way (a lost device), the accumulator holds
+    /// an unknown part of the pass: the renderer then refuses to read or extend it.
     pub fn run_pass(&mut self, spp: u32) -> Result<(), GpuError> {
-        if self.samples_done.checked_add(spp).is_none() {
-            return Err(GpuError::Usage("more than 2^32 samples per pixel".into()));
+        self.check_usable()?;
+        if self.next_sample.checked_add(spp).is_none() {
+            return Err(GpuError::Usage(format!(
+                "sample indices past 2^32 - 1: this render is at sample {} and {spp} more were asked for",
+                self.next_sample
+            )));
         }
-        let invocations = [self.params.width, self.params.height, 1];
-        let mut left = spp;
-        while left > 0 {
-            let k = left.min(MAX_DISPATCHES_PER_SUBMIT);
-            let constants: Vec<GpuPassConstants> = (0..k)
-                .map(|i| GpuPassConstants {
-                    sample_index: self.samples_done + i,
-                    _pad: [0; 3],
-                })
-                .collect();
-            let commands: Vec<Command> = constants
-                .iter()
-                .flat_map(|c| {
-                    [
-                        Command::Update(&self.pass_constants, bytemuck::bytes_of(c)),
-                        Command::Dispatch {
-                            invocations,
-                        },
-                    ]
-                })
-                .collect();
-            self.kernel.submit(&commands)?;
-            self.samples_done += k;
-            left -= k;
+        let start = self.next_sample;
+        let t0 = Instant::now();
+        self.passes += 1;
+        if let Err(e) = self.dispatch_samples(start, spp) {
+            self.poisoned = Some(e.to_string());
+            return Err(e);
         }
+        // Adapt the tiles so that one dispatch (one sample over one tile) takes about its target.
+        let paths = f64::from(spp) * f64::from(self.params.width) * f64::from(self.params.height);
+        let per_path = t0.elapsed().as_secs_f64() / paths.max(1.0);
+        if per_path > 0.0 {
+            let ideal = self.target_dispatch_seconds / per_path;
+            self.tile_pixels = ideal.clamp(64.0, 4.0e9) as u64;
+        }
+        self.next_sample += spp;
+        self.samples_done += spp;
+        match self.ranges.last_mut() {
+            Some(last) if last[1] == start => last[1] = self.next_sample,
+            _ if spp == 0 => {}
+            _ => self.ranges.push([start, self.next_sample]),
+        }
+        Ok(())
+    }
+
+    /// Records and submits the dispatches of samples `start..start + spp`: for each strip, for each
+    /// sample in order, one dispatch per tile.
+    fn dispatch_samples(&mut self, start: u32, spp: u32) -> Result<(), GpuError> {
+        for si in 0..self.strips.len() {
+            let tiles = self.layout.tiles(si, self.tile_pixels);
+            if tiles.is_empty() {
+                continue;
+            }
+            self.bind_strip(si)?;
+            let accum_base = self.strips[si].rows[0] * self.params.width;
+            let per_sample = tiles.len() as u64;
+            let total = u64::from(spp) * per_sample;
+            let mut first = 0u64;
+            while first < total {
+                let last = (first + MAX_DISPATCHES_PER_SUBMIT).min(total);
+                let constants: Vec<GpuPassConstants> = (first..last)
+                    .map(|i| {
+                        let t = tiles[(i % per_sample) as usize];
+                        GpuPassConstants {
+                            sample_index: start + (i / per_sample) as u32,
+                            accum_base,
+                            tile_x0: t.origin[0],
+                            tile_y0: t.origin[1],
+                            tile_x1: t.end[0],
+                            tile_y1: t.end[1],
+                            _pad: [0; 2],
+                        }
+                    })
+                    .collect();
+                let commands: Vec<Command> = constants
+                    .iter()
+                    .flat_map(|c| {
+                        let [w, h] = [c.tile_x1 - c.tile_x0, c.tile_y1 - c.tile_y0];
+                        [
+                            Command::Update(&self.pass_constants, bytemuck::bytes_of(c)),
+                            Command::Dispatch {
+                                invocations: [w, h, 1],
+                            },
+                        ]
+                    })
+                    .collect();
+                self.kernel.submit(&commands)?;
+                if self.fault == Some(Fault::DeviceLostAtPass(self.passes)) {
+                    // As a real loss would: part of the pass is in the accumulator.
+                    return Err(GpuError::DeviceLost(
+                        "vkQueueSubmit (injected: VKPATH_FAULT=device-lost@N)",
+                    ));
+                }
+                first = last;
+            }
+        }
+        Ok(())
+    }
+
+    /// How the image is cut into strips (accumulator buffers) and tiles (dispatches).
+    pub fn tile_layout(&self) -> &tiles::TileLayout {
+        &self.layout
+    }
+
+    /// The tiles one sample is dispatched over now (they adapt to the dispatch target).
+    pub fn tiles_per_sample(&self) -> usize {
+        (0..self.strips.len())
+            .map(|i| self.layout.tiles(i, self.tile_pixels).len())
+            .sum()
+    }
+
+    /// The sample index the next pass starts at.
+    pub fn next_sample(&self) -> u32 {
+        self.next_sample
+    }
+
+    /// The sample indices accumulated, as sorted disjoint `[start, end)` ranges.
+    pub fn ranges(&self) -> &[[u32; 2]] {
+        &self.ranges
+    }
+
+    /// The hash of the scene content this renderer was built from ([`crate::checkpoint::content_hash`]).
+    pub fn content_hash(&self) -> u64 {
+        self.content_hash
+    }
+
+    /// The uniform parameters of this render (image size, seed, bounces, ...).
+    pub fn params(&self) -> &GpuParams {
+        &self.params
+    }
+
+    /// What must match for a checkpoint to resume this render.
+    pub fn identity(&self) -> crate::checkpoint::Identity {
+        crate::checkpoint::Identity::new(&self.params, self.content_hash)
+    }
+
+    /// The accumulator's raw per-pixel Kahan pairs, exactly as the GPU holds them.
+    /// Read strip by strip through the staging buffer.
+    pub fn accum_state(&mut self) -> Result<Vec<GpuAccum>, GpuError> {
+        self.check_usable()?;
+        let pixels = self.params.width as usize * self.params.height as usize;
+        let mut out: Vec<GpuAccum> = Vec::with_capacity(pixels);
+        for s in &self.strips {
+            self.kernel
+                .submit(&[Command::Copy(&s.buffer, &self.staging)])?;
+            let n = (s.rows[1] - s.rows[0]) as usize * self.params.width as usize;
+            let bytes = self
+                .staging
+                .read_bytes()?
+                .get(..n * std::mem::size_of::<GpuAccum>())
+                .ok_or_else(|| GpuError::Usage("accumulator staging is too small".into()))?;
+            out.extend(bytemuck::pod_collect_to_vec::<u8, GpuAccum>(bytes));
+        }
+        Ok(out)
+    }
+
+    /// Puts an accumulation state (from [`Renderer::accum_state`], a checkpoint or a merge) back on the
+    /// device: `accum` holds one entry per pixel, `ranges` the sample indices it holds. The next pass
+    /// goes on at the end of the last range, and adds its samples to exactly these bits.
+    pub fn restore(&mut self, ranges: &[[u32; 2]], accum: &[GpuAccum]) -> Result<(), GpuError> {
+        let pixels = self.params.width as usize * self.params.height as usize;
+        if accum.len() != pixels {
+            return Err(GpuError::Usage(format!(
+                "restore of {} pixels into a {}x{} image",
+                accum.len(),
+                self.params.width,
+                self.params.height
+            )));
+        }
+        let samples: u64 = ranges
+            .iter()
+            .map(|r| u64::from(r[1].saturating_sub(r[0])))
+            .sum();
+        let samples = u32::try_from(samples)
+            .map_err(|_| GpuError::Usage("restore of more than 2^32 - 1 samples".into()))?;
+        let width = self.params.width as usize;
+        for s in &self.strips {
+            let (a, b) = (s.rows[0] as usize * width, s.rows[1] as usize * width);
+            self.staging.write(bytemuck::cast_slice(&accum[a..b]))?;
+            self.kernel
+                .submit(&[Command::Copy(&self.staging, &s.buffer)])?;
+        }
+        self.poisoned = None;
+        self.ranges = ranges.to_vec();
+        self.samples_done = samples;
+        self.next_sample = ranges.last().map_or(0, |r| r[1]);
         Ok(())
     }
 
@@ -279,17 +618,12 @@ impl Renderer {
 
     /// Reads the accumulator back as a film (means and variances, linear radiance).
     pub fn film(&mut self) -> Result<Film, GpuError> {
-        self.kernel
-            .submit(&[Command::Copy(&self.accum, &self.readback)])?;
-        let bytes = self.readback.read_bytes()?;
-        let accum: &[GpuAccum] = bytemuck::try_cast_slice(bytes)
-            .map_err(|e| GpuError::Usage(format!("accumulator readback: {e}")))?;
-        let pixels = self.params.width as usize * self.params.height as usize;
+        let accum = self.accum_state()?;
         Ok(Film::from_sums(
             self.params.width,
             self.params.height,
             self.samples_done,
-            &accum[..pixels],
+            &accum,
         ))
     }
 }
@@ -301,8 +635,20 @@ pub struct Budget {
     pub spp: u32,
     /// Stop after the first pass that ends past this duration.
     pub time: Option<Duration>,
-    /// Call `on_checkpoint` whenever the sample count reaches a multiple of this.
-    pub checkpoint_every: Option<u32>,
+    /// Report `progress` whenever the sample count reaches a multiple of this (passes are cut to land
+    /// on the multiples).
+    pub progress_every: Option<u32>,
+    /// How often to report `save_state` (for checkpoints).
+    pub save_every: Option<SaveEvery>,
+}
+
+/// How often a render saves its state.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SaveEvery {
+    /// Whenever the sample count reaches a multiple of this (passes are cut to land on the multiples).
+    Samples(u32),
+    /// After the first pass that ends this long after the last save (or the start).
+    Time(Duration),
 }
 
 /// Why a progressive render ended.
@@ -319,8 +665,10 @@ pub enum StopReason {
 pub struct PassReport {
     pub samples_done: u32,
     pub elapsed: Duration,
-    /// True when `samples_done` is a multiple of `checkpoint_every` (or the render is ending).
-    pub checkpoint: bool,
+    /// True when `samples_done` is a multiple of `progress_every`.
+    pub progress: bool,
+    /// True when the state is due to be saved (see [`SaveEvery`]).
+    pub save_state: bool,
 }
 
 /// Runs passes until the budget is spent or `stop` is set (Ctrl-C), adapting the pass size so that a
@@ -334,7 +682,12 @@ pub fn render_progressive(
     mut on_pass: impl FnMut(&mut Renderer, &PassReport) -> Result<(), crate::Error>,
 ) -> Result<(StopReason, Duration), crate::Error> {
     let start = Instant::now();
+    let mut last_save = start;
     let mut pass_spp = options.samples_per_pass.unwrap_or(1).max(1);
+    let save_samples = match budget.save_every {
+        Some(SaveEvery::Samples(n)) if n > 0 => Some(n),
+        _ => None,
+    };
     let reason = loop {
         if stop.load(Ordering::SeqCst) {
             break StopReason::Interrupted;
@@ -350,23 +703,34 @@ pub fn render_progressive(
             break StopReason::Time;
         }
         let mut k = pass_spp.min(budget.spp - done);
-        if let Some(every) = budget.checkpoint_every.filter(|&e| e > 0) {
-            let next = (done / every + 1).saturating_mul(every);
-            k = k.min(next - done);
+        for every in [budget.progress_every, save_samples].into_iter().flatten() {
+            if let Some(q) = done.checked_div(every) {
+                let next = (q + 1).saturating_mul(every);
+                k = k.min(next - done);
+            }
         }
         let t0 = Instant::now();
         renderer.run_pass(k)?;
         let dt = t0.elapsed().as_secs_f64();
         let done = renderer.samples_done();
-        let checkpoint = budget
-            .checkpoint_every
+        let progress = budget
+            .progress_every
             .is_some_and(|e| e > 0 && done.is_multiple_of(e));
+        let save_state = match budget.save_every {
+            Some(SaveEvery::Samples(e)) => e > 0 && done.is_multiple_of(e),
+            Some(SaveEvery::Time(t)) => last_save.elapsed() >= t,
+            None => false,
+        };
+        if save_state {
+            last_save = Instant::now();
+        }
         on_pass(
             renderer,
             &PassReport {
                 samples_done: done,
                 elapsed: start.elapsed(),
-                checkpoint,
+                progress,
+                save_state,
             },
         )?;
         if options.samples_per_pass.is_none() && k == pass_spp {
@@ -377,4 +741,93 @@ pub fn render_progressive(
         }
     };
     Ok((reason, start.elapsed()))
+}
+
+/// Refuses, before anything is allocated, a render whose buffers exceed the device: each scene array
+/// against the storage-buffer range, and everything (scene arrays, accumulator strips, staging) against
+/// the device's memory. The message names the sizes and the limit.
+fn check_device_memory(
+    ctx: &GpuContext,
+    gpu: &GpuScene,
+    layout: &tiles::TileLayout,
+) -> Result<(), GpuError> {
+    let info = ctx.device_info();
+    let range = u64::from(info.max_storage_buffer_range);
+    // Every array the kernel may bind. Taken apart with no `..`: a new array must be counted here.
+    let GpuScene {
+        spheres,
+        triangles,
+        materials,
+        lights,
+        bvh_nodes,
+        mesh_faces,
+        mesh_vertices,
+        meshes,
+        texels,
+        stats: _,
+    } = gpu;
+    let arrays: [(&str, u64); 9] = [
+        ("spheres", std::mem::size_of_val(spheres.as_slice()) as u64),
+        (
+            "triangles",
+            std::mem::size_of_val(triangles.as_slice()) as u64,
+        ),
+        (
+            "materials",
+            std::mem::size_of_val(materials.as_slice()) as u64,
+        ),
+        ("lights", std::mem::size_of_val(lights.as_slice()) as u64),
+        (
+            "BVH nodes",
+            std::mem::size_of_val(bvh_nodes.as_slice()) as u64,
+        ),
+        (
+            "mesh faces",
+            std::mem::size_of_val(mesh_faces.as_slice()) as u64,
+        ),
+        (
+            "mesh vertices",
+            std::mem::size_of_val(mesh_vertices.as_slice()) as u64,
+        ),
+        ("meshes", std::mem::size_of_val(meshes.as_slice()) as u64),
+        (
+            "texture texels",
+            std::mem::size_of_val(texels.as_slice()) as u64,
+        ),
+    ];
+    let mib = |b: u64| b as f64 / f64::from(1 << 20);
+    for (name, bytes) in arrays {
+        if bytes > range {
+            return Err(GpuError::Limit(format!(
+                "the scene's {name} take {bytes} bytes ({:.0} MiB), more than the {range} bytes one \
+                 storage buffer may hold on {} (maxStorageBufferRange). Use a smaller scene, or a device \
+                 with a larger limit (VKPATH_DEVICE).",
+                mib(bytes),
+                info.name
+            )));
+        }
+    }
+    let scene_bytes: u64 = arrays.iter().map(|(_, b)| b).sum();
+    let accum = layout.total_bytes();
+    // The staging buffer is host-visible; on a discrete GPU it is not device memory, but counting it
+    // keeps the check simple and errs on the side of refusing.
+    let total = scene_bytes + accum + layout.max_strip_bytes();
+    let available = info.device_local_memory_bytes;
+    if available > 0 && total > available {
+        return Err(GpuError::Limit(format!(
+            "this render needs {:.0} MiB of device memory ({:.0} MiB of accumulator for {}x{} pixels at \
+             {} bytes each, {:.0} MiB of staging, {:.0} MiB of scene), and {} has {:.0} MiB. Render a \
+             smaller image, or use a device with more memory (VKPATH_DEVICE).",
+            mib(total),
+            mib(accum),
+            layout.width,
+            layout.height,
+            tiles::ACCUM_BYTES_PER_PIXEL,
+            mib(layout.max_strip_bytes()),
+            mib(scene_bytes),
+            info.name,
+            mib(available)
+        )));
+    }
+    Ok(())
 }

@@ -4,17 +4,24 @@
 //! Everything here is plain data in `f32`/glam types: it knows nothing of Vulkan. `gpu::scene` turns a
 //! [`Scene`] into the Pod buffers the shader reads.
 
+pub mod bvh;
+pub mod mesh;
 mod parse;
+pub mod shapes;
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
+pub use mesh::{Mesh, Texture};
 pub use parse::SceneError;
 
 /// The course's box of spheres, embedded so that `vkpath render` works with no file at all.
 pub const DEFAULT_SCENE_TOML: &str = include_str!("../../scenes/course.toml");
 /// The name the default scene reports (and its default output stem).
 pub const DEFAULT_SCENE_NAME: &str = "course";
+/// The largest scene file read (32 MiB, about 600 000 inline spheres). Large geometry belongs in OBJ
+/// meshes; the limit keeps a huge or endless file from being read into memory.
+pub const MAX_SCENE_FILE_BYTES: u64 = 32 << 20;
 
 /// A loaded, validated scene. Every invariant of the contract holds (finite numbers, positive radii,
 /// albedos in [0,1], a non-degenerate camera, material indices in range).
@@ -31,6 +38,8 @@ pub struct Scene {
     pub material_names: Vec<String>,
     pub spheres: Vec<Sphere>,
     pub triangles: Vec<Triangle>,
+    /// `[[mesh]]` tables, loaded and placed in world space.
+    pub meshes: Vec<Mesh>,
     pub lights: Vec<Light>,
 }
 
@@ -124,7 +133,18 @@ pub enum Light {
 impl Scene {
     /// Reads and validates a scene file. Errors name the file, the line and the key.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?;
+        use std::io::Read;
+        // Read at most one byte past the limit: a huge file (10^8 inline spheres would be several GB,
+        // and parsing costs ~50 bytes of memory per byte of TOML) or an endless one (/dev/zero, a pipe)
+        // is refused without being read into memory.
+        let file = std::fs::File::open(path).map_err(|e| SceneError::io(path, &e))?;
+        let mut text = String::new();
+        file.take(MAX_SCENE_FILE_BYTES + 1)
+            .read_to_string(&mut text)
+            .map_err(|e| SceneError::io(path, &e))?;
+        if text.len() as u64 > MAX_SCENE_FILE_BYTES {
+            return Err(SceneError::too_large(path, MAX_SCENE_FILE_BYTES));
+        }
         Scene::from_toml_str(&text, Some(path))
     }
 

@@ -1,0 +1,119 @@
+// bvh.wgsl: the triangle BVH (built on the host by src/scene/bvh.rs, nodes in `bvh_nodes`), walked without
+// recursion.
+//
+// Node 0 is the root and is always an interior node. An interior node stores the boxes of both children,
+// so one visit tests both boxes, goes on with the nearer child that the ray enters, and pushes the other
+// (with its entry distance) on a small stack; a popped entry is skipped when the closest hit found since
+// is nearer than where the ray enters its box (Aila & Laine, "Understanding the Efficiency of Ray
+// Traversal on GPUs", HPG 2009, for the two-box node; pbrt-v4 §7.3.5 for the stack walk). Leaves are
+// ranges of at most 4 triangles in `triangles`.
+//
+// A child reference with BVH_LEAF set is a leaf, first = (ref & ~BVH_LEAF) >> BVH_LEAF_COUNT_BITS and
+// count = (ref & BVH_LEAF_COUNT_MASK) + 1; otherwise it is a node index. (Mirrors src/scene/bvh.rs.)
+const BVH_LEAF: u32 = 0x80000000u;
+const BVH_LEAF_COUNT_BITS: u32 = 2u;
+const BVH_LEAF_COUNT_MASK: u32 = 3u;
+const BVH_NONE: u32 = 0xffffffffu;
+// The host bounds the tree's depth to fit (src/scene/bvh.rs): at most one entry per level is pending.
+const BVH_STACK_SIZE: u32 = 64u;
+// Lavapipe ends all loops of an invocation after 65535 iterations in total, and the renderer bounds a
+// path's iterations before rendering, so one traversal runs at most this many iterations: one interior
+// node or one triangle each. Typical rays need a few dozen to a few hundred (src/scene/bvh.rs, MAX_STEPS,
+// explains the choice; tests/bvh.rs measures it).
+const BVH_MAX_STEPS: u32 = 2048u;
+
+// Boxes are culled against the closest hit so far widened by this factor (~128 ulps). A box's entry
+// distance and a triangle's t are both rounded, and where a triangle touches its box's face (at a vertex,
+// every box's faces are vertex coordinates) the entry distance can come out an ulp or two beyond the t of
+// the triangle inside: without the slack, a walk could skip the box of a triangle an ulp nearer than the
+// hit it holds, and return a hit one ulp farther than the brute-force loop. The slack costs a box test on
+// the rare boxes entered within 1.5e-5 (relative) beyond the hit.
+const BVH_CULL_SLACK: f32 = 1.0000153; // 1 + 2^-16
+
+// The traversal stack: child references and the distances at which the ray enters their boxes. Module
+// scope (`private`: one per invocation) rather than function locals, because WGSL zero-initialises a
+// function's variables on every call: 512 bytes cleared per walk, measured at 5x the cost of a whole
+// walk on lavapipe for small scenes. Private variables are cleared once per invocation, and every walk
+// writes an entry before reading it.
+var<private> bvh_stack_ref: array<u32, BVH_STACK_SIZE>;
+var<private> bvh_stack_t: array<f32, BVH_STACK_SIZE>;
+
+// Iterations the last walk ran (BVH_MAX_STEPS when it reached the cap); read by tests/bvh.rs, dead in the
+// render kernel (the compiler drops the store).
+var<private> bvh_last_steps: u32;
+
+// 1/d per component, with an exact ±infinity where |d| is below the smallest normal f32: the Vulkan
+// precision rules leave x / 0 undefined, and intersect_aabb decides an axis whose 1/d is infinite by the
+// origin's position alone.
+fn ray_inverse(d: vec3<f32>) -> vec3<f32> {
+    let inf = vec3<f32>(bitcast<f32>(0x7f800000u));
+    let signed_inf = select(inf, -inf, d < vec3<f32>(0.0));
+    return select(1.0 / d, signed_inf, abs(d) < vec3<f32>(1.17549435e-38));
+}
+
+// The closest triangle hit along o + t d with t in (0, t_max), or with any_hit the first one found (for
+// shadow rays, which only ask whether something is in the way). Returns a Hit of kind PRIM_TRIANGLE whose
+// prim_index is the triangle's index in `triangles`, or PRIM_NONE.
+fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
+    var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
+    let inv_d = ray_inverse(d);
+    var sp = 0u;
+    var node = 0u; // the next reference to visit, or BVH_NONE: pop one
+    var first = 0u; // triangles [first, end) of the leaf being tested
+    var end = 0u;
+    var steps = 0u;
+    for (; steps < BVH_MAX_STEPS; steps++) {
+        if first == end {
+            if node == BVH_NONE {
+                if sp == 0u {
+                    break;
+                }
+                sp -= 1u;
+                // The ray enters this box beyond the closest hit found since it was pushed: skip it.
+                if bvh_stack_t[sp] > hit.t * BVH_CULL_SLACK {
+                    continue;
+                }
+                node = bvh_stack_ref[sp];
+            }
+            if (node & BVH_LEAF) == 0u {
+                let n = bvh_nodes[node];
+                let t_cull = hit.t * BVH_CULL_SLACK;
+                let ta = intersect_aabb(o, inv_d, n.lo_a, n.hi_a, t_cull);
+                let tb = intersect_aabb(o, inv_d, n.lo_b, n.hi_b, t_cull);
+                let in_a = ta < T_MISS;
+                let in_b = tb < T_MISS;
+                if in_a && in_b {
+                    // Nearest child first; the other waits on the stack with its entry distance.
+                    let a_first = ta <= tb;
+                    bvh_stack_ref[sp] = select(n.child_a, n.child_b, a_first);
+                    bvh_stack_t[sp] = max(ta, tb);
+                    sp += 1u;
+                    node = select(n.child_b, n.child_a, a_first);
+                } else if in_a {
+                    node = n.child_a;
+                } else if in_b {
+                    node = n.child_b;
+                } else {
+                    node = BVH_NONE;
+                }
+                continue;
+            }
+            first = (node & ~BVH_LEAF) >> BVH_LEAF_COUNT_BITS;
+            end = first + (node & BVH_LEAF_COUNT_MASK) + 1u;
+            node = BVH_NONE;
+        }
+        // One triangle of the current leaf: the same watertight test as the brute-force loop, so both
+        // find the same closest hit.
+        let tri = triangles[first];
+        let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
+        if th.t < hit.t {
+            hit = Hit(th.t, PRIM_TRIANGLE, first, th.b);
+            if any_hit {
+                break;
+            }
+        }
+        first += 1u;
+    }
+    bvh_last_steps = steps;
+    return hit;
+}

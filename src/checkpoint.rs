@@ -1,0 +1,795 @@
+//! Checkpoints and partial renders: the renderer's accumulation state on disk.
+//!
+//! A checkpoint holds, for every pixel, the four Kahan pairs exactly as the GPU holds them (sum and
+//! compensation of the samples and of their squares, `GpuAccum`), which sample indices they hold, and
+//! the identity of the render they belong to. Because a sample's random numbers depend only on (pixel,
+//! sample index, dimension, seed) and the GPU adds samples to a pixel in index order, uploading the
+//! state and going on with the next sample index gives the same bits as a render that never stopped.
+//!
+//! The same file is a *partial render* when it holds a range of samples (`--sample-range A..B`);
+//! [`merge`] adds partial renders of disjoint ranges into the state of their union.
+//!
+//! File layout (all integers and floats little-endian):
+//!
+//! | bytes | content |
+//! | --- | --- |
+//! | 8 | magic `VKPATHCP` |
+//! | 4 | format version (u32, [`FORMAT_VERSION`]) |
+//! | 4 | header length H (u32, at most [`MAX_HEADER_BYTES`]) |
+//! | H | header, UTF-8 JSON ([`Header`]) |
+//! | 64 × width × height | the pixels' `GpuAccum`, row-major from the top-left: 16 f32 each |
+//!
+//! The header's `payload_crc32` is the CRC-32 of the pixel bytes. Files are written atomically
+//! (temporary file, fsync, rename): a crash leaves the previous checkpoint or the new one, never a mix.
+
+use crate::Error;
+use crate::film::{Film, write_atomically_with};
+use crate::gpu::features::FeatureSet;
+use crate::gpu::scene::GpuScene;
+use crate::gpu::types::{GpuAccum, GpuParams};
+use crate::scene::{Gamma, ImageSettings, Scene};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+
+/// The first bytes of every checkpoint file.
+pub const MAGIC: [u8; 8] = *b"VKPATHCP";
+/// The layout version; a file of another version is refused.
+pub const FORMAT_VERSION: u32 = 1;
+/// A header longer than this is refused before it is read (it is a few hundred bytes).
+pub const MAX_HEADER_BYTES: u32 = 1 << 20;
+/// The version of vkpath that writes checkpoints (and the only one that resumes them).
+pub const VKPATH_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+const ACCUM_BYTES: usize = std::mem::size_of::<GpuAccum>();
+
+// ---------------------------------------------------------------------------------------------------
+// The scene's content hash
+// ---------------------------------------------------------------------------------------------------
+
+/// FNV-1a, 64 bits: small, stable across platforms and Rust versions (std's hasher is neither promised).
+/// It detects accidental differences (another scene, another override), not adversarial ones.
+struct Fnv64(u64);
+
+impl Fnv64 {
+    fn new() -> Fnv64 {
+        Fnv64(0xcbf2_9ce4_8422_2325)
+    }
+
+    fn bytes(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= u64::from(b);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+
+    /// A labelled, length-prefixed field, so that moving bytes between fields changes the hash.
+    fn field(&mut self, label: &str, bytes: &[u8]) {
+        self.bytes(label.as_bytes());
+        self.bytes(&(bytes.len() as u64).to_le_bytes());
+        self.bytes(bytes);
+    }
+}
+
+impl fmt::Write for Fnv64 {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        self.bytes(s.as_bytes());
+        Ok(())
+    }
+}
+
+/// The hash of everything that decides the value of every sample: the validated scene (geometry,
+/// materials, lights, camera, image size, seed, bounces, filter, background, with the command-line
+/// overrides applied), the uniform parameters and arrays uploaded to the GPU, and the renderer settings
+/// that change paths (Russian roulette). It leaves out what does not change the sums: the target sample
+/// count, the display transform (exposure, gamma), where the file lives, and the kernel variant
+/// (specialised and generic kernels give the same bits, `tests/specialise.rs`).
+pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
+    // Both structs are taken apart field by field, with no `..`: a field added to either is a compile
+    // error here until it is hashed (or, like the statistics, deliberately left out). Keep it that way:
+    // a field that changes the image but escapes the hash would let a checkpoint of another scene resume.
+    let Scene {
+        path: _, // where the file lives does not change the image
+        camera,
+        image,  // only width and height: exposure and gamma are the display's
+        render, // all but the target sample count
+        materials,
+        material_names: _, // objects refer to materials by index
+        spheres,
+        triangles,
+        meshes: _, // geometry, normals, uvs and texels: hashed as uploaded (mesh_* and texels below)
+        lights,
+    } = scene;
+    let GpuScene {
+        spheres: gpu_spheres,
+        triangles: gpu_triangles,
+        materials: gpu_materials,
+        lights: gpu_lights,
+        bvh_nodes,
+        mesh_faces,
+        mesh_vertices,
+        meshes,
+        texels,
+        stats: _, // build statistics (timings): not content
+    } = gpu;
+    let mut render = *render;
+    render.samples = 0;
+    let mut h = Fnv64::new();
+    h.bytes(b"vkpath scene v1");
+    // Debug prints every field, floats in their shortest round-trip form: a faithful serialisation.
+    let _ = fmt::Write::write_fmt(
+        &mut h,
+        format_args!(
+            "{camera:?}|{}x{}|{render:?}|{materials:?}|{spheres:?}|{triangles:?}|{lights:?}",
+            image.width, image.height
+        ),
+    );
+    h.field("params", bytemuck::bytes_of(params));
+    h.field("spheres", bytemuck::cast_slice(gpu_spheres));
+    h.field("triangles", bytemuck::cast_slice(gpu_triangles));
+    h.field("materials", bytemuck::cast_slice(gpu_materials));
+    h.field("lights", bytemuck::cast_slice(gpu_lights));
+    h.field("bvh_nodes", bytemuck::cast_slice(bvh_nodes));
+    h.field("mesh_faces", bytemuck::cast_slice(mesh_faces));
+    h.field("mesh_vertices", bytemuck::cast_slice(mesh_vertices));
+    h.field("meshes", bytemuck::cast_slice(meshes));
+    h.field("texels", bytemuck::cast_slice(texels));
+    h.0
+}
+
+/// Which kernel a renderer runs, for reports: specialised and generic kernels give the same bits.
+pub fn kernel_name(features: &FeatureSet) -> &'static str {
+    if *features == FeatureSet::generic() {
+        "generic"
+    } else {
+        "specialised"
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The header
+// ---------------------------------------------------------------------------------------------------
+
+/// What must be equal for two accumulation states to belong to the same render: a checkpoint is resumed,
+/// and partial renders are merged, only when these match.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Identity {
+    pub vkpath_version: String,
+    /// [`content_hash`] as 16 hexadecimal digits.
+    pub scene_hash: String,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub max_bounces: u32,
+    /// `u32::MAX` when Russian roulette is off.
+    pub roulette_depth: u32,
+}
+
+impl Identity {
+    /// The identity of a render of `scene` with these parameters and content hash.
+    pub fn new(params: &GpuParams, content_hash: u64) -> Identity {
+        Identity {
+            vkpath_version: VKPATH_VERSION.to_string(),
+            scene_hash: format!("{content_hash:016x}"),
+            width: params.width,
+            height: params.height,
+            seed: params.seed,
+            max_bounces: params.max_bounces,
+            roulette_depth: params.roulette_depth,
+        }
+    }
+
+    /// The differences between `self` (a file's) and `other` (this render's), in words; empty when equal.
+    pub fn differences(&self, other: &Identity) -> Vec<String> {
+        let mut d = Vec::new();
+        if self.vkpath_version != other.vkpath_version {
+            d.push(format!(
+                "it was written by vkpath {} and this is vkpath {} (only the version that wrote a \
+                 state can promise the same bits)",
+                self.vkpath_version, other.vkpath_version
+            ));
+        }
+        if (self.width, self.height) != (other.width, other.height) {
+            d.push(format!(
+                "its image is {}x{}, this one {}x{} (--width/--height)",
+                self.width, self.height, other.width, other.height
+            ));
+        }
+        if self.seed != other.seed {
+            d.push(format!(
+                "its seed is {}, this one {} (--seed)",
+                self.seed, other.seed
+            ));
+        }
+        if self.max_bounces != other.max_bounces {
+            d.push(format!(
+                "its max_bounces is {}, this one {} (--max-bounces)",
+                self.max_bounces, other.max_bounces
+            ));
+        }
+        if self.roulette_depth != other.roulette_depth {
+            let show = |r: u32| {
+                if r == u32::MAX {
+                    "off".to_string()
+                } else {
+                    r.to_string()
+                }
+            };
+            d.push(format!(
+                "its Russian roulette depth is {}, this one {} (--roulette-depth)",
+                show(self.roulette_depth),
+                show(other.roulette_depth)
+            ));
+        }
+        if d.is_empty() && self.scene_hash != other.scene_hash {
+            d.push(format!(
+                "the scene's content differs (geometry, materials, lights, camera or render settings: \
+                 content hash {} in the file, {} here)",
+                self.scene_hash, other.scene_hash
+            ));
+        }
+        d
+    }
+}
+
+/// The display transform, kept so that `vkpath merge` can write PNGs as the scene would.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Display {
+    pub exposure: f32,
+    /// A power (`2.2`) or `null` for the sRGB curve.
+    pub gamma: Option<f32>,
+}
+
+impl Display {
+    pub fn of(image: &ImageSettings) -> Display {
+        Display {
+            exposure: image.exposure,
+            gamma: match image.gamma {
+                Gamma::Power(g) => Some(g),
+                Gamma::Srgb => None,
+            },
+        }
+    }
+
+    /// Image settings for writing a film of `width` x `height` with this display transform.
+    pub fn image_settings(&self, width: u32, height: u32) -> ImageSettings {
+        ImageSettings {
+            width,
+            height,
+            exposure: self.exposure,
+            gamma: match self.gamma {
+                Some(g) => Gamma::Power(g),
+                None => Gamma::Srgb,
+            },
+        }
+    }
+}
+
+/// The JSON header of a checkpoint file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Header {
+    pub identity: Identity,
+    /// The scene as the user named it (for messages only).
+    pub scene: String,
+    /// The device (or devices, after a merge) that computed the sums.
+    pub device: String,
+    /// The sample indices held, as sorted, disjoint, non-empty half-open ranges `[start, end)`. One range
+    /// is one unbroken chain of Kahan additions (a render, resumed or not); several come from a merge.
+    pub ranges: Vec<[u32; 2]>,
+    pub display: Display,
+    /// CRC-32 (IEEE) of the pixel bytes.
+    pub payload_crc32: u32,
+}
+
+/// The ranges' total sample count, or why the ranges are invalid.
+fn count_samples(ranges: &[[u32; 2]]) -> Result<u32, String> {
+    if ranges.is_empty() {
+        return Err("it holds no samples".into());
+    }
+    let mut total: u64 = 0;
+    for (i, r) in ranges.iter().enumerate() {
+        if r[0] >= r[1] {
+            return Err(format!("its sample range {}..{} is empty", r[0], r[1]));
+        }
+        if i > 0 && ranges[i - 1][1] > r[0] {
+            return Err(format!(
+                "its sample ranges {}..{} and {}..{} overlap or are out of order",
+                ranges[i - 1][0],
+                ranges[i - 1][1],
+                r[0],
+                r[1]
+            ));
+        }
+        total += u64::from(r[1] - r[0]);
+    }
+    u32::try_from(total).map_err(|_| "it holds more than 2^32 - 1 samples per pixel".into())
+}
+
+/// Ranges written as `0..64, 128..192`.
+pub fn show_ranges(ranges: &[[u32; 2]]) -> String {
+    ranges
+        .iter()
+        .map(|r| format!("{}..{}", r[0], r[1]))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The state
+// ---------------------------------------------------------------------------------------------------
+
+/// An accumulation state: what [`crate::Renderer::accum_state`] reads back, and what a checkpoint file
+/// holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Checkpoint {
+    pub header: Header,
+    /// One entry per pixel, row-major from the top-left.
+    pub accum: Vec<GpuAccum>,
+}
+
+impl Checkpoint {
+    /// The renderer's current state (read back from the device) as a checkpoint of a render of `scene`.
+    pub fn of(renderer: &mut crate::Renderer, scene: &Scene) -> Result<Checkpoint, Error> {
+        let accum = renderer.accum_state()?;
+        Ok(Checkpoint {
+            header: Header {
+                identity: renderer.identity(),
+                scene: scene.display_name(),
+                device: renderer.context().device_info().name.clone(),
+                ranges: renderer.ranges().to_vec(),
+                display: Display::of(&scene.image),
+                payload_crc32: 0,
+            },
+            accum,
+        })
+    }
+
+    /// Samples per pixel held.
+    pub fn samples(&self) -> u32 {
+        count_samples(&self.header.ranges).unwrap_or(0)
+    }
+
+    /// The next sample index a render going on from this state traces: the end of its last range.
+    pub fn next_sample(&self) -> u32 {
+        self.header.ranges.last().map_or(0, |r| r[1])
+    }
+
+    /// Means and variances, exactly as the renderer's `film()` would give them for this state.
+    pub fn film(&self) -> Film {
+        Film::from_sums(
+            self.header.identity.width,
+            self.header.identity.height,
+            self.samples(),
+            &self.accum,
+        )
+    }
+
+    /// Image settings with the stored display transform.
+    pub fn image_settings(&self) -> ImageSettings {
+        self.header
+            .display
+            .image_settings(self.header.identity.width, self.header.identity.height)
+    }
+
+    /// Writes the state to `path` atomically (temporary file, fsync, rename).
+    pub fn write(&self, path: &Path) -> Result<(), Error> {
+        let payload = accum_bytes(&self.accum);
+        let mut header = self.header.clone();
+        header.payload_crc32 = crc32fast::hash(&payload);
+        let json = serde_json::to_vec(&header).map_err(|e| Error::Io {
+            path: path.to_path_buf(),
+            message: format!("cannot encode the checkpoint header: {e}"),
+        })?;
+        let header_len = u32::try_from(json.len()).unwrap_or(u32::MAX);
+        write_atomically_with(path, |f| {
+            f.write_all(&MAGIC)?;
+            f.write_all(&FORMAT_VERSION.to_le_bytes())?;
+            f.write_all(&header_len.to_le_bytes())?;
+            f.write_all(&json)?;
+            f.write_all(&payload)
+        })
+    }
+
+    /// Reads and checks a state file: magic, version, header, sizes and checksum. Never panics on any
+    /// bytes; every problem is an [`Error::Checkpoint`] naming the file.
+    pub fn read(path: &Path) -> Result<Checkpoint, Error> {
+        let cannot = |e: std::io::Error| Error::Checkpoint {
+            path: path.to_path_buf(),
+            message: format!(
+                "cannot read the checkpoint: {e}. Check the path, or render without --resume."
+            ),
+        };
+        let file = std::fs::File::open(path).map_err(cannot)?;
+        let len = file.metadata().map_err(cannot)?.len();
+        // The header is checked, and the file's length against it, before the pixels are read: a
+        // wrong file of many GB is refused without being read.
+        Checkpoint::decode(&mut std::io::BufReader::new(file), len).map_err(|e| match e {
+            Decode::Io(e) => cannot(e),
+            Decode::Invalid(message) => Error::Checkpoint {
+                path: path.to_path_buf(),
+                message: format!(
+                    "{message}. The file is not a usable vkpath checkpoint; render afresh without it."
+                ),
+            },
+        })
+    }
+
+    /// Parses a state file's bytes; the error says what is wrong, without the file name.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
+        Checkpoint::decode(&mut &bytes[..], bytes.len() as u64).map_err(|e| match e {
+            Decode::Io(e) => e.to_string(),
+            Decode::Invalid(m) => m,
+        })
+    }
+
+    /// Decodes a state from `r`, which holds `len` bytes.
+    fn decode(r: &mut impl Read, len: u64) -> Result<Checkpoint, Decode> {
+        let invalid = |m: String| Decode::Invalid(m);
+        let ends = || Decode::Invalid("it ends inside its header".into());
+        let mut head = [0u8; 16];
+        if len < head.len() as u64 {
+            // Too short for the fixed part: say whether it even starts like a checkpoint.
+            let mut some = Vec::new();
+            r.take(16).read_to_end(&mut some).map_err(Decode::Io)?;
+            if !MAGIC.starts_with(&some[..some.len().min(MAGIC.len())]) {
+                return Err(invalid(SIGNATURE.into()));
+            }
+            return Err(ends());
+        }
+        r.read_exact(&mut head).map_err(Decode::Io)?;
+        if head[..8] != MAGIC {
+            return Err(invalid(SIGNATURE.into()));
+        }
+        let version = u32::from_le_bytes([head[8], head[9], head[10], head[11]]);
+        if version != FORMAT_VERSION {
+            return Err(invalid(format!(
+                "its layout version is {version}, and this vkpath reads version {FORMAT_VERSION}"
+            )));
+        }
+        let header_len = u32::from_le_bytes([head[12], head[13], head[14], head[15]]);
+        if header_len > MAX_HEADER_BYTES || u64::from(header_len) > len - 16 {
+            return Err(invalid(format!(
+                "its header length ({header_len} bytes) is larger than the file or the limit of {MAX_HEADER_BYTES}"
+            )));
+        }
+        let mut json = vec![0u8; header_len as usize];
+        r.read_exact(&mut json).map_err(Decode::Io)?;
+        let header: Header = serde_json::from_slice(&json)
+            .map_err(|e| invalid(format!("its header is not valid: {e}")))?;
+        count_samples(&header.ranges).map_err(invalid)?;
+        let id = &header.identity;
+        let pixels = u64::from(id.width) * u64::from(id.height);
+        if pixels == 0 || pixels > 1 << 28 {
+            return Err(invalid(format!(
+                "its image size {}x{} is outside 1..=2^28 pixels",
+                id.width, id.height
+            )));
+        }
+        let expected = pixels * ACCUM_BYTES as u64;
+        let held = len - 16 - u64::from(header_len);
+        if held != expected {
+            return Err(invalid(format!(
+                "it should hold {expected} bytes of pixel data for {}x{} pixels but holds {held} (a truncated or damaged file)",
+                id.width, id.height
+            )));
+        }
+        let mut payload = vec![0u8; expected as usize];
+        r.read_exact(&mut payload).map_err(Decode::Io)?;
+        let crc = crc32fast::hash(&payload);
+        if crc != header.payload_crc32 {
+            return Err(invalid(format!(
+                "its pixel data fails the checksum (CRC-32 {crc:08x}, header says {:08x}): the file is damaged",
+                header.payload_crc32
+            )));
+        }
+        Ok(Checkpoint {
+            header,
+            accum: accum_from_bytes(&payload),
+        })
+    }
+
+    /// Refuses, with a message that says what differs and what to do, a state that does not belong to
+    /// the render `identity` describes.
+    pub fn check_identity(&self, path: &Path, identity: &Identity) -> Result<(), Error> {
+        let differences = self.header.identity.differences(identity);
+        if differences.is_empty() {
+            return Ok(());
+        }
+        Err(Error::Checkpoint {
+            path: path.to_path_buf(),
+            message: format!(
+                "this checkpoint belongs to another render (of {}): {}. Resume with the scene file and \
+                 flags it was made with, or render afresh without --resume.",
+                self.header.scene,
+                differences.join("; ")
+            ),
+        })
+    }
+}
+
+/// Why a state could not be decoded: the file could not be read, or its content is wrong.
+enum Decode {
+    Io(std::io::Error),
+    Invalid(String),
+}
+
+const SIGNATURE: &str = "it does not start with the vkpath checkpoint signature";
+
+/// The pixels as little-endian bytes.
+fn accum_bytes(accum: &[GpuAccum]) -> std::borrow::Cow<'_, [u8]> {
+    if cfg!(target_endian = "little") {
+        std::borrow::Cow::Borrowed(bytemuck::cast_slice(accum))
+    } else {
+        let floats: &[f32] = bytemuck::cast_slice(accum);
+        std::borrow::Cow::Owned(floats.iter().flat_map(|f| f.to_le_bytes()).collect())
+    }
+}
+
+/// Pixels from little-endian bytes (a whole number of `GpuAccum`s).
+fn accum_from_bytes(bytes: &[u8]) -> Vec<GpuAccum> {
+    let floats: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    floats
+        .chunks_exact(16)
+        .map(|c| GpuAccum {
+            sum: [c[0], c[1], c[2], c[3]],
+            sum_c: [c[4], c[5], c[6], c[7]],
+            sum_sq: [c[8], c[9], c[10], c[11]],
+            sum_sq_c: [c[12], c[13], c[14], c[15]],
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Merging partial renders
+// ---------------------------------------------------------------------------------------------------
+
+/// Adds partial renders of disjoint sample ranges of the same render into the state of their union.
+///
+/// Each part's pixel sum is its Kahan pair read exactly in f64 (s - c: two f32s, exact in f64); the
+/// parts' sums are added in f64 in the order of their first sample index (so the result does not depend
+/// on the order the parts are given in), and stored back as a Kahan pair (s = the f32 nearest the total,
+/// c = s - total rounded to f32, so that s - c carries about 48 bits). The same for the sums of squares:
+/// the variance of the union is kept. The image equals a single render of the union up to rounding: see
+/// docs/reliability.md for the bound and `tests/checkpoint.rs` for the test.
+pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
+    let Some((first_path, first)) = parts.first() else {
+        return Err(Error::Usage(
+            "merge needs at least one partial render.".into(),
+        ));
+    };
+    let identity = &first.header.identity;
+    let pixels = identity.width as usize * identity.height as usize;
+    for (path, part) in parts {
+        if part.accum.len() != pixels {
+            return Err(Error::Checkpoint {
+                path: path.clone(),
+                message: format!(
+                    "it holds {} pixels for a {}x{} image.",
+                    part.accum.len(),
+                    identity.width,
+                    identity.height
+                ),
+            });
+        }
+    }
+    for (path, part) in &parts[1..] {
+        let d = part.header.identity.differences(identity);
+        if !d.is_empty() {
+            return Err(Error::Checkpoint {
+                path: path.clone(),
+                message: format!(
+                    "this partial render is of another render than {}: {}. Merge only the parts of one \
+                     render (same scene file, flags and vkpath version).",
+                    first_path.display(),
+                    d.join("; ")
+                ),
+            });
+        }
+    }
+    // Every range, with the part it comes from, sorted by start: overlaps would count samples twice.
+    let mut ranges: Vec<([u32; 2], usize)> = parts
+        .iter()
+        .enumerate()
+        .flat_map(|(i, (_, p))| p.header.ranges.iter().map(move |r| (*r, i)))
+        .collect();
+    ranges.sort();
+    for w in ranges.windows(2) {
+        let ((a, i), (b, j)) = (w[0], w[1]);
+        if a[1] > b[0] {
+            let (pa, pb) = (&parts[i].0, &parts[j].0);
+            return Err(Error::Checkpoint {
+                path: pb.clone(),
+                message: format!(
+                    "its samples {}..{} overlap the samples {}..{} of {}: merging would count them twice. \
+                     Merge partial renders of disjoint --sample-range's only.",
+                    b[0],
+                    b[1],
+                    a[0],
+                    a[1],
+                    pa.display()
+                ),
+            });
+        }
+    }
+    let all_ranges: Vec<[u32; 2]> = ranges.iter().map(|(r, _)| *r).collect();
+    count_samples(&all_ranges).map_err(|m| Error::Checkpoint {
+        path: first_path.clone(),
+        message: format!("the merged render would be invalid: {m}."),
+    })?;
+    // Parts in the order of their first sample.
+    let mut order: Vec<usize> = (0..parts.len()).collect();
+    order.sort_by_key(|&i| parts[i].1.header.ranges.first().map_or(0, |r| r[0]));
+
+    let mut accum = Vec::with_capacity(pixels);
+    for p in 0..pixels {
+        let mut sum = [0f64; 4];
+        let mut sq = [0f64; 4];
+        for &i in &order {
+            let a = &parts[i].1.accum[p];
+            for c in 0..4 {
+                sum[c] += f64::from(a.sum[c]) - f64::from(a.sum_c[c]);
+                sq[c] += f64::from(a.sum_sq[c]) - f64::from(a.sum_sq_c[c]);
+            }
+        }
+        let mut out = GpuAccum::default();
+        for c in 0..4 {
+            (out.sum[c], out.sum_c[c]) = kahan_pair(sum[c]);
+            (out.sum_sq[c], out.sum_sq_c[c]) = kahan_pair(sq[c]);
+        }
+        accum.push(out);
+    }
+    let mut devices: Vec<&str> = Vec::new();
+    for &i in &order {
+        let d = parts[i].1.header.device.as_str();
+        if !devices.contains(&d) {
+            devices.push(d);
+        }
+    }
+    Ok(Checkpoint {
+        header: Header {
+            identity: identity.clone(),
+            scene: first.header.scene.clone(),
+            device: devices.join(" + "),
+            ranges: all_ranges,
+            display: first.header.display,
+            payload_crc32: 0,
+        },
+        accum,
+    })
+}
+
+/// A total as a Kahan pair (s, c) with s - c ≈ total: s the nearest f32, c the f32 nearest s - total.
+fn kahan_pair(total: f64) -> (f32, f32) {
+    let s = total as f32;
+    let c = (f64::from(s) - total) as f32;
+    (s, c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn state(ranges: Vec<[u32; 2]>, value: f32) -> Checkpoint {
+        Checkpoint {
+            header: Header {
+                identity: Identity {
+                    vkpath_version: VKPATH_VERSION.into(),
+                    scene_hash: "0123456789abcdef".into(),
+                    width: 2,
+                    height: 1,
+                    seed: 0,
+                    max_bounces: 5,
+                    roulette_depth: 3,
+                },
+                scene: "test".into(),
+                device: "dev".into(),
+                ranges,
+                display: Display {
+                    exposure: 1.0,
+                    gamma: Some(2.2),
+                },
+                payload_crc32: 0,
+            },
+            accum: vec![
+                GpuAccum {
+                    sum: [value, 0.5, 0.25, 0.0],
+                    sum_c: [1e-9, 0.0, 0.0, 0.0],
+                    sum_sq: [value * value, 0.25, 0.0625, 0.0],
+                    sum_sq_c: [0.0; 4],
+                };
+                2
+            ],
+        }
+    }
+
+    #[test]
+    fn bytes_round_trip_and_damage_is_detected() {
+        let s = state(vec![[0, 4]], 3.0);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.ckpt");
+        s.write(&path).unwrap();
+        let back = Checkpoint::read(&path).unwrap();
+        assert_eq!(back.accum, s.accum);
+        assert_eq!(back.header.ranges, s.header.ranges);
+        let mut bytes = std::fs::read(&path).unwrap();
+        let last = bytes.len() - 1;
+        bytes[last] ^= 1;
+        assert!(
+            Checkpoint::from_bytes(&bytes)
+                .unwrap_err()
+                .contains("checksum")
+        );
+        assert!(
+            Checkpoint::from_bytes(&bytes[..bytes.len() - 64])
+                .unwrap_err()
+                .contains("truncated")
+        );
+        // Every prefix is refused without a panic.
+        for n in 0..bytes.len() {
+            assert!(Checkpoint::from_bytes(&bytes[..n]).is_err());
+        }
+    }
+
+    /// A wrong file of many GB (sparse here) is refused from its first bytes, or from its length, without
+    /// its content being read.
+    #[test]
+    fn huge_wrong_files_are_refused_without_being_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big");
+        std::fs::File::create(&path)
+            .unwrap()
+            .set_len(8 << 30)
+            .unwrap();
+        let start = std::time::Instant::now();
+        let e = Checkpoint::read(&path).unwrap_err().to_string();
+        assert!(e.contains("signature"), "{e}");
+        // A valid header followed by gigabytes: the length is wrong for the image it describes.
+        let good = dir.path().join("good");
+        state(vec![[0, 1]], 1.0).write(&good).unwrap();
+        let bytes = std::fs::read(&good).unwrap();
+        let f = std::fs::File::create(&path).unwrap();
+        std::io::Write::write_all(&mut &f, &bytes).unwrap();
+        f.set_len(8 << 30).unwrap();
+        let e = Checkpoint::read(&path).unwrap_err().to_string();
+        assert!(e.contains("truncated or damaged"), "{e}");
+        assert!(start.elapsed().as_secs() < 2, "the files were read");
+    }
+
+    #[test]
+    fn merge_refuses_overlaps_and_adds_disjoint_ranges() {
+        let a = (PathBuf::from("a"), state(vec![[0, 4]], 3.0));
+        let b = (PathBuf::from("b"), state(vec![[2, 6]], 3.0));
+        let e = merge(&[a.clone(), b]).unwrap_err().to_string();
+        assert!(e.contains("overlap"), "{e}");
+        let c = (PathBuf::from("c"), state(vec![[4, 8]], 1.0));
+        let m = merge(&[c.clone(), a.clone()]).unwrap();
+        assert_eq!(m.header.ranges, vec![[0, 4], [4, 8]]);
+        assert_eq!(m.samples(), 8);
+        // Order of the arguments does not matter.
+        assert_eq!(merge(&[a, c]).unwrap(), m);
+        let total = (3.0f64 - 1e-9f32 as f64) + (1.0 - 1e-9f32 as f64);
+        let p = &m.accum[0];
+        assert_eq!(p.sum[0] as f64 - p.sum_c[0] as f64, total);
+    }
+
+    #[test]
+    fn identity_differences_are_named() {
+        let a = state(vec![[0, 1]], 1.0).header.identity;
+        let mut b = a.clone();
+        b.seed = 9;
+        b.roulette_depth = u32::MAX;
+        let d = a.differences(&b).join("; ");
+        assert!(d.contains("seed is 0, this one 9"), "{d}");
+        assert!(d.contains("roulette depth is 3, this one off"), "{d}");
+        let mut c = a.clone();
+        c.scene_hash = "ffffffffffffffff".into();
+        assert!(a.differences(&c)[0].contains("content differs"));
+    }
+}

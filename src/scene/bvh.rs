@@ -1,0 +1,525 @@
+//! A bounding volume hierarchy over triangles, built on the host with the binned surface area heuristic
+//! and flattened into the array of two-box nodes that `shaders/bvh.wgsl` walks.
+//!
+//! **The surface area heuristic** (Goldsmith & Salmon 1987; MacDonald & Booth 1990; as in pbrt-v4 §7.3,
+//! Pharr, Jakob & Humphreys 2023). For a ray that passes through a node's box B, the probability that it
+//! also passes through a child box Bc inside it is about SA(Bc) / SA(B) (for uniformly distributed
+//! lines, Cauchy's formula). So the expected cost of splitting the node's triangles into (L, R) is
+//!
+//! ```text
+//!     C(split) = C_trav + (SA(L) N_L + SA(R) N_R) / SA(B) * C_isect,      C(leaf) = N * C_isect
+//! ```
+//!
+//! and the builder picks the cheapest split, or a leaf when no split is cheaper (and the node is small
+//! enough to be a leaf). We take C_trav = C_isect = 1: in our traversal one loop iteration either visits an
+//! interior node (two box tests) or tests one triangle, and both cost about the same on a GPU thread.
+//!
+//! **Binning** (Wald, "On fast Construction of SAH-based Bounding Volume Hierarchies", 2007). Instead of
+//! sorting, each axis's range of triangle centroids is cut into [`BINS`] equal bins; one pass counts the
+//! triangles and grows a box per bin, and a sweep from each side evaluates the [`BINS`] - 1 planes between
+//! bins. All three axes are tried. That is O(N) per level, O(N log N) in all.
+//!
+//! **Bounded depth.** The shader's traversal stack has [`STACK_SIZE`] entries and holds at most one entry
+//! per level, so the tree must not be deeper. Below [`SAH_MAX_DEPTH`] levels the builder switches to
+//! median splits (half the triangles each side), which add at most log2(N) <= 29 more levels: the depth
+//! is at most 32 + 29 = 61 < 64 for any number of triangles we accept.
+
+use glam::Vec3;
+use std::time::Instant;
+
+/// Bins per axis.
+pub const BINS: usize = 16;
+/// The most triangles in one leaf. A leaf reference keeps (count - 1) in [`LEAF_COUNT_BITS`] bits.
+pub const MAX_LEAF: usize = 4;
+/// A child reference with this bit set is a leaf: triangles `[first, first + count)` with
+/// `first = (ref & !LEAF) >> LEAF_COUNT_BITS` and `count = (ref & LEAF_COUNT_MASK) + 1`; otherwise it is
+/// the index of an interior node. Mirrored in `shaders/bvh.wgsl`.
+pub const LEAF: u32 = 0x8000_0000;
+pub const LEAF_COUNT_BITS: u32 = 2;
+pub const LEAF_COUNT_MASK: u32 = (1 << LEAF_COUNT_BITS) - 1;
+/// Entries of the shader's traversal stack (`BVH_STACK_SIZE` in bvh.wgsl).
+pub const STACK_SIZE: usize = 64;
+/// Depth from which splits are medians instead of SAH (see the module comment).
+pub const SAH_MAX_DEPTH: usize = 32;
+/// The traversal loop of one ray in `shaders/bvh.wgsl` runs at most this many iterations
+/// (`BVH_MAX_STEPS`). One iteration visits one interior node (both child boxes) or tests one triangle.
+///
+/// Why a cap: Mesa's lavapipe ends every loop of an invocation after 65535 iterations in total, and the
+/// renderer must bound a path's iterations before it renders (`render::worst_case_loop_iterations`). The
+/// uncapped worst case of one traversal is every node and every triangle, which for 10^6 triangles
+/// would refuse every mesh scene. With the cap, a path costs at most (bounces + 1) x (lights + 1)
+/// traversals of 2048 iterations: the course's settings (5 bounces, 1 light) need 12 x 2048 = 24,576,
+/// within the budget with room for spheres and lights. A ray through a good BVH needs far fewer:
+/// roughly 2 log2(N) interior nodes plus a few leaves, and `tests/bvh.rs` measures the largest count over
+/// random rays into meshes of up to 10^5 triangles (a few hundred at most). A ray that reached the cap
+/// would keep the closest hit found so far (a shadow ray: unoccluded); the tests check that none does.
+pub const MAX_STEPS: u32 = 2048;
+
+/// An axis-aligned box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub lo: Vec3,
+    pub hi: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        lo: Vec3::splat(f32::INFINITY),
+        hi: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn grow(&mut self, p: Vec3) {
+        self.lo = self.lo.min(p);
+        self.hi = self.hi.max(p);
+    }
+
+    pub fn union(&self, o: &Aabb) -> Aabb {
+        Aabb {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lo.x > self.hi.x
+    }
+
+    /// Surface area, in f64 (the products of large f32 extents must not overflow); 0 for an empty box.
+    pub fn surface_area(&self) -> f64 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let e = (self.hi - self.lo).as_dvec3();
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    pub fn contains(&self, o: &Aabb) -> bool {
+        self.lo.cmple(o.lo).all() && self.hi.cmpge(o.hi).all()
+    }
+}
+
+/// An interior node: the boxes and references of its two children (see [`LEAF`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node {
+    pub bounds: [Aabb; 2],
+    pub child: [u32; 2],
+}
+
+/// A built hierarchy. The triangles must be uploaded in `order`: leaf ranges index that order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bvh {
+    /// Interior nodes, depth-first; node 0 is the root (there is always one when there are triangles).
+    pub nodes: Vec<Node>,
+    /// `order[i]` is the original index of the i-th triangle in leaf order.
+    pub order: Vec<u32>,
+    /// Leaves, and the depth of the deepest interior node (the root has depth 1).
+    pub leaves: usize,
+    pub depth: usize,
+    pub build_seconds: f64,
+}
+
+/// Per-triangle data the builder sorts by.
+struct Prim {
+    bounds: Aabb,
+    centroid: Vec3,
+}
+
+struct Builder {
+    prims: Vec<Prim>,
+    order: Vec<u32>,
+    nodes: Vec<Node>,
+    leaves: usize,
+    depth: usize,
+}
+
+/// Builds the hierarchy over `triangles` (each three vertices).
+pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
+    let start = Instant::now();
+    let n = triangles.len();
+    if n == 0 {
+        return Bvh::default();
+    }
+    assert!(
+        n <= super::mesh::MAX_TRIANGLES,
+        "the scene parser caps triangles"
+    );
+    let prims: Vec<Prim> = triangles
+        .iter()
+        .map(|t| {
+            let mut b = Aabb::EMPTY;
+            t.iter().for_each(|&p| b.grow(p));
+            // The box centre: what binning sorts by (pbrt-v4 does the same).
+            Prim {
+                bounds: b,
+                centroid: (b.lo + b.hi) * 0.5,
+            }
+        })
+        .collect();
+    let mut builder = Builder {
+        prims,
+        order: (0..n as u32).collect(),
+        nodes: Vec::with_capacity(n / 2 + 1),
+        leaves: 0,
+        depth: 0,
+    };
+    builder.nodes.push(Node {
+        bounds: [Aabb::EMPTY; 2],
+        child: [0; 2],
+    });
+    // The root is always an interior node (the shader starts at node 0). A single triangle gets the
+    // same leaf on both sides, which costs one repeated test and changes no result.
+    if n == 1 {
+        let leaf = builder.leaf(0, 1);
+        let b = builder.prims[0].bounds;
+        builder.nodes[0] = Node {
+            bounds: [b, b],
+            child: [leaf, leaf],
+        };
+        builder.leaves = 1;
+        builder.depth = 1;
+    } else {
+        let (bounds, centroids) = builder.bounds(0, n);
+        let split = builder.choose_split(0, n, &bounds, &centroids, 1);
+        builder.fill(0, 0, n, 1, &centroids, split);
+    }
+    Bvh {
+        nodes: builder.nodes,
+        order: builder.order,
+        leaves: builder.leaves,
+        depth: builder.depth,
+        build_seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+impl Builder {
+    fn bounds(&self, start: usize, end: usize) -> (Aabb, Aabb) {
+        let mut b = Aabb::EMPTY;
+        let mut c = Aabb::EMPTY;
+        for &i in &self.order[start..end] {
+            let p = &self.prims[i as usize];
+            b = b.union(&p.bounds);
+            c.grow(p.centroid);
+        }
+        (b, c)
+    }
+
+    fn leaf(&self, start: usize, end: usize) -> u32 {
+        debug_assert!(end > start && end - start <= MAX_LEAF);
+        LEAF | ((start as u32) << LEAF_COUNT_BITS) | (end - start - 1) as u32
+    }
+
+    /// The split `subtree` and the root use: binned SAH, or the median below [`SAH_MAX_DEPTH`] (None).
+    fn choose_split(
+        &self,
+        start: usize,
+        end: usize,
+        bounds: &Aabb,
+        centroids: &Aabb,
+        depth: usize,
+    ) -> Option<(f64, usize, usize)> {
+        if depth >= SAH_MAX_DEPTH {
+            None
+        } else {
+            self.best_sah_split(start, end, bounds, centroids)
+        }
+    }
+
+    /// Builds the subtree over `order[start..end]` and returns its reference and box.
+    fn subtree(&mut self, start: usize, end: usize, depth: usize) -> (u32, Aabb) {
+        let (bounds, centroids) = self.bounds(start, end);
+        let n = end - start;
+        let split = self.choose_split(start, end, &bounds, &centroids, depth);
+        // SAH: a leaf costs n triangle tests; a split costs what best_sah_split computed.
+        if n <= MAX_LEAF && split.is_none_or(|(cost, _, _)| cost >= n as f64) {
+            self.leaves += 1;
+            return (self.leaf(start, end), bounds);
+        }
+        let index = self.nodes.len();
+        self.nodes.push(Node {
+            bounds: [Aabb::EMPTY; 2],
+            child: [0; 2],
+        });
+        self.fill(index, start, end, depth, &centroids, split);
+        (index as u32, bounds)
+    }
+
+    /// Makes node `index` the interior node over `order[start..end]`: partitions by `split` (or at the
+    /// median) and builds both subtrees.
+    fn fill(
+        &mut self,
+        index: usize,
+        start: usize,
+        end: usize,
+        depth: usize,
+        centroids: &Aabb,
+        split: Option<(f64, usize, usize)>,
+    ) {
+        self.depth = self.depth.max(depth);
+        let mid = match split {
+            Some((_, axis, plane)) => self.partition(start, end, centroids, axis, plane),
+            None => self.median(start, end, centroids),
+        };
+        let (left, lb) = self.subtree(start, mid, depth + 1);
+        let (right, rb) = self.subtree(mid, end, depth + 1);
+        self.nodes[index] = Node {
+            bounds: [lb, rb],
+            child: [left, right],
+        };
+    }
+
+    /// The bin of a centroid coordinate `c` on an axis whose centroids span [lo, lo + extent].
+    fn bin(c: f32, lo: f32, scale: f64) -> usize {
+        (((c - lo) as f64 * scale) as usize).min(BINS - 1)
+    }
+
+    /// The cheapest binned SAH split of `order[start..end]`: (cost, axis, last bin on the left), or None
+    /// when all centroids coincide. Costs are in units of one triangle test (see the module comment).
+    fn best_sah_split(
+        &self,
+        start: usize,
+        end: usize,
+        bounds: &Aabb,
+        centroids: &Aabb,
+    ) -> Option<(f64, usize, usize)> {
+        let area = bounds.surface_area();
+        let mut best: Option<(f64, usize, usize)> = None;
+        for axis in 0..3 {
+            let lo = centroids.lo[axis];
+            let extent = (centroids.hi[axis] - lo) as f64;
+            if extent <= 0.0 {
+                continue;
+            }
+            let scale = BINS as f64 / extent;
+            let mut counts = [0usize; BINS];
+            let mut boxes = [Aabb::EMPTY; BINS];
+            for &i in &self.order[start..end] {
+                let p = &self.prims[i as usize];
+                let b = Self::bin(p.centroid[axis], lo, scale);
+                counts[b] += 1;
+                boxes[b] = boxes[b].union(&p.bounds);
+            }
+            // right[k]: (area, count) of bins k..BINS, swept from the right.
+            let mut right = [(0.0f64, 0usize); BINS];
+            let mut acc = Aabb::EMPTY;
+            let mut count = 0;
+            for k in (1..BINS).rev() {
+                acc = acc.union(&boxes[k]);
+                count += counts[k];
+                right[k] = (acc.surface_area(), count);
+            }
+            let mut acc = Aabb::EMPTY;
+            let mut count = 0;
+            for k in 0..BINS - 1 {
+                acc = acc.union(&boxes[k]);
+                count += counts[k];
+                let (right_area, right_count) = right[k + 1];
+                if count == 0 || right_count == 0 {
+                    continue;
+                }
+                let cost = if area > 0.0 {
+                    1.0 + (acc.surface_area() * count as f64 + right_area * right_count as f64)
+                        / area
+                } else {
+                    // Every triangle is a point (zero-area box): any split costs the same.
+                    1.0 + (end - start) as f64
+                };
+                if best.is_none_or(|(c, _, _)| cost < c) {
+                    best = Some((cost, axis, k));
+                }
+            }
+        }
+        best
+    }
+
+    /// Puts the triangles whose centroid falls in bins 0..=plane first; returns where the rest start.
+    fn partition(
+        &mut self,
+        start: usize,
+        end: usize,
+        centroids: &Aabb,
+        axis: usize,
+        plane: usize,
+    ) -> usize {
+        let lo = centroids.lo[axis];
+        let scale = BINS as f64 / (centroids.hi[axis] - lo) as f64;
+        let (mut i, mut j) = (start, end);
+        while i < j {
+            let c = self.prims[self.order[i] as usize].centroid[axis];
+            if Self::bin(c, lo, scale) <= plane {
+                i += 1;
+            } else {
+                j -= 1;
+                self.order.swap(i, j);
+            }
+        }
+        // best_sah_split only returns planes with triangles on both sides.
+        debug_assert!(i > start && i < end);
+        i
+    }
+
+    /// Splits at the median centroid along the longest axis of the centroids' box (any order when they
+    /// all coincide): both halves are non-empty and at most half the size, rounded up.
+    fn median(&mut self, start: usize, end: usize, centroids: &Aabb) -> usize {
+        let mid = start + (end - start) / 2;
+        let extent = centroids.hi - centroids.lo;
+        let axis = if extent.x >= extent.y && extent.x >= extent.z {
+            0
+        } else if extent.y >= extent.z {
+            1
+        } else {
+            2
+        };
+        if extent[axis] > 0.0 {
+            let prims = &self.prims;
+            self.order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
+                prims[a as usize].centroid[axis].total_cmp(&prims[b as usize].centroid[axis])
+            });
+        }
+        mid
+    }
+}
+
+impl Bvh {
+    /// Visits the leaves' triangle ranges (start, count), depth-first.
+    pub fn leaf_ranges(&self) -> Vec<(usize, usize)> {
+        let mut out = Vec::new();
+        let mut stack = vec![0u32];
+        if self.nodes.is_empty() {
+            return out;
+        }
+        while let Some(r) = stack.pop() {
+            if r & LEAF != 0 {
+                let first = ((r & !LEAF) >> LEAF_COUNT_BITS) as usize;
+                out.push((first, (r & LEAF_COUNT_MASK) as usize + 1));
+            } else {
+                let node = &self.nodes[r as usize];
+                stack.push(node.child[1]);
+                stack.push(node.child[0]);
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn random_triangles(n: usize, seed: u64) -> Vec<[Vec3; 3]> {
+        let mut state = seed;
+        let mut next = move || {
+            // SplitMix64.
+            state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+        };
+        (0..n)
+            .map(|_| {
+                let c = Vec3::new(next(), next(), next()) * 100.0;
+                let mut v = || c + Vec3::new(next(), next(), next()) * 2.0;
+                [v(), v(), v()]
+            })
+            .collect()
+    }
+
+    /// Every triangle is in exactly one leaf, every child box contains what is below it, and the depth
+    /// fits the shader's stack.
+    fn check_invariants(tris: &[[Vec3; 3]], bvh: &Bvh) {
+        let mut seen = vec![0u32; tris.len()];
+        for &i in &bvh.order {
+            seen[i as usize] += 1;
+        }
+        assert!(seen.iter().all(|&c| c == 1), "order is not a permutation");
+        let mut covered = vec![0u32; tris.len()];
+        fn check(
+            bvh: &Bvh,
+            tris: &[[Vec3; 3]],
+            r: u32,
+            bounds: Aabb,
+            depth: usize,
+            covered: &mut [u32],
+        ) -> usize {
+            if r & LEAF != 0 {
+                let first = ((r & !LEAF) >> LEAF_COUNT_BITS) as usize;
+                let count = (r & LEAF_COUNT_MASK) as usize + 1;
+                for k in first..first + count {
+                    covered[k] += 1;
+                    for v in tris[bvh.order[k] as usize] {
+                        assert!(bounds.contains(&Aabb { lo: v, hi: v }));
+                    }
+                }
+                return depth;
+            }
+            let node = &bvh.nodes[r as usize];
+            let mut deepest = depth;
+            for side in 0..2 {
+                assert!(bounds.contains(&node.bounds[side]));
+                deepest = deepest.max(check(
+                    bvh,
+                    tris,
+                    node.child[side],
+                    node.bounds[side],
+                    depth + 1,
+                    covered,
+                ));
+            }
+            deepest
+        }
+        let all = Aabb {
+            lo: Vec3::splat(f32::NEG_INFINITY),
+            hi: Vec3::splat(f32::INFINITY),
+        };
+        let depth = check(bvh, tris, 0, all, 0, &mut covered);
+        // The leaves' own depth is one more than their parent's.
+        assert!(depth <= STACK_SIZE, "depth {depth}");
+        // (A single triangle is the one leaf on both sides of the root.)
+        let expected = if tris.len() == 1 { 2 } else { 1 };
+        assert!(
+            covered.iter().all(|&c| c == expected),
+            "a triangle is in no or several leaves"
+        );
+        if tris.len() > 1 {
+            assert_eq!(bvh.leaf_ranges().len(), bvh.leaves);
+            assert_eq!(bvh.nodes.len() + 1, bvh.leaves, "a binary tree");
+        }
+    }
+
+    #[test]
+    fn random_triangles_make_a_valid_tree() {
+        for n in [1usize, 2, 3, 4, 5, 17, 1000, 20_000] {
+            let tris = random_triangles(n, n as u64);
+            let bvh = build(&tris);
+            check_invariants(&tris, &bvh);
+            if n >= 1000 {
+                // SAH on scattered small triangles: shallow, small leaves.
+                assert!(bvh.depth < 40, "n = {n}: depth {}", bvh.depth);
+                assert!(bvh.leaves as f64 > n as f64 / MAX_LEAF as f64);
+            }
+        }
+    }
+
+    #[test]
+    fn identical_triangles_still_split_into_small_leaves() {
+        let t = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let tris = vec![t; 1000];
+        let bvh = build(&tris);
+        check_invariants(&tris, &bvh);
+        // Median splits of 1000 coincident triangles: log2(1000 / 4) + 1 levels.
+        assert!(bvh.depth <= 10, "depth {}", bvh.depth);
+    }
+
+    #[test]
+    fn a_degenerate_chain_stays_within_the_stack() {
+        // Triangles whose sizes grow geometrically: SAH alone would peel one off per level.
+        let tris: Vec<[Vec3; 3]> = (0..3000)
+            .map(|i| {
+                let s = 1.01f32.powi(i);
+                [Vec3::ZERO, Vec3::X * s, Vec3::Y * s]
+            })
+            .collect();
+        let bvh = build(&tris);
+        check_invariants(&tris, &bvh);
+    }
+}

@@ -1,0 +1,578 @@
+//! Triangle meshes: Wavefront OBJ files read with `tobj`, placed in the scene by a similarity transform,
+//! with per-vertex shading normals and an optional sRGB albedo texture.
+//!
+//! Everything here is host data in `f32`/glam types; `gpu::scene` flattens it into the triangle, BVH and
+//! shading buffers. Errors are [`ObjError`]s that carry the OBJ's own line number: the scene parser wraps
+//! them into a `SceneError` that also names the scene file, its line and the `[[mesh]]` key.
+
+use glam::{DMat3, DVec3, Vec3};
+use std::collections::HashMap;
+use std::io::{BufRead, Read};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// The most triangles one scene may hold: the BVH's leaf references keep a triangle index in 29 bits
+/// (see `bvh.rs`), and a triangle buffer this large is already 25 GB.
+pub const MAX_TRIANGLES: usize = 1 << 29;
+
+/// A mesh in world space, ready for the BVH. Vertices are "corners": a position with the normal and uv it
+/// has in the faces that use it (the OBJ may give one position several normals or uvs, e.g. along a uv
+/// seam; `tobj` splits such positions into several vertices).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    /// The OBJ file, as resolved against the scene file's directory (for messages).
+    pub obj: PathBuf,
+    pub positions: Vec<Vec3>,
+    /// Unit shading normals per vertex, in world space, when the mesh is smooth; empty when it is flat.
+    /// A vertex whose normal is undefined (all its faces have zero area) holds zero, and the shader then
+    /// falls back to the geometric normal.
+    pub normals: Vec<Vec3>,
+    /// Texture coordinates per vertex when the mesh has a texture; empty otherwise.
+    pub uvs: Vec<[f32; 2]>,
+    /// Vertex indices, counter-clockwise seen from the front (the OBJ's winding).
+    pub triangles: Vec<[u32; 3]>,
+    /// Index into `Scene::materials`.
+    pub material: u32,
+    pub texture: Option<Arc<Texture>>,
+}
+
+/// An 8-bit sRGB-encoded RGBA image, rows from the top, as the shader samples it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub path: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    /// `r | g << 8 | b << 16 | a << 24`, row-major from the top-left texel (WGSL's `unpack4x8unorm`
+    /// order). The sRGB transfer curve is undone in the shader, per texel, before filtering.
+    pub texels: Vec<u32>,
+}
+
+/// A mesh as the OBJ file gives it, in the file's own coordinates.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ObjMesh {
+    pub positions: Vec<Vec3>,
+    /// Per vertex, when every vertex of every face has a `vn`.
+    pub normals: Option<Vec<Vec3>>,
+    /// Per vertex, when every vertex of every face has a `vt`.
+    pub uvs: Option<Vec<[f32; 2]>>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// What is wrong with an OBJ file, and on which of its lines (1-based) when that is known.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ObjError {
+    pub line: Option<usize>,
+    /// What is wrong, without the file name or a final full stop.
+    pub message: String,
+}
+
+impl ObjError {
+    fn at(line: usize, message: impl Into<String>) -> ObjError {
+        ObjError {
+            line: Some(line),
+            message: message.into(),
+        }
+    }
+
+    fn whole_file(message: impl Into<String>) -> ObjError {
+        ObjError {
+            line: None,
+            message: message.into(),
+        }
+    }
+}
+
+/// Reads an OBJ file (see [`parse_obj`]).
+pub fn load_obj(path: &Path) -> Result<ObjMesh, ObjError> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| ObjError::whole_file(format!("cannot read the OBJ file: {e}")))?;
+    parse_obj(&bytes)
+}
+
+/// A byte slice as a `BufRead` that remembers how far `tobj` has read: `tobj` reads line by line
+/// (`BufRead::lines`) and stops at the first bad line, so when it fails the line it failed on is the
+/// last one consumed. (Its errors carry no position of their own.)
+struct Cursor<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl Read for Cursor<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = buf.len().min(self.bytes.len() - self.pos);
+        buf[..n].copy_from_slice(&self.bytes[self.pos..self.pos + n]);
+        self.pos += n;
+        Ok(n)
+    }
+}
+
+impl BufRead for Cursor<'_> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        Ok(&self.bytes[self.pos..])
+    }
+
+    fn consume(&mut self, amt: usize) {
+        self.pos = (self.pos + amt).min(self.bytes.len());
+    }
+}
+
+/// The 1-based line that ends at byte `pos` (the byte after its newline, or the end of the text).
+fn line_ending_at(bytes: &[u8], pos: usize) -> usize {
+    let end = pos.saturating_sub(1).min(bytes.len());
+    1 + bytes[..end].iter().filter(|&&b| b == b'\n').count()
+}
+
+/// Parses OBJ text: `v`, `vt`, `vn` and `f` (polygons are triangulated as fans, points and lines
+/// ignored, `\r\n` line ends accepted, materials ignored: the scene gives the material). Errors name
+/// the line: a malformed number or face, an index out of range, a non-finite coordinate, no faces.
+pub fn parse_obj(bytes: &[u8]) -> Result<ObjMesh, ObjError> {
+    let options = tobj::LoadOptions {
+        // One index per corner: a position used with two normals or uvs becomes two vertices.
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    // tobj 4.0.5 computes `index * 2 + 1` and `index * 3 + 2` on face indices without overflow checks
+    // (lib.rs:852, 860): an index such as `-2147483649` panics in debug builds and wraps in release
+    // ones (found by tests/fuzz_scene.rs). Every out-of-range index is refused before tobj sees it.
+    if let Some(e) = locate_bad_index(bytes) {
+        return Err(e);
+    }
+    let mut cursor = Cursor { bytes, pos: 0 };
+    // `mtllib` is ignored: materials come from the scene file.
+    let loaded = tobj::load_obj_buf(&mut cursor, &options, |_| {
+        Ok((Vec::new(), Default::default()))
+    });
+    let models = match loaded {
+        Ok((models, _materials)) => models,
+        Err(e) => return Err(explain_tobj_error(bytes, e, cursor.pos)),
+    };
+
+    let mut mesh = ObjMesh::default();
+    let mut all_normals = true;
+    let mut all_uvs = true;
+    let mut normals = Vec::new();
+    let mut uvs = Vec::new();
+    for model in &models {
+        let m = &model.mesh;
+        let base = mesh.positions.len();
+        let count = m.positions.len() / 3;
+        mesh.positions.extend(
+            m.positions
+                .chunks_exact(3)
+                .map(|p| Vec3::new(p[0], p[1], p[2])),
+        );
+        // tobj stores a normal (uv) per vertex only for the vertices whose face corners have one.
+        if m.normals.len() == 3 * count {
+            normals.extend(
+                m.normals
+                    .chunks_exact(3)
+                    .map(|n| Vec3::new(n[0], n[1], n[2])),
+            );
+        } else {
+            all_normals = false;
+        }
+        if m.texcoords.len() == 2 * count {
+            uvs.extend(m.texcoords.chunks_exact(2).map(|t| [t[0], t[1]]));
+        } else {
+            all_uvs = false;
+        }
+        if base + count > MAX_TRIANGLES
+            || mesh.triangles.len() + m.indices.len() / 3 > MAX_TRIANGLES
+        {
+            return Err(ObjError::whole_file(format!(
+                "the mesh is too large: more than {MAX_TRIANGLES} vertices or triangles"
+            )));
+        }
+        mesh.triangles.extend(
+            m.indices
+                .chunks_exact(3)
+                .map(|t| [t[0] + base as u32, t[1] + base as u32, t[2] + base as u32]),
+        );
+    }
+    if mesh.triangles.is_empty() {
+        return Err(ObjError::whole_file(
+            "the file has no faces (`f` lines with at least 3 vertices)",
+        ));
+    }
+    mesh.normals = all_normals.then_some(normals);
+    mesh.uvs = all_uvs.then_some(uvs);
+
+    // `f32::from_str` accepts "nan" and "inf": a coordinate must be finite to be placed in the scene.
+    let finite = mesh.positions.iter().all(|p| p.is_finite())
+        && mesh.normals.iter().flatten().all(|n| n.is_finite())
+        && mesh
+            .uvs
+            .iter()
+            .flatten()
+            .all(|t| t[0].is_finite() && t[1].is_finite());
+    if !finite {
+        return Err(locate_non_finite(bytes));
+    }
+    Ok(mesh)
+}
+
+/// Turns a `tobj` error into a message with a line. Parse errors happen on the line `tobj` stopped at;
+/// index errors are found only when a group of faces is assembled (at the next `o`/`g` or at the end),
+/// so their line is found by checking every face ourselves.
+fn explain_tobj_error(bytes: &[u8], e: tobj::LoadError, pos: usize) -> ObjError {
+    use tobj::LoadError as E;
+    match e {
+        E::FaceVertexOutOfBounds
+        | E::FaceTexCoordOutOfBounds
+        | E::FaceNormalOutOfBounds
+        | E::FaceColorOutOfBounds => locate_bad_index(bytes).unwrap_or_else(|| {
+            ObjError::whole_file(format!("a face refers to a missing vertex ({e})"))
+        }),
+        E::ReadError => ObjError::at(
+            line_ending_at(bytes, pos),
+            "this line is not valid UTF-8 text",
+        ),
+        _ => {
+            let line = line_ending_at(bytes, pos);
+            let what = match e {
+                E::PositionParseError => "a vertex (`v`) needs three numbers",
+                E::NormalParseError => "a normal (`vn`) needs three numbers",
+                E::TexcoordParseError => "a texture coordinate (`vt`) needs two numbers",
+                E::FaceParseError => {
+                    "a face (`f`) must list vertex references `v`, `v/vt`, `v//vn` or `v/vt/vn`, \
+                     each an integer"
+                }
+                E::ScalingByZeroError => "a vertex has a w coordinate of 0",
+                E::ColorParseError => "a vertex has the wrong number of colour components",
+                _ => "",
+            };
+            if what.is_empty() {
+                ObjError::at(line, format!("the OBJ reader failed here: {e}"))
+            } else {
+                ObjError::at(line, what)
+            }
+        }
+    }
+}
+
+/// The lines of an OBJ as (1-based line number, first word, rest of the words).
+fn obj_lines(bytes: &[u8]) -> impl Iterator<Item = (usize, &str, std::str::SplitWhitespace<'_>)> {
+    bytes
+        .split(|&b| b == b'\n')
+        .enumerate()
+        .filter_map(|(i, raw)| {
+            let text = std::str::from_utf8(raw).ok()?;
+            let mut words = text.split_whitespace();
+            let first = words.next()?;
+            Some((i + 1, first, words))
+        })
+}
+
+/// Finds the first face corner whose position, uv or normal index is out of range. OBJ indices are
+/// 1-based; a negative index counts back from the last element defined before the face.
+fn locate_bad_index(bytes: &[u8]) -> Option<ObjError> {
+    let mut totals = [0usize; 3];
+    for (_, first, _) in obj_lines(bytes) {
+        match first {
+            "v" => totals[0] += 1,
+            "vt" => totals[1] += 1,
+            "vn" => totals[2] += 1,
+            _ => {}
+        }
+    }
+    let names = ["vertex", "texture coordinate", "normal"];
+    let keys = ["v", "vt", "vn"];
+    let mut so_far = [0usize; 3];
+    for (line, first, words) in obj_lines(bytes) {
+        match first {
+            "v" => so_far[0] += 1,
+            "vt" => so_far[1] += 1,
+            "vn" => so_far[2] += 1,
+            "f" => {
+                for corner in words {
+                    for (k, part) in corner.split('/').enumerate().take(3) {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let Ok(index) = part.parse::<i64>() else {
+                            continue;
+                        };
+                        let ok = if index > 0 {
+                            index as u64 <= totals[k] as u64
+                        } else if index < 0 {
+                            index.unsigned_abs() <= so_far[k] as u64
+                        } else {
+                            false
+                        };
+                        if !ok {
+                            let range = if totals[k] == 0 {
+                                format!("the file defines no {} (`{}` lines)", names[k], keys[k])
+                            } else {
+                                format!(
+                                    "the file defines {} of them, numbered from 1 (or -1 for the last one before the face)",
+                                    totals[k]
+                                )
+                            };
+                            return Some(ObjError::at(
+                                line,
+                                format!(
+                                    "face corner `{corner}` refers to {} {index}, which does not exist: {range}",
+                                    names[k]
+                                ),
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
+/// Finds the first `v`, `vn` or `vt` line with a NaN or infinite number.
+fn locate_non_finite(bytes: &[u8]) -> ObjError {
+    for (line, first, words) in obj_lines(bytes) {
+        if matches!(first, "v" | "vn" | "vt") {
+            for w in words {
+                if let Ok(x) = w.parse::<f32>()
+                    && !x.is_finite()
+                {
+                    return ObjError::at(
+                        line,
+                        format!(
+                            "`{first}` has a non-finite number ({w}): every coordinate must be finite"
+                        ),
+                    );
+                }
+            }
+        }
+    }
+    ObjError::whole_file("a coordinate is not finite")
+}
+
+/// Where a mesh goes: scaled uniformly about the OBJ's origin, rotated about x, then y, then z (degrees,
+/// right-handed), then translated. A point p becomes `Rz Ry Rx (scale p) + translate`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    pub scale: f32,
+    pub rotate_deg: Vec3,
+    pub translate: Vec3,
+}
+
+impl Default for Placement {
+    fn default() -> Self {
+        Placement {
+            scale: 1.0,
+            rotate_deg: Vec3::ZERO,
+            translate: Vec3::ZERO,
+        }
+    }
+}
+
+impl Placement {
+    /// The rotation, in f64 so that composing it rounds once.
+    fn rotation(&self) -> DMat3 {
+        let r = self.rotate_deg.as_dvec3() * (std::f64::consts::PI / 180.0);
+        DMat3::from_rotation_z(r.z) * DMat3::from_rotation_y(r.y) * DMat3::from_rotation_x(r.x)
+    }
+}
+
+/// The OBJ mesh placed in the world. With `smooth`, shading normals are the OBJ's (rotated: a uniform
+/// scale does not change directions) when it gives one for every vertex, else computed (see
+/// [`vertex_normals`]). `keep_uvs` keeps the texture coordinates (the caller has checked they exist).
+pub fn place(
+    obj: &ObjMesh,
+    placement: &Placement,
+    smooth: bool,
+    keep_uvs: bool,
+) -> (Vec<Vec3>, Vec<Vec3>, Vec<[f32; 2]>) {
+    let rotation = placement.rotation();
+    let scale = f64::from(placement.scale);
+    let translate = placement.translate.as_dvec3();
+    let positions: Vec<Vec3> = obj
+        .positions
+        .iter()
+        .map(|p| (rotation * (p.as_dvec3() * scale) + translate).as_vec3())
+        .collect();
+    let normals = if !smooth {
+        Vec::new()
+    } else {
+        match &obj.normals {
+            Some(given) => given
+                .iter()
+                .map(|n| unit_or_zero(rotation * n.as_dvec3()))
+                .collect(),
+            None => vertex_normals(&positions, &obj.triangles),
+        }
+    };
+    let uvs = match (&obj.uvs, keep_uvs) {
+        (Some(uvs), true) => uvs.clone(),
+        _ => Vec::new(),
+    };
+    (positions, normals, uvs)
+}
+
+fn unit_or_zero(v: DVec3) -> Vec3 {
+    let len = v.length();
+    if len > 0.0 && len.is_finite() {
+        (v / len).as_vec3()
+    } else {
+        Vec3::ZERO
+    }
+}
+
+/// Smooth vertex normals for a mesh without its own: at each vertex, the sum of the unnormalised face
+/// normals (v1 - v0) x (v2 - v0) of the faces around it, i.e. the area-weighted mean face normal, then
+/// normalised. Vertices at the same position are welded first (OBJ exporters split a position where the
+/// uv or normal changes, and those splits must not crease the surface). Sums run in f64.
+pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut weld: HashMap<[u32; 3], usize> = HashMap::with_capacity(positions.len());
+    let welded: Vec<usize> = positions
+        .iter()
+        .map(|p| {
+            let key = [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+            let next = weld.len();
+            *weld.entry(key).or_insert(next)
+        })
+        .collect();
+    let mut sums = vec![DVec3::ZERO; weld.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
+        let n = (b - a).cross(c - a);
+        for &i in t {
+            sums[welded[i as usize]] += n;
+        }
+    }
+    welded.iter().map(|&w| unit_or_zero(sums[w])).collect()
+}
+
+/// Reads an image as an sRGB RGBA8 texture. Any format the `image` crate was built with (PNG here).
+pub fn load_texture(path: &Path) -> Result<Texture, String> {
+    let reader = image::ImageReader::open(path)
+        .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?
+        .with_guessed_format()
+        .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?;
+    let decoded = reader
+        .decode()
+        .map_err(|e| format!("cannot decode the texture {}: {e}", path.display()))?;
+    let rgba = decoded.to_rgba8();
+    let (width, height) = rgba.dimensions();
+    if width == 0 || height == 0 || u64::from(width) * u64::from(height) > 1 << 28 {
+        return Err(format!(
+            "the texture {} is {width} x {height} texels; it must have between 1 and 2^28 texels",
+            path.display()
+        ));
+    }
+    let texels = rgba.pixels().map(|p| u32::from_le_bytes(p.0)).collect();
+    Ok(Texture {
+        path: path.to_path_buf(),
+        width,
+        height,
+        texels,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quads_and_polygons_are_triangulated_and_crlf_is_accepted() {
+        let text =
+            "v 0 0 0\r\nv 1 0 0\r\nv 1 1 0\r\nv 0 1 0\r\nv 0.5 1.5 0\r\nf 1 2 3 4\r\nf 4 3 5\r\n";
+        let m = parse_obj(text.as_bytes()).unwrap();
+        assert_eq!(m.triangles.len(), 3);
+        assert_eq!(m.positions.len(), 5);
+        assert!(m.normals.is_none() && m.uvs.is_none());
+        let pentagon = "v 0 0 0\nv 1 0 0\nv 1.5 1 0\nv 0.5 2 0\nv -0.5 1 0\nf 1 2 3 4 5\n";
+        assert_eq!(parse_obj(pentagon.as_bytes()).unwrap().triangles.len(), 3);
+    }
+
+    #[test]
+    fn normals_and_uvs_are_kept_per_corner() {
+        let text =
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/3/1\n";
+        let m = parse_obj(text.as_bytes()).unwrap();
+        assert_eq!(m.normals.unwrap(), vec![Vec3::Z; 3]);
+        assert_eq!(m.uvs.unwrap(), vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]);
+    }
+
+    fn error(text: &str) -> ObjError {
+        parse_obj(text.as_bytes()).expect_err("should fail")
+    }
+
+    #[test]
+    fn errors_name_the_line() {
+        let e = error("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+        assert_eq!(e.line, Some(4), "{e:?}");
+        assert!(e.message.contains("vertex 4"), "{e:?}");
+        let e = error("v 0 0 0\nv 1 x 0\nv 0 1 0\nf 1 2 3\n");
+        assert_eq!(e.line, Some(2), "{e:?}");
+        let e = error("v 0 0 0\r\nv 1 0 0\r\nv 0 nan 0\r\nf 1 2 3\r\n");
+        assert_eq!(e.line, Some(3), "{e:?}");
+        assert!(e.message.contains("non-finite"), "{e:?}");
+        let e = error("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n");
+        assert_eq!(e.line, Some(4), "{e:?}");
+        let e = error("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n");
+        assert_eq!(e.line, Some(4), "{e:?}");
+        let e = error("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\no next\n");
+        assert_eq!(e.line, Some(5), "{e:?}");
+        assert!(e.message.contains("normal 2"), "{e:?}");
+        let e = error("v 0 0 0\nv 1 0 0\nf 1/a 2 3\n");
+        assert_eq!(e.line, Some(3), "{e:?}");
+        let e = error("# nothing\nv 0 0 0\n");
+        assert_eq!(e.line, None);
+        assert!(e.message.contains("no faces"));
+    }
+
+    #[test]
+    fn computed_normals_weld_split_vertices() {
+        // Two triangles of a tent sharing an edge, whose shared positions are duplicated.
+        let positions = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(1.0, 1.0, 0.5),
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(-1.0, 1.0, 0.5),
+        ];
+        let tris = [[0, 1, 2], [3, 5, 4]];
+        let n = vertex_normals(&positions, &tris);
+        assert_eq!(n[0], n[3]);
+        assert_eq!(n[1], n[4]);
+        assert!((n[0] - Vec3::Y).length() < 1e-6, "{:?}", n[0]);
+    }
+
+    #[test]
+    fn placement_scales_then_rotates_x_y_z_then_translates() {
+        let obj = ObjMesh {
+            positions: vec![Vec3::X],
+            normals: Some(vec![Vec3::X]),
+            uvs: None,
+            triangles: vec![[0, 0, 0]],
+        };
+        let p = Placement {
+            scale: 2.0,
+            rotate_deg: Vec3::new(90.0, 0.0, 90.0),
+            translate: Vec3::new(0.0, 0.0, 5.0),
+        };
+        let (pos, nrm, _) = place(&obj, &p, true, false);
+        // Rx(90) leaves x alone, Rz(90) turns x into y: 2 x -> 2 y, then + 5 z.
+        assert!(
+            (pos[0] - Vec3::new(0.0, 2.0, 5.0)).length() < 1e-6,
+            "{:?}",
+            pos[0]
+        );
+        assert!((nrm[0] - Vec3::Y).length() < 1e-6);
+        let p = Placement {
+            scale: 1.0,
+            rotate_deg: Vec3::new(90.0, 90.0, 0.0),
+            translate: Vec3::ZERO,
+        };
+        let obj_y = ObjMesh {
+            positions: vec![Vec3::Y],
+            ..obj
+        };
+        // Rx(90): y -> z; then Ry(90): z -> x.
+        let (pos, _, _) = place(&obj_y, &p, false, false);
+        assert!((pos[0] - Vec3::X).length() < 1e-6, "{:?}", pos[0]);
+    }
+}

@@ -1,0 +1,600 @@
+//! `[[mesh]]` end to end: OBJ files and textures written to a temporary directory, loaded through the
+//! scene parser and rendered on the device.
+//!
+//! - A closed mesh, seen from inside and from outside (with a light inside it), lets no ray through.
+//! - A textured quad under a pinhole camera reproduces its texels (sRGB-decoded) and their bilinear mix.
+//! - A finely tessellated sphere with smooth normals renders like the analytic sphere under a point light.
+//! - OBJ and texture errors name the scene file, line and key, and the OBJ's own line.
+//! - `scenes/mesh.toml`'s models are the ones this file generates.
+
+mod common;
+
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use vkpath::gpu::features::FeatureSet;
+use vkpath::gpu::scene::{GpuScene, params_for};
+use vkpath::render::{LAVAPIPE_LOOP_BUDGET, RenderOptions, worst_case_loop_iterations};
+use vkpath::scene::{Scene, SceneError, shapes};
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn load(dir: &Path, toml: &str) -> Scene {
+    let path = write(dir, "scene.toml", toml);
+    Scene::load(&path).unwrap_or_else(|e| panic!("scene should load: {e}"))
+}
+
+fn render(scene: &Scene, spp: u32) -> vkpath::Film {
+    common::render_passes(scene, &RenderOptions::default(), 1, spp)
+}
+
+// ----- closed meshes -----
+
+/// A camera inside a closed icosphere (black, opaque) with a white sky outside, and a camera outside it
+/// with a light inside: with max_bounces = 0 a pixel is nonzero only if a camera ray went through the
+/// mesh. Box-filtered jitter sends every ray through a different point, over edges and vertices alike.
+#[test]
+fn a_closed_mesh_leaks_no_rays_from_inside_or_outside() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "ico.obj", &shapes::icosphere(3).to_obj());
+    let base = r#"
+[image]
+width = 48
+height = 48
+[render]
+max_bounces = 0
+filter = "box"
+[materials]
+black = { type = "diffuse", albedo = [0.0, 0.0, 0.0] }
+[[mesh]]
+obj = "ico.obj"
+material = "black"
+scale = 5.0
+translate = [0.3, -0.2, 0.1]
+"#;
+    for (position, look_at) in [
+        ("[0.3, -0.2, 0.1]", "[0, 0, -1]"),
+        ("[0.3, -0.2, 0.1]", "[3, 2, 1]"),
+        ("[2.5, 1.0, -2.0]", "[-3, 1, 4]"),
+    ] {
+        let toml = format!(
+            "[camera]\nposition = {position}\nlook_at = {look_at}\nfov = 150\n{}",
+            base.replace("max_bounces = 0", "max_bounces = 0\nbackground = [1, 1, 1]")
+        );
+        let film = render(&load(dir.path(), &toml), 16);
+        let lit = film
+            .mean
+            .iter()
+            .filter(|p| p.iter().any(|&c| c != 0.0))
+            .count();
+        assert_eq!(
+            lit, 0,
+            "camera at {position} inside: {lit} pixels see the sky"
+        );
+    }
+    let outside = format!(
+        "[camera]\nposition = [0, 0, 20]\nlook_at = [0.3, -0.2, 0.1]\nfov = 40\n{base}\
+         [[light]]\ntype = \"sphere\"\ncenter = [0.3, -0.2, 0.1]\nradius = 2.0\npower = 1000.0\n"
+    );
+    let film = render(&load(dir.path(), &outside), 16);
+    let lit = film
+        .mean
+        .iter()
+        .filter(|p| p.iter().any(|&c| c != 0.0))
+        .count();
+    assert_eq!(lit, 0, "{lit} pixels see the light inside the closed mesh");
+    // The same light with the mesh removed is visible: the test can see a leak.
+    let open = outside
+        .replace(
+            "[[mesh]]",
+            "[[sphere]]\ncenter = [0, 0, -100]\nradius = 1.0\nmaterial = \"black\"\n[[mesh]]",
+        )
+        .replace("scale = 5.0", "scale = 0.001");
+    let film = render(&load(dir.path(), &open), 1);
+    assert!(
+        film.average() > 0.0,
+        "without the mesh the light should show"
+    );
+}
+
+// ----- textures -----
+
+/// The sRGB decoding curve in f64 (IEC 61966-2-1).
+fn srgb_to_linear(byte: u8) -> f64 {
+    let c = byte as f64 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// A 4 x 4 texture on the quad [-1, 1]^2 (uv = ((x + 1)/2, (y + 1)/2)) facing a pinhole camera whose view
+/// is exactly the quad. Under a uniform white sky with one bounce, a diffuse pixel's radiance is its
+/// albedo exactly (beta = albedo, then the sky's 1), so each pixel must be its texel, decoded. At twice
+/// the resolution the pixel centres fall a quarter texel from the texel centres: the bilinear mix, with
+/// the texture repeated at the borders.
+#[test]
+fn a_textured_quad_reproduces_its_texels() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (4u32, 4u32);
+    let texel = |x: u32, y: u32| -> [u8; 3] {
+        [
+            (x * 70 + y * 5) as u8,
+            (255 - y * 60) as u8,
+            ((x * 37 + y * 91) % 256) as u8,
+        ]
+    };
+    let mut img = image::RgbImage::new(w, h);
+    for (x, y, p) in img.enumerate_pixels_mut() {
+        p.0 = texel(x, y);
+    }
+    img.save(dir.path().join("tex.png")).unwrap();
+    let quad = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n";
+    write(dir.path(), "quad.obj", quad);
+    // tan(fov/2) = 1/2 at distance 2: the view spans x in [-1, 1].
+    let fov = 2.0 * 0.5f64.atan().to_degrees();
+    for size in [4u32, 8] {
+        let toml = format!(
+            r#"
+[camera]
+position = [0, 0, 2]
+look_at = [0, 0, 0]
+fov = {fov}
+[image]
+width = {size}
+height = {size}
+[render]
+max_bounces = 1
+filter = "none"
+background = [1, 1, 1]
+[materials]
+paper = {{ type = "diffuse", albedo = [0.5, 0.5, 0.5] }}
+[[mesh]]
+obj = "quad.obj"
+material = "paper"
+texture = "tex.png"
+"#
+        );
+        let scene = load(dir.path(), &toml);
+        let film = render(&scene, 1);
+        let decoded = |x: i64, y: i64, c: usize| {
+            let (x, y) = (x.rem_euclid(w as i64) as u32, y.rem_euclid(h as i64) as u32);
+            srgb_to_linear(texel(x, y)[c])
+        };
+        for py in 0..size {
+            for px in 0..size {
+                // Continuous texel coordinates of the pixel centre (rows from the top, as the image).
+                let tx = (px as f64 + 0.5) * w as f64 / size as f64 - 0.5;
+                let ty = (py as f64 + 0.5) * h as f64 / size as f64 - 0.5;
+                let (x0, y0) = (tx.floor(), ty.floor());
+                let (fx, fy) = (tx - x0, ty - y0);
+                let (x0, y0) = (x0 as i64, y0 as i64);
+                let got = film.pixel(px, py);
+                for (c, &value) in got.iter().enumerate() {
+                    let want = (1.0 - fx) * (1.0 - fy) * decoded(x0, y0, c)
+                        + fx * (1.0 - fy) * decoded(x0 + 1, y0, c)
+                        + (1.0 - fx) * fy * decoded(x0, y0 + 1, c)
+                        + fx * fy * decoded(x0 + 1, y0 + 1, c);
+                    assert!(
+                        (value as f64 - want).abs() < 2e-5,
+                        "{size}x{size}, pixel ({px}, {py}) channel {c}: {value} vs {want}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+// ----- a tessellated sphere against the analytic one -----
+
+/// Direct light only (max_bounces = 1) from a point light on a diffuse ball: the analytic sphere, and an
+/// icosphere of 20,480 triangles with smooth normals in its place (the OBJ's own, and computed from the
+/// faces of the same OBJ without them). Away from the silhouette and the terminator (where the polygonal
+/// outline and its self-shadowing differ from the sphere by the tessellation's size), every pixel must
+/// agree within 1%, and the smooth mesh must be closer to the sphere than the same mesh shaded flat.
+#[test]
+fn a_fine_sphere_mesh_matches_the_analytic_sphere() {
+    let dir = tempfile::tempdir().unwrap();
+    let ball = shapes::icosphere(5);
+    write(dir.path(), "ball.obj", &ball.to_obj());
+    // The same positions without `vn` lines: smooth normals are then computed from the faces.
+    let bare = shapes::Shape {
+        normals: Vec::new(),
+        ..ball
+    };
+    write(dir.path(), "bare.obj", &bare.to_obj());
+    let head = r#"
+[camera]
+position = [0, 0, 40]
+look_at = [0, 0, 0]
+fov = 35
+[image]
+width = 64
+height = 64
+[render]
+max_bounces = 1
+filter = "none"
+[materials]
+white = { type = "diffuse", albedo = [0.8, 0.8, 0.8] }
+[[light]]
+type = "point"
+position = [-20, 25, 30]
+power = 50000.0
+"#;
+    let sphere = render(
+        &load(
+            dir.path(),
+            &format!("{head}[[sphere]]\ncenter = [0, 0, 0]\nradius = 10\nmaterial = \"white\"\n"),
+        ),
+        1,
+    );
+    let mesh = |obj: &str, smooth: bool| {
+        let toml = format!(
+            "{head}[[mesh]]\nobj = \"{obj}\"\nmaterial = \"white\"\nscale = 10\nsmooth = {smooth}\n"
+        );
+        render(&load(dir.path(), &toml), 1)
+    };
+    let smooth = mesh("ball.obj", true);
+    let computed = mesh("bare.obj", true);
+    let flat = mesh("ball.obj", false);
+    let (mut compared, mut worst_smooth, mut worst_computed, mut worst_flat) =
+        (0, 0.0f64, 0.0f64, 0.0f64);
+    let light = Vec3::new(-20.0, 25.0, 30.0);
+    let tan = (17.5f32).to_radians().tan();
+    for py in 0..64u32 {
+        for px in 0..64u32 {
+            // The analytic hit point of the pixel's centre ray, to select the pixels to compare.
+            let sx = (px as f32 + 0.5 - 32.0) / 32.0 * tan;
+            let sy = (32.0 - py as f32 - 0.5) / 32.0 * tan;
+            let d = Vec3::new(sx, sy, -1.0).normalize();
+            let o = Vec3::new(0.0, 0.0, 40.0);
+            let b = o.dot(d);
+            let disc = b * b - (o.length_squared() - 100.0);
+            if disc <= 0.0 {
+                continue;
+            }
+            let p = o + d * (-b - disc.sqrt());
+            let n = p / 10.0;
+            let cos_light = n.dot((light - p).normalize());
+            let cos_view = n.dot(-d);
+            if cos_light < 0.25 || cos_view < 0.35 {
+                continue;
+            }
+            let want = sphere.pixel(px, py)[0] as f64;
+            let rel = |f: &vkpath::Film| ((f.pixel(px, py)[0] as f64 - want) / want).abs();
+            worst_smooth = worst_smooth.max(rel(&smooth));
+            worst_computed = worst_computed.max(rel(&computed));
+            worst_flat = worst_flat.max(rel(&flat));
+            compared += 1;
+        }
+    }
+    assert!(compared > 500, "only {compared} pixels compared");
+    eprintln!(
+        "worst relative difference from the sphere over {compared} pixels: smooth {worst_smooth:.2e}, \
+         computed normals {worst_computed:.2e}, flat {worst_flat:.2e}"
+    );
+    assert!(
+        worst_smooth < 0.01,
+        "smooth mesh vs sphere: worst relative difference {worst_smooth}"
+    );
+    // Area-weighted face normals are not exactly radial on an icosphere (8.2e-3 measured).
+    assert!(
+        worst_computed < 0.015,
+        "mesh with computed normals vs sphere: worst relative difference {worst_computed}"
+    );
+    assert!(
+        worst_flat > 2.0 * worst_smooth,
+        "flat shading ({worst_flat}) should be visibly further from the sphere than smooth ({worst_smooth})"
+    );
+}
+
+// ----- the loop budget -----
+
+/// A million-triangle mesh in the course's box (six wall spheres, a light) fits lavapipe's loop budget
+/// at the course's 5 bounces: the BVH walk is capped, so the bound does not grow with the triangles.
+#[test]
+fn a_million_triangles_fit_the_loop_budget() {
+    let mut scene = vkpath::Scene::default_scene();
+    scene.spheres.truncate(6);
+    let mut gpu = GpuScene::build(&scene);
+    gpu.triangles = vec![Default::default(); 1_000_000];
+    gpu.bvh_nodes = vec![Default::default(); 400_000];
+    let iterations = worst_case_loop_iterations(&gpu, scene.render.max_bounces);
+    assert!(
+        iterations <= LAVAPIPE_LOOP_BUDGET,
+        "{iterations} iterations for a 10^6-triangle scene"
+    );
+    // And a small mesh is bounded by its size, not by the cap.
+    gpu.triangles.truncate(10);
+    gpu.bvh_nodes.truncate(4);
+    let small = worst_case_loop_iterations(&gpu, 0);
+    assert!(small < 100, "{small}");
+}
+
+// ----- the example scene -----
+
+const GLOBE_W: u32 = 128;
+const GLOBE_H: u32 = 64;
+
+/// The globe's texture: a 16 x 8 checkerboard over longitude and latitude, cream squares alternating
+/// with a colour that changes with latitude (so that orientation and the sRGB decoding both show).
+fn globe_texture() -> image::RgbImage {
+    let palette = [[196, 58, 46], [222, 132, 38], [58, 140, 92], [48, 92, 170]];
+    image::RgbImage::from_fn(GLOBE_W, GLOBE_H, |x, y| {
+        let (i, j) = (x / 8, y / 8);
+        if (i + j) % 2 == 0 {
+            image::Rgb([238, 226, 196])
+        } else {
+            image::Rgb(palette[(j as usize / 2) % 4])
+        }
+    })
+}
+
+/// scenes/models/: the globe (a uv sphere with normals and uvs), its texture, and an icosphere without
+/// normals (smooth ones are computed). Set VKPATH_WRITE_MODELS=1 to (re)write them.
+#[test]
+fn scene_models_are_generated_here() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/models");
+    let globe = shapes::uv_sphere(32, 16).to_obj();
+    let ico = shapes::icosphere(2).to_obj();
+    let texture = globe_texture();
+    if std::env::var("VKPATH_WRITE_MODELS").is_ok_and(|v| v == "1") {
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("globe.obj"), &globe).unwrap();
+        std::fs::write(dir.join("ico.obj"), &ico).unwrap();
+        texture.save(dir.join("globe.png")).unwrap();
+    }
+    let read = |name: &str| {
+        std::fs::read_to_string(dir.join(name))
+            .unwrap()
+            .replace("\r\n", "\n")
+    };
+    assert_eq!(read("globe.obj"), globe, "scenes/models/globe.obj is stale");
+    assert_eq!(read("ico.obj"), ico, "scenes/models/ico.obj is stale");
+    let png = image::open(dir.join("globe.png")).unwrap().to_rgb8();
+    assert!(png == texture, "scenes/models/globe.png is stale");
+}
+
+#[test]
+fn the_mesh_scene_uses_every_mesh_feature() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/mesh.toml");
+    let mut scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.meshes.len(), 3);
+    let gpu = GpuScene::build(&scene);
+    let features = FeatureSet::of(&gpu, &params_for(&scene, 3));
+    assert!(features.bvh && features.smooth_normals && features.textures);
+    assert_eq!(
+        gpu.stats.triangles,
+        scene
+            .meshes
+            .iter()
+            .map(|m| m.triangles.len())
+            .sum::<usize>()
+    );
+    assert!(gpu.stats.bvh_nodes > 0 && gpu.stats.bvh_nodes < gpu.stats.triangles);
+    scene.image.width = 32;
+    scene.image.height = 32;
+    let film = render(&scene, 2);
+    assert!(film.average() > 0.0);
+    assert!(film.mean.iter().flatten().all(|c| c.is_finite()));
+}
+
+// ----- errors -----
+
+/// A scene in `dir` with materials "white" and "glass" and one `[[mesh]]` whose keys are `mesh_keys`
+/// (the table starts at line 8, its first key is on line 9).
+fn mesh_error(dir: &Path, mesh_keys: &str) -> SceneError {
+    let toml = format!(
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\n\
+         white = {{ type = \"diffuse\", albedo = [0.8, 0.8, 0.8] }}\n\
+         glass = {{ type = \"dielectric\", ior = 1.5 }}\n[[mesh]]\n{mesh_keys}\n"
+    );
+    let path = write(dir, "bad.toml", &toml);
+    let err = match Scene::load(&path) {
+        Ok(_) => panic!("expected an error for {mesh_keys:?}"),
+        Err(e) => e,
+    };
+    let message = err.to_string();
+    assert!(message.contains("bad.toml"), "{message}");
+    assert!(!message.contains('\n'), "one paragraph: {message:?}");
+    err
+}
+
+#[test]
+fn obj_and_texture_errors_name_the_file_the_line_and_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(
+        d,
+        "tri.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n",
+    );
+    write(d, "flat.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    // (scene line, key, OBJ file and line or other words the message must contain)
+    let cases: Vec<(&str, &str, usize, &str, Vec<&str>)> = vec![
+        (
+            "missing OBJ",
+            "obj = \"nope.obj\"\nmaterial = \"white\"",
+            9,
+            "mesh[0].obj",
+            vec!["nope.obj", "cannot read"],
+        ),
+        (
+            "malformed number",
+            "obj = \"bad1.obj\"\nmaterial = \"white\"",
+            9,
+            "mesh[0].obj",
+            vec!["bad1.obj, line 2", "three numbers"],
+        ),
+        (
+            "index out of range",
+            "obj = \"bad2.obj\"\nmaterial = \"white\"",
+            9,
+            "mesh[0].obj",
+            vec!["bad2.obj, line 5", "vertex 7"],
+        ),
+        (
+            "NaN vertex",
+            "obj = \"bad3.obj\"\nmaterial = \"white\"",
+            9,
+            "mesh[0].obj",
+            vec!["bad3.obj, line 3", "non-finite"],
+        ),
+        (
+            "no faces",
+            "obj = \"bad4.obj\"\nmaterial = \"white\"",
+            9,
+            "mesh[0].obj",
+            vec!["bad4.obj", "no faces"],
+        ),
+        (
+            "missing texture",
+            "obj = \"tri.obj\"\nmaterial = \"white\"\ntexture = \"nope.png\"",
+            11,
+            "mesh[0].texture",
+            vec!["nope.png"],
+        ),
+        (
+            "corrupt texture",
+            "obj = \"tri.obj\"\nmaterial = \"white\"\ntexture = \"bad.png\"",
+            11,
+            "mesh[0].texture",
+            vec!["bad.png", "decode"],
+        ),
+        (
+            "texture without uvs",
+            "obj = \"flat.obj\"\nmaterial = \"white\"\ntexture = \"ok.png\"",
+            11,
+            "mesh[0].texture",
+            vec!["flat.obj", "vt"],
+        ),
+        (
+            "texture on glass",
+            "obj = \"tri.obj\"\nmaterial = \"glass\"\ntexture = \"ok.png\"",
+            11,
+            "mesh[0].texture",
+            vec!["dielectric"],
+        ),
+        (
+            "zero scale",
+            "obj = \"tri.obj\"\nmaterial = \"white\"\nscale = 0",
+            11,
+            "mesh[0].scale",
+            vec!["> 0"],
+        ),
+        (
+            "NaN rotation",
+            "obj = \"tri.obj\"\nmaterial = \"white\"\nrotate = [0, nan, 0]",
+            11,
+            "mesh[0].rotate",
+            vec!["finite"],
+        ),
+        (
+            "unknown material",
+            "obj = \"tri.obj\"\nmaterial = \"wood\"",
+            10,
+            "mesh[0].material",
+            vec!["wood"],
+        ),
+        (
+            "unknown key",
+            "obj = \"tri.obj\"\nmaterial = \"white\"\nsmoooth = true",
+            11,
+            "mesh[0].smoooth",
+            vec!["unknown key"],
+        ),
+        (
+            "missing obj key",
+            "material = \"white\"",
+            8,
+            "mesh[0].obj",
+            vec!["obj"],
+        ),
+    ];
+    write(d, "bad1.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n");
+    write(
+        d,
+        "bad2.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 7\n",
+    );
+    write(
+        d,
+        "bad3.obj",
+        "v 0 0 0\r\nv 1 0 0\r\nv 0 NaN 0\r\nf 1 2 3\r\n",
+    );
+    write(d, "bad4.obj", "# only vertices\nv 0 0 0\nv 1 0 0\n");
+    std::fs::write(d.join("bad.png"), b"not a png at all").unwrap();
+    image::RgbImage::new(2, 2).save(d.join("ok.png")).unwrap();
+    for (what, keys, line, key, words) in cases {
+        let err = mesh_error(d, keys);
+        let message = err.to_string();
+        assert_eq!(err.line(), Some(line), "{what}: {message}");
+        assert_eq!(err.key(), Some(key), "{what}: {message}");
+        for w in words {
+            assert!(
+                message.contains(w),
+                "{what}: {message:?} should contain {w:?}"
+            );
+        }
+    }
+}
+
+/// The command line turns a bad OBJ into exit status 2 and one paragraph on stderr.
+#[test]
+fn a_bad_obj_exits_with_status_2() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "bad.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n",
+    );
+    write(
+        dir.path(),
+        "bad.toml",
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\n\
+         white = { type = \"diffuse\", albedo = [0.8, 0.8, 0.8] }\n[[mesh]]\nobj = \"bad.obj\"\nmaterial = \"white\"\n",
+    );
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vkpath"))
+        .current_dir(dir.path())
+        .args(["render", "bad.toml", "--spp", "1"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    for w in ["bad.toml", "line 8", "mesh[0].obj", "bad.obj, line 4"] {
+        assert!(stderr.contains(w), "{stderr:?} should contain {w:?}");
+    }
+    assert!(!dir.path().join("bad.png").exists());
+}
+
+// ----- the scaling benchmark (not a test: run it by hand) -----
+
+/// `cargo test --release --test mesh -- --ignored --nocapture mesh_scaling_benchmark` prints the scaling
+/// table of `vkpath::bench_mesh` (sizes from VKPATH_BENCH_SIZES, comma-separated, default 10^3..10^6;
+/// brute force up to VKPATH_BENCH_BRUTE triangles, default 10^4).
+#[test]
+#[ignore]
+fn mesh_scaling_benchmark() {
+    use vkpath::bench::BenchSettings;
+    use vkpath::bench_mesh::{DEFAULT_SIZES, mesh_scaling, mesh_scaling_table};
+    let sizes: Vec<usize> = std::env::var("VKPATH_BENCH_SIZES")
+        .map(|s| s.split(',').map(|n| n.trim().parse().unwrap()).collect())
+        .unwrap_or(DEFAULT_SIZES.to_vec());
+    let brute = std::env::var("VKPATH_BENCH_BRUTE").map_or(10_000, |s| s.parse().unwrap());
+    let settings = BenchSettings {
+        width: 128,
+        height: 128,
+        spp: 8,
+        runs: 5,
+    };
+    let ctx = vkpath::gpu::testing::context();
+    let rows = mesh_scaling(&ctx, &sizes, settings, brute).unwrap();
+    println!(
+        "{}",
+        mesh_scaling_table(&rows, settings, &ctx.device_info().name)
+    );
+}

@@ -1,0 +1,706 @@
+//! Nothing lost: the `vkpath` binary as a child process, interrupted (SIGINT, SIGTERM) and killed
+//! (SIGKILL) mid-render, resumed and merged; bad checkpoints and flags refused. docs/reliability.md lists
+//! the promise each test backs.
+//!
+//! Renders are tiny (32x24, the embedded course scene) so that every test stays within a few seconds on
+//! lavapipe; the Khronos validation layer is on (`VKPATH_VALIDATION=1`).
+
+use std::path::Path;
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+use vkpath::checkpoint::Checkpoint;
+
+const SIZE: [&str; 4] = ["--width", "32", "--height", "24"];
+
+fn vkpath(dir: &Path) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_vkpath"));
+    c.env("VKPATH_VALIDATION", "1").current_dir(dir);
+    c
+}
+
+#[track_caller]
+fn run(dir: &Path, args: &[&str]) -> Output {
+    vkpath(dir).args(args).output().expect("run vkpath")
+}
+
+#[track_caller]
+fn run_ok(dir: &Path, args: &[&str]) -> Output {
+    let out = run(dir, args);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "vkpath {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// The command fails with `code`, one paragraph on stderr that contains every word of `words`.
+#[track_caller]
+fn run_fails(dir: &Path, args: &[&str], code: i32, words: &[&str]) -> String {
+    let out = run(dir, args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(code), "vkpath {args:?}: {stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "one paragraph: {stderr}");
+    for w in words {
+        assert!(
+            stderr.contains(w),
+            "vkpath {args:?}: {w:?} not in: {stderr}"
+        );
+    }
+    stderr
+}
+
+fn spawn(dir: &Path, args: &[&str]) -> Child {
+    vkpath(dir)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn vkpath")
+}
+
+fn signal(child: &Child, sig: &str) {
+    let status = Command::new("kill")
+        .args([&format!("-{sig}"), &child.id().to_string()])
+        .status()
+        .expect("kill");
+    assert!(status.success(), "kill -{sig}");
+}
+
+/// Waits until `path` exists and has been rewritten `writes` times (its modification time changed).
+fn wait_for_writes(path: &Path, writes: u32, child: &mut Child) {
+    let start = Instant::now();
+    let mut seen = 0;
+    let mut last = None;
+    while seen < writes {
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "{} was not written in time",
+            path.display()
+        );
+        if let Ok(Some(status)) = child.try_wait() {
+            panic!("the render ended early: {status}");
+        }
+        let stamp = std::fs::metadata(path).and_then(|m| m.modified()).ok();
+        if stamp.is_some() && stamp != last {
+            seen += 1;
+            last = stamp;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+/// The linear pixels of an EXR, as bits.
+fn exr_bits(path: &Path) -> Vec<u32> {
+    image::open(path)
+        .unwrap_or_else(|e| panic!("{} is not a valid image: {e}", path.display()))
+        .to_rgb32f()
+        .into_raw()
+        .iter()
+        .map(|v| v.to_bits())
+        .collect()
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    serde_json::from_slice(&out.stdout).expect("one JSON object on stdout")
+}
+
+/// Renders the course scene at 32x24 with `spp` samples, uninterrupted, to `name` (EXR).
+fn straight(dir: &Path, spp: u32, name: &str) -> Vec<u32> {
+    run_ok(
+        dir,
+        &[
+            &["render", "--quiet", "-o", name, "--spp", &spp.to_string()][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+    exr_bits(&dir.join(name))
+}
+
+fn resume(dir: &Path, ckpt: &Path, spp: u32, name: &str) -> Vec<u32> {
+    let ckpt = ckpt.to_string_lossy().into_owned();
+    let out = run_ok(
+        dir,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "--json",
+                "-o",
+                name,
+                "--spp",
+                &spp.to_string(),
+                "--resume",
+                &ckpt,
+                "--samples-per-pass",
+                "2",
+            ][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+    let j = json(&out);
+    assert_eq!(j["spp"], spp);
+    exr_bits(&dir.join(name))
+}
+
+/// SIGINT and SIGTERM end the render after the pass in flight: exit 0, the image and the checkpoint
+/// written with the samples done, and the checkpoint resumed to N samples gives the bits of an
+/// uninterrupted N-sample render.
+#[test]
+fn sigint_and_sigterm_save_a_checkpoint_that_resumes_to_the_same_bits() {
+    for sig in ["INT", "TERM"] {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut child = spawn(
+            d,
+            &[
+                &[
+                    "render",
+                    "--quiet",
+                    "--json",
+                    "-o",
+                    "out.exr",
+                    "--spp",
+                    "1000000",
+                    "--samples-per-pass",
+                    "1",
+                    "--checkpoint",
+                    "c.ckpt",
+                    "--checkpoint-every",
+                    "3",
+                ][..],
+                &SIZE,
+            ]
+            .concat(),
+        );
+        wait_for_writes(&d.join("c.ckpt"), 2, &mut child);
+        signal(&child, sig);
+        let out = child.wait_with_output().unwrap();
+        assert_eq!(
+            out.status.code(),
+            Some(0),
+            "SIG{sig}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let j = json(&out);
+        assert_eq!(j["stop_reason"], "interrupted");
+        let k = j["spp"].as_u64().unwrap() as u32;
+        let saved = Checkpoint::read(&d.join("c.ckpt")).expect("a valid checkpoint");
+        assert_eq!(
+            saved.samples(),
+            k,
+            "the final checkpoint holds every sample done"
+        );
+        assert_eq!(saved.header.ranges, vec![[0, k]]);
+        assert_eq!(exr_bits(&d.join("out.exr")).len(), 32 * 24 * 3);
+        let target = k + 3;
+        assert!(
+            resume(d, &d.join("c.ckpt"), target, "resumed.exr")
+                == straight(d, target, "straight.exr"),
+            "SIG{sig}: resumed image differs from the uninterrupted one"
+        );
+    }
+}
+
+/// SIGKILL (nothing can be caught) at two moments mid-render: the checkpoint and the progress images
+/// on disk are whole, valid files (they are written atomically), and the checkpoint resumes to the bits
+/// of an uninterrupted render.
+#[test]
+fn sigkill_leaves_valid_files_and_the_last_checkpoint_resumes_exactly() {
+    for writes in [2, 5] {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let mut child = spawn(
+            d,
+            &[
+                &[
+                    "render",
+                    "--quiet",
+                    "-o",
+                    "out.png",
+                    "-o",
+                    "out.exr",
+                    "--spp",
+                    "1000000",
+                    "--samples-per-pass",
+                    "1",
+                    "--checkpoint",
+                    "c.ckpt",
+                    "--checkpoint-every",
+                    "2",
+                    "--progress-every",
+                    "2",
+                ][..],
+                &SIZE,
+            ]
+            .concat(),
+        );
+        wait_for_writes(&d.join("c.ckpt"), writes, &mut child);
+        child.kill().unwrap(); // SIGKILL
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), None, "killed by a signal");
+        let saved = Checkpoint::read(&d.join("c.ckpt")).expect("the checkpoint is whole");
+        let k = saved.samples();
+        assert!(k >= 2 && k.is_multiple_of(2), "{k}");
+        let png = image::open(d.join("out.png")).expect("the PNG is whole");
+        assert_eq!((png.width(), png.height()), (32, 24));
+        assert_eq!(exr_bits(&d.join("out.exr")).len(), 32 * 24 * 3);
+        let target = k + 2;
+        assert!(
+            resume(d, &d.join("c.ckpt"), target, "resumed.exr")
+                == straight(d, target, "straight.exr"),
+            "resumed image differs from the uninterrupted one"
+        );
+    }
+}
+
+/// Four partial renders (`--sample-range`) merge (`vkpath merge`) into the image of one render of the
+/// union: means within 5 ulps (the bound derived in tests/checkpoint.rs), whatever the order of the
+/// parts on the command line; a merged checkpoint is written too.
+#[test]
+fn merge_of_four_ranges_equals_one_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut parts = Vec::new();
+    for r in ["8..12", "0..4", "12..16", "4..8"] {
+        let ckpt = format!("part{r}.ckpt");
+        let exr = format!("part{r}.exr");
+        run_ok(
+            d,
+            &[
+                &[
+                    "render",
+                    "--quiet",
+                    "--sample-range",
+                    r,
+                    "--checkpoint",
+                    &ckpt,
+                    "-o",
+                    &exr,
+                ][..],
+                &SIZE,
+            ]
+            .concat(),
+        );
+        parts.push(ckpt);
+    }
+    let mut args: Vec<&str> = vec![
+        "merge",
+        "--json",
+        "-o",
+        "merged.exr",
+        "--checkpoint",
+        "m.ckpt",
+    ];
+    args.extend(parts.iter().map(String::as_str));
+    let j = json(&run_ok(d, &args));
+    assert_eq!(j["spp"], 16);
+    assert_eq!(j["parts"], 4);
+    let merged = exr_bits(&d.join("merged.exr"));
+    let single = straight(d, 16, "single.exr");
+    let mut identical = 0;
+    for (m, s) in merged.iter().zip(&single) {
+        let ulps = m.abs_diff(*s);
+        assert!(ulps <= 5, "merged and single differ by {ulps} ulps");
+        identical += usize::from(ulps == 0);
+    }
+    eprintln!("{identical}/{} values bit-identical", merged.len());
+    let m = Checkpoint::read(&d.join("m.ckpt")).unwrap();
+    assert_eq!(m.header.ranges, vec![[0, 4], [4, 8], [8, 12], [12, 16]]);
+
+    // Overlapping parts would count samples twice; parts of another render do not belong.
+    run_fails(
+        d,
+        &["merge", "-o", "x.exr", &parts[0], &parts[0]],
+        2,
+        &["overlap"],
+    );
+    run_ok(
+        d,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "--sample-range",
+                "16..20",
+                "--seed",
+                "9",
+                "--checkpoint",
+                "s9.ckpt",
+                "-o",
+                "s9.exr",
+            ][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+    run_fails(
+        d,
+        &["merge", "-o", "x.exr", &parts[0], "s9.ckpt"],
+        2,
+        &["seed"],
+    );
+    run_fails(d, &["merge", &parts[0]], 2, &["-o"]);
+    assert!(!d.join("x.exr").exists());
+}
+
+/// A checkpoint of another render, a damaged one, or not a checkpoint at all: exit 2, one paragraph
+/// saying what is wrong, and nothing written (the checkpoint itself untouched).
+#[test]
+fn resume_refuses_foreign_and_damaged_checkpoints() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "--spp",
+                "2",
+                "--checkpoint",
+                "c.ckpt",
+                "-o",
+                "a.exr",
+            ][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+    let before = std::fs::read(d.join("c.ckpt")).unwrap();
+    let refuse = |extra: &[&str], words: &[&str]| {
+        let args = [
+            &["render", "--quiet", "-o", "b.exr", "--resume", "c.ckpt"][..],
+            extra,
+        ]
+        .concat();
+        run_fails(d, &args, 2, words);
+        assert!(!d.join("b.exr").exists());
+        assert_eq!(
+            std::fs::read(d.join("c.ckpt")).unwrap(),
+            before,
+            "the checkpoint was changed"
+        );
+    };
+    refuse(
+        &[&SIZE[..], &["--seed", "5"]].concat(),
+        &["another render", "seed is 0, this one 5"],
+    );
+    refuse(&["--width", "33", "--height", "24"], &["32x24", "33x24"]);
+    refuse(
+        &[&SIZE[..], &["--max-bounces", "2"]].concat(),
+        &["max_bounces is 5, this one 2"],
+    );
+    refuse(
+        &[&SIZE[..], &["--sample-range", "4..8"]].concat(),
+        &["--sample-range"],
+    );
+    // A partial render resumed without its range would silently render other samples.
+    run_ok(
+        d,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "--sample-range",
+                "4..8",
+                "--checkpoint",
+                "p.ckpt",
+                "-o",
+                "p.exr",
+            ][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+    run_fails(
+        d,
+        &[
+            &["render", "--quiet", "-o", "b.exr", "--resume", "p.ckpt"][..],
+            &SIZE,
+        ]
+        .concat(),
+        2,
+        &["partial render of the samples 4..8", "--sample-range 4..B"],
+    );
+    run_ok(
+        d,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "--sample-range",
+                "4..10",
+                "--resume",
+                "p.ckpt",
+                "-o",
+                "p.exr",
+            ][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+    assert_eq!(
+        Checkpoint::read(&d.join("p.ckpt")).unwrap().header.ranges,
+        vec![[4, 10]]
+    );
+
+    let damaged = |name: &str, bytes: &[u8], words: &[&str]| {
+        std::fs::write(d.join(name), bytes).unwrap();
+        let args = [
+            &["render", "--quiet", "-o", "b.exr", "--resume", name][..],
+            &SIZE,
+        ]
+        .concat();
+        run_fails(d, &args, 2, words);
+        assert!(!d.join("b.exr").exists());
+    };
+    damaged(
+        "truncated.ckpt",
+        &before[..before.len() - 100],
+        &["truncated"],
+    );
+    let mut flipped = before.clone();
+    let last = flipped.len() - 7;
+    flipped[last] ^= 0x10;
+    damaged("flipped.ckpt", &flipped, &["checksum"]);
+    damaged(
+        "image.ckpt",
+        &std::fs::read(d.join("a.exr")).unwrap(),
+        &["signature"],
+    );
+    run_fails(
+        d,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "-o",
+                "b.exr",
+                "--resume",
+                "missing.ckpt",
+            ][..],
+            &SIZE,
+        ]
+        .concat(),
+        2,
+        &["cannot read"],
+    );
+}
+
+/// The new flags' mistakes are usage errors (exit 2) that name the flag.
+#[test]
+fn checkpoint_and_range_flag_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (args, word) in [
+        (vec!["--sample-range", "5..5"], "--sample-range"),
+        (vec!["--sample-range", "7"], "--sample-range"),
+        (vec!["--sample-range", "0..4", "--spp", "4"], "--spp"),
+        (vec!["--checkpoint-every", "4"], "--checkpoint FILE"),
+        (
+            vec!["--checkpoint", "c.ckpt", "--checkpoint-every", "0"],
+            "--checkpoint-every",
+        ),
+        (
+            vec!["--checkpoint", "c.ckpt", "--checkpoint-every", "soon"],
+            "--checkpoint-every",
+        ),
+    ] {
+        let all = [&["render", "-o", "x.png"][..], &args, &SIZE].concat();
+        run_fails(d, &all, 2, &[word]);
+    }
+    // A 10^9-pixel image is refused before anything is allocated, with the limit named.
+    run_fails(
+        d,
+        &[
+            "render", "-o", "x.png", "--width", "40000", "--height", "25000",
+        ],
+        2,
+        &["2^28"],
+    );
+    assert_eq!(std::fs::read_dir(d).unwrap().count(), 0, "nothing written");
+}
+
+/// `--checkpoint-every 30s` style durations are accepted; the final checkpoint is always written.
+#[test]
+fn time_based_checkpoints_and_the_final_save() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "--spp",
+                "3",
+                "--checkpoint",
+                "c.ckpt",
+                "--checkpoint-every",
+                "0.5m",
+                "-o",
+                "x.exr",
+            ][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+    assert_eq!(Checkpoint::read(&d.join("c.ckpt")).unwrap().samples(), 3);
+    // Resuming a finished render with a larger --spp goes on from it; the file is updated in place.
+    let bits = resume(d, &d.join("c.ckpt"), 5, "more.exr");
+    assert_eq!(Checkpoint::read(&d.join("c.ckpt")).unwrap().samples(), 5);
+    assert!(bits == straight(d, 5, "five.exr"));
+}
+
+/// A lost device mid-render (simulated: `VKPATH_FAULT=device-lost@7` fails the 7th pass after part of
+/// it was submitted): exit 1, one paragraph that says what happened and which files are intact; the
+/// checkpoint and progress images of the last completed save (6 samples) are whole, and the checkpoint
+/// resumes to the bits of an uninterrupted render.
+#[test]
+fn a_lost_device_keeps_the_last_checkpoint_and_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = vkpath(d)
+        .env("VKPATH_FAULT", "device-lost@7")
+        .args(
+            [
+                &[
+                    "render",
+                    "--quiet",
+                    "-o",
+                    "out.png",
+                    "-o",
+                    "out.exr",
+                    "--spp",
+                    "100",
+                    "--samples-per-pass",
+                    "1",
+                    "--checkpoint",
+                    "c.ckpt",
+                    "--checkpoint-every",
+                    "2",
+                    "--progress-every",
+                    "2",
+                ][..],
+                &SIZE,
+            ]
+            .concat(),
+        )
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "one paragraph: {stderr}");
+    for w in [
+        "device was lost",
+        "c.ckpt (6 samples per pixel), is intact",
+        "--resume c.ckpt",
+        "out.exr (6 samples",
+    ] {
+        assert!(stderr.contains(w), "{w:?} not in {stderr}");
+    }
+    let saved = Checkpoint::read(&d.join("c.ckpt")).expect("the checkpoint is whole");
+    assert_eq!(
+        saved.samples(),
+        6,
+        "the failed pass must not reach the checkpoint"
+    );
+    image::open(d.join("out.png")).expect("the PNG is whole");
+    assert_eq!(exr_bits(&d.join("out.exr")).len(), 32 * 24 * 3);
+    assert!(resume(d, &d.join("c.ckpt"), 9, "resumed.exr") == straight(d, 9, "straight.exr"));
+}
+
+/// Running out of device memory and a kernel that fails to compile (both simulated), and an image too
+/// large for the device (real: 16 GiB of accumulator): exit 1 with a one-paragraph message, and the
+/// files already on disk (a checkpoint being resumed, an earlier image) untouched.
+#[test]
+fn out_of_memory_shader_failure_and_device_limits_leave_files_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "--spp",
+                "2",
+                "--checkpoint",
+                "c.ckpt",
+                "-o",
+                "out.png",
+            ][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+    let ckpt = std::fs::read(d.join("c.ckpt")).unwrap();
+    let png = std::fs::read(d.join("out.png")).unwrap();
+    for (fault, words) in [
+        ("out-of-memory", &["ran out of memory", "smaller image"][..]),
+        ("shader", &["failed to compile"][..]),
+    ] {
+        let out = vkpath(d)
+            .env("VKPATH_FAULT", fault)
+            .args(
+                [
+                    &[
+                        "render", "--quiet", "--spp", "4", "--resume", "c.ckpt", "-o", "out.png",
+                    ][..],
+                    &SIZE,
+                ]
+                .concat(),
+            )
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{fault}: {stderr}");
+        assert_eq!(
+            stderr.trim().lines().count(),
+            1,
+            "{fault}: one paragraph: {stderr}"
+        );
+        for w in words {
+            assert!(stderr.contains(w), "{fault}: {w:?} not in {stderr}");
+        }
+        assert_eq!(
+            std::fs::read(d.join("c.ckpt")).unwrap(),
+            ckpt,
+            "{fault} touched the checkpoint"
+        );
+        assert_eq!(
+            std::fs::read(d.join("out.png")).unwrap(),
+            png,
+            "{fault} touched the image"
+        );
+    }
+    let huge = 16384u64 * 16384 * 64;
+    let out = run(
+        d,
+        &[
+            "render", "--quiet", "--width", "16384", "--height", "16384", "--spp", "1", "-o",
+            "huge.png",
+        ],
+    );
+    if out.status.code() == Some(1) {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            stderr.contains("MiB of device memory") && stderr.contains("16384x16384"),
+            "{stderr}"
+        );
+        assert!(!d.join("huge.png").exists());
+    } else {
+        eprintln!("this device holds {huge} bytes of accumulator: the limit was not reached");
+    }
+    // An unknown fault name is a usage error.
+    let out = vkpath(d)
+        .env("VKPATH_FAULT", "meteor")
+        .args(["render", "-o", "y.png"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
