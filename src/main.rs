@@ -49,6 +49,25 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Samples/s and BVH build time for generated meshes of growing size in the course's box, and
+    /// BVH vs brute force on the smaller ones, as a Markdown table.
+    Mesh {
+        /// Triangle counts (default 1000 10000 100000 1000000).
+        sizes: Vec<usize>,
+        #[arg(long, default_value_t = 128)]
+        width: u32,
+        #[arg(long, default_value_t = 128)]
+        height: u32,
+        /// Samples per pixel of each timed pass.
+        #[arg(long, default_value_t = 8)]
+        spp: u32,
+        /// Timed passes per mesh (the median is reported).
+        #[arg(long, default_value_t = 5)]
+        runs: u32,
+        /// Also time brute force (no BVH) for meshes up to this many triangles.
+        #[arg(long = "brute-force-up-to", default_value_t = 10_000)]
+        brute_force_up_to: usize,
+    },
     /// Samples/s of each scene with its specialised kernel, the generic kernel and (for diffuse/point-light
     /// scenes) a hand-trimmed kernel, as a Markdown table.
     Specialisation {
@@ -567,6 +586,9 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
             "stop_reason": reason,
             "outputs": outputs.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
             "validation_errors": validation_errors.len(),
+            "triangles": renderer.scene_stats().triangles,
+            "bvh_nodes": renderer.scene_stats().bvh_nodes,
+            "bvh_build_ms": renderer.scene_stats().bvh_build_ms,
             "kernel": vkpath::checkpoint::kernel_name(renderer.features()),
             "features_absent": renderer.features().absent(),
             "sample_ranges": renderer.ranges(),
@@ -639,6 +661,38 @@ fn run_merge(m: MergeArgs) -> Result<i32, Error> {
 
 fn run_bench(b: BenchCommand) -> Result<i32, Error> {
     match b {
+        BenchCommand::Mesh {
+            sizes,
+            width,
+            height,
+            spp,
+            runs,
+            brute_force_up_to,
+        } => {
+            if width == 0 || height == 0 || spp == 0 || runs == 0 {
+                return Err(usage(
+                    "--width, --height, --spp and --runs must be at least 1.",
+                ));
+            }
+            let sizes = if sizes.is_empty() {
+                vkpath::bench_mesh::DEFAULT_SIZES.to_vec()
+            } else {
+                sizes
+            };
+            let ctx = GpuContext::new(&ContextOptions::default())?;
+            let settings = vkpath::bench::BenchSettings {
+                width,
+                height,
+                spp,
+                runs,
+            };
+            let rows = vkpath::bench_mesh::mesh_scaling(&ctx, &sizes, settings, brute_force_up_to)?;
+            print!(
+                "{}",
+                vkpath::bench_mesh::mesh_scaling_table(&rows, settings, &ctx.device_info().name)
+            );
+            Ok(0)
+        }
         BenchCommand::Specialisation {
             scenes,
             width,
