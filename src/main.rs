@@ -105,7 +105,8 @@ struct RenderArgs {
     /// Stop after the first pass that ends past this many seconds.
     #[arg(long, allow_negative_numbers = true)]
     time: Option<f64>,
-    /// Stop when the estimated relative error falls below E (not supported yet).
+    /// Stop when the estimated relative error of the image falls below E (checked after each pass from
+    /// 16 spp on; the scene's samples, or --spp, stays the upper bound).
     #[arg(long = "target-error", allow_negative_numbers = true)]
     target_error: Option<f64>,
     /// Random seed (overrides the scene).
@@ -363,10 +364,12 @@ fn install_stop_handler() -> Arc<AtomicBool> {
 }
 
 fn run_render(a: RenderArgs) -> Result<i32, Error> {
-    if a.target_error.is_some() {
-        return Err(usage(
-            "--target-error is not supported yet in this version of vkpath; use --spp or --time to bound the render.",
-        ));
+    if let Some(e) = a.target_error
+        && !(e.is_finite() && e > 0.0)
+    {
+        return Err(usage(format!(
+            "--target-error must be a positive relative error (e.g. 0.02 for 2%), not {e}."
+        )));
     }
     let budget_time = match a.time {
         Some(t) if !(t.is_finite() && t > 0.0) => {
@@ -483,6 +486,7 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
         time: budget_time,
         progress_every: a.progress_every,
         save_every,
+        target_error: a.target_error,
     };
     let bar = if !a.quiet && std::io::stderr().is_terminal() {
         let bar = indicatif::ProgressBar::new(target_spp as u64);

@@ -808,14 +808,14 @@ fn flag_error_negative_time_with_equals() {
 }
 
 #[test]
-fn flag_error_target_error_not_supported() {
+fn flag_error_target_error_not_positive() {
     expect_usage_error(
         &[
-            &["render", "tiny.toml", "--target-error", "0.01"][..],
+            &["render", "tiny.toml", "--target-error", "-0.01"][..],
             &OUTS,
         ]
         .concat(),
-        &["--target-error", "not supported"],
+        &["--target-error", "positive"],
     );
 }
 

@@ -640,7 +640,14 @@ pub struct Budget {
     pub progress_every: Option<u32>,
     /// How often to report `save_state` (for checkpoints).
     pub save_every: Option<SaveEvery>,
+    /// Stop once the film's estimated relative error ([`Film::estimated_rel_error`]) is below this.
+    /// Tested after each pass once at least [`TARGET_ERROR_MIN_SPP`] samples are in: with fewer, the
+    /// per-pixel variances are too noisy to trust.
+    pub target_error: Option<f64>,
 }
+
+/// The fewest samples per pixel before `--target-error` may stop a render.
+pub const TARGET_ERROR_MIN_SPP: u32 = 16;
 
 /// How often a render saves its state.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -657,6 +664,7 @@ pub enum SaveEvery {
 pub enum StopReason {
     Samples,
     Time,
+    TargetError,
     Interrupted,
 }
 
@@ -733,6 +741,13 @@ pub fn render_progressive(
                 save_state,
             },
         )?;
+        if let Some(target) = budget.target_error
+            && done >= TARGET_ERROR_MIN_SPP
+            && done < budget.spp
+            && renderer.film()?.estimated_rel_error() < target
+        {
+            break StopReason::TargetError;
+        }
         if options.samples_per_pass.is_none() && k == pass_spp {
             // Grow (at most doubling) or shrink the pass towards the target duration.
             let per_sample = dt / k as f64;
