@@ -9,14 +9,21 @@ pub const ALPHA: f64 = 1e-4;
 pub fn erfc(x: f64) -> f64 {
     let z = x.abs();
     let t = 1.0 / (1.0 + 0.5 * z);
-    let poly = -z * z - 1.265_512_23
-        + t * (1.000_023_68
-            + t * (0.374_091_96
-                + t * (0.096_784_18
-                    + t * (-0.186_288_06
-                        + t * (0.278_868_07
-                            + t * (-1.135_203_98
-                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    // Horner's rule for the degree-9 polynomial in t (coefficients from degree 1 up), written as a loop:
+    // the same operations in the same order as the nested form, which rustfmt is very slow to format.
+    const C: [f64; 9] = [
+        1.000_023_68,
+        0.374_091_96,
+        0.096_784_18,
+        -0.186_288_06,
+        0.278_868_07,
+        -1.135_203_98,
+        1.488_515_87,
+        -0.822_152_23,
+        0.170_872_77,
+    ];
+    let horner = C[..8].iter().rev().fold(C[8], |acc, &c| c + t * acc);
+    let poly = -z * z - 1.265_512_23 + t * horner;
     let r = t * poly.exp();
     if x >= 0.0 { r } else { 2.0 - r }
 }
