@@ -989,68 +989,11 @@ fn triangle_hits_match_f64_at_every_scale() {
     }
 }
 
-/// An icosphere: the icosahedron with each face split in four `levels` times, vertices pushed onto the
-/// unit sphere. Faces wound counter-clockwise seen from outside; each vertex is stored once, so shared
-/// edges and vertices are bit-identical in every triangle that uses them.
+/// The icosphere of `vkpath::scene::shapes` (vertices in f64), with faces as `usize` indices. Each vertex
+/// is stored once, so shared edges and vertices are bit-identical in every triangle that uses them.
 fn icosphere(levels: u32) -> (Vec<DVec3>, Vec<[usize; 3]>) {
-    let p = (1.0 + 5f64.sqrt()) / 2.0;
-    let mut verts: Vec<DVec3> = [
-        (-1.0, p, 0.0),
-        (1.0, p, 0.0),
-        (-1.0, -p, 0.0),
-        (1.0, -p, 0.0),
-        (0.0, -1.0, p),
-        (0.0, 1.0, p),
-        (0.0, -1.0, -p),
-        (0.0, 1.0, -p),
-        (p, 0.0, -1.0),
-        (p, 0.0, 1.0),
-        (-p, 0.0, -1.0),
-        (-p, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
-    .collect();
-    let mut faces: Vec<[usize; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    for _ in 0..levels {
-        let mut mid = std::collections::HashMap::new();
-        let mut midpoint = |a: usize, b: usize, verts: &mut Vec<DVec3>| {
-            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                verts.push((verts[a] + verts[b]).normalize());
-                verts.len() - 1
-            })
-        };
-        let mut next = Vec::with_capacity(faces.len() * 4);
-        for [a, b, c] in faces {
-            let ab = midpoint(a, b, &mut verts);
-            let bc = midpoint(b, c, &mut verts);
-            let ca = midpoint(c, a, &mut verts);
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-        }
-        faces = next;
-    }
-    (verts, faces)
+    let (verts, faces) = vkpath::scene::shapes::icosphere_f64(levels);
+    (verts, faces.iter().map(|f| f.map(|i| i as usize)).collect())
 }
 
 /// The input of intersect_mesh.wgsl: the triangle count, the triangles, then per ray its origin (with

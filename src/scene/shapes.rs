@@ -19,6 +19,19 @@ pub struct Shape {
 /// vertices pushed onto the sphere. 20 * 4^s triangles, 10 * 4^s + 2 vertices, every edge shared by
 /// exactly two triangles (closed and watertight as an index structure), outward counter-clockwise.
 pub fn icosphere(subdivisions: u32) -> Shape {
+    let (positions, triangles) = icosphere_f64(subdivisions);
+    let positions: Vec<Vec3> = positions.iter().map(|p| p.as_vec3()).collect();
+    Shape {
+        normals: positions.iter().map(|p| p.normalize()).collect(),
+        positions,
+        uvs: Vec::new(),
+        triangles,
+    }
+}
+
+/// The same icosphere with its vertices in f64 (for tests that place it at extreme scales and offsets
+/// before rounding to f32 once).
+pub fn icosphere_f64(subdivisions: u32) -> (Vec<glam::DVec3>, Vec<[u32; 3]>) {
     let t = (1.0 + 5.0f64.sqrt()) / 2.0;
     let raw = [
         [-1.0, t, 0.0],
@@ -79,13 +92,7 @@ pub fn icosphere(subdivisions: u32) -> Shape {
         }
         triangles = next;
     }
-    let positions: Vec<Vec3> = positions.iter().map(|p| p.as_vec3()).collect();
-    Shape {
-        normals: positions.iter().map(|p| p.normalize()).collect(),
-        positions,
-        uvs: Vec::new(),
-        triangles,
-    }
+    (positions, triangles)
 }
 
 /// The unit sphere as a latitude–longitude grid of `segments` x `rings` quads (split into triangles),
