@@ -1,0 +1,562 @@
+#!/usr/bin/env python3
+"""vkpath vs Mitsuba 3: samples/s, and relative error against a common reference at equal time.
+
+Run benches/peers/setup.sh once, build vkpath (cargo build --release), then from the repository root:
+
+    benches/peers/.venv/bin/python benches/peers/compare.py            # the course scenes, 128x128
+    benches/peers/.venv/bin/python benches/peers/compare.py --quick    # a 1-2 minute smoke run
+
+For each scene (a copy with `filter = "box"` and the requested size; see mitsuba_scene.py for how it is
+translated), it renders:
+
+1. the common reference: `--ref-spp` samples per pixel from EACH renderer, in `--ref-batches`
+   independent batches, averaged (the reference is the mean of the two). Both renderers take part so that
+   the reference favours neither; the batches give a per-pixel variance, hence the reference's own noise
+   (subtracted from the squared errors below) and the unbiasedness check: the two renderers' reference
+   images must differ only by their noise (the ratio of the observed mean squared difference to the
+   expected one is ~1, the image means agree within their standard error, no 16x16-pixel block is off by
+   more than ~4 standard errors).
+2. a ladder of renders at 1, 2, 4, ... `--max-spp` spp for each renderer (each vkpath `--vkpath-config`,
+   and Mitsuba), with seeds distinct from the reference's; for each: seconds, samples/s and
+   relative error = sqrt(mean over pixels and channels of (img - ref)^2) / mean(ref),
+   reported both raw and with the reference's expected squared noise subtracted (`rel_error`, the one the
+   tables use; unbiased for the error against the true image).
+
+Timing: vkpath's is the `seconds` field of `vkpath render --json` (the render loop: the device, the
+pipelines and the scene upload come before it). Mitsuba's is the wall clock of `mi.render` up to the
+finished image (`dr.sync_thread()`), after one untimed warm-up render of the same scene that compiles (or
+loads from Dr.Jit's cache) the kernel; each timed call still pays Mitsuba's per-call tracing of the
+integrator, which is part of what a user pays per render. The two renderers never run at once.
+
+From each ladder: the time to reach 5%, 2% and 1% relative error (piecewise linear interpolation of
+log(error) against log(seconds) between the measured renders; outside the measured range, an
+extrapolation along the ladder's fitted slope, marked with ~ in the table) and the error at equal time
+(the longest time that every renderer's ladder reached on that scene, interpolated the same way).
+
+Outputs, under --out (default benches/peers/results/): <tag>-ladder.csv (every render),
+<tag>-summary.csv (per scene and renderer), <tag>-reference.csv (the unbiasedness check), <tag>.md
+(the tables, also printed), images/<tag>/ (the reference EXRs; git-ignored), tmp/ (scene copies).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime as _dt
+import glob
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent.parent
+sys.path.insert(0, str(HERE))
+
+import mitsuba_scene as ms  # noqa: E402
+
+TARGETS = (0.05, 0.02, 0.01)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Environment: Dr.Jit's LLVM back end needs LLVM 19 (the LLVM 15 that Mesa pulls in crashes it)
+# ---------------------------------------------------------------------------------------------------
+
+
+def find_llvm19() -> str | None:
+    if os.environ.get("DRJIT_LIBLLVM_PATH"):
+        return os.environ["DRJIT_LIBLLVM_PATH"]
+    patterns = [
+        "/usr/lib/*/libLLVM.so.19*",
+        "/usr/lib/*/libLLVM-19.so*",
+        "/usr/lib/llvm-19/lib/libLLVM*.so*",
+    ]
+    for p in patterns:
+        hits = sorted(glob.glob(p))
+        if hits:
+            return hits[0]
+    return None
+
+
+def import_mitsuba():
+    llvm = find_llvm19()
+    if llvm is None:
+        sys.exit("compare.py: no LLVM 19 shared library found; run benches/peers/setup.sh "
+                 "(or set DRJIT_LIBLLVM_PATH)")
+    os.environ["DRJIT_LIBLLVM_PATH"] = llvm
+    try:
+        import drjit as dr
+        import mitsuba as mi
+    except ImportError:
+        sys.exit("compare.py: mitsuba is not importable; run with benches/peers/.venv/bin/python after "
+                 "benches/peers/setup.sh")
+    mi.set_variant("llvm_ad_rgb")
+    return dr, mi, llvm
+
+
+# ---------------------------------------------------------------------------------------------------
+# Images
+# ---------------------------------------------------------------------------------------------------
+
+
+def read_exr(path: str | os.PathLike):
+    import numpy as np
+    import OpenEXR
+
+    with OpenEXR.File(str(path)) as f:
+        ch = f.channels()
+        if "RGB" in ch:
+            img = ch["RGB"].pixels
+        else:
+            img = np.stack([ch[c].pixels for c in ("R", "G", "B")], axis=-1)
+    return np.asarray(img, dtype=np.float64)
+
+
+def write_exr(path: str | os.PathLike, img) -> None:
+    import numpy as np
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    with OpenEXR.File(header, {"RGB": np.ascontiguousarray(img, dtype=np.float32)}) as f:
+        f.write(str(path))
+
+
+# ---------------------------------------------------------------------------------------------------
+# Renderers
+# ---------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Render:
+    img: object
+    seconds: float
+    spp: int
+    info: dict = field(default_factory=dict)
+
+
+class Vkpath:
+    def __init__(self, binary: Path, label: str, extra_args: list[str], scene_toml: Path, tmp: Path):
+        self.binary, self.label, self.extra = binary, label, extra_args
+        self.scene_toml, self.tmp = scene_toml, tmp
+
+    def render(self, spp: int, seed: int) -> Render:
+        out = self.tmp / f"vkpath-{os.getpid()}.exr"
+        cmd = [str(self.binary), "render", str(self.scene_toml), "--spp", str(spp), "--seed", str(seed),
+               "--json", "--quiet", "-o", str(out), *self.extra]
+        p = subprocess.run(cmd, capture_output=True, text=True)
+        if p.returncode != 0:
+            raise RuntimeError(f"{' '.join(cmd)} failed ({p.returncode}):\n{p.stderr}")
+        info = json.loads(p.stdout.strip().splitlines()[-1])
+        if info.get("spp") != spp:
+            raise RuntimeError(f"vkpath rendered {info.get('spp')} spp, asked for {spp}")
+        img = read_exr(out)
+        out.unlink()
+        return Render(img, float(info["seconds"]), spp, info)
+
+
+class Mitsuba:
+    label = "Mitsuba 3"
+
+    def __init__(self, dr, mi, scene_dict: dict):
+        self.dr, self.mi = dr, mi
+        self.scene = mi.load_dict(scene_dict)
+        t = time.perf_counter()
+        self._render(1, seed=999_999)  # warm-up: kernel compilation (or Dr.Jit cache load), not timed
+        self.warmup_seconds = time.perf_counter() - t
+
+    def _render(self, spp: int, seed: int):
+        import numpy as np
+
+        img = self.mi.render(self.scene, spp=spp, seed=seed)
+        self.dr.eval(img)
+        self.dr.sync_thread()
+        return np.array(img, dtype=np.float64)
+
+    def render(self, spp: int, seed: int) -> Render:
+        t = time.perf_counter()
+        img = self._render(spp, seed)
+        return Render(img, time.perf_counter() - t, spp)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Statistics
+# ---------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Reference:
+    mean: object  # per-pixel mean of the batches
+    var_of_mean: object  # per-pixel variance of that mean (from the spread of the batches)
+    spp: int
+    seconds: float
+
+
+def reference_from_batches(batches: list[Render]) -> Reference:
+    import numpy as np
+
+    stack = np.stack([b.img for b in batches])
+    k = len(batches)
+    var = stack.var(axis=0, ddof=1) / k if k > 1 else np.zeros_like(stack[0])
+    return Reference(stack.mean(axis=0), var, sum(b.spp for b in batches), sum(b.seconds for b in batches))
+
+
+def unbiasedness(a: Reference, b: Reference, block: int = 16) -> dict:
+    """Do the two renderers' references differ only by their noise?"""
+    import numpy as np
+
+    d = a.mean - b.mean
+    v = a.var_of_mean + b.var_of_mean  # expected squared difference per pixel and channel
+    ref_mean = 0.5 * (a.mean + b.mean).mean()
+    n = d.size
+    mean_diff = d.mean()
+    mean_diff_se = math.sqrt(v.sum()) / n
+    h, w, c = d.shape
+    bh, bw = max(1, h // block), max(1, w // block)
+    hh, ww = bh * block if h >= block else h, bw * block if w >= block else w
+    sy, sx = (block, block) if h >= block and w >= block else (h, w)
+    dz = d[:hh, :ww].reshape(hh // sy, sy, ww // sx, sx, c).sum(axis=(1, 3))
+    vz = v[:hh, :ww].reshape(hh // sy, sy, ww // sx, sx, c).sum(axis=(1, 3))
+    z = dz / np.sqrt(np.maximum(vz, 1e-300))
+    return {
+        "rel_rms_diff": math.sqrt((d * d).mean()) / ref_mean,
+        "rel_rms_expected": math.sqrt(v.mean()) / ref_mean,
+        "ms_ratio": float((d * d).mean() / max(v.mean(), 1e-300)),
+        "rel_mean_diff": mean_diff / ref_mean,
+        "mean_diff_z": mean_diff / mean_diff_se if mean_diff_se > 0 else float("nan"),
+        "block_px": sy,
+        "blocks": int(z.size),
+        "max_block_abs_z": float(np.abs(z).max()),
+        "blocks_over_4sigma": int((np.abs(z) > 4).sum()),
+    }
+
+
+def rel_errors(img, ref: Reference, ref_noise_ms: float) -> tuple[float, float]:
+    """(raw, corrected): RMS difference over mean(ref); the corrected one has the reference's expected
+    squared noise subtracted from the mean squared difference (img and ref are independent)."""
+    import numpy as np
+
+    ms_diff = float(((img - ref.mean) ** 2).mean())
+    m = float(ref.mean.mean())
+    return math.sqrt(ms_diff) / m, math.sqrt(max(ms_diff - ref_noise_ms, 0.0)) / m
+
+
+def loglog_at(xs, ys, x):
+    """Piecewise-linear interpolation of log y against log x (xs increasing)."""
+    lx = [math.log(v) for v in xs]
+    ly = [math.log(v) for v in ys]
+    t = math.log(x)
+    for i in range(1, len(lx)):
+        if lx[i - 1] <= t <= lx[i]:
+            f = 0.0 if lx[i] == lx[i - 1] else (t - lx[i - 1]) / (lx[i] - lx[i - 1])
+            return math.exp(ly[i - 1] + f * (ly[i] - ly[i - 1]))
+    return None
+
+
+def fitted_slope(points) -> float:
+    """Least-squares slope of log(error) against log(spp) over the ladder's points from 4 spp on: the
+    convergence rate, -0.5 for an unbiased Monte Carlo estimator of finite variance. points: (spp, error)."""
+    pts = [p for p in points if p[0] >= 4 and p[1] > 0] or [p for p in points if p[1] > 0]
+    if len(pts) < 2:
+        return float("nan")
+    lx = [math.log(p[0]) for p in pts]
+    ly = [math.log(p[1]) for p in pts]
+    mx, my = sum(lx) / len(lx), sum(ly) / len(ly)
+    sxx = sum((x - mx) ** 2 for x in lx)
+    return sum((x - mx) * (y - my) for x, y in zip(lx, ly)) / sxx if sxx else float("nan")
+
+
+def efficiency_constant(points) -> float | None:
+    """c such that error ~ c / sqrt(seconds) (geometric mean of error * sqrt(seconds) over the ladder's
+    last three renders, where fixed per-render costs matter least). Time to reach error e: (c / e)^2."""
+    pts = [p for p in points if p[1] > 0][-3:]
+    if not pts:
+        return None
+    return math.exp(sum(math.log(e * math.sqrt(t)) for t, e in pts) / len(pts))
+
+
+def time_to(points, target: float) -> tuple[float | None, str]:
+    """Seconds to reach `target` relative error, and how it was found: "" interpolated, "~" extrapolated,
+    "<" already reached by the first render (its time is an upper bound). points: (seconds, error)
+    in ladder order. Inside the measured range: piecewise-linear interpolation of log(error) against
+    log(seconds), at the first crossing. Outside: error = c / sqrt(seconds), c from efficiency_constant
+    (Monte Carlo's rate; the slope column shows how well the ladder follows it)."""
+    pts = [p for p in points if p[1] > 0]
+    if not pts:
+        return None, "~"
+    for (t0, e0), (t1, e1) in zip(pts, pts[1:]):
+        if (e0 - target) * (e1 - target) <= 0 and e0 != e1 and t1 > t0:
+            f = (math.log(target) - math.log(e0)) / (math.log(e1) - math.log(e0))
+            return math.exp(math.log(t0) + f * (math.log(t1) - math.log(t0))), ""
+    if target >= pts[0][1]:
+        return pts[0][0], "<"
+    c = efficiency_constant(pts)
+    return (c / target) ** 2, "~"
+
+
+# ---------------------------------------------------------------------------------------------------
+# The run
+# ---------------------------------------------------------------------------------------------------
+
+
+def default_scenes() -> list[Path]:
+    d = ROOT / "scenes"
+    names = sorted(glob.glob(str(d / "0*-*.toml"))) + sorted(glob.glob(str(d / "1*-*.toml")))
+    names.append(str(d / "course.toml"))
+    return [Path(n) for n in names]
+
+
+def resolve_scene(s: str) -> Path:
+    p = Path(s)
+    if p.suffix == ".toml" and p.exists():
+        return p
+    for cand in [ROOT / "scenes" / f"{s}.toml", *sorted((ROOT / "scenes").glob(f"{s}*.toml"))]:
+        if cand.exists():
+            return cand
+    sys.exit(f"compare.py: no scene {s!r} (give a path or a name under scenes/, e.g. 06-glass or 06)")
+
+
+def fmt_time(t, how: str) -> str:
+    if t is None:
+        return "n/a"
+    s = f"{t:.3g} s" if t < 1000 else f"{t:.0f} s"
+    return how + s
+
+
+def parse_config(spec: str) -> tuple[str, list[str]]:
+    label, _, args = spec.partition(":")
+    return label.strip() or "vkpath", args.split()
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--scenes", nargs="+", help="scene names (e.g. 06-glass, 06, course) or paths; "
+                    "default: scenes/0*-*.toml scenes/1*-*.toml scenes/course.toml")
+    ap.add_argument("--size", type=int, help="image width in pixels (height keeps the aspect); default 128")
+    ap.add_argument("--max-spp", type=int, help="largest spp of the ladder (a power of 2); default 256")
+    ap.add_argument("--time-budget", type=float, default=None,
+                    help="stop a ladder early once one render of it took more than this many seconds")
+    ap.add_argument("--ref-spp", type=int, help="reference spp PER RENDERER; default 1024")
+    ap.add_argument("--ref-batches", type=int, help="independent batches per reference; default 16 (8 with --quick)")
+    ap.add_argument("--rr-depth", type=int, default=3,
+                    help="Russian roulette start for Mitsuba (vkpath's default roulette_depth is 3)")
+    ap.add_argument("--vkpath", default=str(ROOT / "target" / "release" / "vkpath"), help="vkpath binary")
+    ap.add_argument("--vkpath-config", action="append", metavar="LABEL:ARGS",
+                    help="a vkpath setting to compare, e.g. 'vkpath generic:--generic' (repeatable; the "
+                    "first also renders the reference); default 'vkpath:' (no extra flags)")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="time each ladder render this many times and keep the fastest (noisy machines)")
+    ap.add_argument("--quick", action="store_true",
+                    help="a smoke run: 64x64, ladder to 64 spp, reference 256 spp in 8 batches")
+    ap.add_argument("--tag", help="output file prefix; default 'peers' ('quick' with --quick)")
+    ap.add_argument("--out", default=str(HERE / "results"), help="output folder")
+    a = ap.parse_args()
+
+    size = a.size or (64 if a.quick else 128)
+    max_spp = a.max_spp or (64 if a.quick else 256)
+    ref_spp = a.ref_spp or (256 if a.quick else 1024)
+    batches = a.ref_batches or (8 if a.quick else 16)
+    tag = a.tag or ("quick" if a.quick else "peers")
+    if ref_spp % batches:
+        sys.exit("compare.py: --ref-spp must be a multiple of --ref-batches")
+    configs = [parse_config(c) for c in (a.vkpath_config or ["vkpath:"])]
+    vkpath_bin = Path(a.vkpath)
+    if not vkpath_bin.exists():
+        sys.exit(f"compare.py: no vkpath binary at {vkpath_bin}; run `cargo build --release` first")
+
+    import numpy as np
+
+    dr, mi, llvm = import_mitsuba()
+    out = Path(a.out)
+    tmp = out / "tmp"
+    imgdir = out / "images" / tag
+    for d in (out, tmp, imgdir):
+        d.mkdir(parents=True, exist_ok=True)
+
+    scenes = [resolve_scene(s) for s in a.scenes] if a.scenes else default_scenes()
+    spps = [1 << i for i in range(int(math.log2(max_spp)) + 1)]
+
+    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                           capture_output=True, text=True).stdout.strip()
+    cpu = platform.processor() or ""
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    meta = {
+        "date_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "cpu": f"{cpu} x {os.cpu_count()} logical",
+        "vkpath_commit": commit + (" (+ uncommitted changes)" if dirty else ""),
+        "mitsuba": f"{mi.__version__} llvm_ad_rgb, drjit {dr.__version__}, "
+                   f"LLVM {Path(llvm).name}",
+        "size": f"{size}x{size} (box filter)",
+        "ladder": f"1..{max_spp} spp (doubling)",
+        "reference": f"{ref_spp} spp from each renderer in {batches} batches (mean of both)",
+    }
+    print("# " + ", ".join(f"{k}: {v}" for k, v in meta.items()), flush=True)
+
+    ladder_rows, summary_rows, ref_rows, skipped = [], [], [], []
+    vk_device = None
+    for scene_path in scenes:
+        name = scene_path.stem
+        raw = ms.load_toml(scene_path)
+        reasons = ms.unsupported_reasons(raw)
+        if reasons:
+            skipped.append((name, "; ".join(reasons)))
+            print(f"## {name}: skipped: {'; '.join(reasons)}", flush=True)
+            continue
+        r = ms.resolved(raw)
+        w = size
+        h = max(1, round(size * r["image"]["height"] / r["image"]["width"]))
+        over = ms.with_overrides(raw, scene_path.parent, filter="box", width=w, height=h)
+        toml_path = tmp / f"{name}.toml"
+        toml_path.write_text(ms.dump_toml(over))
+        max_bounces = ms.resolved(over)["render"]["max_bounces"]
+        print(f"## {name}: {w}x{h}, max_bounces {max_bounces} (Mitsuba max_depth {max_bounces + 1}, "
+              f"rr_depth {a.rr_depth})", flush=True)
+
+        vks = [Vkpath(vkpath_bin, label, extra, toml_path, tmp) for label, extra in configs]
+        for v in vks:
+            v.render(1, seed=999_999)  # warm-up (page cache, driver), not recorded
+        mit = Mitsuba(dr, mi, ms.mitsuba_dict(mi, over, spp=1, tmp_dir=tmp / name, rr_depth=a.rr_depth))
+
+        # 1. The common reference and the unbiasedness check. Batches alternate between the renderers
+        # so that a change of load on the machine hits both alike.
+        per = ref_spp // batches
+        vk_batches, mi_batches = [], []
+        for k in range(batches):
+            vk_batches.append(vks[0].render(per, seed=1 + k))
+            mi_batches.append(mit.render(per, seed=1 + k))
+        ref_vk = reference_from_batches(vk_batches)
+        ref_mi = reference_from_batches(mi_batches)
+        ref = Reference(0.5 * (ref_vk.mean + ref_mi.mean), 0.25 * (ref_vk.var_of_mean + ref_mi.var_of_mean),
+                        ref_vk.spp + ref_mi.spp, ref_vk.seconds + ref_mi.seconds)
+        ref_noise_ms = float(ref.var_of_mean.mean())
+        ref_noise_rel = math.sqrt(ref_noise_ms) / float(ref.mean.mean())
+        check = unbiasedness(ref_vk, ref_mi)
+        write_exr(imgdir / f"{name}-ref.exr", ref.mean)
+        write_exr(imgdir / f"{name}-ref-vkpath.exr", ref_vk.mean)
+        write_exr(imgdir / f"{name}-ref-mitsuba.exr", ref_mi.mean)
+        ref_rows.append({
+            "scene": name, "width": w, "height": h, "spp_each": ref_spp, "batches": batches,
+            "vkpath_seconds": round(ref_vk.seconds, 3), "mitsuba_seconds": round(ref_mi.seconds, 3),
+            "ref_rel_noise": f"{ref_noise_rel:.5f}",
+            **{k: (f"{v:.5g}" if isinstance(v, float) else v) for k, v in check.items()},
+        })
+        print(f"   reference: {ref_vk.spp}+{ref_mi.spp} spp, noise {100 * ref_noise_rel:.2f}%; "
+              f"vkpath vs Mitsuba: rms diff {100 * check['rel_rms_diff']:.2f}% (expected "
+              f"{100 * check['rel_rms_expected']:.2f}% from noise, ratio of squares {check['ms_ratio']:.3f}), "
+              f"mean diff {100 * check['rel_mean_diff']:+.3f}% (z = {check['mean_diff_z']:+.2f}), "
+              f"max |z| of {check['blocks']} blocks {check['max_block_abs_z']:.2f}", flush=True)
+
+        # 2. The ladders, interleaved: at each spp every renderer renders once (the order rotating from
+        # one step to the next), so that load from elsewhere on the machine falls on all of them alike.
+        # With --repeat N, each render is timed N times and the fastest counts (the image is the first).
+        renderers = [(v.label, v) for v in vks] + [(mit.label, mit)]
+        ladders: dict[str, list] = {label: [] for label, _ in renderers}
+        active = {label for label, _ in renderers}
+        for i, spp in enumerate(spps):
+            order = renderers[i % len(renderers):] + renderers[:i % len(renderers)]
+            for label, rdr in order:
+                if label not in active:
+                    continue
+                res = rdr.render(spp, seed=1000 + i)
+                seconds = res.seconds
+                for _ in range(a.repeat - 1):
+                    seconds = min(seconds, rdr.render(spp, seed=1000 + i).seconds)
+                raw_e, e = rel_errors(res.img, ref, ref_noise_ms)
+                sps = w * h * spp / seconds
+                if isinstance(rdr, Vkpath) and vk_device is None:
+                    vk_device = res.info.get("device")
+                ladder_rows.append({
+                    "scene": name, "renderer": label, "spp": spp, "seconds": f"{seconds:.5f}",
+                    "samples_per_s": f"{sps:.0f}", "rel_error": f"{e:.5f}", "rel_error_raw": f"{raw_e:.5f}",
+                })
+                ladders[label].append((seconds, e, spp, sps))
+                if a.time_budget is not None and seconds > a.time_budget:
+                    active.discard(label)
+        for label, pts in ladders.items():
+            print(f"   {label:>12}: " + "  ".join(f"{p[2]}spp {p[0]:.2f}s {100 * p[1]:.1f}%" for p in pts),
+                  flush=True)
+
+        t_eq = min(pts[-1][0] for pts in ladders.values())
+        for label, pts in ladders.items():
+            good = [(t, e) for t, e, _, _ in pts if e > 0]
+            slope = fitted_slope([(spp, e) for _, e, spp, _ in pts])
+            c = efficiency_constant(good)
+            row = {"scene": name, "renderer": label, "samples_per_s": f"{pts[-1][3]:.0f}",
+                   "max_spp": pts[-1][2], "max_seconds": f"{pts[-1][0]:.3f}",
+                   "error_at_max": f"{pts[-1][1]:.5f}", "slope_vs_spp": f"{slope:.3f}",
+                   "efficiency_c": "" if c is None else f"{c:.5f}"}
+            for target in TARGETS:
+                t, how = time_to(good, target)
+                row[f"t_{round(100 * target)}pct"] = "" if t is None else f"{t:.4g}"
+                row[f"t_{round(100 * target)}pct_how"] = how
+            e_eq = loglog_at([p[0] for p in good], [p[1] for p in good], t_eq) if good else None
+            row["equal_time_s"] = f"{t_eq:.3f}"
+            row["error_at_equal_time"] = "" if e_eq is None else f"{e_eq:.5f}"
+            summary_rows.append(row)
+
+    # 3. Files and tables.
+    def write_csv(path, rows):
+        if not rows:
+            return
+        with open(path, "w", newline="") as f:
+            wr = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+            wr.writeheader()
+            wr.writerows(rows)
+
+    write_csv(out / f"{tag}-ladder.csv", ladder_rows)
+    write_csv(out / f"{tag}-summary.csv", summary_rows)
+    write_csv(out / f"{tag}-reference.csv", ref_rows)
+
+    meta["vkpath_device"] = vk_device or "?"
+    md = [f"Measured {meta['date_utc']} on {meta['cpu']}; vkpath {meta['vkpath_commit']} on "
+          f"{meta['vkpath_device']}; Mitsuba {meta['mitsuba']}. {meta['size']}, ladder {meta['ladder']}, "
+          f"reference {meta['reference']}. Command: `{' '.join(['compare.py', *sys.argv[1:]])}`.", "",
+          "| scene | renderer | samples/s | time to 5% | time to 2% | time to 1% | error at equal time | "
+          "error ~ spp^ |",
+          "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for row in summary_rows:
+        cells = [row["scene"], row["renderer"], f"{float(row['samples_per_s']) / 1e6:.2f} M"]
+        for target in TARGETS:
+            k = f"t_{round(100 * target)}pct"
+            cells.append(fmt_time(float(row[k]) if row[k] else None, row[k + "_how"]))
+        e = row["error_at_equal_time"]
+        cells.append(f"{100 * float(e):.2f}% @ {float(row['equal_time_s']):.2f} s" if e else "n/a")
+        cells.append(row["slope_vs_spp"])
+        md.append("| " + " | ".join(cells) + " |")
+    md += ["", "~ : beyond the ladder, extrapolated as error = c / sqrt(time) from its last three renders; "
+           "< : reached by the ladder's first render (an upper bound). Last column: the fitted convergence "
+           "rate (-0.5 expected).",
+           "", "Unbiasedness (the two renderers' references; expected: ratio ~1, |z| small):", "",
+           "| scene | ref spp each | ref noise | rms diff | expected from noise | ratio of squares | "
+           "mean diff (z) | max block abs z (blocks, over 4) |",
+           "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in ref_rows:
+        md.append(f"| {r['scene']} | {r['spp_each']} | {100 * float(r['ref_rel_noise']):.2f}% | "
+                  f"{100 * float(r['rel_rms_diff']):.2f}% | {100 * float(r['rel_rms_expected']):.2f}% | "
+                  f"{float(r['ms_ratio']):.3f} | {100 * float(r['rel_mean_diff']):+.3f}% "
+                  f"({float(r['mean_diff_z']):+.2f}) | {float(r['max_block_abs_z']):.2f} "
+                  f"({r['blocks']}, {r['blocks_over_4sigma']}) |")
+    if skipped:
+        md += ["", "Skipped:"] + [f"- {n}: {why}" for n, why in skipped]
+    text = "\n".join(md) + "\n"
+    (out / f"{tag}.md").write_text(text)
+    print()
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
