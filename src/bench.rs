@@ -33,7 +33,8 @@ pub struct SpecialisationRow {
     pub specialised_over_trimmed: Option<f64>,
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// The median of `v` (NaN when empty).
+pub fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     let n = v.len();
     if n == 0 {
@@ -165,6 +166,17 @@ pub fn ablation(
 
 /// Median samples/s of each renderer over `settings.runs` timed passes, interleaved.
 fn time_renderers(renderers: &mut [Renderer], settings: BenchSettings) -> Result<Vec<f64>, Error> {
+    let samples = settings.width as f64 * settings.height as f64 * settings.spp as f64;
+    let times = pass_times(renderers, settings)?;
+    Ok(times.into_iter().map(|t| samples / median(t)).collect())
+}
+
+/// Seconds of each of `settings.runs` timed passes of `settings.spp` samples per pixel, per renderer,
+/// after one untimed warm-up pass each, interleaved across the renderers.
+pub fn pass_times(
+    renderers: &mut [Renderer],
+    settings: BenchSettings,
+) -> Result<Vec<Vec<f64>>, Error> {
     let mut times = vec![Vec::new(); renderers.len()];
     // One untimed pass each: the driver may finish compiling on first use.
     for r in renderers.iter_mut() {
@@ -181,8 +193,7 @@ fn time_renderers(renderers: &mut [Renderer], settings: BenchSettings) -> Result
             times[i].push(t0.elapsed().as_secs_f64());
         }
     }
-    let samples = settings.width as f64 * settings.height as f64 * settings.spp as f64;
-    Ok(times.into_iter().map(|t| samples / median(t)).collect())
+    Ok(times)
 }
 
 /// The ablation as a Markdown table.

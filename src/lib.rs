@@ -19,7 +19,9 @@
 //! The library never prints; errors are values ([`Error`]).
 
 pub mod bench;
+pub mod bench_convergence;
 pub mod bench_mesh;
+pub mod bench_throughput;
 pub mod checkpoint;
 pub mod film;
 pub mod gpu;

@@ -49,6 +49,27 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Error against a reference vs time for each knob setting, at doubling spp: a CSV, a log-log PNG
+    /// and a Markdown table of the time to reach 5%, 2% and 1% relative error.
+    Convergence(ConvergenceArgs),
+    /// Samples/s of each scene in ./scenes at fixed settings (median, min, max of several passes).
+    Throughput {
+        /// Scene files (default: every .toml in ./scenes).
+        scenes: Vec<PathBuf>,
+        #[arg(long, default_value_t = 128)]
+        width: u32,
+        #[arg(long, default_value_t = 128)]
+        height: u32,
+        /// Samples per pixel of each timed pass.
+        #[arg(long, default_value_t = 16)]
+        spp: u32,
+        /// Timed passes per scene.
+        #[arg(long, default_value_t = 5)]
+        runs: u32,
+        /// Print the rows as JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Samples/s and BVH build time for generated meshes of growing size in the course's box, and
     /// BVH vs brute force on the smaller ones, as a Markdown table.
     Mesh {
@@ -163,6 +184,32 @@ struct RenderArgs {
     /// stays well under a desktop GPU's watchdog. The image is the same.
     #[arg(long = "dispatch-ms", allow_negative_numbers = true)]
     dispatch_ms: Option<f64>,
+}
+
+#[derive(Args)]
+struct ConvergenceArgs {
+    /// Scene file (TOML). Default: the embedded course scene.
+    scene: Option<PathBuf>,
+    /// A converged linear EXR of the same size to compare with (e.g. the one an earlier run wrote).
+    #[arg(long, conflicts_with = "reference_spp")]
+    reference: Option<PathBuf>,
+    /// Samples per pixel of the reference rendered when --reference is not given.
+    #[arg(long = "reference-spp", default_value_t = 4096)]
+    reference_spp: u32,
+    /// Largest samples per pixel measured (the curve has 1, 2, 4, ... up to it).
+    #[arg(long = "max-spp", default_value_t = 256)]
+    max_spp: u32,
+    #[arg(long, default_value_t = 128)]
+    width: u32,
+    #[arg(long, default_value_t = 128)]
+    height: u32,
+    /// Settings to measure, comma-separated: default, or knob=value joined by + (knobs: max_bounces,
+    /// roulette, samples_per_pass).
+    #[arg(long, default_value = vkpath::bench_convergence::DEFAULT_KNOBS)]
+    knobs: String,
+    /// Directory of the CSV, the PNG and the rendered reference.
+    #[arg(long, default_value = "bench-out")]
+    out: PathBuf,
 }
 
 #[derive(Args)]
@@ -663,8 +710,81 @@ fn run_merge(m: MergeArgs) -> Result<i32, Error> {
     Ok(0)
 }
 
+fn run_convergence(a: ConvergenceArgs) -> Result<i32, Error> {
+    if a.width == 0 || a.height == 0 || a.max_spp == 0 || a.reference_spp == 0 {
+        return Err(usage(
+            "--width, --height, --max-spp and --reference-spp must be at least 1.",
+        ));
+    }
+    let mut scene = match &a.scene {
+        Some(path) => Scene::load(path)?,
+        None => Scene::default_scene(),
+    };
+    scene.image.width = a.width;
+    scene.image.height = a.height;
+    let settings = vkpath::bench_convergence::parse_settings(&a.knobs, &scene)?;
+    let config = vkpath::bench_convergence::Config {
+        scene,
+        settings,
+        reference: a.reference,
+        reference_spp: a.reference_spp,
+        max_spp: a.max_spp,
+        out_dir: a.out,
+    };
+    let ctx = GpuContext::new(&ContextOptions::default())?;
+    let report = vkpath::bench_convergence::run(&ctx, &config, |line| eprintln!("vkpath: {line}"))?;
+    eprintln!(
+        "vkpath: wrote {} and {}",
+        report.csv.display(),
+        report.plot.display()
+    );
+    print!("{}", report.table);
+    Ok(0)
+}
+
 fn run_bench(b: BenchCommand) -> Result<i32, Error> {
     match b {
+        BenchCommand::Convergence(a) => run_convergence(a),
+        BenchCommand::Throughput {
+            scenes,
+            width,
+            height,
+            spp,
+            runs,
+            json,
+        } => {
+            if width == 0 || height == 0 || spp == 0 || runs == 0 {
+                return Err(usage(
+                    "--width, --height, --spp and --runs must be at least 1.",
+                ));
+            }
+            let scenes = if scenes.is_empty() {
+                vkpath::bench::scene_files(std::path::Path::new("scenes"))?
+            } else {
+                scenes
+            };
+            if scenes.is_empty() {
+                return Err(usage("no scene files given and none found in ./scenes."));
+            }
+            let ctx = GpuContext::new(&ContextOptions::default())?;
+            let settings = vkpath::bench::BenchSettings {
+                width,
+                height,
+                spp,
+                runs,
+            };
+            let device = &ctx.device_info().name;
+            let rows = vkpath::bench_throughput::throughput(&ctx, &scenes, settings)?;
+            if json {
+                println!("{}", serde_json::json!({ "device": device, "rows": rows }));
+            } else {
+                print!(
+                    "{}",
+                    vkpath::bench_throughput::throughput_table(&rows, settings, device)
+                );
+            }
+            Ok(0)
+        }
         BenchCommand::Mesh {
             sizes,
             width,

@@ -1,0 +1,672 @@
+//! `vkpath bench convergence`: how fast each renderer setting approaches the converged image.
+//!
+//! For every setting (a combination of knob values, see [`KNOBS`]) one renderer renders progressively,
+//! and at 1, 2, 4, … samples per pixel the film is read back and compared with a reference. Time is
+//! the cumulative time of the passes (each [`Renderer::run_pass`] waits for its samples), as a user's
+//! progressive render spends it: kernel compilation, readbacks and the comparisons are not counted.
+//!
+//! The error of an image I against a reference R (linear radiance, all pixels p and channels c, n of
+//! them) is measured three ways:
+//! - RMSE = sqrt(Σ (I − R)² / n);
+//! - relative error = RMSE / mean(R), the quantity `--json`'s `estimated_rel_error` estimates from the
+//!   image's own per-pixel variances (printed next to it);
+//! - relative MSE = Σ (I − R)² / (R² + ε) / n with ε = 10⁻², the per-pixel relative measure of the
+//!   denoising literature, which weighs dark regions as much as bright ones.
+//!
+//! For an unbiased setting the expected squared error is Var(I) + Var(R), and Var(I) falls as 1/N, so
+//! the relative error falls as 1/√N (a line of slope −½ on the log-log plot) down to the reference's own
+//! noise. A biased setting (fewer bounces) flattens out at its bias instead.
+
+use crate::Error;
+use crate::film::Film;
+use crate::gpu::GpuContext;
+use crate::render::{RenderOptions, Renderer};
+use crate::scene::Scene;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// ε of the relative MSE, in units of linear radiance.
+pub const REL_MSE_EPSILON: f64 = 1e-2;
+
+/// The reference is rendered with the scene's seed XOR this, so that its samples are independent of the
+/// measured renders' (the same seed would replay the same random numbers and hide their error).
+pub const REFERENCE_SEED_SALT: u32 = 0x5eed_f00d;
+
+/// The relative errors the table reports the time to reach.
+pub const THRESHOLDS: [f64; 3] = [0.05, 0.02, 0.01];
+
+/// A knob: a name, the values it takes (for messages), and how a value changes the scene or the renderer
+/// options. Adding a knob is one entry of [`KNOBS`]; e.g. a sampler option would be
+/// `Knob { name: "sampler", values: "independent or sobol", apply: |v, _, o| { o.sampler = v.parse()?; Ok(()) } }`.
+pub struct Knob {
+    pub name: &'static str,
+    pub values: &'static str,
+    /// Applies `value`; an `Err` says what is wrong with the value (the caller names the flag).
+    pub apply:
+        fn(value: &str, scene: &mut Scene, options: &mut RenderOptions) -> Result<(), String>,
+}
+
+fn count(value: &str, least: u32) -> Result<u32, String> {
+    value
+        .parse::<u32>()
+        .ok()
+        .filter(|&v| v >= least)
+        .ok_or_else(|| format!("\"{value}\" is not a whole number of at least {least}"))
+}
+
+/// Every knob `--knobs` can turn.
+pub const KNOBS: &[Knob] = &[
+    Knob {
+        name: "max_bounces",
+        values: "a number of scattering events (0 or more)",
+        apply: |v, s, _| {
+            s.render.max_bounces = count(v, 0)?;
+            Ok(())
+        },
+    },
+    Knob {
+        name: "roulette",
+        values: "the depth Russian roulette starts at (0 or more), or off",
+        apply: |v, _, o| {
+            o.roulette_depth = if v == "off" { u32::MAX } else { count(v, 0)? };
+            Ok(())
+        },
+    },
+    Knob {
+        name: "samples_per_pass",
+        values: "a number of samples per pixel in each pass (1 or more), or adaptive",
+        apply: |v, _, o| {
+            o.samples_per_pass = if v == "adaptive" {
+                None
+            } else {
+                Some(count(v, 1)?)
+            };
+            Ok(())
+        },
+    },
+];
+
+/// One measured setting: its label (as written in `--knobs`) and the knob values it sets, in order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Setting {
+    pub label: String,
+    pub values: Vec<(&'static str, String)>,
+}
+
+impl Setting {
+    /// The setting `default`: the scene and [`RenderOptions::default`] unchanged.
+    pub fn default_setting() -> Setting {
+        Setting {
+            label: "default".into(),
+            values: Vec::new(),
+        }
+    }
+
+    /// Applies the setting to a copy of the scene and the default options.
+    pub fn apply(&self, scene: &Scene) -> Result<(Scene, RenderOptions), String> {
+        let mut scene = scene.clone();
+        let mut options = RenderOptions::default();
+        for (name, value) in &self.values {
+            let knob = KNOBS
+                .iter()
+                .find(|k| k.name == *name)
+                .ok_or_else(|| format!("unknown knob {name}"))?;
+            (knob.apply)(value, &mut scene, &mut options)
+                .map_err(|e| format!("{name}={value}: {e}; {name} takes {}", knob.values))?;
+        }
+        Ok((scene, options))
+    }
+}
+
+/// The settings measured when `--knobs` is not given: the default, then each knob moved on its own.
+pub const DEFAULT_KNOBS: &str = "default,max_bounces=1,max_bounces=2,max_bounces=10,roulette=off,roulette=1,samples_per_pass=1,samples_per_pass=8";
+
+/// Parses `--knobs`: settings separated by commas, each `default` or `knob=value` assignments joined by
+/// `+` (e.g. `max_bounces=10+roulette=off`). Values are checked by applying them to `scene`.
+pub fn parse_settings(text: &str, scene: &Scene) -> Result<Vec<Setting>, Error> {
+    let known = KNOBS.iter().map(|k| k.name).collect::<Vec<_>>().join(", ");
+    let mut settings = Vec::new();
+    for label in text.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        let mut setting = Setting {
+            label: label.to_string(),
+            values: Vec::new(),
+        };
+        if label != "default" {
+            for part in label.split('+').map(str::trim) {
+                let (name, value) = part.split_once('=').ok_or_else(|| {
+                    Error::Usage(format!(
+                        "--knobs: \"{part}\" is not knob=value (or default); the knobs are {known}, e.g. --knobs default,max_bounces=2,roulette=off."
+                    ))
+                })?;
+                let knob = KNOBS
+                    .iter()
+                    .find(|k| k.name == name.trim())
+                    .ok_or_else(|| {
+                        Error::Usage(format!(
+                            "--knobs: there is no knob \"{}\"; the knobs are {known}.",
+                            name.trim()
+                        ))
+                    })?;
+                setting.values.push((knob.name, value.trim().to_string()));
+            }
+        }
+        setting
+            .apply(scene)
+            .map_err(|e| Error::Usage(format!("--knobs: {e}.")))?;
+        if settings.iter().any(|s: &Setting| s.label == setting.label) {
+            return Err(Error::Usage(format!(
+                "--knobs: the setting \"{label}\" is given twice."
+            )));
+        }
+        settings.push(setting);
+    }
+    if settings.is_empty() {
+        return Err(Error::Usage(
+            "--knobs names no setting; give e.g. --knobs default,max_bounces=2.".into(),
+        ));
+    }
+    Ok(settings)
+}
+
+/// The three errors of an image against a reference (see the module comment).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Errors {
+    pub rmse: f64,
+    pub rel_mse: f64,
+    pub rel_error: f64,
+}
+
+/// The errors of `image` against `reference` (same length; pixels RGB, linear), summed in f64.
+pub fn image_errors(image: &[[f32; 3]], reference: &[[f32; 3]]) -> Errors {
+    let n = (image.len().min(reference.len()) * 3).max(1) as f64;
+    let (mut se, mut rel, mut sum_ref) = (0f64, 0f64, 0f64);
+    for (p, r) in image.iter().zip(reference) {
+        for (&i, &r) in p.iter().zip(r) {
+            let (i, r) = (f64::from(i), f64::from(r));
+            let d2 = (i - r) * (i - r);
+            se += d2;
+            rel += d2 / (r * r + REL_MSE_EPSILON);
+            sum_ref += r;
+        }
+    }
+    let rmse = (se / n).sqrt();
+    let mean_ref = sum_ref / n;
+    Errors {
+        rmse,
+        rel_mse: rel / n,
+        rel_error: if mean_ref > 0.0 {
+            rmse / mean_ref
+        } else {
+            f64::NAN
+        },
+    }
+}
+
+/// The time at which a decreasing error curve reaches `target`: the first segment (s₀, e₀)–(s₁, e₁) with
+/// e₀ > target ≥ e₁, interpolated linearly in log-log space, where a power law e = a·sᵏ is a line:
+/// log s = log s₀ + (log target − log e₀) · (log s₁ − log s₀) / (log e₁ − log e₀).
+/// If the first point is already at or below the target, its time. `None` if never reached.
+pub fn time_to_error(curve: &[(f64, f64)], target: f64) -> Option<f64> {
+    let first = curve.first()?;
+    if first.1 <= target {
+        return Some(first.0);
+    }
+    curve.windows(2).find_map(|w| {
+        let ((s0, e0), (s1, e1)) = (w[0], w[1]);
+        if !(e0 > target && e1 <= target) {
+            return None;
+        }
+        if !(s0 > 0.0 && s1 > 0.0 && e1 > 0.0) {
+            return Some(s1);
+        }
+        let slope = (s1.ln() - s0.ln()) / (e1.ln() - e0.ln());
+        Some((s0.ln() + (target.ln() - e0.ln()) * slope).exp())
+    })
+}
+
+/// One point of a curve.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Point {
+    pub setting: String,
+    pub spp: u32,
+    /// Cumulative seconds of the passes up to this many samples per pixel.
+    pub seconds: f64,
+    /// width · height · spp / seconds.
+    pub samples_per_second: f64,
+    pub rmse: f64,
+    pub rel_mse: f64,
+    pub rel_error: f64,
+    /// The film's own estimate of `rel_error` ([`Film::estimated_rel_error`]); NaN at 1 spp.
+    pub estimated_rel_error: f64,
+}
+
+/// The CSV's header line.
+pub const CSV_HEADER: &str =
+    "setting,spp,seconds,samples_per_second,rmse,rel_mse,rel_error,estimated_rel_error";
+
+/// The points as CSV: [`CSV_HEADER`], then one line per point (a NaN is written as an empty field).
+pub fn to_csv(points: &[Point]) -> String {
+    let num = |v: f64| {
+        if v.is_finite() {
+            format!("{v:.6e}")
+        } else {
+            String::new()
+        }
+    };
+    let mut out = format!("{CSV_HEADER}\n");
+    for p in points {
+        // A label holds no comma (commas separate settings in --knobs), so it needs no quoting.
+        let _ = writeln!(
+            out,
+            "{},{},{},{},{},{},{},{}",
+            p.setting,
+            p.spp,
+            num(p.seconds),
+            num(p.samples_per_second),
+            num(p.rmse),
+            num(p.rel_mse),
+            num(p.rel_error),
+            num(p.estimated_rel_error)
+        );
+    }
+    out
+}
+
+/// The sample counts at which the film is compared: 1, 2, 4, … below `max_spp`, then `max_spp`.
+pub fn checkpoints(max_spp: u32) -> Vec<u32> {
+    let mut v: Vec<u32> = std::iter::successors(Some(1u32), |&n| n.checked_mul(2))
+        .take_while(|&n| n < max_spp)
+        .collect();
+    v.push(max_spp.max(1));
+    v
+}
+
+/// Renders `scene` with `options` progressively up to `max_spp`, comparing the film with `reference` at
+/// each of [`checkpoints`]. One untimed warm-up pass comes first (the driver may finish compiling on
+/// first use), then the renderer is reset. Passes are cut so as to land on the checkpoints; otherwise
+/// they are `options.samples_per_pass` long or, when that is `None`, adapted as
+/// [`crate::render::render_progressive`] does (towards `options.target_pass_seconds`, at most doubling).
+pub fn measure(
+    ctx: &Arc<GpuContext>,
+    scene: &Scene,
+    options: &RenderOptions,
+    label: &str,
+    reference: &[[f32; 3]],
+    max_spp: u32,
+) -> Result<Vec<Point>, Error> {
+    let mut r = Renderer::new(ctx, scene, options)?;
+    r.run_pass(1)?;
+    r.reset()?;
+    let pixels = f64::from(scene.image.width) * f64::from(scene.image.height);
+    let mut pass = options.samples_per_pass.unwrap_or(1).max(1);
+    let mut seconds = 0.0;
+    let mut points = Vec::new();
+    for target in checkpoints(max_spp) {
+        while r.samples_done() < target {
+            let k = pass.min(target - r.samples_done());
+            let t0 = Instant::now();
+            r.run_pass(k)?;
+            let dt = t0.elapsed().as_secs_f64();
+            seconds += dt;
+            if options.samples_per_pass.is_none() && k == pass {
+                let ideal = (options.target_pass_seconds / (dt / f64::from(k)).max(1e-9)).floor();
+                pass = (ideal as u32).clamp(1, pass.saturating_mul(2));
+            }
+        }
+        let film = r.film()?;
+        let e = image_errors(&film.mean, reference);
+        points.push(Point {
+            setting: label.to_string(),
+            spp: target,
+            seconds,
+            samples_per_second: pixels * f64::from(target) / seconds.max(1e-12),
+            rmse: e.rmse,
+            rel_mse: e.rel_mse,
+            rel_error: e.rel_error,
+            estimated_rel_error: film.estimated_rel_error(),
+        });
+    }
+    Ok(points)
+}
+
+/// What `vkpath bench convergence` was asked.
+#[derive(Clone, Debug)]
+pub struct Config {
+    pub scene: Scene,
+    pub settings: Vec<Setting>,
+    /// A converged image to compare with (EXR, linear, the same size); else one is rendered.
+    pub reference: Option<PathBuf>,
+    pub reference_spp: u32,
+    pub max_spp: u32,
+    pub out_dir: PathBuf,
+}
+
+/// The reference used: its pixels, where it is, and (when rendered here) its spp and own error.
+pub struct Reference {
+    pub pixels: Vec<[f32; 3]>,
+    pub path: PathBuf,
+    pub spp: Option<u32>,
+    pub estimated_rel_error: Option<f64>,
+}
+
+/// Reads a linear EXR (or any image the `image` crate reads as float RGB) of the given size.
+pub fn read_reference(path: &Path, width: u32, height: u32) -> Result<Vec<[f32; 3]>, Error> {
+    let img = image::open(path).map_err(|e| {
+        Error::Usage(format!(
+            "--reference {}: cannot read it as an image ({e}). Give an EXR written by `vkpath render -o REF.exr` or by an earlier `vkpath bench convergence`.",
+            path.display()
+        ))
+    })?;
+    let img = img.to_rgb32f();
+    if img.width() != width || img.height() != height {
+        return Err(Error::Usage(format!(
+            "--reference {} is {}x{} pixels but the measured renders are {width}x{height}: give --width {} --height {} or a reference of the render's size.",
+            path.display(),
+            img.width(),
+            img.height(),
+            img.width(),
+            img.height()
+        )));
+    }
+    Ok(img.pixels().map(|p| p.0).collect())
+}
+
+/// Renders the reference: the scene unchanged, default options, an independent seed, `spp` samples per
+/// pixel; written to `path` as EXR.
+pub fn render_reference(
+    ctx: &Arc<GpuContext>,
+    scene: &Scene,
+    spp: u32,
+    path: &Path,
+) -> Result<Film, Error> {
+    let mut scene = scene.clone();
+    scene.render.seed ^= REFERENCE_SEED_SALT;
+    let mut r = Renderer::new(ctx, &scene, &RenderOptions::default())?;
+    // Passes of at most 64 samples per pixel: fewer submits than 1 spp at a time, bounded memory for
+    // the command lists.
+    while r.samples_done() < spp {
+        r.run_pass((spp - r.samples_done()).min(64))?;
+    }
+    let film = r.film()?;
+    film.write(path, &scene.image)?;
+    Ok(film)
+}
+
+/// Everything measured, and where the files went.
+pub struct Report {
+    pub points: Vec<Point>,
+    pub reference: Reference,
+    pub csv: PathBuf,
+    pub plot: PathBuf,
+    pub table: String,
+}
+
+/// Runs the whole benchmark: the reference (read or rendered), every setting, the CSV, the plot and the
+/// Markdown table. `log` receives one line per step (the CLI prints them on stderr).
+pub fn run(
+    ctx: &Arc<GpuContext>,
+    config: &Config,
+    mut log: impl FnMut(&str),
+) -> Result<Report, Error> {
+    let scene = &config.scene;
+    let (w, h) = (scene.image.width, scene.image.height);
+    let stem = scene.stem();
+    std::fs::create_dir_all(&config.out_dir).map_err(|e| Error::Io {
+        path: config.out_dir.clone(),
+        message: e.to_string(),
+    })?;
+    let reference = match &config.reference {
+        Some(p) => Reference {
+            pixels: read_reference(p, w, h)?,
+            path: p.clone(),
+            spp: None,
+            estimated_rel_error: None,
+        },
+        None => {
+            let path = config.out_dir.join(format!(
+                "{stem}-reference-{w}x{h}-{}spp.exr",
+                config.reference_spp
+            ));
+            log(&format!(
+                "rendering the reference: {w}x{h}, {} spp (seed {:#x}) -> {}",
+                config.reference_spp,
+                scene.render.seed ^ REFERENCE_SEED_SALT,
+                path.display()
+            ));
+            let t0 = Instant::now();
+            let film = render_reference(ctx, scene, config.reference_spp, &path)?;
+            let est = film.estimated_rel_error();
+            log(&format!(
+                "reference done in {:.1} s; its own estimated relative error is {:.3}% (reuse it with --reference {})",
+                t0.elapsed().as_secs_f64(),
+                est * 100.0,
+                path.display()
+            ));
+            Reference {
+                pixels: film.mean,
+                path,
+                spp: Some(config.reference_spp),
+                estimated_rel_error: est.is_finite().then_some(est),
+            }
+        }
+    };
+    let mut points = Vec::new();
+    for s in &config.settings {
+        let (sc, options) = s.apply(scene).map_err(Error::Usage)?;
+        log(&format!(
+            "measuring {} up to {} spp",
+            s.label, config.max_spp
+        ));
+        let curve = measure(
+            ctx,
+            &sc,
+            &options,
+            &s.label,
+            &reference.pixels,
+            config.max_spp,
+        )?;
+        if let Some(last) = curve.last() {
+            log(&format!(
+                "  {}: {:.2} s, {:.3} Msamples/s, relative error {:.3}% (estimated {:.3}%)",
+                s.label,
+                last.seconds,
+                last.samples_per_second / 1e6,
+                last.rel_error * 100.0,
+                last.estimated_rel_error * 100.0
+            ));
+        }
+        points.extend(curve);
+    }
+    let csv = config.out_dir.join(format!("{stem}-convergence.csv"));
+    crate::film::write_atomically(&csv, to_csv(&points).as_bytes())?;
+    let plot = config.out_dir.join(format!("{stem}-convergence.png"));
+    let title = format!(
+        "{stem}, {w}x{h}: relative error vs time ({})",
+        ctx.device_info().name
+    );
+    write_plot(&plot, &title, &config.settings, &points)?;
+    let table = markdown_table(scene, config, &reference, &points, &ctx.device_info().name);
+    Ok(Report {
+        points,
+        reference,
+        csv,
+        plot,
+        table,
+    })
+}
+
+/// One row of the table per setting: samples/s at the last point, its error, and the time to reach
+/// each of [`THRESHOLDS`].
+pub fn markdown_table(
+    scene: &Scene,
+    config: &Config,
+    reference: &Reference,
+    points: &[Point],
+    device: &str,
+) -> String {
+    let reference_text = match (reference.spp, reference.estimated_rel_error) {
+        (Some(n), Some(e)) => format!(
+            "a {n} spp reference (own estimated relative error {:.2}%, the floor of every curve)",
+            e * 100.0
+        ),
+        _ => format!("the reference {}", reference.path.display()),
+    };
+    let mut out = format!(
+        "{}, {}x{}, up to {} spp, against {reference_text}, on {device}. Seconds are cumulative pass times of a progressive render; \
+         times to an error are log-log interpolated, empty when not reached.\n\n\
+         | setting | Msamples/s | rel. error at {} spp | s to 5% | s to 2% | s to 1% |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: |\n",
+        scene.stem(),
+        scene.image.width,
+        scene.image.height,
+        config.max_spp,
+        config.max_spp
+    );
+    for s in &config.settings {
+        let curve: Vec<&Point> = points.iter().filter(|p| p.setting == s.label).collect();
+        let Some(last) = curve.last() else { continue };
+        let xy: Vec<(f64, f64)> = curve.iter().map(|p| (p.seconds, p.rel_error)).collect();
+        let times: Vec<String> = THRESHOLDS
+            .iter()
+            .map(|&t| {
+                time_to_error(&xy, t)
+                    .map(|s| format!("{s:.3}"))
+                    .unwrap_or_default()
+            })
+            .collect();
+        let label = if s.label == "default" {
+            format!(
+                "default (max_bounces={}, roulette=3, adaptive passes)",
+                scene.render.max_bounces
+            )
+        } else {
+            s.label.clone()
+        };
+        let _ = writeln!(
+            out,
+            "| {label} | {:.3} | {:.2}% | {} |",
+            last.samples_per_second / 1e6,
+            last.rel_error * 100.0,
+            times.join(" | ")
+        );
+    }
+    out
+}
+
+/// The font of the plot's text: DejaVu Sans reduced to ASCII (assets/fonts, with its licence).
+static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans-subset.ttf");
+
+/// Draws the log-log plot of relative error against seconds, one line per setting, the 1/√N line
+/// through the first setting's first point, and the thresholds, to a PNG at `path`.
+pub fn write_plot(
+    path: &Path,
+    title: &str,
+    settings: &[Setting],
+    points: &[Point],
+) -> Result<(), Error> {
+    use plotters::prelude::*;
+    const SIZE: (u32, u32) = (1000, 700);
+    let fail = |e: String| Error::Io {
+        path: path.to_path_buf(),
+        message: format!("drawing the plot failed: {e}"),
+    };
+    // Registering the same font again just replaces it.
+    plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
+        .map_err(|_| fail("the embedded font is not a valid TrueType font".into()))?;
+    let usable: Vec<&Point> = points
+        .iter()
+        .filter(|p| p.seconds > 0.0 && p.rel_error > 0.0 && p.rel_error.is_finite())
+        .collect();
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for p in &usable {
+        x0 = x0.min(p.seconds);
+        x1 = x1.max(p.seconds);
+        y0 = y0.min(p.rel_error);
+        y1 = y1.max(p.rel_error);
+    }
+    if usable.is_empty() {
+        (x0, x1, y0, y1) = (1e-3, 1.0, 1e-3, 1.0);
+    }
+    // Whole decades around the data, and at least one decade below 1% so the thresholds show.
+    let decade_floor = |v: f64| 10f64.powf(v.log10().floor());
+    let decade_ceil = |v: f64| 10f64.powf(v.log10().ceil());
+    let (x0, x1) = (decade_floor(x0), decade_ceil(x1 * 1.01));
+    let (y0, y1) = (decade_floor(y0.min(0.01 * 0.999)), decade_ceil(y1 * 1.01));
+
+    let mut buf = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| fail(e.to_string()))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 22))
+            .margin(15)
+            .margin_right(40)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(|e| fail(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc("seconds (cumulative, progressive passes)")
+            .y_desc("relative error = RMSE / mean(reference)")
+            .x_label_formatter(&|v| format!("{v:.3}"))
+            .y_label_formatter(&|v| format!("{:.1}%", v * 100.0))
+            .label_style(("sans-serif", 15))
+            .draw()
+            .map_err(|e| fail(e.to_string()))?;
+        for t in THRESHOLDS {
+            chart
+                .draw_series(LineSeries::new(
+                    [(x0, t), (x1, t)],
+                    RGBColor(255, 170, 90).stroke_width(1),
+                ))
+                .map_err(|e| fail(e.to_string()))?;
+        }
+        for (i, s) in settings.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            let line: Vec<(f64, f64)> = usable
+                .iter()
+                .filter(|p| p.setting == s.label)
+                .map(|p| (p.seconds, p.rel_error))
+                .collect();
+            chart
+                .draw_series(LineSeries::new(line, color.stroke_width(2)))
+                .map_err(|e| fail(e.to_string()))?
+                .label(s.label.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+        }
+        // 1/√N through the first point of the first setting: e(t) = e₀ √(t₀ / t), since at a fixed
+        // rate N ∝ t.
+        if let Some(first) = settings
+            .first()
+            .and_then(|s| usable.iter().find(|p| p.setting == s.label))
+        {
+            let (t0, e0) = (first.seconds, first.rel_error);
+            let line = [t0, x1].map(|t| (t, e0 * (t0 / t).sqrt()));
+            chart
+                .draw_series(LineSeries::new(line, BLACK.stroke_width(1)))
+                .map_err(|e| fail(e.to_string()))?
+                .label("1/sqrt(N) from the first point")
+                .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 15))
+            .position(SeriesLabelPosition::LowerLeft)
+            .draw()
+            .map_err(|e| fail(e.to_string()))?;
+        root.present().map_err(|e| fail(e.to_string()))?;
+    }
+    let img = image::RgbImage::from_raw(SIZE.0, SIZE.1, buf)
+        .ok_or_else(|| fail("the plot buffer has the wrong size".into()))?;
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut bytes, image::ImageFormat::Png)
+        .map_err(|e| fail(e.to_string()))?;
+    crate::film::write_atomically(path, bytes.get_ref())
+}

@@ -1,0 +1,75 @@
+//! `vkpath bench throughput`: samples per second of each scene at fixed settings (image size, samples per
+//! pixel per timed pass), the median, min and max over several timed passes.
+
+use crate::bench::{BenchSettings, median, pass_times};
+use crate::gpu::GpuContext;
+use crate::render::{RenderOptions, Renderer};
+use crate::{Error, Scene};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// One scene's line: samples/s of each timed pass summarised.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ThroughputRow {
+    pub scene: String,
+    pub spp: u32,
+    pub median_samples_per_second: f64,
+    pub min_samples_per_second: f64,
+    pub max_samples_per_second: f64,
+}
+
+/// Times `settings.runs` passes of `settings.spp` samples per pixel of each scene (at
+/// `settings.width`×`settings.height`, the scene's own specialised kernel and default options), each
+/// from a reset accumulator after one untimed warm-up pass.
+pub fn throughput(
+    ctx: &Arc<GpuContext>,
+    scenes: &[PathBuf],
+    settings: BenchSettings,
+) -> Result<Vec<ThroughputRow>, Error> {
+    let samples = f64::from(settings.width) * f64::from(settings.height) * f64::from(settings.spp);
+    let mut rows = Vec::new();
+    for path in scenes {
+        let mut scene = Scene::load(path)?;
+        scene.image.width = settings.width;
+        scene.image.height = settings.height;
+        let renderer = Renderer::new(ctx, &scene, &RenderOptions::default())?;
+        let times = pass_times(&mut [renderer], settings)?
+            .pop()
+            .unwrap_or_default();
+        // The fastest pass is the highest rate: min and max swap going from seconds to samples/s.
+        let rates: Vec<f64> = times.iter().map(|t| samples / t.max(1e-12)).collect();
+        rows.push(ThroughputRow {
+            scene: path
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default(),
+            spp: settings.spp,
+            median_samples_per_second: median(rates.clone()),
+            min_samples_per_second: rates.iter().copied().fold(f64::INFINITY, f64::min),
+            max_samples_per_second: rates.iter().copied().fold(0.0, f64::max),
+        });
+    }
+    Ok(rows)
+}
+
+/// The rows as a Markdown table.
+pub fn throughput_table(rows: &[ThroughputRow], settings: BenchSettings, device: &str) -> String {
+    let mut out = format!(
+        "Throughput, {}x{}, {} spp per timed pass, {} runs, on {device}.\n\n\
+         | scene | spp | Msamples/s median | min | max |\n| --- | ---: | ---: | ---: | ---: |\n",
+        settings.width, settings.height, settings.spp, settings.runs
+    );
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "| {} | {} | {:.3} | {:.3} | {:.3} |",
+            r.scene,
+            r.spp,
+            r.median_samples_per_second / 1e6,
+            r.min_samples_per_second / 1e6,
+            r.max_samples_per_second / 1e6
+        );
+    }
+    out
+}
