@@ -25,6 +25,8 @@ pub mod bench_throughput;
 pub mod checkpoint;
 pub mod film;
 pub mod gpu;
+#[cfg(feature = "preview")]
+pub mod preview;
 pub mod render;
 pub mod scene;
 

@@ -29,11 +29,9 @@ struct Cli {
 enum Command {
     /// Render a scene (the embedded course scene when none is given) to PNG/EXR.
     Render(Box<RenderArgs>),
-    /// Open a window and watch the render converge (not supported yet).
-    Preview {
-        /// Scene file.
-        scene: PathBuf,
-    },
+    /// Open a window and watch the render converge (cargo feature `preview`). Keys: S saves the image
+    /// (PNG + EXR), R restarts, Esc/Q quits; drag with the left button to orbit the camera.
+    Preview(Box<PreviewArgs>),
     /// Combine partial renders (checkpoints of disjoint --sample-range's) into the image of their union.
     Merge(MergeArgs),
     /// Benchmarks that report measured ratios.
@@ -210,6 +208,48 @@ struct ConvergenceArgs {
     /// Directory of the CSV, the PNG and the rendered reference.
     #[arg(long, default_value = "bench-out")]
     out: PathBuf,
+}
+
+#[derive(Args)]
+// Without the `preview` feature the flags are still parsed and checked, but not all of them are read.
+#[cfg_attr(not(feature = "preview"), allow(dead_code))]
+struct PreviewArgs {
+    /// Scene file (TOML). Default: the embedded course scene.
+    scene: Option<PathBuf>,
+    /// Stop accumulating at N samples per pixel (the window stays open). Default: never stop.
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Image width in pixels (overrides the scene); the window shows the image scaled to fit.
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels (overrides the scene).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Random seed (overrides the scene).
+    #[arg(long)]
+    seed: Option<u32>,
+    /// Scattering events per path (overrides the scene).
+    #[arg(long = "max-bounces")]
+    max_bounces: Option<u32>,
+    /// Exit after N presents of a rendered image (scripted use; see --json for the spp shown).
+    #[arg(long)]
+    frames: Option<u64>,
+    /// With --frames: save the image shown by the last present as PNG (the same bytes as shown).
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Directory where S saves <scene-stem>-<spp>spp.png and .exr. Default: the current directory.
+    #[arg(long = "save-dir", default_value = ".")]
+    save_dir: PathBuf,
+    /// Presents per second the window aims at (the latest image is shown again while passes run).
+    #[arg(long, default_value_t = 30.0)]
+    fps: f64,
+    /// Print one JSON object on stdout when the window closes (spp shown, presents/s, ...).
+    #[arg(long)]
+    json: bool,
+    /// Scripted input for tests: "N:ACTION; ...", ACTION one of `resize WxH`, `restart`,
+    /// `orbit AZ EL`, `save`, run after present N.
+    #[arg(long, hide = true)]
+    script: Option<String>,
 }
 
 #[derive(Args)]
@@ -663,6 +703,101 @@ fn run_render(a: RenderArgs) -> Result<i32, Error> {
     Ok(0)
 }
 
+/// `vkpath preview`: flags and scene are checked the same way with or without the `preview` feature.
+fn run_preview(a: PreviewArgs) -> Result<i32, Error> {
+    if a.screenshot.is_some() && a.frames.is_none() {
+        return Err(usage(
+            "--screenshot needs --frames N: the screenshot is the image shown by the N-th present.",
+        ));
+    }
+    if let Some(p) = &a.screenshot
+        && vkpath::film::OutputFormat::from_path(p) != Some(vkpath::film::OutputFormat::Png)
+    {
+        return Err(usage(format!(
+            "--screenshot writes a PNG: give it a .png path, not {}.",
+            p.display()
+        )));
+    }
+    if a.frames == Some(0) || a.spp == Some(0) {
+        return Err(usage("--frames and --spp must be at least 1."));
+    }
+    if !(a.fps.is_finite() && a.fps > 0.0 && a.fps <= 1000.0) {
+        return Err(usage(format!(
+            "--fps must be a number of presents per second in (0, 1000], not {}.",
+            a.fps
+        )));
+    }
+    let mut scene = match &a.scene {
+        Some(path) => Scene::load(path)?,
+        None => Scene::default_scene(),
+    };
+    // The same overrides and size rule as `vkpath render` (apply_overrides).
+    scene.image.width = a.width.unwrap_or(scene.image.width);
+    scene.image.height = a.height.unwrap_or(scene.image.height);
+    let (w, h) = (scene.image.width as u64, scene.image.height as u64);
+    if w == 0 || h == 0 || w > 65536 || h > 65536 || w * h > (1 << 28) {
+        return Err(usage(format!(
+            "an image of {w}x{h} pixels is not allowed: width and height must be 1..=65536 and their product at most 2^28 (268435456)."
+        )));
+    }
+    scene.render.seed = a.seed.unwrap_or(scene.render.seed);
+    scene.render.max_bounces = a.max_bounces.unwrap_or(scene.render.max_bounces);
+    preview_window(a, scene)
+}
+
+#[cfg(not(feature = "preview"))]
+fn preview_window(_a: PreviewArgs, _scene: Scene) -> Result<i32, Error> {
+    Err(usage(
+        "this vkpath was built without the `preview` feature, so it cannot open a window; rebuild it \
+         with `cargo build --release --features preview` (on by default), or use `vkpath render \
+         --progress-every N` and watch the output file.",
+    ))
+}
+
+#[cfg(feature = "preview")]
+fn preview_window(a: PreviewArgs, scene: Scene) -> Result<i32, Error> {
+    let script = match &a.script {
+        Some(text) => vkpath::preview::control::parse_script(text).map_err(usage)?,
+        None => Vec::new(),
+    };
+    let settings = vkpath::preview::PreviewSettings {
+        scene,
+        options: RenderOptions::default(),
+        max_spp: a.spp,
+        frames: a.frames,
+        screenshot: a.screenshot.clone(),
+        script,
+        save_dir: a.save_dir.clone(),
+        max_presents_per_second: a.fps,
+    };
+    let report = vkpath::preview::run(settings)?;
+    if a.json {
+        println!(
+            "{}",
+            serde_json::to_string(&report).unwrap_or_else(|e| format!("{{\"error\":\"{e}\"}}"))
+        );
+    }
+    for p in &report.saved {
+        eprintln!("vkpath: saved {}", p.display());
+    }
+    let mut code = 0;
+    for e in &report.save_errors {
+        eprintln!("vkpath: error: S could not save the image: {e}");
+        code = 1;
+    }
+    if !report.validation_errors.is_empty() {
+        for e in &report.validation_errors {
+            eprintln!("vkpath: Vulkan validation error: {e}");
+        }
+        eprintln!(
+            "vkpath: the Vulkan validation layer reported {} error(s) (VKPATH_VALIDATION is set); this is a bug in vkpath.",
+            report.validation_errors.len()
+        );
+        code = 1;
+    }
+    Ok(code)
+}
+
 fn run_merge(m: MergeArgs) -> Result<i32, Error> {
     if m.outputs.is_empty() && m.checkpoint.is_none() {
         return Err(usage(
@@ -935,10 +1070,7 @@ fn main() {
     };
     let result = match cli.command {
         Command::Render(a) => run_render(*a),
-        Command::Preview { scene } => Err(usage(format!(
-            "`vkpath preview {}`: the windowed preview is not supported yet in this version of vkpath; use `vkpath render --progress-every N` and watch the output file.",
-            scene.display()
-        ))),
+        Command::Preview(p) => run_preview(*p),
         Command::Info { json } => run_info(json),
         Command::Merge(m) => run_merge(m),
         Command::Bench(b) => run_bench(b),

@@ -820,8 +820,13 @@ fn flag_error_target_error_not_positive() {
 }
 
 #[test]
-fn preview_is_not_supported() {
-    expect_usage_error(&["preview", "x.toml"], &["preview", "not supported"]);
+fn preview_flag_errors_come_before_any_window() {
+    // The window itself is tested under Xvfb in tests/preview.rs; flags are checked with or without
+    // the `preview` feature.
+    expect_usage_error(
+        &["preview", "tiny.toml", "--screenshot", "a.png"],
+        &["--screenshot", "--frames"],
+    );
 }
 
 #[test]

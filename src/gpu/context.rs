@@ -33,6 +33,11 @@ pub struct ContextOptions {
     pub validation: bool,
     /// Pick the first device whose name contains this (case-insensitive); also `VKPATH_DEVICE`.
     pub device_substring: Option<String>,
+    /// A window to present to (`vkpath preview`): the instance then gets the surface extensions, the
+    /// device `VK_KHR_swapchain`, and the queue must be able to both compute and present to it. The
+    /// window must outlive the context.
+    #[cfg(feature = "preview")]
+    pub window: Option<super::present::WindowHandles>,
 }
 
 /// Messages the validation layer reported (errors and warnings), shared with the debug callback.
@@ -80,6 +85,11 @@ pub struct GpuContext {
     pub(crate) allocator: Mutex<Option<Allocator>>,
     pub(crate) limits: vk::PhysicalDeviceLimits,
     pub(crate) pipeline_cache: vk::PipelineCache,
+    /// The window's surface (`ContextOptions::window`); destroyed before the instance.
+    #[cfg(feature = "preview")]
+    pub(crate) surface: Option<super::present::Surface>,
+    #[cfg(feature = "preview")]
+    pub(crate) physical_device: vk::PhysicalDevice,
     info: DeviceInfo,
     reason: String,
 }
@@ -116,14 +126,18 @@ fn env_flag(name: &str) -> bool {
         .unwrap_or(false)
 }
 
-fn create_instance(entry: &ash::Entry, validation: bool) -> Result<ash::Instance, GpuError> {
+fn create_instance(
+    entry: &ash::Entry,
+    validation: bool,
+    extra_extensions: &[*const std::ffi::c_char],
+) -> Result<ash::Instance, GpuError> {
     let app_name = c"vkpath";
     let app_info = vk::ApplicationInfo::default()
         .application_name(app_name)
         .engine_name(app_name)
         .api_version(vk::API_VERSION_1_1);
     let mut layers = Vec::new();
-    let mut extensions = Vec::new();
+    let mut extensions = extra_extensions.to_vec();
     if validation {
         // SAFETY: plain query of the loader.
         let available = unsafe { entry.enumerate_instance_layer_properties() }
@@ -194,7 +208,7 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
 /// Lists the Vulkan devices without creating a logical device (for `vkpath info`).
 pub fn list_devices() -> Result<Vec<DeviceInfo>, GpuError> {
     let entry = load_entry()?;
-    let instance = create_instance(&entry, false)?;
+    let instance = create_instance(&entry, false, &[])?;
     // SAFETY: the instance is valid; destroyed below.
     let pds = unsafe { instance.enumerate_physical_devices() };
     let result = pds
@@ -266,7 +280,14 @@ impl GpuContext {
                 .filter(|s| !s.is_empty())
         });
         let entry = load_entry()?;
-        let instance = create_instance(&entry, validation)?;
+        #[cfg(feature = "preview")]
+        let window_extensions = match &options.window {
+            Some(w) => super::present::instance_extensions(w)?,
+            None => Vec::new(),
+        };
+        #[cfg(not(feature = "preview"))]
+        let window_extensions = Vec::new();
+        let instance = create_instance(&entry, validation, &window_extensions)?;
         // From here on, failures must destroy what was created: build in a closure and clean up on error.
         let mut debug = None;
         if validation {
@@ -323,18 +344,60 @@ impl GpuContext {
             }
         };
         let physical = pds[index];
-        let queue_family = unsafe { instance.get_physical_device_queue_family_properties(physical) }
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+        #[cfg_attr(not(feature = "preview"), allow(unused_mut))]
+        let mut queue_family = families
             .iter()
             .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
             .unwrap_or(0) as u32;
+        #[cfg_attr(not(feature = "preview"), allow(unused_mut))]
+        let mut device_extensions: Vec<*const std::ffi::c_char> = Vec::new();
+        // With a window: its surface, and a queue family that computes and presents to it (one queue
+        // for both keeps the ordering simple: a present waits for the copy submitted before it).
+        #[cfg(feature = "preview")]
+        let surface = match &options.window {
+            None => None,
+            Some(w) => {
+                let found = super::present::Surface::new(&entry, &instance, w).and_then(|s| {
+                    match s.compute_present_family(physical, &families) {
+                        Some(f) => Ok((s, f)),
+                        None => {
+                            s.destroy();
+                            Err(GpuError::Limit(format!(
+                                "the Vulkan device {} cannot present to this window from a compute \
+                                 queue. Pick another device with VKPATH_DEVICE, or use `vkpath render`.",
+                                infos[index].name
+                            )))
+                        }
+                    }
+                });
+                match found {
+                    Ok((s, f)) => {
+                        queue_family = f;
+                        device_extensions.push(ash::khr::swapchain::NAME.as_ptr());
+                        Some(s)
+                    }
+                    Err(e) => {
+                        cleanup_instance(&debug);
+                        return Err(e);
+                    }
+                }
+            }
+        };
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
-        let device_info = vk::DeviceCreateInfo::default().queue_create_infos(&queue_info);
+        let device_info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&device_extensions);
         let device = match unsafe { instance.create_device(physical, &device_info, None) } {
             Ok(d) => d,
             Err(e) => {
+                #[cfg(feature = "preview")]
+                if let Some(s) = &surface {
+                    s.destroy();
+                }
                 cleanup_instance(&debug);
                 return Err(GpuError::vk("vkCreateDevice", e));
             }
@@ -351,6 +414,10 @@ impl GpuContext {
             Ok(a) => a,
             Err(e) => {
                 unsafe { device.destroy_device(None) };
+                #[cfg(feature = "preview")]
+                if let Some(s) = &surface {
+                    s.destroy();
+                }
                 cleanup_instance(&debug);
                 return Err(GpuError::Alloc(e.to_string()));
             }
@@ -371,6 +438,10 @@ impl GpuContext {
             allocator: Mutex::new(Some(allocator)),
             limits,
             pipeline_cache,
+            #[cfg(feature = "preview")]
+            surface,
+            #[cfg(feature = "preview")]
+            physical_device: physical,
             info: infos[index].clone(),
             reason,
         }))
@@ -415,6 +486,11 @@ impl Drop for GpuContext {
             self.device
                 .destroy_pipeline_cache(self.pipeline_cache, None);
             self.device.destroy_device(None);
+            // The swapchain (which holds an Arc of this context) is gone, so the surface may go.
+            #[cfg(feature = "preview")]
+            if let Some(s) = &self.surface {
+                s.destroy();
+            }
             if let Some((loader, m, _)) = &self.debug {
                 loader.destroy_debug_utils_messenger(*m, None);
             }

@@ -6,12 +6,15 @@
 //! - [`kernel`]: a compute pipeline whose descriptor layout is reflected from the WGSL, and dispatch.
 //! - [`types`]: the `#[repr(C)]` Pod structs shared with WGSL.
 //! - [`scene`]: a [`crate::scene::Scene`] turned into GPU buffers.
+//! - [`present`] (feature `preview`): a window's surface and swapchain, showing 8-bit images.
 //! - [`testing`]: run a WGSL test kernel over an input buffer and read the answers back.
 
 pub mod buffer;
 pub mod context;
 pub mod features;
 pub mod kernel;
+#[cfg(feature = "preview")]
+pub mod present;
 pub mod scene;
 pub mod shader;
 pub mod testing;
