@@ -165,6 +165,19 @@ def with_overrides(raw: dict, scene_dir: str | os.PathLike, *, filter: str | Non
     return out
 
 
+def render_key(raw: dict) -> str:
+    """What determines the linear image given --spp and --seed: two scenes with the same key render the
+    same EXR (comments, samples, seed, gamma and exposure do not enter)."""
+    import json
+
+    r = resolved(raw)
+    r["render"].pop("samples")
+    r["render"].pop("seed")
+    if r["render"]["filter"] != "gaussian":
+        r["render"].pop("filter_sigma")
+    return json.dumps(r, sort_keys=True)
+
+
 def _toml_value(v) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
