@@ -567,7 +567,12 @@ def summarize(ladder_rows: list[dict]) -> list[dict]:
             good = [(t, p[1]) for t, p in zip(times, pts) if p[1] > 0]
             slope = fitted_slope([(spp, e) for _, e, spp, _ in pts])
             c = efficiency_constant(good)
+            # Noise per sample, independent of speed: error x sqrt(spp) (geometric mean over the renders
+            # of 32 spp or more, or the last three).
+            top = [p for p in pts if p[2] >= 32 and p[1] > 0] or [p for p in pts if p[1] > 0][-3:]
+            per_sample = math.exp(sum(math.log(p[1] * math.sqrt(p[2])) for p in top) / len(top)) if top else None
             row = {"scene": name, "renderer": label, "samples_per_s": f"{pts[-1][3]:.0f}",
+                   "error_x_sqrt_spp": "" if per_sample is None else f"{per_sample:.4f}",
                    "max_spp": pts[-1][2], "max_seconds": f"{pts[-1][0]:.3f}",
                    "error_at_max": f"{pts[-1][1]:.5f}", "slope_vs_spp": f"{slope:.3f}",
                    "efficiency_c": "" if c is None else f"{c:.5f}"}
@@ -599,11 +604,12 @@ def report(out: Path, tag: str) -> int:
     md = [f"Measured {meta['date_utc']} on {meta['cpu']}; vkpath {meta['vkpath_commit']} on "
           f"{meta['vkpath_device']}; Mitsuba {meta['mitsuba']}. {meta['size']}, ladder {meta['ladder']}, "
           f"reference {meta['reference']}. Command: `{meta['command']}`.", "",
-          "| scene | renderer | samples/s | time to 5% | time to 2% | time to 1% | error at equal time | "
-          "error ~ spp^ |",
-          "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+          "| scene | renderer | samples/s | error x sqrt(spp) | time to 5% | time to 2% | time to 1% | "
+          "error at equal time | error ~ spp^ |",
+          "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for row in summary_rows:
-        cells = [shown(row), row["renderer"], f"{float(row['samples_per_s']) / 1e6:.2f} M"]
+        cells = [shown(row), row["renderer"], f"{float(row['samples_per_s']) / 1e6:.2f} M",
+                 row["error_x_sqrt_spp"]]
         for target in TARGETS:
             k = f"t_{round(100 * target)}pct"
             cells.append(fmt_time(float(row[k]) if row[k] else None, row[k + "_how"]))
@@ -612,8 +618,9 @@ def report(out: Path, tag: str) -> int:
         cells.append(row["slope_vs_spp"])
         md.append("| " + " | ".join(cells) + " |")
     md += ["", "~ : beyond the ladder, extrapolated as error = c / sqrt(time) from its last three renders; "
-           "< : reached by the ladder's first render (an upper bound). Last column: the fitted convergence "
-           "rate (-0.5 expected).",
+           "< : reached by the ladder's first render (an upper bound). samples/s: the ladder's largest "
+           "render. error x sqrt(spp): the noise per sample, whatever the speed (lower is better). Last "
+           "column: the fitted convergence rate (-0.5 expected).",
            "", "Unbiasedness (the two renderers' references; expected: ratio ~1, |z| small):", "",
            "| scene | ref spp each | ref noise | rms diff | expected from noise | ratio of squares | "
            "mean diff (z) | max block abs z (blocks, over 4) |",
