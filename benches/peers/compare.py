@@ -457,6 +457,7 @@ def main() -> int:
         vks = [Vkpath(vkpath_bin, label, extra, toml_path, tmp) for label, extra in configs]
         for v in vks:
             v.render(1, seed=999_999)  # warm-up (page cache, driver), not recorded
+        # No `samples_per_pass`: Mitsuba 3.6 deprecates it and splits a large render into passes itself.
         mit = Mitsuba(dr, mi, ms.mitsuba_dict(mi, over, spp=1, tmp_dir=tmp / name, rr_depth=a.rr_depth))
 
         # 1. The common reference and the unbiasedness check. Batches alternate between the renderers

@@ -10,8 +10,9 @@ Mapping (vkpath -> Mitsuba 3):
 * camera: `fov` is HORIZONTAL in vkpath (camera.wgsl: the image plane spans [-tan(fov/2), tan(fov/2)]
   across the width, square pixels) -> `perspective` with `fov_axis = "x"`. position/look_at/up ->
   `to_world = look_at(origin, target, up)`. vkpath re-orthogonalises `up` (right = forward x up,
-  up = right x forward); Mitsuba's look_at does the same. Image orientation (x right, y down, up is up)
-  is checked by compare.py's orientation test on the first scene rendered.
+  up = right x forward); Mitsuba's look_at does the same. Image orientation (x right, y down, up is up):
+  compare.py's unbiasedness check compares the two images pixel by pixel (a mirrored image differs by
+  more than 100%; the references agree to their noise).
 * aperture > 0 -> `thinlens` with `aperture_radius = aperture` (vkpath: lens RADIUS, uniform disk) and
   `focus_distance` (vkpath: distance ALONG THE VIEW AXIS to the plane in focus, camera.wgsl divides by
   dot(dir, forward); Mitsuba's thinlens focuses on the plane z = focus_distance in camera space: the same).
@@ -260,8 +261,7 @@ def _write_obj(path: Path, triangles: list[list[list[float]]]) -> None:
             f.write(f"f {3 * i + 1} {3 * i + 2} {3 * i + 3}\n")
 
 
-def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_depth: int = 3,
-                 samples_per_pass: int | None = None) -> dict:
+def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_depth: int = 3) -> dict:
     """The Mitsuba 3 scene dict for `raw` (already overridden: size, bounces, filter). `mi` is the mitsuba
     module with a variant set. Triangles are written as OBJ files under tmp_dir."""
     reasons = unsupported_reasons(raw)
@@ -302,8 +302,6 @@ def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_dept
         "rr_depth": int(rr_depth),
         "hide_emitters": False,
     }
-    if samples_per_pass:
-        integrator["samples_per_pass"] = int(samples_per_pass)
 
     scene: dict = {"type": "scene", "integrator": integrator, "sensor": sensor}
     materials = s["materials"]
