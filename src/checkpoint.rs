@@ -1,13 +1,15 @@
 //! Checkpoints and partial renders: the renderer's accumulation state on disk.
 //!
-//! A checkpoint holds, for every pixel, the four Kahan pairs exactly as the GPU holds them (sum and
-//! compensation of the samples and of their squares, `GpuAccum`), which sample indices they hold, and
+//! A checkpoint holds, for every pixel, the accumulator exactly as the GPU holds it (`GpuAccum`: each
+//! channel's exact sum of samples as a long accumulator, and the Kahan pair of the sum of their squares),
+//! which sample indices it holds, and
 //! the identity of the render they belong to. Because a sample's random numbers depend only on (pixel,
 //! sample index, dimension, seed) and the GPU adds samples to a pixel in index order, uploading the
 //! state and going on with the next sample index gives the same bits as a render that never stopped.
 //!
 //! The same file is a *partial render* when it holds a range of samples (`--sample-range A..B`);
-//! [`merge`] adds partial renders of disjoint ranges into the state of their union.
+//! [`merge`] adds partial renders of disjoint ranges into the state of their union. The sums of samples
+//! are exact integers, so the merged sums, and the image, have the bits of a single render of the union.
 //!
 //! File layout (all integers and floats little-endian):
 //!
@@ -17,7 +19,7 @@
 //! | 4 | format version (u32, [`FORMAT_VERSION`]) |
 //! | 4 | header length H (u32, at most [`MAX_HEADER_BYTES`]) |
 //! | H | header, UTF-8 JSON ([`Header`]) |
-//! | 64 × width × height | the pixels' `GpuAccum`, row-major from the top-left: 16 f32 each |
+//! | 96 × width × height | the pixels' `GpuAccum`, row-major from the top-left: 18 u32 limbs (3 channels × 6, little-endian limb order), then 3 f32 sums of squares and their 3 f32 compensations |
 //!
 //! The header's `payload_crc32` is the CRC-32 of the pixel bytes. Files are written atomically
 //! (temporary file, fsync, rename): a crash leaves the previous checkpoint or the new one, never a mix.
@@ -36,7 +38,8 @@ use std::path::{Path, PathBuf};
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"VKPATHCP";
 /// The layout version; a file of another version is refused.
-pub const FORMAT_VERSION: u32 = 1;
+/// Version 2: the exact (long-accumulator) sums; version 1 held Kahan pairs.
+pub const FORMAT_VERSION: u32 = 2;
 /// A header longer than this is refused before it is read (it is a few hundred bytes).
 pub const MAX_HEADER_BYTES: u32 = 1 << 20;
 /// The version of vkpath that writes checkpoints (and the only one that resumes them).
@@ -278,7 +281,7 @@ pub struct Header {
     /// The device (or devices, after a merge) that computed the sums.
     pub device: String,
     /// The sample indices held, as sorted, disjoint, non-empty half-open ranges `[start, end)`. One range
-    /// is one unbroken chain of Kahan additions (a render, resumed or not); several come from a merge.
+    /// is one unbroken chain of passes (a render, resumed or not); several come from a merge.
     pub ranges: Vec<[u32; 2]>,
     pub display: Display,
     /// CRC-32 (IEEE) of the pixel bytes.
@@ -524,24 +527,23 @@ fn accum_bytes(accum: &[GpuAccum]) -> std::borrow::Cow<'_, [u8]> {
     if cfg!(target_endian = "little") {
         std::borrow::Cow::Borrowed(bytemuck::cast_slice(accum))
     } else {
-        let floats: &[f32] = bytemuck::cast_slice(accum);
-        std::borrow::Cow::Owned(floats.iter().flat_map(|f| f.to_le_bytes()).collect())
+        // Every field is a 4-byte word (u32 limbs, f32 sums): swap each word.
+        let words: &[u32] = bytemuck::cast_slice(accum);
+        std::borrow::Cow::Owned(words.iter().flat_map(|w| w.to_le_bytes()).collect())
     }
 }
 
 /// Pixels from little-endian bytes (a whole number of `GpuAccum`s).
 fn accum_from_bytes(bytes: &[u8]) -> Vec<GpuAccum> {
-    let floats: Vec<f32> = bytes
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
-    floats
-        .chunks_exact(16)
-        .map(|c| GpuAccum {
-            sum: [c[0], c[1], c[2], c[3]],
-            sum_c: [c[4], c[5], c[6], c[7]],
-            sum_sq: [c[8], c[9], c[10], c[11]],
-            sum_sq_c: [c[12], c[13], c[14], c[15]],
+    bytes
+        .chunks_exact(ACCUM_BYTES)
+        .map(|px| {
+            let mut a = GpuAccum::default();
+            let words: &mut [u32] = bytemuck::cast_slice_mut(std::slice::from_mut(&mut a));
+            for (w, b) in words.iter_mut().zip(px.chunks_exact(4)) {
+                *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+            }
+            a
         })
         .collect()
 }
@@ -552,12 +554,13 @@ fn accum_from_bytes(bytes: &[u8]) -> Vec<GpuAccum> {
 
 /// Adds partial renders of disjoint sample ranges of the same render into the state of their union.
 ///
-/// Each part's pixel sum is its Kahan pair read exactly in f64 (s - c: two f32s, exact in f64); the
-/// parts' sums are added in f64 in the order of their first sample index (so the result does not depend
-/// on the order the parts are given in), and stored back as a Kahan pair (s = the f32 nearest the total,
-/// c = s - total rounded to f32, so that s - c carries about 48 bits). The same for the sums of squares:
-/// the variance of the union is kept. The image equals a single render of the union up to rounding: see
-/// docs/reliability.md for the bound and `tests/checkpoint.rs` for the test.
+/// Each pixel's sums of samples are exact integers (long accumulators, [`crate::accum`]): the parts'
+/// are added exactly, so the merged sums, and hence the image, are bit for bit those of a single render
+/// of the union, whatever the split. The sums of squares (which only feed the variance estimate) are
+/// Kahan pairs: each is read exactly in f64 as s - c, the parts' are added in f64 in the order of their
+/// first sample index (so the result does not depend on the order the parts are given in), and stored
+/// back as a Kahan pair (s = the f32 nearest the total, c = s - total rounded to f32). The variance of the
+/// union is kept to within a few ulps of a single render's. `tests/checkpoint.rs` tests both.
 pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
     let Some((first_path, first)) = parts.first() else {
         return Err(Error::Usage(
@@ -629,19 +632,18 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
 
     let mut accum = Vec::with_capacity(pixels);
     for p in 0..pixels {
-        let mut sum = [0f64; 4];
-        let mut sq = [0f64; 4];
+        let mut out = GpuAccum::default();
+        let mut sq = [0f64; 3];
         for &i in &order {
             let a = &parts[i].1.accum[p];
-            for c in 0..4 {
-                sum[c] += f64::from(a.sum[c]) - f64::from(a.sum_c[c]);
-                sq[c] += f64::from(a.sum_sq[c]) - f64::from(a.sum_sq_c[c]);
+            // At most 2^32 - 1 samples in all (count_samples above), so 320 bits cannot overflow.
+            crate::accum::add(&mut out.sum, &a.sum);
+            for (total, (s, c)) in sq.iter_mut().zip(a.sum_sq.iter().zip(&a.sum_sq_c)) {
+                *total += f64::from(*s) - f64::from(*c);
             }
         }
-        let mut out = GpuAccum::default();
-        for c in 0..4 {
-            (out.sum[c], out.sum_c[c]) = kahan_pair(sum[c]);
-            (out.sum_sq[c], out.sum_sq_c[c]) = kahan_pair(sq[c]);
+        for (c, total) in sq.into_iter().enumerate() {
+            (out.sum_sq[c], out.sum_sq_c[c]) = kahan_pair(total);
         }
         accum.push(out);
     }
@@ -675,6 +677,7 @@ fn kahan_pair(total: f64) -> (f32, f32) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gpu::types::ACCUM_LIMBS;
 
     fn state(ranges: Vec<[u32; 2]>, value: f32) -> Checkpoint {
         Checkpoint {
@@ -698,11 +701,17 @@ mod tests {
                 payload_crc32: 0,
             },
             accum: vec![
-                GpuAccum {
-                    sum: [value, 0.5, 0.25, 0.0],
-                    sum_c: [1e-9, 0.0, 0.0, 0.0],
-                    sum_sq: [value * value, 0.25, 0.0625, 0.0],
-                    sum_sq_c: [0.0; 4],
+                {
+                    let mut a = GpuAccum::default();
+                    for (c, x) in [value, 0.5, 1e-20].into_iter().enumerate() {
+                        crate::accum::add_f32(
+                            &mut a.sum[c * ACCUM_LIMBS..(c + 1) * ACCUM_LIMBS],
+                            x,
+                        );
+                    }
+                    a.sum_sq = [value * value, 0.25, 0.0];
+                    a.sum_sq_c = [1e-9, 0.0, 0.0];
+                    a
                 };
                 2
             ],
@@ -774,9 +783,15 @@ mod tests {
         assert_eq!(m.samples(), 8);
         // Order of the arguments does not matter.
         assert_eq!(merge(&[a, c]).unwrap(), m);
-        let total = (3.0f64 - 1e-9f32 as f64) + (1.0 - 1e-9f32 as f64);
+        // Sums are exact: 3 + 1, and 1e-20 + 1e-20 (exactly twice the f32 nearest 1e-20).
         let p = &m.accum[0];
-        assert_eq!(p.sum[0] as f64 - p.sum_c[0] as f64, total);
+        assert_eq!(crate::accum::to_f64(crate::accum::channel(p, 0)), 4.0);
+        assert_eq!(
+            crate::accum::to_f64(crate::accum::channel(p, 2)),
+            2.0 * f64::from(1e-20f32)
+        );
+        let sq = (9.0f64 - f64::from(1e-9f32)) + (1.0 - f64::from(1e-9f32));
+        assert_eq!(p.sum_sq[0] as f64 - p.sum_sq_c[0] as f64, sq);
     }
 
     #[test]

@@ -37,7 +37,8 @@ impl OutputFormat {
 }
 
 impl Film {
-    /// From the GPU's Kahan sums: sum ~ s - c (c holds what the last additions overshot), in f64.
+    /// From the GPU's sums: each channel's exact sum (a long accumulator, `crate::accum`) rounded once
+    /// to f64, and the Kahan pair of its squares read as s - c in f64.
     pub fn from_sums(width: u32, height: u32, spp: u32, accum: &[GpuAccum]) -> Film {
         let n = spp as f64;
         let mut mean = Vec::with_capacity(accum.len());
@@ -46,7 +47,7 @@ impl Film {
             let mut m = [0f32; 3];
             let mut v = [0f32; 3];
             for c in 0..3 {
-                let s = a.sum[c] as f64 - a.sum_c[c] as f64;
+                let s = crate::accum::to_f64(crate::accum::channel(a, c));
                 let sq = a.sum_sq[c] as f64 - a.sum_sq_c[c] as f64;
                 if spp == 0 {
                     continue;

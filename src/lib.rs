@@ -18,6 +18,7 @@
 //!
 //! The library never prints; errors are values ([`Error`]).
 
+pub mod accum;
 pub mod bench;
 pub mod bench_convergence;
 pub mod bench_mesh;

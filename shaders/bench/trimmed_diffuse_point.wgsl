@@ -90,5 +90,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let slot = px.y * params.width + px.x - pc.accum_base;
     let radiance = trimmed_path(px, pass_constants.sample_index);
-    accum[slot] = accumulate_sample(accum[slot], radiance, params.guard_one);
+    accumulate_sample(slot, radiance, params.guard_one);
 }

@@ -3,8 +3,9 @@
 // invocation's loops after 65535 iterations in total, so a stream of millions is cut into chunks).
 //
 // Sample i of a stream (i counted from the start of the whole stream) is `first` for i = 0, then `value`;
-// every `nan_every`-th sample (if > 0) is NaN and every `inf_every`-th (if > 0) is +Inf. `guard` is 1.0,
-// read from the buffer so that the compiler cannot know it (see accumulate.wgsl).
+// every `nan_every`-th sample (if > 0) is NaN and every `inf_every`-th (if > 0) is +Inf. The three
+// channels get x, -x (negative: counted as 0) and x / 2. `guard` is 1.0, read from the buffer so that the
+// compiler cannot know it (see accumulate.wgsl).
 
 struct Stream {
     state: Accum,
@@ -19,15 +20,16 @@ struct Stream {
 }
 
 @group(0) @binding(0) var<storage, read> input: array<Stream>;
-@group(0) @binding(1) var<storage, read_write> output: array<Accum>;
+// Named `accum`, as in the render kernel: accumulate_sample updates it in place.
+@group(0) @binding(1) var<storage, read_write> accum: array<Accum>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= arrayLength(&output) {
+    if id.x >= arrayLength(&accum) {
         return;
     }
     let s = input[id.x];
-    var acc = s.state;
+    accum[id.x] = s.state;
     // NaN and Inf built from bits: WGSL constant expressions may not overflow.
     let nan = bitcast<f32>(0x7fc00000u);
     let inf = bitcast<f32>(0x7f800000u);
@@ -39,7 +41,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         if s.inf_every > 0u && i % s.inf_every == s.inf_every - 1u {
             x = inf;
         }
-        acc = accumulate_sample(acc, vec3<f32>(x, -x, 0.5 * x), s.guard);
+        accumulate_sample(id.x, vec3<f32>(x, -x, 0.5 * x), s.guard);
     }
-    output[id.x] = acc;
 }

@@ -20,11 +20,14 @@ pub const LIBRARY: &[(&str, &str)] = &[
         include_str!("../../shaders/materials.wgsl"),
     ),
     ("camera.wgsl", include_str!("../../shaders/camera.wgsl")),
-    (
-        "accumulate.wgsl",
-        include_str!("../../shaders/accumulate.wgsl"),
-    ),
 ];
+
+/// The per-pixel accumulator. Not in the pure library: it updates the `accum` storage array in place,
+/// which the kernel that includes it declares (binding 5 of scene_data.wgsl, or a test kernel's own).
+pub const ACCUMULATE: (&str, &str) = (
+    "accumulate.wgsl",
+    include_str!("../../shaders/accumulate.wgsl"),
+);
 
 /// The render kernels' data: structs and bindings 0–6.
 pub const SCENE_DATA: (&str, &str) = (
@@ -49,7 +52,14 @@ pub const TRIMMED_DIFFUSE_POINT: (&str, &str) = (
 
 /// The full source of the hand-trimmed benchmark kernel.
 pub fn trimmed_source() -> String {
-    compose(&[SCENE_DATA, BVH, TEXTURE, SCENE, TRIMMED_DIFFUSE_POINT])
+    compose(&[
+        SCENE_DATA,
+        ACCUMULATE,
+        BVH,
+        TEXTURE,
+        SCENE,
+        TRIMMED_DIFFUSE_POINT,
+    ])
 }
 
 /// Concatenates the library with extra modules, marking where each file starts so that naga's error
@@ -66,7 +76,7 @@ pub fn compose(extra: &[(&str, &str)]) -> String {
 
 /// The full source of the production kernel.
 pub fn trace_source() -> String {
-    compose(&[SCENE_DATA, BVH, TEXTURE, SCENE, TRACE])
+    compose(&[SCENE_DATA, ACCUMULATE, BVH, TEXTURE, SCENE, TRACE])
 }
 
 /// One resource binding of a compiled shader, reflected from the WGSL.

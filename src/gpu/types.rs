@@ -105,14 +105,18 @@ pub struct GpuLight {
     pub _pad: [u32; 3],
 }
 
-/// Mirrors `Accum` in accumulate.wgsl: Kahan-compensated sums of samples and of their squares.
+/// Limbs (u32) of one channel's exact sum: a 192-bit fixed-point integer in units of 2^-96.
+pub const ACCUM_LIMBS: usize = 6;
+
+/// Mirrors `Accum` in accumulate.wgsl: per channel, the exact sum of the samples as a long accumulator
+/// (`sum[c * ACCUM_LIMBS + k]` is limb k of channel c, little-endian, unit 2^-96), and the Kahan-compensated
+/// f32 sum of their squares. See `crate::accum` for reading and adding them on the host.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuAccum {
-    pub sum: [f32; 4],
-    pub sum_c: [f32; 4],
-    pub sum_sq: [f32; 4],
-    pub sum_sq_c: [f32; 4],
+    pub sum: [u32; 3 * ACCUM_LIMBS],
+    pub sum_sq: [f32; 3],
+    pub sum_sq_c: [f32; 3],
 }
 
 /// Mirrors `BvhNode` in scene_data.wgsl: an interior node of the triangle BVH with the boxes of both its
@@ -178,4 +182,4 @@ const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuAccum>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuAccum>() == 96);

@@ -1,9 +1,11 @@
 //! The progressive renderer: uploads a scene, dispatches passes of samples, reads back the film.
 //!
 //! Each pass traces samples `[start, start + k)` of every pixel, one dispatch per sample (one path per
-//! invocation, see trace.wgsl), and adds them in index order to per-pixel Kahan sums on the GPU. Because a sample's random numbers depend only on (pixel,
-//! sample index, dimension, seed), the image after N passes of k samples is bit-identical to one pass of
-//! N k samples: pass sizes are free to adapt to time budgets and progress reports.
+//! invocation, see trace.wgsl), and adds them to per-pixel sums on the GPU: exact sums of the samples
+//! (long accumulators, accumulate.wgsl) and Kahan sums of their squares, in sample index order. Because a
+//! sample's random numbers depend only on (pixel, sample index, dimension, seed), the image after N passes
+//! of k samples is bit-identical to one pass of N k samples: pass sizes are free to adapt to time budgets
+//! and progress reports.
 
 pub mod tiles;
 
@@ -548,7 +550,8 @@ impl Renderer {
         crate::checkpoint::Identity::new(&self.params, self.content_hash)
     }
 
-    /// The accumulator's raw per-pixel Kahan pairs, exactly as the GPU holds them.
+    /// The accumulator's raw per-pixel state (exact sums, Kahan pairs of squares), exactly as the GPU
+    /// holds it.
     /// Read strip by strip through the staging buffer.
     pub fn accum_state(&mut self) -> Result<Vec<GpuAccum>, GpuError> {
         self.check_usable()?;
