@@ -207,6 +207,9 @@ class Reference:
     var_of_mean: object  # per-pixel variance of that mean (from the spread of the batches)
     spp: int
     seconds: float
+    # Per-pixel variance of the mean's channel sum: the channels of one path are correlated, so the
+    # image mean's variance needs the covariances too, not just the per-channel variances.
+    var_of_mean_sum: object = None
 
 
 def reference_from_batches(batches: list[Render]) -> Reference:
@@ -215,7 +218,10 @@ def reference_from_batches(batches: list[Render]) -> Reference:
     stack = np.stack([b.img for b in batches])
     k = len(batches)
     var = stack.var(axis=0, ddof=1) / k if k > 1 else np.zeros_like(stack[0])
-    return Reference(stack.mean(axis=0), var, sum(b.spp for b in batches), sum(b.seconds for b in batches))
+    sums = stack.sum(axis=-1)
+    var_sum = sums.var(axis=0, ddof=1) / k if k > 1 else np.zeros_like(sums[0])
+    return Reference(stack.mean(axis=0), var, sum(b.spp for b in batches), sum(b.seconds for b in batches),
+                     var_sum)
 
 
 def unbiasedness(a: Reference, b: Reference, block: int = 16) -> dict:
@@ -227,7 +233,7 @@ def unbiasedness(a: Reference, b: Reference, block: int = 16) -> dict:
     ref_mean = 0.5 * (a.mean + b.mean).mean()
     n = d.size
     mean_diff = d.mean()
-    mean_diff_se = math.sqrt(v.sum()) / n
+    mean_diff_se = math.sqrt((a.var_of_mean_sum + b.var_of_mean_sum).sum()) / n
     h, w, c = d.shape
     bh, bw = max(1, h // block), max(1, w // block)
     hh, ww = bh * block if h >= block else h, bw * block if w >= block else w
@@ -260,6 +266,9 @@ def rel_errors(img, ref: Reference, ref_noise_ms: float) -> tuple[float, float]:
 
 def loglog_at(xs, ys, x):
     """Piecewise-linear interpolation of log y against log x (xs increasing)."""
+    for xi, yi in zip(xs, ys):
+        if xi == x:
+            return yi
     lx = [math.log(v) for v in xs]
     ly = [math.log(v) for v in ys]
     t = math.log(x)
@@ -556,16 +565,19 @@ def summarize(ladder_rows: list[dict]) -> list[dict]:
         same_as[r["scene"]] = r.get("same_as", "")
     rows = []
     for name, ladders in scenes.items():
-        # Equal time: the longest time that every renderer's ladder reached on this scene.
-        t_eq = min(pts[-1][0] for pts in ladders.values())
+        # A render of more samples never takes less time in expectation: the running maximum keeps the
+        # timing noise of the tiny renders at the ladder's bottom from folding the curve back.
+        monotone = {}
         for label, pts in ladders.items():
-            # A render of more samples never takes less time in expectation: the running maximum keeps
-            # the timing noise of the tiny renders at the ladder's bottom from folding the curve back.
             times, run = [], 0.0
             for t, _, _, _ in pts:
                 run = max(run, t)
                 times.append(run)
-            good = [(t, p[1]) for t, p in zip(times, pts) if p[1] > 0]
+            monotone[label] = times
+        # Equal time: the longest time that every renderer's ladder reached on this scene.
+        t_eq = min(times[-1] for times in monotone.values())
+        for label, pts in ladders.items():
+            good = [(t, p[1]) for t, p in zip(monotone[label], pts) if p[1] > 0]
             slope = fitted_slope([(spp, e) for _, e, spp, _ in pts])
             c = efficiency_constant(good)
             # Noise per sample, independent of speed: error x sqrt(spp) (geometric mean over the renders

@@ -30,12 +30,16 @@ case "${1:-}" in
         ;;
 esac
 
+if ! python3 -c 'import sys, tomllib, venv' 2>/dev/null; then
+    echo "setup.sh: need python3 >= 3.11 with the venv module (compare.py reads scenes with tomllib)" >&2
+    exit 1
+fi
+
 # --- libllvm19 -------------------------------------------------------------------------------------
+# The same places compare.py looks (Debian's libllvm19 installs /usr/lib/<triplet>/libLLVM.so.19.1).
 find_llvm19() {
     local f
-    for f in /usr/lib/llvm-19/lib/libLLVM.so.1 /usr/lib/llvm-19/lib/libLLVM-19.so \
-        /usr/lib/x86_64-linux-gnu/libLLVM-19.so.1 /usr/lib/x86_64-linux-gnu/libLLVM.so.19.1 \
-        /usr/lib/*/libLLVM-19.so* /usr/lib/llvm-19/lib/libLLVM*.so*; do
+    for f in /usr/lib/*/libLLVM.so.19* /usr/lib/*/libLLVM-19.so* /usr/lib/llvm-19/lib/libLLVM*.so*; do
         if [ -e "$f" ]; then
             echo "$f"
             return 0
