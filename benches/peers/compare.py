@@ -371,6 +371,8 @@ def main() -> int:
     ap.add_argument("--vkpath-config", action="append", metavar="LABEL:ARGS",
                     help="a vkpath setting to compare, e.g. 'vkpath generic:--generic' (repeatable; the "
                     "first also renders the reference); default 'vkpath:' (no extra flags)")
+    ap.add_argument("--seed-base", type=int, default=0,
+                    help="added to every seed, for an independent repetition of a run")
     ap.add_argument("--repeat", type=int, default=1,
                     help="time each ladder render this many times and keep the fastest (noisy machines)")
     ap.add_argument("--quick", action="store_true",
@@ -474,8 +476,8 @@ def main() -> int:
         per = ref_spp // batches
         vk_batches, mi_batches = [], []
         for k in range(batches):
-            vk_batches.append(vks[0].render(per, seed=1 + k))
-            mi_batches.append(mit.render(per, seed=1 + k))
+            vk_batches.append(vks[0].render(per, seed=a.seed_base + 1 + k))
+            mi_batches.append(mit.render(per, seed=a.seed_base + 1 + k))
         ref_vk = reference_from_batches(vk_batches)
         ref_mi = reference_from_batches(mi_batches)
         ref = Reference(0.5 * (ref_vk.mean + ref_mi.mean), 0.25 * (ref_vk.var_of_mean + ref_mi.var_of_mean),
@@ -509,10 +511,10 @@ def main() -> int:
             for label, rdr in order:
                 if label not in active:
                     continue
-                res = rdr.render(spp, seed=1000 + i)
+                res = rdr.render(spp, seed=a.seed_base + 1000 + i)
                 seconds = res.seconds
                 for _ in range(a.repeat - 1):
-                    seconds = min(seconds, rdr.render(spp, seed=1000 + i).seconds)
+                    seconds = min(seconds, rdr.render(spp, seed=a.seed_base + 1000 + i).seconds)
                 raw_e, e = rel_errors(res.img, ref, ref_noise_ms)
                 sps = w * h * spp / seconds
                 if isinstance(rdr, Vkpath) and vk_device is None:
