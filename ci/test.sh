@@ -5,8 +5,11 @@
 #                              Khronos validation layers; installs them with apt-get when missing
 #   2. cargo fmt --check       formatting
 #   3. cargo clippy            lints, warnings are errors
-#   4. cargo test              unit and integration tests (dev profile); the tests that use the GPU
-#                              turn the validation layers on themselves, and any validation error fails them
+#   4. cargo check --no-default-features --bins
+#                              the headless binary still builds without the `preview` feature (the window)
+#   5. cargo test              unit and integration tests (dev profile); the tests that use the GPU
+#                              turn the validation layers on themselves, and any validation error fails them;
+#                              tests/preview.rs opens the preview window under Xvfb (xvfb-run)
 #
 # Exits non-zero at the first failing step.
 set -euo pipefail
@@ -27,5 +30,6 @@ step() {
 step setup ./ci/setup.sh --test
 step fmt cargo fmt --all -- --check
 step clippy cargo clippy --all-targets -- -D warnings
+step headless cargo check --no-default-features --bins
 step test cargo test
 echo "==> all checks passed in $SECONDS s"
