@@ -6,11 +6,28 @@
 // JCGT 9(3), 2020. Each of its steps (multiply-add by odd constants, x += y*z, xor-shift) is invertible,
 // so distinct inputs (pixel, sample, dim, seed) give distinct 128-bit outputs: no two paths share numbers.
 
+//
+// Two samplers share that contract (`render.sampler`):
+// * SAMPLER_INDEPENDENT: each draw is hashed from (pixel, sample, dim, seed).
+// * SAMPLER_SOBOL: each draw is a point of a 2-D Sobol' sequence over the pixel's sample index, with its
+//   own randomisation per (pixel, dim, seed), i.e. "padded" 2-D (0,2)-sequences: the first 2^m samples of
+//   a pixel form a (0,m,2)-net in every pair of dimensions (one point in every dyadic box of area 2^-m),
+//   which stratifies the film position, the lens, and each bounce's light and BSDF samples. Following
+//   Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020: the point is Owen-scrambled (nested
+//   uniform scrambling, by a hash that flips each bit depending only on the bits above it), which keeps
+//   the net property and makes every point uniformly distributed, so estimates stay unbiased; and the
+//   sample index is itself scrambled the same way ("shuffled"), which decorrelates the dimension pairs
+//   (without it, every pair would walk the same sequence in the same order).
+
+const SAMPLER_INDEPENDENT: u32 = 0u;
+const SAMPLER_SOBOL: u32 = 1u;
+
 struct Rng {
     pixel: u32,
     sample: u32,
     seed: u32,
     dim: u32, // the next dimension to draw; each draw consumes one
+    sampler: u32, // SAMPLER_INDEPENDENT or SAMPLER_SOBOL
 }
 
 fn pcg4d(v_in: vec4<u32>) -> vec4<u32> {
@@ -28,7 +45,11 @@ fn pcg4d(v_in: vec4<u32>) -> vec4<u32> {
 }
 
 fn rng_new(pixel: u32, sample: u32, seed: u32) -> Rng {
-    return Rng(pixel, sample, seed, 0u);
+    return Rng(pixel, sample, seed, 0u, SAMPLER_INDEPENDENT);
+}
+
+fn rng_new_sampler(pixel: u32, sample: u32, seed: u32, sampler: u32) -> Rng {
+    return Rng(pixel, sample, seed, 0u, sampler);
 }
 
 // Maps the top 24 bits to [0, 1): k * 2^-24 for k in [0, 2^24), so 1.0 is never returned and every value
@@ -39,6 +60,12 @@ fn u32_to_unit_float(x: u32) -> f32 {
 
 // One uniform number in [0, 1).
 fn rng_next(rng: ptr<function, Rng>) -> f32 {
+    if (*rng).sampler == SAMPLER_SOBOL {
+        // The first coordinate of a pair: a scrambled, shuffled van der Corput sequence.
+        let u = sobol_owen2((*rng).pixel, (*rng).sample, (*rng).dim, (*rng).seed);
+        (*rng).dim += 1u;
+        return u32_to_unit_float(u.x);
+    }
     let h = pcg4d(vec4<u32>((*rng).pixel, (*rng).sample, (*rng).dim, (*rng).seed));
     (*rng).dim += 1u;
     return u32_to_unit_float(h.x);
@@ -46,7 +73,58 @@ fn rng_next(rng: ptr<function, Rng>) -> f32 {
 
 // Two uniform numbers in [0, 1)^2 from one hash (its x and y words are independent outputs).
 fn rng_next2(rng: ptr<function, Rng>) -> vec2<f32> {
-    let h = pcg4d(vec4<u32>((*rng).pixel, (*rng).sample, (*rng).dim, (*rng).seed));
+    var u: vec2<u32>;
+    if (*rng).sampler == SAMPLER_SOBOL {
+        u = sobol_owen2((*rng).pixel, (*rng).sample, (*rng).dim, (*rng).seed);
+    } else {
+        u = pcg4d(vec4<u32>((*rng).pixel, (*rng).sample, (*rng).dim, (*rng).seed)).xy;
+    }
     (*rng).dim += 1u;
-    return vec2<f32>(u32_to_unit_float(h.x), u32_to_unit_float(h.y));
+    return vec2<f32>(u32_to_unit_float(u.x), u32_to_unit_float(u.y));
+}
+
+// --- Sobol' ---------------------------------------------------------------------------------------------
+
+// Point `sample` of pixel `pixel`'s sequence for dimension pair `dim`, as two 32-bit fractions. Its three
+// seeds (index shuffle, x scramble, y scramble) are hashed from (pixel, dim, seed) with the sample slot
+// fixed, so that all samples of a pixel walk one sequence.
+fn sobol_owen2(pixel: u32, sample: u32, dim: u32, seed: u32) -> vec2<u32> {
+    let k = pcg4d(vec4<u32>(pixel, 0xffffffffu, dim, seed));
+    let i = nested_uniform_scramble(sample, k.x);
+    return vec2<u32>(nested_uniform_scramble(reverseBits(i), k.y),
+                     nested_uniform_scramble(sobol_dim1(i), k.z));
+}
+
+// Laine & Karras' hash (as improved by Burley 2020, §3): x + seed, then x ^= x * c for even constants c.
+// Multiplying by an even number only moves bits up, so output bit j depends on input bits 0..j only: on
+// bit-reversed values, each bit of the result depends only on itself and the bits more significant than it
+// in the [0, 1) fraction, which is what nested uniform (Owen) scrambling requires.
+fn laine_karras_permutation(x_in: u32, seed: u32) -> u32 {
+    var x = x_in + seed;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return x;
+}
+
+// Owen scrambling of a 32-bit fraction (bit 31 = 1/2) by a hash of its reversed bits.
+fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    return reverseBits(laine_karras_permutation(reverseBits(x), seed));
+}
+
+// The second dimension of Sobol's sequence as a 32-bit fraction: the sum (xor) of the direction numbers
+// v_k over the set bits k of i, where v_0 = 2^31 and v_k = v_(k-1) ^ (v_(k-1) >> 1) (primitive polynomial
+// x + 1). Bit 31 - j of v_k is C(k, j) mod 2, which by Lucas' theorem is 1 exactly when the bits of j are
+// a subset of those of k. So bit 31 - j of the result is the parity of the set bits k of i with k a
+// superset of j: a superset (zeta) transform over the five bits of a bit position, five masked shift-xors
+// (no loop: lavapipe counts every loop iteration against its budget), then a reversal.
+fn sobol_dim1(i: u32) -> u32 {
+    var x = i;
+    x ^= (x >> 1u) & 0x55555555u; // positions j with bit 0 clear take position j + 1
+    x ^= (x >> 2u) & 0x33333333u;
+    x ^= (x >> 4u) & 0x0f0f0f0fu;
+    x ^= (x >> 8u) & 0x00ff00ffu;
+    x ^= (x >> 16u) & 0x0000ffffu;
+    return reverseBits(x);
 }

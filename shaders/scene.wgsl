@@ -198,6 +198,11 @@ fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
     return sphere_surface(o, d, hit);
 }
 
+// How sphere lights are sampled (params.light_sampling, `render.light_sampling`).
+const LIGHT_SAMPLING_CONE: u32 = 0u;
+const LIGHT_SAMPLING_AREA: u32 = 1u;
+const LIGHT_SAMPLING_NONE: u32 = 2u;
+
 // Irradiance-like sum over all lights of Le * cos(theta) / pdf at a surface point with facing normal n
 // (one sample per sphere light): the caller multiplies by the BRDF (albedo / pi).
 //  * Point light of intensity I at distance r: E = I cos(theta) / r^2 (the course's formula, with
@@ -220,7 +225,18 @@ fn direct_light(sp: Surface, n: vec3<f32>, ns: vec3<f32>, rng: ptr<function, Rng
         }
         if HAS_SPHERE_LIGHTS {
             if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
-                e += sphere_light_irradiance(sp, n, ns, light, rng);
+                // The light sample's dimension is drawn whatever the strategy, so that the numbers
+                // drawn after it are at the same dimensions in every variant.
+                let u = rng_next2(rng);
+                switch params.light_sampling {
+                    case LIGHT_SAMPLING_AREA: {
+                        e += sphere_light_irradiance_area(sp, n, ns, light, u);
+                    }
+                    case LIGHT_SAMPLING_NONE: {}
+                    default: {
+                        e += sphere_light_irradiance(sp, n, ns, light, u);
+                    }
+                }
             }
         }
     }
@@ -256,8 +272,7 @@ fn point_light_irradiance(sp: Surface, n: vec3<f32>, ns: vec3<f32>, light: Light
     return light.intensity * cos_theta / dist2;
 }
 
-fn sphere_light_irradiance(sp: Surface, n: vec3<f32>, ns: vec3<f32>, light: Light, rng: ptr<function, Rng>) -> vec3<f32> {
-    let u = rng_next2(rng);
+fn sphere_light_irradiance(sp: Surface, n: vec3<f32>, ns: vec3<f32>, light: Light, u: vec2<f32>) -> vec3<f32> {
     let to_center = light.position - sp.p;
     let d2 = dot(to_center, to_center);
     if d2 <= light.radius * light.radius {
@@ -274,6 +289,43 @@ fn sphere_light_irradiance(sp: Surface, n: vec3<f32>, ns: vec3<f32>, light: Ligh
     let hit = scene_intersect(o, wi, T_MISS);
     if hit.prim_kind == PRIM_SPHERE && hit.prim_index == light.sphere_index {
         return light.intensity * cos_theta * (TWO_PI * omc);
+    }
+    return vec3<f32>(0.0);
+}
+
+// Area sampling, the course's method: a point x_l = c + R m on the hemisphere of the light that faces the
+// shaded point p, with m cosine-distributed about the axis a = (p - c)/|p - c|. Its density per unit area
+// is pdf_A = (m . a) / (pi R^2), and the irradiance estimate is Le cos(theta) cos(theta_l) / (d^2 pdf_A),
+// with d = |x_l - p| and theta_l the angle at x_l between m and the direction back to p. Every point of the
+// sphere visible from p lies on that hemisphere, and a point of it with cos(theta_l) <= 0 is hidden by the
+// sphere itself (for a sphere, visible from p exactly when m . (p - x_l) > 0), so the estimate is unbiased.
+// Compared with cone sampling it wastes the samples near the hemisphere's rim that p cannot see, and its
+// 1 / pdf_A varies across the light: more noise, most of all when p is close to the light.
+fn sphere_light_irradiance_area(sp: Surface, n: vec3<f32>, ns: vec3<f32>, light: Light, u: vec2<f32>) -> vec3<f32> {
+    let to_p = sp.p - light.position;
+    let dc2 = dot(to_p, to_p);
+    if dc2 <= light.radius * light.radius {
+        return vec3<f32>(0.0); // inside the light: it does not illuminate its own interior
+    }
+    let axis = to_p / sqrt(dc2);
+    let m = sample_cosine_hemisphere(axis, u);
+    let cos_m = dot(m, axis);
+    let x_l = light.position + light.radius * m;
+    let to_light = x_l - sp.p;
+    let d2 = dot(to_light, to_light);
+    let d = sqrt(d2);
+    let wi = to_light / d;
+    let cos_l = -dot(m, wi);
+    let cos_theta = light_cosine(sp, n, ns, wi);
+    if cos_theta <= 0.0 || cos_l <= 0.0 || cos_m <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    // Visible if the first thing the ray meets is this light's own sphere (where it meets it, x_l, is
+    // guaranteed by cos_l > 0).
+    let o = offset_ray_origin(sp.p, sp.err, n, wi);
+    let hit = scene_intersect(o, wi, T_MISS);
+    if hit.prim_kind == PRIM_SPHERE && hit.prim_index == light.sphere_index {
+        return light.intensity * cos_theta * cos_l * (PI * light.radius * light.radius) / (d2 * cos_m);
     }
     return vec3<f32>(0.0);
 }

@@ -18,8 +18,8 @@ struct Params {
     height: u32,
     max_bounces: u32,
     seed: u32,
-    _pad1: u32,
-    _pad2: u32,
+    sampler: u32, // SAMPLER_INDEPENDENT or SAMPLER_SOBOL (rng.wgsl)
+    light_sampling: u32, // LIGHT_SAMPLING_* (scene.wgsl): how sphere lights are sampled
     num_spheres: u32,
     num_triangles: u32,
     num_lights: u32,

@@ -40,7 +40,7 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
 // L = sum over vertices of beta * (emission seen by a specular chain, or direct light by next-event
 // estimation at diffuse vertices), with beta the product of f cos / pdf along the path.
 fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
-    var rng = rng_new(px.y * params.width + px.x, sample, params.seed);
+    var rng = rng_new_sampler(px.y * params.width + px.x, sample, params.seed, params.sampler);
     let film = film_position(px, &rng);
     // The lens sample is dimension 1 whether or not there is a lens, so that a pinhole-specialised kernel
     // draws every later number at the same dimension as the generic one.
@@ -60,7 +60,9 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     var beta = vec3<f32>(1.0);
     var radiance = vec3<f32>(0.0);
     // Emission found by a ray counts only when no next-event estimate already accounted for it: on camera
-    // rays and after specular bounces (mirror, glass). After a diffuse bounce, the light was sampled.
+    // rays and after specular bounces (mirror, glass). After a diffuse bounce, the light was sampled,
+    // unless sphere lights are not sampled (light_sampling = "none"): then their emission always counts.
+    let nee_spheres = params.light_sampling != LIGHT_SAMPLING_NONE;
     var count_emission = true;
     var bounces = 0u;
     loop {
@@ -113,7 +115,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
                 // Continue with a cosine-weighted direction: f cos / pdf = (albedo/pi) cos / (cos/pi) = albedo.
                 wi = sample_cosine_hemisphere(ns, rng_next2(&rng));
                 beta *= albedo;
-                count_emission = false;
+                count_emission = !nee_spheres;
             }
         }
         if HAS_MIRROR {

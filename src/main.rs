@@ -111,6 +111,21 @@ enum BenchCommand {
     },
 }
 
+/// `--sampler` (render.sampler in the scene file).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum SamplerArg {
+    Independent,
+    Sobol,
+}
+
+/// `--light-sampling` (render.light_sampling in the scene file).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum LightSamplingArg {
+    Cone,
+    Area,
+    None,
+}
+
 #[derive(Args)]
 struct RenderArgs {
     /// Scene file (TOML). Default: the embedded course scene.
@@ -140,6 +155,12 @@ struct RenderArgs {
     /// Scattering events per path (overrides the scene).
     #[arg(long = "max-bounces")]
     max_bounces: Option<u32>,
+    /// Where random numbers come from (overrides the scene's render.sampler).
+    #[arg(long, value_enum)]
+    sampler: Option<SamplerArg>,
+    /// How sphere lights are sampled (overrides the scene's render.light_sampling).
+    #[arg(long = "light-sampling", value_enum)]
+    light_sampling: Option<LightSamplingArg>,
     /// Rewrite the outputs after every N samples per pixel.
     #[arg(long = "progress-every")]
     progress_every: Option<u32>,
@@ -294,6 +315,19 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
     }
     if let Some(b) = a.max_bounces {
         scene.render.max_bounces = b;
+    }
+    if let Some(s) = a.sampler {
+        scene.render.sampler = match s {
+            SamplerArg::Independent => vkpath::scene::Sampler::Independent,
+            SamplerArg::Sobol => vkpath::scene::Sampler::Sobol,
+        };
+    }
+    if let Some(l) = a.light_sampling {
+        scene.render.light_sampling = match l {
+            LightSamplingArg::Cone => vkpath::scene::LightSampling::Cone,
+            LightSamplingArg::Area => vkpath::scene::LightSampling::Area,
+            LightSamplingArg::None => vkpath::scene::LightSampling::None,
+        };
     }
     if let Some(s) = a.seed {
         scene.render.seed = s;

@@ -296,8 +296,8 @@ fn params_matches_wgsl() {
         size_of::<GpuParams>(),
         fields!(GpuParams:
             cam_position, lens_radius, cam_right, tan_half_fov, cam_up, focus_distance, cam_forward,
-            filter_sigma, background, filter_kind, width, height, max_bounces, seed, _pad1,
-            _pad2, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, _pad0),
+            filter_sigma, background, filter_kind, width, height, max_bounces, seed, sampler,
+            light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, _pad0),
     );
     // The uniform buffer holds one Params.
     let (_, params) = module

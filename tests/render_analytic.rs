@@ -191,7 +191,7 @@ fn furnace_mean_with_roulette_within_standard_error() {
     );
 }
 
-fn sphere_light_scene(radius: f64, samples: u32) -> String {
+fn sphere_light_scene(radius: f64, samples: u32, render_extra: &str) -> String {
     format!(
         r#"
 [camera]
@@ -205,6 +205,7 @@ height = 32
 samples = {samples}
 max_bounces = 1
 filter = "none"
+{render_extra}
 [materials]
 white = {{ type = "diffuse", albedo = [0.8, 0.8, 0.8] }}
 [[sphere]]
@@ -220,66 +221,132 @@ power = 20000.0
     )
 }
 
-/// A sphere light of power P and radius r: wherever it lies wholly above a point's horizon, its
-/// irradiance there equals the point light's, P cos(theta) / (4 pi d^2), for every r (the sphere's
-/// radiance P/(4 pi^2 r^2) times its projected solid angle pi sin^2(theta_max) cos(theta)). So every such
-/// pixel must agree with the point-light formula within its own standard error, from r = 5 down to
-/// r = 1e-4 (where sampling must neither blow up nor lose precision). The course's estimator, which
-/// dropped the light-side cosine, fails this.
-#[test]
-fn sphere_light_matches_point_light_at_every_radius() {
+/// One pixel of `sphere_light_scene` where the analytic value is known: what the render gave, its
+/// estimated variance, and the expected value.
+struct LitPixel {
+    px: u32,
+    py: u32,
+    got: f64,
+    var: f64,
+    expected: f64,
+}
+
+/// Renders `sphere_light_scene` and returns the pixels that see the diffuse sphere where the whole light
+/// is above the horizon (cos(theta) > sin(theta_max) + 0.02), where a sphere light of power P and radius
+/// r gives the point light's irradiance, P cos(theta) / (4 pi d^2), for every r (the sphere's radiance
+/// P/(4 pi^2 r^2) times its projected solid angle pi sin^2(theta_max) cos(theta)).
+fn lit_pixels(radius: f64, samples: u32, render_extra: &str) -> Vec<LitPixel> {
     let cam = CpuCamera::new([0.0, 0.0, 50.0], [0.0, 0.0, 0.0], 30.0, 32, 32);
     let c = DVec3::new(25.0, 25.0, 30.0);
-    for radius in [5.0, 1.0, 1e-2, 1e-4] {
-        let film = render(&scene(&sphere_light_scene(radius, 64)));
-        let mut checked = 0;
-        let mut chi2 = 0.0;
-        for py in 0..32 {
-            for px in 0..32 {
-                let d = cam.ray(px, py);
-                let Some((t, graze)) = hit_sphere(cam.pos, d, DVec3::ZERO, 10.0) else {
-                    continue;
-                };
-                if graze < 1e-3 {
-                    continue;
-                }
-                let p = cam.pos + t * d;
-                let n = p.normalize();
-                let to_c = c - p;
-                let dist = to_c.length();
-                let cos = n.dot(to_c / dist);
-                let sin_max = radius / dist;
-                // Only where the whole light is above the horizon (cos > sin theta_max), with margin.
-                if cos < sin_max + 0.02 {
-                    continue;
-                }
-                let expected = 0.8 / PI * 20000.0 / (4.0 * PI * dist * dist) * cos;
-                let got = film.pixel(px, py)[0] as f64;
-                let var = film.variance[(py * 32 + px) as usize][0] as f64;
-                // Standard error from the pixel's own variance, plus f32 rounding of the formula.
-                let tol = 5.0 * var.sqrt() + 2e-4 * expected;
-                assert!(
-                    (got - expected).abs() <= tol,
-                    "radius {radius}, pixel ({px},{py}): got {got}, expected {expected}, sigma {}",
-                    var.sqrt()
-                );
-                if var > 0.0 {
-                    chi2 += (got - expected).powi(2) / var;
-                }
-                checked += 1;
+    let film = render(&scene(&sphere_light_scene(radius, samples, render_extra)));
+    let mut out = Vec::new();
+    for py in 0..32 {
+        for px in 0..32 {
+            let d = cam.ray(px, py);
+            let Some((t, graze)) = hit_sphere(cam.pos, d, DVec3::ZERO, 10.0) else {
+                continue;
+            };
+            if graze < 1e-3 {
+                continue;
             }
-        }
-        assert!(
-            checked > 100,
-            "radius {radius}: only {checked} pixels checked"
-        );
-        // Unbiasedness across the image: the average squared z-score is ~1 for an unbiased estimator
-        // (a biased one, e.g. without the light-side cosine, gives z^2 >> 1 at r = 5).
-        if radius >= 1.0 {
-            let mean_z2 = chi2 / checked as f64;
-            assert!(mean_z2 < 2.0, "radius {radius}: mean z^2 = {mean_z2}");
+            let p = cam.pos + t * d;
+            let n = p.normalize();
+            let to_c = c - p;
+            let dist = to_c.length();
+            let cos = n.dot(to_c / dist);
+            let sin_max = radius / dist;
+            if cos < sin_max + 0.02 {
+                continue;
+            }
+            out.push(LitPixel {
+                px,
+                py,
+                got: film.pixel(px, py)[0] as f64,
+                var: film.variance[(py * 32 + px) as usize][0] as f64,
+                expected: 0.8 / PI * 20000.0 / (4.0 * PI * dist * dist) * cos,
+            });
         }
     }
+    assert!(out.len() > 100, "only {} pixels checked", out.len());
+    out
+}
+
+/// Every pixel where the analytic value holds must agree with it within its own standard error, from
+/// r = 5 down to r = 1e-4 (where sampling must neither blow up nor lose precision), for cone sampling
+/// (the default), area sampling (the course's method) and cone sampling with the Sobol' sampler. The
+/// course's first estimator, which dropped the light-side cosine, fails this.
+#[test]
+fn sphere_light_matches_point_light_at_every_radius() {
+    let variants = [
+        "",
+        "light_sampling = \"area\"",
+        "sampler = \"sobol\"",
+        "sampler = \"sobol\"\nlight_sampling = \"area\"",
+    ];
+    for extra in variants {
+        for radius in [5.0, 1.0, 1e-2, 1e-4] {
+            let pixels = lit_pixels(radius, 64, extra);
+            let mut chi2 = 0.0;
+            for p in &pixels {
+                // Standard error from the pixel's own variance, plus f32 rounding of the formula.
+                let tol = 5.0 * p.var.sqrt() + 2e-4 * p.expected;
+                assert!(
+                    (p.got - p.expected).abs() <= tol,
+                    "[{extra}] radius {radius}, pixel ({},{}): got {}, expected {}, sigma {}",
+                    p.px,
+                    p.py,
+                    p.got,
+                    p.expected,
+                    p.var.sqrt()
+                );
+                if p.var > 0.0 {
+                    chi2 += (p.got - p.expected).powi(2) / p.var;
+                }
+            }
+            // Unbiasedness across the image: the average squared z-score is ~1 for an unbiased estimator
+            // with independent samples (a biased one, e.g. without the light-side cosine, gives z^2 >> 1
+            // at r = 5). Sobol' points are not independent: the per-pixel variance then overestimates
+            // the error, and z^2 falls below 1.
+            if radius >= 1.0 {
+                let mean_z2 = chi2 / pixels.len() as f64;
+                assert!(
+                    mean_z2 < 2.0,
+                    "[{extra}] radius {radius}: mean z^2 = {mean_z2}"
+                );
+            }
+        }
+    }
+    assert_no_validation_errors();
+}
+
+/// Without next-event estimation for sphere lights (`light_sampling = "none"`), light arrives only when a
+/// cosine-sampled bounce hits the light (about 1 sample in 60 here): most pixels see it a few times, so
+/// each pixel's variance estimate is poor, but the image mean over the analytic pixels is still unbiased:
+/// it must match the analytic mean within 5 standard errors (the sample variance is unbiased even when
+/// most samples are 0, and the pixels are independent). Cone sampling on the same pixels has a far
+/// smaller standard error: the point of next-event estimation.
+#[test]
+fn no_light_sampling_is_unbiased_but_noisier() {
+    let radius = 5.0;
+    let stats = |extra: &str| {
+        let pixels = lit_pixels(radius, 512, extra);
+        let n = pixels.len() as f64;
+        let got = pixels.iter().map(|p| p.got).sum::<f64>() / n;
+        let expected = pixels.iter().map(|p| p.expected).sum::<f64>() / n;
+        let se = pixels.iter().map(|p| p.var).sum::<f64>().sqrt() / n;
+        (got, expected, se)
+    };
+    let (got, expected, se) = stats("light_sampling = \"none\"");
+    assert!(se > 0.0);
+    assert!(
+        (got - expected).abs() < 5.0 * se,
+        "no light sampling: mean {got} vs {expected}, standard error {se}"
+    );
+    let (_, _, se_cone) = stats("");
+    assert!(
+        se_cone * 3.0 < se,
+        "cone sampling's standard error {se_cone} is not well below no light sampling's {se}"
+    );
     assert_no_validation_errors();
 }
 

@@ -597,6 +597,22 @@ fn unknown_filter() {
 }
 
 #[test]
+fn unknown_sampler() {
+    let text = with_base("[render]\nsampler = \"halton\"   # line 10\n");
+    let err = expect_error_exact(&text, 10, "render.sampler");
+    assert!(err.to_string().contains("\"sobol\""), "{err}");
+}
+
+#[test]
+fn unknown_light_sampling() {
+    let text = with_base("[render]\nlight_sampling = 3   # line 10\n");
+    expect_error_exact(&text, 10, "render.light_sampling");
+    let text = with_base("[render]\nlight_sampling = \"solid-angle\"   # line 10\n");
+    let err = expect_error_exact(&text, 10, "render.light_sampling");
+    assert!(err.to_string().contains("\"cone\""), "{err}");
+}
+
+#[test]
 fn filter_sigma_zero() {
     let text = with_base("[render]\nfilter_sigma = 0   # line 10\n");
     expect_error_exact(&text, 10, "render.filter_sigma");

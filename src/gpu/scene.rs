@@ -6,7 +6,7 @@
 
 use super::types::*;
 use crate::scene::bvh::{self, Bvh};
-use crate::scene::{Filter, Light, Material, Scene};
+use crate::scene::{Filter, Light, LightSampling, Material, Sampler, Scene};
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -302,8 +302,15 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         height: scene.image.height,
         max_bounces: scene.render.max_bounces,
         seed: scene.render.seed,
-        _pad1: 0,
-        _pad2: 0,
+        sampler: match scene.render.sampler {
+            Sampler::Independent => 0,
+            Sampler::Sobol => 1,
+        },
+        light_sampling: match scene.render.light_sampling {
+            LightSampling::Cone => 0,
+            LightSampling::Area => 1,
+            LightSampling::None => 2,
+        },
         num_spheres: 0,
         num_triangles: 0,
         num_lights: 0,

@@ -25,8 +25,10 @@ pub struct GpuParams {
     pub height: u32,
     pub max_bounces: u32,
     pub seed: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// `scene::Sampler`: 0 independent, 1 Sobol (rng.wgsl's SAMPLER_*).
+    pub sampler: u32,
+    /// `scene::LightSampling`: 0 cone, 1 area, 2 none (scene.wgsl's LIGHT_SAMPLING_*).
+    pub light_sampling: u32,
     pub num_spheres: u32,
     pub num_triangles: u32,
     pub num_lights: u32,

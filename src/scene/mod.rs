@@ -82,6 +82,32 @@ pub enum Filter {
     None,
 }
 
+/// Where a path's random numbers come from (`render.sampler`). Both are pure functions of (pixel, sample
+/// index, dimension, seed), so passes, tiles and sample ranges split either exactly (rng.wgsl).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Sampler {
+    /// Independent uniform numbers from a hash (PCG4D).
+    #[default]
+    Independent,
+    /// Owen-scrambled Sobol' points, shuffled and padded per pair of dimensions (Burley 2020): the
+    /// samples of a pixel stratify each pair of dimensions.
+    Sobol,
+}
+
+/// How sphere lights are sampled for next-event estimation at diffuse surfaces (`render.light_sampling`).
+/// Point lights are always sampled: no path can hit them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightSampling {
+    /// A direction uniform in the cone the sphere subtends (solid-angle sampling).
+    #[default]
+    Cone,
+    /// A point on the hemisphere of the light that faces the shaded point, cosine-distributed about
+    /// its axis (the course's method; area sampling).
+    Area,
+    /// No next-event estimation for sphere lights: their emission counts when a path hits them.
+    None,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
     pub samples: u32,
@@ -90,6 +116,8 @@ pub struct RenderSettings {
     pub filter: Filter,
     pub filter_sigma: f32,
     pub background: Vec3,
+    pub sampler: Sampler,
+    pub light_sampling: LightSampling,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -18,7 +18,8 @@
 
 use super::mesh::{self, Mesh, ObjMesh, Placement, Texture};
 use super::{
-    Camera, Filter, Gamma, ImageSettings, Light, Material, RenderSettings, Scene, Sphere, Triangle,
+    Camera, Filter, Gamma, ImageSettings, Light, LightSampling, Material, RenderSettings, Sampler,
+    Scene, Sphere, Triangle,
 };
 use glam::Vec3;
 use serde::Deserialize;
@@ -189,6 +190,8 @@ struct RawRender {
     filter: Option<Spanned<String>>,
     filter_sigma: Option<Spanned<f32>>,
     background: Option<Spanned<RawVec3>>,
+    sampler: Option<Spanned<String>>,
+    light_sampling: Option<Spanned<String>>,
 }
 
 /// One flat struct for every material type rather than a serde-tagged enum: a tagged enum buffers its
@@ -630,6 +633,37 @@ impl Checker<'_> {
                 "Give a linear RGB radiance with components >= 0; [0, 0, 0] is black.",
             )
         })?;
+        let sampler = match &raw.sampler {
+            None => Sampler::Independent,
+            Some(s) => match s.get_ref().as_str() {
+                "independent" => Sampler::Independent,
+                "sobol" => Sampler::Sobol,
+                other => {
+                    return Err(self.error(
+                        s.span(),
+                        "render.sampler",
+                        format!("unknown sampler \"{other}\""),
+                        "Use \"independent\" (the default) or \"sobol\".",
+                    ));
+                }
+            },
+        };
+        let light_sampling = match &raw.light_sampling {
+            None => LightSampling::Cone,
+            Some(s) => match s.get_ref().as_str() {
+                "cone" => LightSampling::Cone,
+                "area" => LightSampling::Area,
+                "none" => LightSampling::None,
+                other => {
+                    return Err(self.error(
+                        s.span(),
+                        "render.light_sampling",
+                        format!("unknown light sampling strategy \"{other}\""),
+                        "Use \"cone\" (the default), \"area\" or \"none\".",
+                    ));
+                }
+            },
+        };
         Ok(RenderSettings {
             samples,
             max_bounces,
@@ -637,6 +671,8 @@ impl Checker<'_> {
             filter,
             filter_sigma,
             background,
+            sampler,
+            light_sampling,
         })
     }
 
@@ -1543,6 +1579,8 @@ fov      = 45
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
                 background: Vec3::ZERO,
+                sampler: Sampler::Independent,
+                light_sampling: LightSampling::Cone,
             }
         );
         assert_eq!(scene.material_names, ["white", "mirror", "glass"]);
@@ -1618,6 +1656,8 @@ fov      = 45
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
                 background: Vec3::ZERO,
+                sampler: Sampler::Independent,
+                light_sampling: LightSampling::Cone,
             }
         );
         assert!(scene.materials.is_empty() && scene.material_names.is_empty());
