@@ -557,6 +557,27 @@ def read_csv(path) -> list[dict]:
         return list(csv.DictReader(f))
 
 
+def fit_time_model(points) -> tuple[float, float]:
+    """(a, b) of seconds = a + b spp, fitted to a ladder's (spp, seconds) by least squares on the RELATIVE
+    residuals (each render weighs alike whatever its length), over the renders of at least 1/16 of the
+    ladder's top spp (the shortest renders are all timer jitter); a >= 0."""
+    top = max(s for s, _ in points)
+    pts = [(s, t) for s, t in points if s * 16 >= top and t > 0] or [(s, t) for s, t in points if t > 0]
+    w = [1.0 / (t * t) for _, t in pts]
+    sw = sum(w)
+    ss = sum(wi * s for wi, (s, _) in zip(w, pts))
+    st = sum(wi * t for wi, (_, t) in zip(w, pts))
+    sss = sum(wi * s * s for wi, (s, _) in zip(w, pts))
+    sst = sum(wi * s * t for wi, (s, t) in zip(w, pts))
+    det = sw * sss - ss * ss
+    if len(pts) >= 2 and det > 0:
+        a = (sss * st - ss * sst) / det
+        b = (sw * sst - ss * st) / det
+        if a >= 0 and b > 0:
+            return a, b
+    return 0.0, sst / sss  # through the origin
+
+
 def summarize(ladder_rows: list[dict]) -> list[dict]:
     """Per scene and renderer, from the ladder: samples/s, times to the TARGETS, error at equal time."""
     scenes: dict[str, dict[str, list]] = {}
@@ -567,28 +588,32 @@ def summarize(ladder_rows: list[dict]) -> list[dict]:
         same_as[r["scene"]] = r.get("same_as", "")
     rows = []
     for name, ladders in scenes.items():
-        # A render of more samples never takes less time in expectation: the running maximum keeps the
-        # timing noise of the tiny renders at the ladder's bottom from folding the curve back.
-        monotone = {}
-        for label, pts in ladders.items():
-            times, run = [], 0.0
-            for t, _, _, _ in pts:
-                run = max(run, t)
-                times.append(run)
-            monotone[label] = times
+        # Render time is affine in spp (a fixed cost per render plus a cost per sample); on a shared
+        # machine single renders take spikes of load. Each ladder's times are therefore replaced by the
+        # fitted model seconds = a + b spp (fit_time_model), which is monotone and uses every render;
+        # the measured seconds stay in the ladder CSV.
+        models = {label: fit_time_model([(p[2], p[0]) for p in pts]) for label, pts in ladders.items()}
+        modelled = {label: [models[label][0] + models[label][1] * p[2] for p in pts]
+                    for label, pts in ladders.items()}
         # Equal time: the longest time that every renderer's ladder reached on this scene.
-        t_eq = min(times[-1] for times in monotone.values())
+        t_eq = min(times[-1] for times in modelled.values())
         for label, pts in ladders.items():
-            good = [(t, p[1]) for t, p in zip(monotone[label], pts) if p[1] > 0]
+            good = [(t, p[1]) for t, p in zip(modelled[label], pts) if p[1] > 0]
+            a_fixed, b_per_spp = models[label]
+            pixels = pts[-1][3] * pts[-1][0] / pts[-1][2]  # samples/s x seconds / spp
             slope = fitted_slope([(spp, e) for _, e, spp, _ in pts])
             c = efficiency_constant(good)
             # Noise per sample, independent of speed: error x sqrt(spp) (geometric mean over the renders
             # of 32 spp or more, or the last three).
             top = [p for p in pts if p[2] >= 32 and p[1] > 0] or [p for p in pts if p[1] > 0][-3:]
             per_sample = math.exp(sum(math.log(p[1] * math.sqrt(p[2])) for p in top) / len(top)) if top else None
-            row = {"scene": name, "renderer": label, "samples_per_s": f"{pts[-1][3]:.0f}",
+            row = {"scene": name, "renderer": label,
+                   "samples_per_s": f"{pixels / b_per_spp:.0f}",
+                   "samples_per_s_largest_render": f"{pts[-1][3]:.0f}",
+                   "fixed_seconds_per_render": f"{a_fixed:.4f}",
                    "error_x_sqrt_spp": "" if per_sample is None else f"{per_sample:.4f}",
                    "max_spp": pts[-1][2], "max_seconds": f"{pts[-1][0]:.3f}",
+                   "max_seconds_modelled": f"{modelled[label][-1]:.3f}",
                    "error_at_max": f"{pts[-1][1]:.5f}", "slope_vs_spp": f"{slope:.3f}",
                    "efficiency_c": "" if c is None else f"{c:.5f}"}
             for target in TARGETS:
