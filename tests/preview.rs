@@ -1,7 +1,8 @@
 //! `vkpath preview` in a real window: an X server in memory (Xvfb, through `xvfb-run -a`, which
 //! `ci/setup.sh --test` installs), the window's swapchain on lavapipe, the Khronos validation layer on.
 //!
-//! What the window showed (`--screenshot`, the bytes of the last present) is compared with a headless
+//! What the window showed (`--screenshot`: the last present's pixels, read back from the swapchain
+//! image) is compared with a headless
 //! `vkpath render` of the same scene at the spp the preview reports: the same pixels, within 8-bit
 //! rounding. A second run resizes the window, restarts, saves and orbits the camera (scripted with the
 //! hidden `--script` flag, which drives the same code as the keys and the mouse), and must end without
@@ -14,6 +15,7 @@
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::sync::Mutex;
 use tempfile::TempDir;
 use vkpath::preview::control::orbit;
 
@@ -47,8 +49,13 @@ fn run(cmd: &mut Command) -> Output {
         .unwrap_or_else(|e| panic!("could not run {cmd:?}: {e}"))
 }
 
+/// One X server at a time: `xvfb-run -a` picks the first display number without a lock file, and two
+/// started at once can pick the same one.
+static XVFB: Mutex<()> = Mutex::new(());
+
 /// `vkpath preview ARGS` under `xvfb-run -a` (a free display number each time), validation on.
 fn preview(dir: &Path, args: &[&str]) -> Value {
+    let _one_at_a_time = XVFB.lock().unwrap_or_else(|p| p.into_inner());
     let out = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1024x768x24", BIN, "preview"])
         .args(args)
@@ -149,6 +156,9 @@ fn the_screenshot_is_the_headless_render_at_the_same_spp() {
         .concat(),
     );
     assert_eq!(report["presents"], 12, "{report}");
+    // The window is at the image's size, so the screenshot is the window's pixels at 1:1.
+    assert_eq!(report["window"], serde_json::json!([96, 64]), "{report}");
+    assert_eq!(report["screenshot_source"], "swapchain", "{report}");
     assert_eq!(report["width"], 96);
     assert_eq!(report["height"], 64);
     let spp = spp_of(&report);
@@ -173,8 +183,9 @@ fn resizes_restarts_saves_and_orbits_without_validation_errors() {
     let dir = TempDir::new().unwrap();
     let scene = write_scene(dir.path(), "course.toml", None);
     let scene_arg = scene.to_str().unwrap();
+    // Ends back at the image's size, so that the screenshot (the window's pixels) is at 1:1.
     let script = "3:resize 300x200; 6:restart; 9:resize 80x240; 12:save; 15:orbit 40 15; \
-                  18:resize 200x150; 21:restart";
+                  17:resize 200x150; 19:restart; 20:resize 96x64";
     let report = preview(
         dir.path(),
         &[
@@ -182,7 +193,7 @@ fn resizes_restarts_saves_and_orbits_without_validation_errors() {
             &SIZE,
             &[
                 "--frames",
-                "26",
+                "28",
                 "--screenshot",
                 "shot.png",
                 "--save-dir",
@@ -193,10 +204,11 @@ fn resizes_restarts_saves_and_orbits_without_validation_errors() {
         ]
         .concat(),
     );
-    assert_eq!(report["presents"], 26, "{report}");
+    assert_eq!(report["presents"], 28, "{report}");
     assert_eq!(report["restarts"], 2, "{report}");
-    assert!(report["resizes"].as_u64() >= Some(3), "{report}");
-    assert_eq!(report["window"], serde_json::json!([200, 150]), "{report}");
+    assert!(report["resizes"].as_u64() >= Some(4), "{report}");
+    assert_eq!(report["window"], serde_json::json!([96, 64]), "{report}");
+    assert_eq!(report["screenshot_source"], "swapchain", "{report}");
     // S: the image shown then, as PNG and EXR, named after its spp.
     let saved: Vec<PathBuf> = report["saved"]
         .as_array()

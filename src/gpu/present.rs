@@ -113,6 +113,22 @@ pub struct Presenter {
     window_size: [u32; 2],
     /// Set on resize or when the swapchain is out of date / suboptimal.
     stale: bool,
+    /// Whether the swapchain images can be copied from (then [`Presenter::request_capture`] works).
+    can_capture: bool,
+    /// Set by [`Presenter::request_capture`]: the next present also copies what it shows here.
+    capture: Option<Buffer>,
+    /// Where in the captured swapchain image the image was blitted, and the swapchain's size and
+    /// format then; set when the copy is recorded.
+    captured: Option<([u32; 4], vk::Extent2D, vk::Format)>,
+}
+
+/// The pixels a present put in the window, read back from the swapchain image: the part the image
+/// was fitted into, as 8-bit RGB, top row first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Capture {
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<u8>,
 }
 
 /// What one [`Presenter::present`] did.
@@ -152,6 +168,9 @@ impl Presenter {
             pending_upload: false,
             window_size,
             stale: true,
+            can_capture: false,
+            capture: None,
+            captured: None,
         };
         // SAFETY: plain object creation on a valid device.
         unsafe {
@@ -196,6 +215,70 @@ impl Presenter {
     /// The swapchain's size in pixels.
     pub fn extent(&self) -> [u32; 2] {
         [self.extent.width, self.extent.height]
+    }
+
+    /// Asks the next present that shows something to also copy the swapchain image back, for
+    /// [`Presenter::take_capture`]. Returns false (and does nothing) when the swapchain images cannot
+    /// be copied from on this device.
+    pub fn request_capture(&mut self) -> Result<bool, GpuError> {
+        if !self.can_capture {
+            return Ok(false);
+        }
+        let bytes = u64::from(self.extent.width) * u64::from(self.extent.height) * 4;
+        // Sized for the current swapchain; a resize before the present re-requests in record().
+        self.capture = Some(Buffer::new(
+            &self.ctx,
+            "preview capture",
+            bytes.max(4),
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?);
+        self.captured = None;
+        Ok(true)
+    }
+
+    /// The pixels the captured present showed, where the image was: waits for that present's copy.
+    /// `None` if no capture was requested or none was recorded yet.
+    pub fn take_capture(&mut self) -> Result<Option<Capture>, GpuError> {
+        let Some(([x0, y0, x1, y1], extent, format)) = self.captured else {
+            return Ok(None);
+        };
+        // SAFETY: the fence of the present that recorded the copy.
+        unsafe {
+            self.ctx
+                .device
+                .wait_for_fences(&[self.fence], true, u64::MAX)
+        }
+        .map_err(|e| GpuError::vk("vkWaitForFences", e))?;
+        let Some(buffer) = self.capture.take() else {
+            return Ok(None);
+        };
+        self.captured = None;
+        let bytes = buffer.read_bytes()?;
+        let bgr = matches!(
+            format,
+            vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB
+        );
+        let row = extent.width as usize * 4;
+        let mut rgb = Vec::with_capacity((x1 - x0) as usize * (y1 - y0) as usize * 3);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let i = y as usize * row + x as usize * 4;
+                let p = bytes.get(i..i + 4).ok_or_else(|| {
+                    GpuError::Usage("the capture buffer is smaller than the swapchain".into())
+                })?;
+                if bgr {
+                    rgb.extend([p[2], p[1], p[0]]);
+                } else {
+                    rgb.extend([p[0], p[1], p[2]]);
+                }
+            }
+        }
+        Ok(Some(Capture {
+            width: x1 - x0,
+            height: y1 - y0,
+            rgb,
+        }))
     }
 
     fn surface(&self) -> Result<&Surface, GpuError> {
@@ -277,6 +360,15 @@ impl Presenter {
         } else {
             vk::PresentModeKHR::FIFO
         };
+        // Copying from the swapchain is only for --screenshot (what the window shows, read back).
+        let can_capture = caps
+            .supported_usage_flags
+            .contains(vk::ImageUsageFlags::TRANSFER_SRC);
+        let usage = if can_capture {
+            vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::TRANSFER_SRC
+        } else {
+            vk::ImageUsageFlags::TRANSFER_DST
+        };
         let mut count = caps.min_image_count + 1;
         if caps.max_image_count > 0 {
             count = count.min(caps.max_image_count);
@@ -293,7 +385,7 @@ impl Presenter {
             .image_color_space(format.color_space)
             .image_extent(extent)
             .image_array_layers(1)
-            .image_usage(vk::ImageUsageFlags::TRANSFER_DST)
+            .image_usage(usage)
             .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
             .pre_transform(caps.current_transform)
             .composite_alpha(choose_alpha(caps.supported_composite_alpha))
@@ -320,6 +412,7 @@ impl Presenter {
         }
         self.format = format.format;
         self.extent = extent;
+        self.can_capture = can_capture;
         self.stale = false;
         Ok(())
     }
@@ -703,6 +796,64 @@ impl Presenter {
                     vk::Filter::NEAREST,
                 );
             }
+            let mut layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+            let buffer_bytes = u64::from(self.extent.width) * u64::from(self.extent.height) * 4;
+            let shown = self
+                .source
+                .as_ref()
+                .filter(|s| s.initialised)
+                .map(|s| fit(s.size, [self.extent.width, self.extent.height]));
+            if let (Some(buffer), Some(rect)) = (&self.capture, shown)
+                && buffer.size() >= buffer_bytes
+            {
+                // Read back what this present shows: the blit's writes, then a copy to the buffer.
+                device.cmd_pipeline_barrier(
+                    cb,
+                    transfer,
+                    transfer,
+                    vk::DependencyFlags::empty(),
+                    &[],
+                    &[],
+                    &[barrier(
+                        target,
+                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                        vk::AccessFlags::TRANSFER_WRITE,
+                        vk::AccessFlags::TRANSFER_READ,
+                    )],
+                );
+                device.cmd_copy_image_to_buffer(
+                    cb,
+                    target,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    buffer.raw,
+                    &[vk::BufferImageCopy::default()
+                        .image_subresource(vk::ImageSubresourceLayers {
+                            aspect_mask: vk::ImageAspectFlags::COLOR,
+                            mip_level: 0,
+                            base_array_layer: 0,
+                            layer_count: 1,
+                        })
+                        .image_extent(vk::Extent3D {
+                            width: self.extent.width,
+                            height: self.extent.height,
+                            depth: 1,
+                        })],
+                );
+                device.cmd_pipeline_barrier(
+                    cb,
+                    transfer,
+                    vk::PipelineStageFlags::HOST,
+                    vk::DependencyFlags::empty(),
+                    &[vk::MemoryBarrier::default()
+                        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                        .dst_access_mask(vk::AccessFlags::HOST_READ)],
+                    &[],
+                    &[],
+                );
+                layout = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+                self.captured = Some((rect, self.extent, self.format));
+            }
             device.cmd_pipeline_barrier(
                 cb,
                 transfer,
@@ -712,7 +863,7 @@ impl Presenter {
                 &[],
                 &[barrier(
                     target,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    layout,
                     vk::ImageLayout::PRESENT_SRC_KHR,
                     vk::AccessFlags::TRANSFER_WRITE,
                     vk::AccessFlags::empty(),

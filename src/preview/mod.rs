@@ -16,7 +16,7 @@ pub mod control;
 
 use crate::Error;
 use crate::film::Film;
-use crate::gpu::present::{Presented, Presenter, WindowHandles};
+use crate::gpu::present::{Capture, Presented, Presenter, WindowHandles};
 use crate::gpu::{ContextOptions, GpuContext, GpuError};
 use crate::render::{RenderOptions, Renderer};
 use crate::scene::{Camera, Scene};
@@ -55,7 +55,9 @@ pub struct PreviewSettings {
     pub max_spp: Option<u32>,
     /// Exit after this many presents of a rendered image (`--frames`).
     pub frames: Option<u64>,
-    /// Save the image shown by the last present here as PNG when exiting (`--screenshot`).
+    /// Save what the last present showed here as PNG when exiting (`--screenshot`): the window's
+    /// pixels where the image was, read back from the swapchain (at the window's scale), or, on a
+    /// device whose swapchain cannot be read, the image as uploaded.
     pub screenshot: Option<PathBuf>,
     /// Scripted actions (`--script`), for tests.
     pub script: Vec<Step>,
@@ -93,6 +95,9 @@ pub struct PreviewReport {
     /// The window's last size in pixels.
     pub window: [u32; 2],
     pub screenshot: Option<PathBuf>,
+    /// Where the screenshot's pixels came from: "swapchain" (read back from the window's swapchain
+    /// image) or "image" (the image as uploaded, when the swapchain cannot be read).
+    pub screenshot_source: Option<String>,
     /// Files written by S (or a scripted save).
     pub saved: Vec<PathBuf>,
     /// Saves that failed, with why.
@@ -176,6 +181,9 @@ struct App {
     cursor: PhysicalPosition<f64>,
     mouse_down: bool,
     next_step: usize,
+    /// The last present's pixels, read back from the swapchain (for `--screenshot`).
+    capture: Option<Capture>,
+    capture_requested: bool,
     report: PreviewReport,
     error: Option<Error>,
     started: Instant,
@@ -208,6 +216,8 @@ impl App {
             cursor: PhysicalPosition::new(0.0, 0.0),
             mouse_down: false,
             next_step: 0,
+            capture: None,
+            capture_requested: false,
             report,
             error: None,
             started: Instant::now(),
@@ -305,6 +315,13 @@ impl App {
         let Some(presenter) = self.presenter.as_mut() else {
             return Ok(());
         };
+        let last = self
+            .settings
+            .frames
+            .is_some_and(|n| self.report.presents + 1 >= n);
+        if last && self.settings.screenshot.is_some() && !self.capture_requested {
+            self.capture_requested = presenter.request_capture()?;
+        }
         let upload = is_new.then(|| {
             (
                 frame.rgba.as_slice(),
@@ -316,6 +333,9 @@ impl App {
         }
         if is_new {
             self.report.images_shown += 1;
+        }
+        if last && self.capture_requested {
+            self.capture = presenter.take_capture()?;
         }
         self.shown = Some(frame);
         self.report.presents += 1;
@@ -474,8 +494,17 @@ impl App {
                         .into(),
                 ));
             };
-            write_png(&frame.rgb, path)?;
+            let captured = self
+                .capture
+                .take()
+                .and_then(|c| image::RgbImage::from_raw(c.width, c.height, c.rgb));
+            let source = match &captured {
+                Some(_) => "swapchain",
+                None => "image",
+            };
+            write_png(captured.as_ref().unwrap_or(&frame.rgb), path)?;
             self.report.screenshot = Some(path.clone());
+            self.report.screenshot_source = Some(source.into());
         }
         if let Some(frame) = &self.shown {
             self.report.spp = frame.film.spp;
