@@ -658,8 +658,9 @@ def report(out: Path, tag: str) -> int:
         cells.append(row["slope_vs_spp"])
         md.append("| " + " | ".join(cells) + " |")
     md += ["", "~ : beyond the ladder, extrapolated as error = c / sqrt(time) from its last three renders; "
-           "< : reached by the ladder's first render (an upper bound). samples/s: the ladder's largest "
-           "render. error x sqrt(spp): the noise per sample, whatever the speed (lower is better). Last "
+           "< : reached by the ladder's first render (an upper bound). Times and samples/s come from "
+           "each ladder's fitted time model seconds = a + b spp (measured seconds: the ladder CSV). "
+           "error x sqrt(spp): the noise per sample, whatever the speed (lower is better). Last "
            "column: the fitted convergence rate (-0.5 expected).",
            "", "Unbiasedness (the two renderers' references; expected: ratio ~1, |z| small):", "",
            "| scene | ref spp each | ref noise | rms diff | expected from noise | ratio of squares | "
