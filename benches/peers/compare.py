@@ -28,10 +28,12 @@ finished image (`dr.sync_thread()`), after one untimed warm-up render of the sam
 loads from Dr.Jit's cache) the kernel; each timed call still pays Mitsuba's per-call tracing of the
 integrator, which is part of what a user pays per render. The two renderers never run at once.
 
-From each ladder: the time to reach 5%, 2% and 1% relative error (piecewise linear interpolation of
-log(error) against log(seconds) between the measured renders; outside the measured range, an
-extrapolation along the ladder's fitted slope, marked with ~ in the table) and the error at equal time
-(the longest time that every renderer's ladder reached on that scene, interpolated the same way).
+From each ladder: a time model seconds = a + b spp fitted to its renders (single renders on a shared
+machine take load spikes; the measured seconds stay in the ladder CSV), samples/s = pixels / b, the time
+to reach 5%, 2% and 1% relative error (piecewise linear interpolation of log(error) against
+log(modelled seconds) between the renders; beyond the last render, error = c / sqrt(seconds) from its last
+three renders, marked with ~ in the table) and the error at equal time (the longest time that every
+renderer's ladder reached on that scene, interpolated the same way): the figure of merit.
 
 Outputs, under --out (default benches/peers/results/): <tag>-ladder.csv (every render),
 <tag>-summary.csv (per scene and renderer), <tag>-reference.csv (the unbiasedness check), <tag>.md
