@@ -515,9 +515,10 @@ pub fn markdown_table(
     };
     let mut out = format!(
         "{}, {}x{}, up to {} spp, against {reference_text}, on {device}. Seconds are cumulative pass times of a progressive render; \
-         times to an error are log-log interpolated, empty when not reached.\n\n\
-         | setting | Msamples/s | rel. error at {} spp | s to 5% | s to 2% | s to 1% |\n\
-         | --- | ---: | ---: | ---: | ---: | ---: |\n",
+         times and spp to an error are log-log interpolated, empty when not reached. The errors do not depend on the \
+         machine (same seeds, same bits); the seconds do.\n\n\
+         | setting | Msamples/s | rel. error at {} spp | s to 5% | s to 2% | s to 1% | spp to 5% | spp to 2% | spp to 1% |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
         scene.stem(),
         scene.image.width,
         scene.image.height,
@@ -527,15 +528,23 @@ pub fn markdown_table(
     for s in &config.settings {
         let curve: Vec<&Point> = points.iter().filter(|p| p.setting == s.label).collect();
         let Some(last) = curve.last() else { continue };
-        let xy: Vec<(f64, f64)> = curve.iter().map(|p| (p.seconds, p.rel_error)).collect();
-        let times: Vec<String> = THRESHOLDS
+        let by_time: Vec<(f64, f64)> = curve.iter().map(|p| (p.seconds, p.rel_error)).collect();
+        let by_spp: Vec<(f64, f64)> = curve
             .iter()
-            .map(|&t| {
-                time_to_error(&xy, t)
-                    .map(|s| format!("{s:.3}"))
-                    .unwrap_or_default()
-            })
+            .map(|p| (f64::from(p.spp), p.rel_error))
             .collect();
+        let reach = |xy: &[(f64, f64)], digits: usize| -> Vec<String> {
+            THRESHOLDS
+                .iter()
+                .map(|&t| {
+                    time_to_error(xy, t)
+                        .map(|s| format!("{s:.digits$}"))
+                        .unwrap_or_default()
+                })
+                .collect()
+        };
+        let mut times = reach(&by_time, 3);
+        times.extend(reach(&by_spp, 0));
         let label = if s.label == "default" {
             format!(
                 "default (max_bounces={}, roulette=3, adaptive passes)",
@@ -589,11 +598,20 @@ pub fn write_plot(
     if usable.is_empty() {
         (x0, x1, y0, y1) = (1e-3, 1.0, 1e-3, 1.0);
     }
-    // Whole decades around the data, and at least one decade below 1% so the thresholds show.
+    // Time: whole decades around the data. Error: from a whole decade at or below min(data, 1%) (so the
+    // thresholds show) up to the next 1, 2 or 5 times a power of ten above the data.
     let decade_floor = |v: f64| 10f64.powf(v.log10().floor());
     let decade_ceil = |v: f64| 10f64.powf(v.log10().ceil());
+    let nice_ceil = |v: f64| {
+        let d = decade_floor(v);
+        [1.0, 2.0, 5.0, 10.0]
+            .into_iter()
+            .map(|m| m * d)
+            .find(|&c| c >= v)
+            .unwrap_or(10.0 * d)
+    };
     let (x0, x1) = (decade_floor(x0), decade_ceil(x1 * 1.01));
-    let (y0, y1) = (decade_floor(y0.min(0.01 * 0.999)), decade_ceil(y1 * 1.01));
+    let (y0, y1) = (decade_floor(y0.min(0.01 * 0.999)), nice_ceil(y1 * 1.01));
 
     let mut buf = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
     {
@@ -616,13 +634,16 @@ pub fn write_plot(
             .label_style(("sans-serif", 15))
             .draw()
             .map_err(|e| fail(e.to_string()))?;
-        for t in THRESHOLDS {
-            chart
-                .draw_series(LineSeries::new(
-                    [(x0, t), (x1, t)],
-                    RGBColor(255, 170, 90).stroke_width(1),
-                ))
+        let orange = RGBColor(255, 170, 90);
+        for (i, t) in THRESHOLDS.into_iter().enumerate() {
+            let drawn = chart
+                .draw_series(LineSeries::new([(x0, t), (x1, t)], orange.stroke_width(1)))
                 .map_err(|e| fail(e.to_string()))?;
+            if i == 0 {
+                drawn
+                    .label("5%, 2%, 1%")
+                    .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], orange));
+            }
         }
         for (i, s) in settings.iter().enumerate() {
             let color = Palette99::pick(i).to_rgba();
