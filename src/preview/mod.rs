@@ -43,7 +43,9 @@ pub const PUBLISH_INTERVAL: Duration = Duration::from_millis(250);
 /// 5 ms of work on lavapipe for the course scene (1.5 Msamples/s on 2 cores), so a present waits at
 /// most that long behind the renderer. Measured at 512x512 on lavapipe with other work on the machine:
 /// strips of 32K pixels kept a present waiting 60-80 ms (16 presents/s), 8K pixels 5-25 ms (30/s, the
-/// pacing's cap), at the same samples/s. On a GPU it only means a few more (cheap) submissions.
+/// pacing's cap). The price is throughput: 64 submissions per sample at 512x512 trace about 2/3 of the
+/// samples/s of `vkpath render` (0.30 vs 0.45 Msamples/s; 0.37 vs 0.56 at 10 presents/s, so it is the
+/// strips, not the presents). On a GPU it only means a few more (cheap) submissions.
 const STRIP_PIXELS: u32 = 8 * 1024;
 
 /// What `vkpath preview` was asked to do.
@@ -469,6 +471,11 @@ impl App {
     /// Stops the render thread, waits for saves, writes the screenshot, and fills in the report.
     fn finish(&mut self) -> Result<PreviewReport, Error> {
         lock(&self.shared).quit = true;
+        // The render thread ends after the pass in flight (up to a second at 512x512 on lavapipe):
+        // hide the window now, so that quitting looks immediate.
+        if let Some(w) = &self.window {
+            w.set_visible(false);
+        }
         if let Some(t) = self.render_thread.take() {
             let _ = t.join();
         }
