@@ -546,9 +546,19 @@ pub fn markdown_table(
         let mut times = reach(&by_time, 3);
         times.extend(reach(&by_spp, 0));
         let label = if s.label == "default" {
+            // Spelled out from the scene and RenderOptions::default(), so that it stays true.
+            let o = RenderOptions::default();
             format!(
-                "default (max_bounces={}, roulette=3, adaptive passes)",
-                scene.render.max_bounces
+                "default (max_bounces={}, roulette={}, {} passes)",
+                scene.render.max_bounces,
+                match o.roulette_depth {
+                    u32::MAX => "off".to_string(),
+                    d => d.to_string(),
+                },
+                match o.samples_per_pass {
+                    None => "adaptive".to_string(),
+                    Some(k) => format!("{k}-spp"),
+                }
             )
         } else {
             s.label.clone()
