@@ -21,7 +21,7 @@ use crate::Error;
 use crate::film::Film;
 use crate::gpu::GpuContext;
 use crate::render::{RenderOptions, Renderer};
-use crate::scene::Scene;
+use crate::scene::{LightSampling, Sampler, Scene};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -58,6 +58,31 @@ fn count(value: &str, least: u32) -> Result<u32, String> {
 
 /// Every knob `--knobs` can turn.
 pub const KNOBS: &[Knob] = &[
+    Knob {
+        name: "sampler",
+        values: "independent or sobol",
+        apply: |v, s, _| {
+            s.render.sampler = match v {
+                "independent" => Sampler::Independent,
+                "sobol" => Sampler::Sobol,
+                _ => return Err(format!("\"{v}\" is not a sampler")),
+            };
+            Ok(())
+        },
+    },
+    Knob {
+        name: "light_sampling",
+        values: "cone, area or none",
+        apply: |v, s, _| {
+            s.render.light_sampling = match v {
+                "cone" => LightSampling::Cone,
+                "area" => LightSampling::Area,
+                "none" => LightSampling::None,
+                _ => return Err(format!("\"{v}\" is not a light-sampling strategy")),
+            };
+            Ok(())
+        },
+    },
     Knob {
         name: "max_bounces",
         values: "a number of scattering events (0 or more)",

@@ -223,7 +223,7 @@ struct ConvergenceArgs {
     #[arg(long, default_value_t = 128)]
     height: u32,
     /// Settings to measure, comma-separated: default, or knob=value joined by + (knobs: max_bounces,
-    /// roulette, samples_per_pass).
+    /// roulette, samples_per_pass, sampler, light_sampling).
     #[arg(long, default_value = vkpath::bench_convergence::DEFAULT_KNOBS)]
     knobs: String,
     /// Directory of the CSV, the PNG and the rendered reference.

@@ -162,12 +162,32 @@ fn knob_settings_parse_apply_and_refuse() {
     let (_, o) = settings[2].apply(&scene).unwrap();
     assert_eq!(o.samples_per_pass, None);
 
+    let settings = parse_settings(
+        "sampler=sobol,light_sampling=area,light_sampling=none+sampler=independent",
+        &scene,
+    )
+    .unwrap();
+    let (s, _) = settings[0].apply(&scene).unwrap();
+    assert_eq!(s.render.sampler, vkpath::scene::Sampler::Sobol);
+    let (s, _) = settings[1].apply(&scene).unwrap();
+    assert_eq!(s.render.light_sampling, vkpath::scene::LightSampling::Area);
+    let (s, _) = settings[2].apply(&scene).unwrap();
+    assert_eq!(
+        (s.render.light_sampling, s.render.sampler),
+        (
+            vkpath::scene::LightSampling::None,
+            vkpath::scene::Sampler::Independent
+        )
+    );
+
     for (bad, says) in [
         ("colour=red", "no knob \"colour\""),
         ("max_bounces", "not knob=value"),
         ("max_bounces=-1", "max_bounces=-1"),
         ("samples_per_pass=0", "at least 1"),
         ("roulette=sometimes", "or off"),
+        ("sampler=halton", "independent or sobol"),
+        ("light_sampling=bsdf", "cone, area or none"),
         ("default,default", "twice"),
         (" , ", "no setting"),
     ] {
