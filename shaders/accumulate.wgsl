@@ -13,6 +13,9 @@
 // using small and large superaccumulators" (2015). The window is 192 bits rather than the 277 that would
 // hold every f32 so that the accumulator (96 bytes per pixel) of a 4096x4096 image fits the 2 GiB that
 // lavapipe offers.
+// What exactness costs (lavapipe, 256x256, 64 spp, interleaved runs against the Kahan accumulator it
+// replaced): nothing measurable on the course scene (1.38 vs 1.39 Msamples/s), and about 45% of the
+// samples/s on 01-sphere, whose paths are so cheap that the six limb additions per sample dominate.
 //
 // The variance. The sums of squares only feed the error estimate, so they stay f32 with a Kahan
 // compensation (Kahan 1965): the rounding error of every addition is carried into the next, so the total
@@ -26,8 +29,8 @@
 // Radiance is never negative (every factor of the estimator is >= 0); a negative channel, which only a
 // bug could produce, is counted as 0 like a non-finite one, keeping the accumulator unsigned.
 //
-// The including kernel declares `accum: array<Accum>` (read_write storage); the functions below update
-// one entry of it in place, touching only the two or three limbs a sample reaches.
+// The including kernel declares `accum: array<Accum>` (read_write storage); accumulate_sample updates
+// one entry of it in place.
 
 const ACCUM_LIMBS: u32 = 6u;
 // The largest f32 below 2^64, (2^24 - 1) 2^40, as bits: larger samples are clamped to it. For positive
@@ -35,8 +38,9 @@ const ACCUM_LIMBS: u32 = 6u;
 const ACCUM_MAX_BITS: u32 = 0x5f7fffffu;
 
 struct Accum {
-    // Channel c's sum is the integer sum[c * ACCUM_LIMBS + k] * 2^(32 k), k = 0..5 (little-endian
-    // limbs), times 2^-96.
+    // Limb-major: sum[3 k + c] is limb k (k = 0..5, least significant first) of channel c. Channel c's
+    // sum is the integer sum over k of sum[3 k + c] 2^(32 k), times 2^-96. Keeping a limb's three
+    // channels together lets one vec3<u32> operation add all three.
     sum: array<u32, 18>,
     sum_sq: array<f32, 3>,
     sum_sq_c: array<f32, 3>, // Kahan compensation of sum_sq
@@ -51,74 +55,68 @@ fn is_finite_vec3(v: vec3<f32>) -> bool {
     return is_finite_f32(v.x) && is_finite_f32(v.y) && is_finite_f32(v.z);
 }
 
-// Adds x (finite) to channel c of accum[slot], exactly on the 2^-96 grid.
+// A sample as a 192-bit integer on the 2^-96 grid, per channel: the value lo + hi 2^32 placed at limb k
+// (hi < 2^24, k <= 4).
+struct GridTerm {
+    k: vec3<u32>,
+    lo: vec3<u32>,
+    hi: vec3<u32>,
+}
+
+// The grid integer of x >= 0 (any sign bit, -0 included, gives 0; the caller has removed non-finite x).
 //
 // x's bits: biased exponent e and 23 fraction bits f. A normal x (e >= 1) is (2^23 + f) 2^(e - 150),
 // a subnormal f 2^-149: in both cases x = m 2^(s - 149) with m < 2^24 and s = max(e, 1) - 1, so
-// x / 2^-96 = m 2^(s - 53). For s >= 53 that is the integer m shifted left by p = s - 53 <= 136: it lands
-// in limb p / 32 at bit p % 32 and spills into the next limb; the carry out of those two limbs then
-// ripples up (rarely more than one limb). For s < 53 it is m / 2^r, r = 53 - s, rounded to the nearest
-// integer, ties to even: at most 2^24, in limb 0.
-fn accumulate_exact(slot: u32, c: u32, x: f32) {
-    var bits = bitcast<u32>(x);
-    // +0 adds nothing; a set sign bit (-0, or a negative value the caller let through) counts as 0.
-    if bits == 0u || bits >= 0x80000000u {
-        return;
-    }
-    bits = min(bits, ACCUM_MAX_BITS);
-    let e = bits >> 23u;
-    let m = select(bits & 0x7fffffu, (bits & 0x7fffffu) | 0x800000u, e != 0u);
-    let s = max(e, 1u) - 1u;
-    let base = c * ACCUM_LIMBS;
-    if s < 53u {
-        let r = 53u - s;
-        // For r >= 25, m < 2^24 <= 2^(r - 1) is below half a unit: it rounds to 0 (and a shift by 32 or
-        // more would be taken modulo 32 in WGSL, so those never reach the shifts).
-        if r >= 25u {
-            return;
-        }
-        let half = 1u << (r - 1u);
-        var q = m >> r;
-        let rem = m & ((half << 1u) - 1u);
-        if rem > half || (rem == half && (q & 1u) == 1u) {
-            q += 1u;
-        }
-        add_to_limbs(slot, base, 0u, q, 0u);
-        return;
-    }
-    let p = s - 53u;
-    let o = p % 32u;
+// x / 2^-96 = m 2^(s - 53). For s >= 53 that is the integer m shifted left by p = s - 53 <= 136: limb
+// p / 32, bit p % 32, spilling into the next limb. For s < 53 it is m / 2^r, r = 53 - s, rounded to the
+// nearest integer, ties to even: at most 2^24, in limb 0 (and 0 for r >= 25, where m < 2^(r - 1)).
+// Every step is a select rather than a branch: the three channels (and, on a SIMD machine, neighbouring
+// pixels) take different paths, and divergent branches or lane-dependent indexing would serialise them.
+fn grid_term(x: vec3<f32>) -> GridTerm {
+    let raw = bitcast<vec3<u32>>(x);
+    let positive = (raw != vec3<u32>(0u)) & (raw < vec3<u32>(0x80000000u));
+    let bits = min(raw, vec3<u32>(ACCUM_MAX_BITS));
+    let e = bits >> vec3<u32>(23u);
+    let f = bits & vec3<u32>(0x7fffffu);
+    let m = select(f, f | vec3<u32>(0x800000u), e != vec3<u32>(0u));
+    let s = max(e, vec3<u32>(1u)) - vec3<u32>(1u);
+    let large = s >= vec3<u32>(53u);
+    // s >= 53: shift left by p.
+    let p = select(vec3<u32>(0u), s - vec3<u32>(53u), large);
+    let o = p % vec3<u32>(32u);
     // m >> (32 - o) for o = 0 would be a shift by 32, which WGSL takes modulo 32: select it out.
-    add_to_limbs(slot, base, p / 32u, m << o, select(0u, m >> (32u - o), o != 0u));
+    let spill = select(vec3<u32>(0u), m >> (vec3<u32>(32u) - o), o != vec3<u32>(0u));
+    // s < 53: divide by 2^r and round half to even (r clamped to 1..24 so that every shift is in range;
+    // r >= 25 rounds to 0).
+    let r = clamp(vec3<u32>(53u) - min(s, vec3<u32>(52u)), vec3<u32>(1u), vec3<u32>(24u));
+    let half = vec3<u32>(1u) << (r - vec3<u32>(1u));
+    let q0 = m >> r;
+    let rem = m & ((half << vec3<u32>(1u)) - vec3<u32>(1u));
+    let round_up = (rem > half) | ((rem == half) & ((q0 & vec3<u32>(1u)) == vec3<u32>(1u)));
+    let q = select(q0, q0 + vec3<u32>(1u), round_up);
+    let tiny = s + vec3<u32>(25u) <= vec3<u32>(53u); // r >= 25
+    let small_q = select(q, vec3<u32>(0u), tiny);
+    let zero = vec3<u32>(0u);
+    return GridTerm(
+        select(zero, p / vec3<u32>(32u), large),
+        select(zero, select(small_q, m << o, large), positive),
+        select(zero, select(zero, spill, large), positive),
+    );
 }
 
-// Adds lo + hi 2^32 (hi < 2^24) at limb k (k <= 4) of the channel whose limbs start at `base`.
-fn add_to_limbs(slot: u32, base: u32, k: u32, lo: u32, hi: u32) {
-    let i = base + k;
-    let t0 = accum[slot].sum[i] + lo;
-    accum[slot].sum[i] = t0;
-    // hi < 2^24, so hi + carry cannot wrap.
-    let h = hi + select(0u, 1u, t0 < lo);
-    let t1 = accum[slot].sum[i + 1u] + h;
-    accum[slot].sum[i + 1u] = t1;
-    // The carry ripples up through limbs k + 2 .. 5 of the channel. Unrolled: lavapipe counts every loop
-    // iteration against its per-invocation budget (trace.wgsl), even that of a loop that exits at once.
-    let end = base + ACCUM_LIMBS;
-    var carry = t1 < h;
-    carry = ripple_carry(slot, i + 2u, end, carry);
-    carry = ripple_carry(slot, i + 3u, end, carry);
-    carry = ripple_carry(slot, i + 4u, end, carry);
-    carry = ripple_carry(slot, i + 5u, end, carry);
-}
-
-// Adds an incoming carry to limb j (if j is still inside the channel, below `end`); returns the carry out.
-fn ripple_carry(slot: u32, j: u32, end: u32, carry: bool) -> bool {
-    if !carry || j >= end {
-        return false;
-    }
-    let v = accum[slot].sum[j] + 1u;
-    accum[slot].sum[j] = v;
-    return v == 0u;
+// Limb j of *acc += the term's limb j + carry_in (vec3 of 0/1); returns the carry out.
+fn add_limb(acc: ptr<function, Accum>, j: u32, t: GridTerm, carry_in: vec3<u32>) -> vec3<u32> {
+    let zero = vec3<u32>(0u);
+    let jj = vec3<u32>(j);
+    let term = select(zero, t.lo, t.k == jj) | select(zero, t.hi, t.k + vec3<u32>(1u) == jj);
+    let i = 3u * j;
+    let a = vec3<u32>((*acc).sum[i], (*acc).sum[i + 1u], (*acc).sum[i + 2u]);
+    let s1 = a + term;
+    let s2 = s1 + carry_in;
+    (*acc).sum[i] = s2.x;
+    (*acc).sum[i + 1u] = s2.y;
+    (*acc).sum[i + 2u] = s2.z;
+    return select(zero, vec3<u32>(1u), (s1 < a) | (s2 < s1));
 }
 
 // Adds one sample (linear RGB radiance) to accum[slot].
@@ -127,21 +125,30 @@ fn accumulate_sample(slot: u32, radiance: vec3<f32>, guard: f32) {
     if !is_finite_vec3(radiance) {
         l = vec3<f32>(0.0);
     }
-    accumulate_exact(slot, 0u, l.x);
-    accumulate_exact(slot, 1u, l.y);
-    accumulate_exact(slot, 2u, l.z);
+    // The exact sums: a 192-bit add with carry, limb by limb, unrolled (lavapipe counts every loop
+    // iteration against its per-invocation budget, trace.wgsl).
+    // The entry is read and written whole, once, and updated in registers in between.
+    var acc = accum[slot];
+    let t = grid_term(l);
+    var carry = add_limb(&acc, 0u, t, vec3<u32>(0u));
+    carry = add_limb(&acc, 1u, t, carry);
+    carry = add_limb(&acc, 2u, t, carry);
+    carry = add_limb(&acc, 3u, t, carry);
+    carry = add_limb(&acc, 4u, t, carry);
+    carry = add_limb(&acc, 5u, t, carry);
 
     // Kahan step on the squares: y = x - c; t = sum + y; c' = (t - sum) - y.
-    let sq = vec3<f32>(accum[slot].sum_sq[0], accum[slot].sum_sq[1], accum[slot].sum_sq[2]);
-    let comp = vec3<f32>(accum[slot].sum_sq_c[0], accum[slot].sum_sq_c[1], accum[slot].sum_sq_c[2]);
+    let sq = vec3<f32>(acc.sum_sq[0], acc.sum_sq[1], acc.sum_sq[2]);
+    let comp = vec3<f32>(acc.sum_sq_c[0], acc.sum_sq_c[1], acc.sum_sq_c[2]);
     // A square past the largest f32 (radiance above 1.8e19) is clamped to it rather than made infinite.
     let y = min(l * l, vec3<f32>(3.4028235e38)) - comp;
-    let t = sq + y;
-    let c2 = (t * guard - sq) - y;
-    accum[slot].sum_sq[0] = t.x;
-    accum[slot].sum_sq[1] = t.y;
-    accum[slot].sum_sq[2] = t.z;
-    accum[slot].sum_sq_c[0] = c2.x;
-    accum[slot].sum_sq_c[1] = c2.y;
-    accum[slot].sum_sq_c[2] = c2.z;
+    let ts = sq + y;
+    let c2 = (ts * guard - sq) - y;
+    acc.sum_sq[0] = ts.x;
+    acc.sum_sq[1] = ts.y;
+    acc.sum_sq[2] = ts.z;
+    acc.sum_sq_c[0] = c2.x;
+    acc.sum_sq_c[1] = c2.y;
+    acc.sum_sq_c[2] = c2.z;
+    accum[slot] = acc;
 }

@@ -5,7 +5,6 @@
 // The generator is the 4-D PCG hash "pcg4d" of Jarzynski & Olano, "Hash Functions for GPU Rendering",
 // JCGT 9(3), 2020. Each of its steps (multiply-add by odd constants, x += y*z, xor-shift) is invertible,
 // so distinct inputs (pixel, sample, dim, seed) give distinct 128-bit outputs: no two paths share numbers.
-
 //
 // Two samplers share that contract (`render.sampler`):
 // * SAMPLER_INDEPENDENT: each draw is hashed from (pixel, sample, dim, seed).
@@ -21,6 +20,11 @@
 
 const SAMPLER_INDEPENDENT: u32 = 0u;
 const SAMPLER_SOBOL: u32 = 1u;
+// Specialisation (scene.wgsl explains the scheme): the generic kernel and the test kernels read the
+// sampler from the Rng at run time; a kernel specialised for a scene has it as a constant, and the other
+// sampler's code is pruned away (a scene that does not use Sobol' points pays nothing for them).
+override SAMPLER_FROM_RNG: bool = true;
+override SAMPLER_IS_SOBOL: bool = false;
 
 struct Rng {
     pixel: u32,
@@ -60,27 +64,32 @@ fn u32_to_unit_float(x: u32) -> f32 {
 
 // One uniform number in [0, 1).
 fn rng_next(rng: ptr<function, Rng>) -> f32 {
-    if (*rng).sampler == SAMPLER_SOBOL {
-        // The first coordinate of a pair: a scrambled, shuffled van der Corput sequence.
-        let u = sobol_owen2((*rng).pixel, (*rng).sample, (*rng).dim, (*rng).seed);
-        (*rng).dim += 1u;
-        return u32_to_unit_float(u.x);
-    }
-    let h = pcg4d(vec4<u32>((*rng).pixel, (*rng).sample, (*rng).dim, (*rng).seed));
-    (*rng).dim += 1u;
-    return u32_to_unit_float(h.x);
+    return u32_to_unit_float(rng_next_bits(rng).x);
 }
 
-// Two uniform numbers in [0, 1)^2 from one hash (its x and y words are independent outputs).
+// Two uniform numbers in [0, 1)^2.
 fn rng_next2(rng: ptr<function, Rng>) -> vec2<f32> {
-    var u: vec2<u32>;
-    if (*rng).sampler == SAMPLER_SOBOL {
-        u = sobol_owen2((*rng).pixel, (*rng).sample, (*rng).dim, (*rng).seed);
-    } else {
-        u = pcg4d(vec4<u32>((*rng).pixel, (*rng).sample, (*rng).dim, (*rng).seed)).xy;
-    }
-    (*rng).dim += 1u;
+    let u = rng_next_bits(rng);
     return vec2<f32>(u32_to_unit_float(u.x), u32_to_unit_float(u.y));
+}
+
+// The next draw as two 32-bit words; consumes one dimension. Independent: the x and y words of one hash
+// (independent outputs). Sobol': the point of the dimension pair (x alone, a scrambled and shuffled van
+// der Corput sequence, serves rng_next). The sampler test is written with bare constant conditions so
+// that a specialised kernel keeps only one sampler's code (scene.wgsl explains the pruning).
+fn rng_next_bits(rng: ptr<function, Rng>) -> vec2<u32> {
+    let r = *rng;
+    (*rng).dim += 1u;
+    if SAMPLER_FROM_RNG {
+        if r.sampler == SAMPLER_SOBOL {
+            return sobol_owen2(r.pixel, r.sample, r.dim, r.seed);
+        }
+    } else {
+        if SAMPLER_IS_SOBOL {
+            return sobol_owen2(r.pixel, r.sample, r.dim, r.seed);
+        }
+    }
+    return pcg4d(vec4<u32>(r.pixel, r.sample, r.dim, r.seed)).xy;
 }
 
 // --- Sobol' ---------------------------------------------------------------------------------------------

@@ -198,10 +198,46 @@ fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
     return sphere_surface(o, d, hit);
 }
 
-// How sphere lights are sampled (params.light_sampling, `render.light_sampling`).
+// How sphere lights are sampled (params.light_sampling, `render.light_sampling`): read from params by
+// the generic kernel, a constant when specialised (the other strategies' code is then pruned).
 const LIGHT_SAMPLING_CONE: u32 = 0u;
 const LIGHT_SAMPLING_AREA: u32 = 1u;
 const LIGHT_SAMPLING_NONE: u32 = 2u;
+override LIGHT_SAMPLING_FROM_PARAMS: bool = true;
+override LIGHT_SAMPLING_IS_AREA: bool = false;
+override LIGHT_SAMPLING_IS_NONE: bool = false;
+
+// Whether sphere lights are sampled by next-event estimation at all.
+fn sphere_lights_sampled() -> bool {
+    if LIGHT_SAMPLING_FROM_PARAMS {
+        return params.light_sampling != LIGHT_SAMPLING_NONE;
+    }
+    return !LIGHT_SAMPLING_IS_NONE;
+}
+
+// One next-event estimate of a sphere light with the configured strategy.
+fn sphere_light_estimate(sp: Surface, n: vec3<f32>, ns: vec3<f32>, light: Light, u: vec2<f32>) -> vec3<f32> {
+    if LIGHT_SAMPLING_FROM_PARAMS {
+        switch params.light_sampling {
+            case LIGHT_SAMPLING_AREA: {
+                return sphere_light_irradiance_area(sp, n, ns, light, u);
+            }
+            case LIGHT_SAMPLING_NONE: {
+                return vec3<f32>(0.0);
+            }
+            default: {
+                return sphere_light_irradiance(sp, n, ns, light, u);
+            }
+        }
+    }
+    if LIGHT_SAMPLING_IS_AREA {
+        return sphere_light_irradiance_area(sp, n, ns, light, u);
+    }
+    if LIGHT_SAMPLING_IS_NONE {
+        return vec3<f32>(0.0);
+    }
+    return sphere_light_irradiance(sp, n, ns, light, u);
+}
 
 // Irradiance-like sum over all lights of Le * cos(theta) / pdf at a surface point with facing normal n
 // (one sample per sphere light): the caller multiplies by the BRDF (albedo / pi).
@@ -228,15 +264,7 @@ fn direct_light(sp: Surface, n: vec3<f32>, ns: vec3<f32>, rng: ptr<function, Rng
                 // The light sample's dimension is drawn whatever the strategy, so that the numbers
                 // drawn after it are at the same dimensions in every variant.
                 let u = rng_next2(rng);
-                switch params.light_sampling {
-                    case LIGHT_SAMPLING_AREA: {
-                        e += sphere_light_irradiance_area(sp, n, ns, light, u);
-                    }
-                    case LIGHT_SAMPLING_NONE: {}
-                    default: {
-                        e += sphere_light_irradiance(sp, n, ns, light, u);
-                    }
-                }
+                e += sphere_light_estimate(sp, n, ns, light, u);
             }
         }
     }

@@ -62,7 +62,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     // Emission found by a ray counts only when no next-event estimate already accounted for it: on camera
     // rays and after specular bounces (mirror, glass). After a diffuse bounce, the light was sampled,
     // unless sphere lights are not sampled (light_sampling = "none"): then their emission always counts.
-    let nee_spheres = params.light_sampling != LIGHT_SAMPLING_NONE;
+    let nee_spheres = sphere_lights_sampled();
     var count_emission = true;
     var bounces = 0u;
     loop {

@@ -2,7 +2,8 @@
 //! long-accumulator sum as an f64, adding two of them (merging partial renders), and a CPU mirror of the
 //! device's addition of one sample.
 //!
-//! A channel's sum is a 192-bit unsigned integer held as [`ACCUM_LIMBS`] little-endian u32 limbs, in
+//! A channel's sum is a 192-bit unsigned integer held as [`ACCUM_LIMBS`] u32 limbs (least significant
+//! first; on the GPU interleaved with the other channels', see [`channel`]), in
 //! units of 2^-96. Samples in [2^-73, 2^64) add into it exactly; smaller ones are rounded to the grid
 //! (ties to even), larger ones clamped (accumulate.wgsl explains the window). Adding two such integers is
 //! exact and associative: whatever way the samples were split (passes, tiles, checkpoints, sample
@@ -17,9 +18,28 @@ pub const UNIT_EXP: i32 = -96;
 /// larger samples are clamped to it.
 pub const MAX_SAMPLE: f32 = f32::from_bits(0x5f7f_ffff);
 
-/// One channel's limbs, `sum[c * ACCUM_LIMBS..(c + 1) * ACCUM_LIMBS]`.
-pub fn channel(accum: &GpuAccum, c: usize) -> &[u32] {
-    &accum.sum[c * ACCUM_LIMBS..(c + 1) * ACCUM_LIMBS]
+/// One channel's limbs, least significant first: `sum[3 k + c]` for k = 0..ACCUM_LIMBS (the GPU keeps
+/// the limbs limb-major, so that one vec3 operation adds a limb of all three channels).
+pub fn channel(accum: &GpuAccum, c: usize) -> [u32; ACCUM_LIMBS] {
+    std::array::from_fn(|k| accum.sum[3 * k + c])
+}
+
+/// Adds `other`'s sums into `acc`'s, channel by channel, exactly. Returns false on overflow (see [`add`]).
+pub fn add_sums(acc: &mut GpuAccum, other: &GpuAccum) -> bool {
+    let mut ok = true;
+    for c in 0..3 {
+        let mut limbs = channel(acc, c);
+        ok &= add(&mut limbs, &channel(other, c));
+        set_channel(acc, c, &limbs);
+    }
+    ok
+}
+
+/// Writes channel c's limbs (least significant first) into `accum`.
+pub fn set_channel(accum: &mut GpuAccum, c: usize, limbs: &[u32; ACCUM_LIMBS]) {
+    for (k, &l) in limbs.iter().enumerate() {
+        accum.sum[3 * k + c] = l;
+    }
 }
 
 /// The f64 nearest to the exact sum held in `limbs` (round to nearest, ties to even): the only rounding

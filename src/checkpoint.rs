@@ -636,8 +636,8 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
         let mut sq = [0f64; 3];
         for &i in &order {
             let a = &parts[i].1.accum[p];
-            // At most 2^32 - 1 samples in all (count_samples above), so 320 bits cannot overflow.
-            crate::accum::add(&mut out.sum, &a.sum);
+            // At most 2^32 - 1 samples in all (count_samples above), so 192 bits cannot overflow.
+            crate::accum::add_sums(&mut out, a);
             for (total, (s, c)) in sq.iter_mut().zip(a.sum_sq.iter().zip(&a.sum_sq_c)) {
                 *total += f64::from(*s) - f64::from(*c);
             }
@@ -704,10 +704,9 @@ mod tests {
                 {
                     let mut a = GpuAccum::default();
                     for (c, x) in [value, 0.5, 1e-20].into_iter().enumerate() {
-                        crate::accum::add_f32(
-                            &mut a.sum[c * ACCUM_LIMBS..(c + 1) * ACCUM_LIMBS],
-                            x,
-                        );
+                        let mut limbs = [0u32; ACCUM_LIMBS];
+                        crate::accum::add_f32(&mut limbs, x);
+                        crate::accum::set_channel(&mut a, c, &limbs);
                     }
                     a.sum_sq = [value * value, 0.25, 0.0];
                     a.sum_sq_c = [1e-9, 0.0, 0.0];
@@ -785,9 +784,9 @@ mod tests {
         assert_eq!(merge(&[a, c]).unwrap(), m);
         // Sums are exact: 3 + 1, and 1e-20 + 1e-20 (exactly twice the f32 nearest 1e-20).
         let p = &m.accum[0];
-        assert_eq!(crate::accum::to_f64(crate::accum::channel(p, 0)), 4.0);
+        assert_eq!(crate::accum::to_f64(&crate::accum::channel(p, 0)), 4.0);
         assert_eq!(
-            crate::accum::to_f64(crate::accum::channel(p, 2)),
+            crate::accum::to_f64(&crate::accum::channel(p, 2)),
             2.0 * f64::from(1e-20f32)
         );
         let sq = (9.0f64 - f64::from(1e-9f32)) + (1.0 - f64::from(1e-9f32));

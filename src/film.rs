@@ -47,7 +47,7 @@ impl Film {
             let mut m = [0f32; 3];
             let mut v = [0f32; 3];
             for c in 0..3 {
-                let s = crate::accum::to_f64(crate::accum::channel(a, c));
+                let s = crate::accum::to_f64(&crate::accum::channel(a, c));
                 let sq = a.sum_sq[c] as f64 - a.sum_sq_c[c] as f64;
                 if spp == 0 {
                     continue;

@@ -27,10 +27,26 @@ fn scene_files() -> Vec<std::path::PathBuf> {
 /// float reassociation: both kernels evaluate the same expressions in the same order).
 #[test]
 fn specialised_equals_generic_for_every_scene() {
-    for path in scene_files() {
+    use vkpath::scene::{LightSampling, Sampler};
+    // Every scene with the default knobs; the soft-shadows scene (a sphere light) also with each
+    // sampler and light-sampling strategy, which are specialisation constants too.
+    let soft = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/10-soft-shadows.toml");
+    let mut cases: Vec<_> = scene_files().into_iter().map(|p| (p, None)).collect();
+    for knobs in [
+        (Sampler::Sobol, LightSampling::Cone),
+        (Sampler::Independent, LightSampling::Area),
+        (Sampler::Sobol, LightSampling::None),
+    ] {
+        cases.push((soft.clone(), Some(knobs)));
+    }
+    for (path, knobs) in cases {
         let mut s = vkpath::Scene::load(&path).unwrap();
         s.image.width = 24;
         s.image.height = 24;
+        if let Some((sampler, light_sampling)) = knobs {
+            s.render.sampler = sampler;
+            s.render.light_sampling = light_sampling;
+        }
         let specialised = render_passes(&s, &RenderOptions::default(), 1, 4);
         let generic = render_passes(
             &s,
@@ -44,7 +60,7 @@ fn specialised_equals_generic_for_every_scene() {
         assert_eq!(
             specialised.mean,
             generic.mean,
-            "{}: specialised and generic images differ",
+            "{} {knobs:?}: specialised and generic images differ",
             path.display()
         );
         assert!(
@@ -95,6 +111,8 @@ fn absent_features_leave_no_code() {
         "sample_cone",
         "sample_uniform_disk",
         "triangle_surface",
+        "sobol_owen2",
+        "sphere_light_irradiance_area",
     ] {
         assert!(
             generic.iter().any(|n| n == f),

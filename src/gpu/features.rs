@@ -33,6 +33,10 @@ pub struct FeatureSet {
     pub roulette: bool,
     pub background: bool,
     pub filter: Option<u32>,
+    /// The sampler (`GpuParams::sampler`) as a constant, or `None` to read it at run time.
+    pub sampler: Option<u32>,
+    /// The sphere-light strategy (`GpuParams::light_sampling`) as a constant, or `None` to read it.
+    pub light_sampling: Option<u32>,
 }
 
 impl FeatureSet {
@@ -71,6 +75,8 @@ impl FeatureSet {
             roulette: true,
             background: true,
             filter: None,
+            sampler: None,
+            light_sampling: None,
         }
     }
 
@@ -104,6 +110,8 @@ impl FeatureSet {
             roulette: params.roulette_depth <= params.max_bounces,
             background: params.background.iter().any(|&c| c != 0.0),
             filter: Some(params.filter_kind),
+            sampler: Some(params.sampler),
+            light_sampling: Some(params.light_sampling),
         }
     }
 
@@ -131,6 +139,16 @@ impl FeatureSet {
             ("SINGLE_LIGHT_KIND", b(self.single_light_kind())),
             ("FILTER_FROM_PARAMS", b(self.filter.is_none())),
             ("FILTER_KIND", self.filter.unwrap_or(0) as f64),
+            // rng.wgsl: 1 = Sobol'.
+            ("SAMPLER_FROM_RNG", b(self.sampler.is_none())),
+            ("SAMPLER_IS_SOBOL", b(self.sampler == Some(1))),
+            // scene.wgsl: 1 = area, 2 = none.
+            (
+                "LIGHT_SAMPLING_FROM_PARAMS",
+                b(self.light_sampling.is_none()),
+            ),
+            ("LIGHT_SAMPLING_IS_AREA", b(self.light_sampling == Some(1))),
+            ("LIGHT_SAMPLING_IS_NONE", b(self.light_sampling == Some(2))),
         ]
     }
 
