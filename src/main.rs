@@ -911,6 +911,39 @@ fn run_convergence(a: ConvergenceArgs) -> Result<i32, Error> {
     Ok(0)
 }
 
+/// The size and repetitions shared by the timing benchmarks, each at least 1.
+fn bench_settings(
+    width: u32,
+    height: u32,
+    spp: u32,
+    runs: u32,
+) -> Result<vkpath::bench::BenchSettings, Error> {
+    if width == 0 || height == 0 || spp == 0 || runs == 0 {
+        return Err(usage(
+            "--width, --height, --spp and --runs must be at least 1.",
+        ));
+    }
+    Ok(vkpath::bench::BenchSettings {
+        width,
+        height,
+        spp,
+        runs,
+    })
+}
+
+/// The scenes a benchmark times: those given, or every scene in ./scenes.
+fn bench_scenes(scenes: Vec<PathBuf>) -> Result<Vec<PathBuf>, Error> {
+    let scenes = if scenes.is_empty() {
+        vkpath::bench::scene_files(std::path::Path::new("scenes"))?
+    } else {
+        scenes
+    };
+    if scenes.is_empty() {
+        return Err(usage("no scene files given and none found in ./scenes."));
+    }
+    Ok(scenes)
+}
+
 fn run_bench(b: BenchCommand) -> Result<i32, Error> {
     match b {
         BenchCommand::Convergence(a) => run_convergence(a),
@@ -922,26 +955,9 @@ fn run_bench(b: BenchCommand) -> Result<i32, Error> {
             runs,
             json,
         } => {
-            if width == 0 || height == 0 || spp == 0 || runs == 0 {
-                return Err(usage(
-                    "--width, --height, --spp and --runs must be at least 1.",
-                ));
-            }
-            let scenes = if scenes.is_empty() {
-                vkpath::bench::scene_files(std::path::Path::new("scenes"))?
-            } else {
-                scenes
-            };
-            if scenes.is_empty() {
-                return Err(usage("no scene files given and none found in ./scenes."));
-            }
+            let settings = bench_settings(width, height, spp, runs)?;
+            let scenes = bench_scenes(scenes)?;
             let ctx = GpuContext::new(&ContextOptions::default())?;
-            let settings = vkpath::bench::BenchSettings {
-                width,
-                height,
-                spp,
-                runs,
-            };
             let device = &ctx.device_info().name;
             let rows = vkpath::bench_throughput::throughput(&ctx, &scenes, settings)?;
             if json {
@@ -962,23 +978,13 @@ fn run_bench(b: BenchCommand) -> Result<i32, Error> {
             runs,
             brute_force_up_to,
         } => {
-            if width == 0 || height == 0 || spp == 0 || runs == 0 {
-                return Err(usage(
-                    "--width, --height, --spp and --runs must be at least 1.",
-                ));
-            }
+            let settings = bench_settings(width, height, spp, runs)?;
             let sizes = if sizes.is_empty() {
                 vkpath::bench_mesh::DEFAULT_SIZES.to_vec()
             } else {
                 sizes
             };
             let ctx = GpuContext::new(&ContextOptions::default())?;
-            let settings = vkpath::bench::BenchSettings {
-                width,
-                height,
-                spp,
-                runs,
-            };
             let rows = vkpath::bench_mesh::mesh_scaling(&ctx, &sizes, settings, brute_force_up_to)?;
             print!(
                 "{}",
@@ -995,26 +1001,9 @@ fn run_bench(b: BenchCommand) -> Result<i32, Error> {
             json,
             ablation,
         } => {
-            if width == 0 || height == 0 || spp == 0 || runs == 0 {
-                return Err(usage(
-                    "--width, --height, --spp and --runs must be at least 1.",
-                ));
-            }
-            let scenes = if scenes.is_empty() {
-                vkpath::bench::scene_files(std::path::Path::new("scenes"))?
-            } else {
-                scenes
-            };
-            if scenes.is_empty() {
-                return Err(usage("no scene files given and none found in ./scenes."));
-            }
+            let settings = bench_settings(width, height, spp, runs)?;
+            let scenes = bench_scenes(scenes)?;
             let ctx = GpuContext::new(&ContextOptions::default())?;
-            let settings = vkpath::bench::BenchSettings {
-                width,
-                height,
-                spp,
-                runs,
-            };
             let device = &ctx.device_info().name;
             if ablation {
                 let rows = vkpath::bench::ablation(&ctx, &scenes, settings)?;
