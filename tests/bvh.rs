@@ -63,6 +63,7 @@ impl SceneKernel {
         params.num_lights = gpu.lights.len() as u32;
         let source = shader::compose(&[
             shader::SCENE_DATA,
+            shader::ACCUMULATE,
             shader::BVH,
             shader::TEXTURE,
             shader::SCENE,
