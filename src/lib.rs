@@ -20,9 +20,6 @@
 
 pub mod accum;
 pub mod bench;
-pub mod bench_convergence;
-pub mod bench_mesh;
-pub mod bench_throughput;
 pub mod checkpoint;
 pub mod film;
 pub mod gpu;

@@ -224,7 +224,7 @@ struct ConvergenceArgs {
     height: u32,
     /// Settings to measure, comma-separated: default, or knob=value joined by + (knobs: max_bounces,
     /// roulette, samples_per_pass, sampler, light_sampling).
-    #[arg(long, default_value = vkpath::bench_convergence::DEFAULT_KNOBS)]
+    #[arg(long, default_value = vkpath::bench::convergence::DEFAULT_KNOBS)]
     knobs: String,
     /// Directory of the CSV, the PNG and the rendered reference.
     #[arg(long, default_value = "bench-out")]
@@ -891,8 +891,8 @@ fn run_convergence(a: ConvergenceArgs) -> Result<i32, Error> {
     };
     scene.image.width = a.width;
     scene.image.height = a.height;
-    let settings = vkpath::bench_convergence::parse_settings(&a.knobs, &scene)?;
-    let config = vkpath::bench_convergence::Config {
+    let settings = vkpath::bench::convergence::parse_settings(&a.knobs, &scene)?;
+    let config = vkpath::bench::convergence::Config {
         scene,
         settings,
         reference: a.reference,
@@ -901,7 +901,8 @@ fn run_convergence(a: ConvergenceArgs) -> Result<i32, Error> {
         out_dir: a.out,
     };
     let ctx = GpuContext::new(&ContextOptions::default())?;
-    let report = vkpath::bench_convergence::run(&ctx, &config, |line| eprintln!("vkpath: {line}"))?;
+    let report =
+        vkpath::bench::convergence::run(&ctx, &config, |line| eprintln!("vkpath: {line}"))?;
     eprintln!(
         "vkpath: wrote {} and {}",
         report.csv.display(),
@@ -959,13 +960,13 @@ fn run_bench(b: BenchCommand) -> Result<i32, Error> {
             let scenes = bench_scenes(scenes)?;
             let ctx = GpuContext::new(&ContextOptions::default())?;
             let device = &ctx.device_info().name;
-            let rows = vkpath::bench_throughput::throughput(&ctx, &scenes, settings)?;
+            let rows = vkpath::bench::throughput::throughput(&ctx, &scenes, settings)?;
             if json {
                 println!("{}", serde_json::json!({ "device": device, "rows": rows }));
             } else {
                 print!(
                     "{}",
-                    vkpath::bench_throughput::throughput_table(&rows, settings, device)
+                    vkpath::bench::throughput::throughput_table(&rows, settings, device)
                 );
             }
             Ok(0)
@@ -980,15 +981,16 @@ fn run_bench(b: BenchCommand) -> Result<i32, Error> {
         } => {
             let settings = bench_settings(width, height, spp, runs)?;
             let sizes = if sizes.is_empty() {
-                vkpath::bench_mesh::DEFAULT_SIZES.to_vec()
+                vkpath::bench::mesh::DEFAULT_SIZES.to_vec()
             } else {
                 sizes
             };
             let ctx = GpuContext::new(&ContextOptions::default())?;
-            let rows = vkpath::bench_mesh::mesh_scaling(&ctx, &sizes, settings, brute_force_up_to)?;
+            let rows =
+                vkpath::bench::mesh::mesh_scaling(&ctx, &sizes, settings, brute_force_up_to)?;
             print!(
                 "{}",
-                vkpath::bench_mesh::mesh_scaling_table(&rows, settings, &ctx.device_info().name)
+                vkpath::bench::mesh::mesh_scaling_table(&rows, settings, &ctx.device_info().name)
             );
             Ok(0)
         }
@@ -1006,15 +1008,18 @@ fn run_bench(b: BenchCommand) -> Result<i32, Error> {
             let ctx = GpuContext::new(&ContextOptions::default())?;
             let device = &ctx.device_info().name;
             if ablation {
-                let rows = vkpath::bench::ablation(&ctx, &scenes, settings)?;
+                let rows = vkpath::bench::specialisation::ablation(&ctx, &scenes, settings)?;
                 if json {
                     println!("{}", serde_json::json!({ "device": device, "rows": rows }));
                 } else {
-                    print!("{}", vkpath::bench::ablation_table(&rows, settings, device));
+                    print!(
+                        "{}",
+                        vkpath::bench::specialisation::ablation_table(&rows, settings, device)
+                    );
                 }
                 return Ok(0);
             }
-            let rows = vkpath::bench::specialisation(&ctx, &scenes, settings)?;
+            let rows = vkpath::bench::specialisation::specialisation(&ctx, &scenes, settings)?;
             if json {
                 println!(
                     "{}",
@@ -1023,7 +1028,11 @@ fn run_bench(b: BenchCommand) -> Result<i32, Error> {
             } else {
                 print!(
                     "{}",
-                    vkpath::bench::specialisation_table(&rows, settings, &ctx.device_info().name)
+                    vkpath::bench::specialisation::specialisation_table(
+                        &rows,
+                        settings,
+                        &ctx.device_info().name
+                    )
                 );
             }
             Ok(0)

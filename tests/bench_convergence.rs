@@ -4,7 +4,7 @@
 
 use std::path::Path;
 use std::process::Command;
-use vkpath::bench_convergence::{
+use vkpath::bench::convergence::{
     CSV_HEADER, Point, REL_MSE_EPSILON, checkpoints, image_errors, parse_settings, time_to_error,
     to_csv,
 };
@@ -140,7 +140,7 @@ fn checkpoints_double_up_to_the_maximum() {
 #[test]
 fn knob_settings_parse_apply_and_refuse() {
     let scene = Scene::default_scene();
-    let settings = parse_settings(vkpath::bench_convergence::DEFAULT_KNOBS, &scene).unwrap();
+    let settings = parse_settings(vkpath::bench::convergence::DEFAULT_KNOBS, &scene).unwrap();
     assert_eq!(settings.len(), 8);
     assert_eq!(settings[0].label, "default");
     let (s, o) = settings[0].apply(&scene).unwrap();

@@ -574,13 +574,13 @@ fn a_bad_obj_exits_with_status_2() {
 // ----- the scaling benchmark (not a test: run it by hand) -----
 
 /// `cargo test --release --test mesh -- --ignored --nocapture mesh_scaling_benchmark` prints the scaling
-/// table of `vkpath::bench_mesh` (sizes from VKPATH_BENCH_SIZES, comma-separated, default 10^3..10^6;
+/// table of `vkpath::bench::mesh` (sizes from VKPATH_BENCH_SIZES, comma-separated, default 10^3..10^6;
 /// brute force up to VKPATH_BENCH_BRUTE triangles, default 10^4).
 #[test]
 #[ignore]
 fn mesh_scaling_benchmark() {
     use vkpath::bench::BenchSettings;
-    use vkpath::bench_mesh::{DEFAULT_SIZES, mesh_scaling, mesh_scaling_table};
+    use vkpath::bench::mesh::{DEFAULT_SIZES, mesh_scaling, mesh_scaling_table};
     let sizes: Vec<usize> = std::env::var("VKPATH_BENCH_SIZES")
         .map(|s| s.split(',').map(|n| n.trim().parse().unwrap()).collect())
         .unwrap_or(DEFAULT_SIZES.to_vec());

@@ -600,7 +600,7 @@ pub fn markdown_table(
 }
 
 /// The font of the plot's text: DejaVu Sans reduced to ASCII (assets/fonts, with its licence).
-static FONT: &[u8] = include_bytes!("../assets/fonts/DejaVuSans-subset.ttf");
+static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans-subset.ttf");
 
 /// Draws the log-log plot of relative error against seconds, one line per setting, the 1/√N line
 /// through the first setting's first point, and the thresholds, to a PNG at `path`.

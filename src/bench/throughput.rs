@@ -1,7 +1,7 @@
 //! `vkpath bench throughput`: samples per second of each scene at fixed settings (image size, samples per
 //! pixel per timed pass), the median, min and max over several timed passes.
 
-use crate::bench::{BenchSettings, median, pass_times};
+use super::{BenchSettings, median, pass_times};
 use crate::gpu::GpuContext;
 use crate::render::{RenderOptions, Renderer};
 use crate::{Error, Scene};

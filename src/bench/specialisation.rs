@@ -1,22 +1,14 @@
-//! Benchmarks that report measured ratios (`vkpath bench ...`). Nothing here asserts a time: the numbers
-//! are printed for the README and for people comparing machines.
+//! `vkpath bench specialisation`: samples per second of each scene with its specialised kernel, the generic
+//! kernel and (where it applies) the hand-trimmed kernel; and the ablation, what each absent feature's
+//! absence buys.
 
+use super::{BenchSettings, median, pass_times};
 use crate::gpu::features::FeatureSet;
 use crate::gpu::{GpuContext, shader};
 use crate::render::{RenderOptions, Renderer};
 use crate::{Error, Scene};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Instant;
-
-/// Image size, samples per pixel of each timed pass, and how many timed passes per variant.
-#[derive(Clone, Copy, Debug)]
-pub struct BenchSettings {
-    pub width: u32,
-    pub height: u32,
-    pub spp: u32,
-    pub runs: u32,
-}
 
 /// One scene's line of the specialisation benchmark: samples per second of each kernel (median of the
 /// runs), and the specialised/generic ratio.
@@ -31,20 +23,6 @@ pub struct SpecialisationRow {
     /// pinhole, black background): its samples per second, and specialised/trimmed.
     pub trimmed_samples_per_second: Option<f64>,
     pub specialised_over_trimmed: Option<f64>,
-}
-
-/// The median of `v` (NaN when empty).
-pub fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n == 0 {
-        return f64::NAN;
-    }
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// Whether the hand-trimmed kernel renders this feature set exactly.
@@ -171,31 +149,6 @@ fn time_renderers(renderers: &mut [Renderer], settings: BenchSettings) -> Result
     Ok(times.into_iter().map(|t| samples / median(t)).collect())
 }
 
-/// Seconds of each of `settings.runs` timed passes of `settings.spp` samples per pixel, per renderer,
-/// after one untimed warm-up pass each, interleaved across the renderers.
-pub fn pass_times(
-    renderers: &mut [Renderer],
-    settings: BenchSettings,
-) -> Result<Vec<Vec<f64>>, Error> {
-    let mut times = vec![Vec::new(); renderers.len()];
-    // One untimed pass each: the driver may finish compiling on first use.
-    for r in renderers.iter_mut() {
-        r.run_pass(1)?;
-    }
-    for run in 0..settings.runs {
-        for k in 0..renderers.len() {
-            // Rotate the order each run so that a slow moment of the machine hits every variant alike.
-            let i = (k + run as usize) % renderers.len();
-            let r = &mut renderers[i];
-            r.reset()?;
-            let t0 = Instant::now();
-            r.run_pass(settings.spp)?;
-            times[i].push(t0.elapsed().as_secs_f64());
-        }
-    }
-    Ok(times)
-}
-
 /// The ablation as a Markdown table.
 pub fn ablation_table(rows: &[AblationRow], settings: BenchSettings, device: &str) -> String {
     let mut out = format!(
@@ -210,20 +163,6 @@ pub fn ablation_table(rows: &[AblationRow], settings: BenchSettings, device: &st
         ));
     }
     out
-}
-
-/// The scene files of a directory, sorted by name.
-pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
-    let entries = std::fs::read_dir(dir).map_err(|e| Error::Io {
-        path: dir.to_path_buf(),
-        message: e.to_string(),
-    })?;
-    let mut files: Vec<PathBuf> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
-    Ok(files)
 }
 
 /// The rows as a Markdown table.

@@ -1,0 +1,77 @@
+//! Benchmarks that report measured ratios (`vkpath bench ...`). Nothing here asserts a time: the numbers
+//! are printed for the README and for people comparing machines.
+//!
+//! This module holds what the timing benchmarks share (their settings, the timed passes, the median, the
+//! scene files of a directory); each benchmark is one submodule.
+
+pub mod convergence;
+pub mod mesh;
+pub mod specialisation;
+pub mod throughput;
+
+use crate::Error;
+use crate::render::Renderer;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Image size, samples per pixel of each timed pass, and how many timed passes per variant.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchSettings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub runs: u32,
+}
+
+/// The median of `v` (NaN when empty).
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Seconds of each of `settings.runs` timed passes of `settings.spp` samples per pixel, per renderer,
+/// after one untimed warm-up pass each, interleaved across the renderers.
+pub fn pass_times(
+    renderers: &mut [Renderer],
+    settings: BenchSettings,
+) -> Result<Vec<Vec<f64>>, Error> {
+    let mut times = vec![Vec::new(); renderers.len()];
+    // One untimed pass each: the driver may finish compiling on first use.
+    for r in renderers.iter_mut() {
+        r.run_pass(1)?;
+    }
+    for run in 0..settings.runs {
+        for k in 0..renderers.len() {
+            // Rotate the order each run so that a slow moment of the machine hits every variant alike.
+            let i = (k + run as usize) % renderers.len();
+            let r = &mut renderers[i];
+            r.reset()?;
+            let t0 = Instant::now();
+            r.run_pass(settings.spp)?;
+            times[i].push(t0.elapsed().as_secs_f64());
+        }
+    }
+    Ok(times)
+}
+
+/// The scene files of a directory, sorted by name.
+pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
+    let entries = std::fs::read_dir(dir).map_err(|e| Error::Io {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    Ok(files)
+}
