@@ -850,7 +850,7 @@ fn run_merge(m: MergeArgs) -> Result<i32, Error> {
     for p in &m.parts {
         parts.push((p.clone(), Checkpoint::read(p)?));
     }
-    let merged = vkpath::checkpoint::merge(&parts)?;
+    let merged = vkpath::checkpoint::merge::merge(&parts)?;
     drop(parts);
     let film = merged.film();
     let settings = merged.image_settings();

@@ -213,7 +213,7 @@ fn merge_of_four_ranges_equals_one_render_exactly() {
             .unwrap();
         parts.push((path.clone(), Checkpoint::read(&path).unwrap()));
     }
-    let merged = checkpoint::merge(&parts).unwrap();
+    let merged = checkpoint::merge::merge(&parts).unwrap();
     assert_eq!(
         merged.header.ranges,
         vec![[0, 8], [8, 16], [16, 24], [24, 32]]

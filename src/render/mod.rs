@@ -7,6 +7,7 @@
 //! of k samples is bit-identical to one pass of N k samples: pass sizes are free to adapt to time budgets
 //! and progress reports.
 
+pub mod identity;
 pub mod tiles;
 
 use crate::film::Film;
@@ -168,7 +169,7 @@ pub struct Renderer {
     /// The sample indices in the accumulator: sorted disjoint `[start, end)` ranges (see checkpoint.rs).
     ranges: Vec<[u32; 2]>,
     features: FeatureSet,
-    /// [`crate::checkpoint::content_hash`] of the scene as uploaded.
+    /// [`identity::content_hash`] of the scene as uploaded.
     content_hash: u64,
 }
 
@@ -248,7 +249,7 @@ impl Renderer {
         } else {
             FeatureSet::of(&gpu, &params)
         };
-        let content_hash = crate::checkpoint::content_hash(scene, &gpu, &params);
+        let content_hash = identity::content_hash(scene, &gpu, &params);
         let compiled = match custom_kernel {
             Some(k) => k,
             None if options.fault == Some(Fault::Shader) => {
@@ -535,7 +536,7 @@ impl Renderer {
         &self.ranges
     }
 
-    /// The hash of the scene content this renderer was built from ([`crate::checkpoint::content_hash`]).
+    /// The hash of the scene content this renderer was built from ([`identity::content_hash`]).
     pub fn content_hash(&self) -> u64 {
         self.content_hash
     }
@@ -546,8 +547,8 @@ impl Renderer {
     }
 
     /// What must match for a checkpoint to resume this render.
-    pub fn identity(&self) -> crate::checkpoint::Identity {
-        crate::checkpoint::Identity::new(&self.params, self.content_hash)
+    pub fn identity(&self) -> identity::Identity {
+        identity::Identity::new(&self.params, self.content_hash)
     }
 
     /// The accumulator's raw per-pixel state (exact sums, Kahan pairs of squares), exactly as the GPU

@@ -8,8 +8,9 @@
 //! state and going on with the next sample index gives the same bits as a render that never stopped.
 //!
 //! The same file is a *partial render* when it holds a range of samples (`--sample-range A..B`);
-//! [`merge`] adds partial renders of disjoint ranges into the state of their union. The sums of samples
-//! are exact integers, so the merged sums, and the image, have the bits of a single render of the union.
+//! [`merge::merge`] adds partial renders of disjoint ranges into the state of their union. The sums of
+//! samples are exact integers, so the merged sums, and the image, have the bits of a single render of the
+//! union.
 //!
 //! File layout (all integers and floats little-endian):
 //!
@@ -24,16 +25,21 @@
 //! The header's `payload_crc32` is the CRC-32 of the pixel bytes. Files are written atomically
 //! (temporary file, fsync, rename): a crash leaves the previous checkpoint or the new one, never a mix.
 
+pub mod merge;
+
 use crate::Error;
 use crate::film::{Film, write_atomically_with};
 use crate::gpu::features::FeatureSet;
-use crate::gpu::scene::GpuScene;
-use crate::gpu::types::{GpuAccum, GpuParams};
+use crate::gpu::types::GpuAccum;
 use crate::scene::{Gamma, ImageSettings, Scene};
 use serde::{Deserialize, Serialize};
-use std::fmt;
 use std::io::{Read, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
+
+// A header holds the render's identity, defined beside the renderer (which computes it) so that the
+// renderer does not depend on this file format. Re-exported because a header cannot be built or read
+// without it (tests/fuzz_scene.rs builds one through this path).
+pub use crate::render::identity::{Identity, VKPATH_VERSION};
 
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"VKPATHCP";
@@ -42,104 +48,8 @@ pub const MAGIC: [u8; 8] = *b"VKPATHCP";
 pub const FORMAT_VERSION: u32 = 2;
 /// A header longer than this is refused before it is read (it is a few hundred bytes).
 pub const MAX_HEADER_BYTES: u32 = 1 << 20;
-/// The version of vkpath that writes checkpoints (and the only one that resumes them).
-pub const VKPATH_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 const ACCUM_BYTES: usize = std::mem::size_of::<GpuAccum>();
-
-// ---------------------------------------------------------------------------------------------------
-// The scene's content hash
-// ---------------------------------------------------------------------------------------------------
-
-/// FNV-1a, 64 bits: small, stable across platforms and Rust versions (std's hasher is neither promised).
-/// It detects accidental differences (another scene, another override), not adversarial ones.
-struct Fnv64(u64);
-
-impl Fnv64 {
-    fn new() -> Fnv64 {
-        Fnv64(0xcbf2_9ce4_8422_2325)
-    }
-
-    fn bytes(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 ^= u64::from(b);
-            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
-        }
-    }
-
-    /// A labelled, length-prefixed field, so that moving bytes between fields changes the hash.
-    fn field(&mut self, label: &str, bytes: &[u8]) {
-        self.bytes(label.as_bytes());
-        self.bytes(&(bytes.len() as u64).to_le_bytes());
-        self.bytes(bytes);
-    }
-}
-
-impl fmt::Write for Fnv64 {
-    fn write_str(&mut self, s: &str) -> fmt::Result {
-        self.bytes(s.as_bytes());
-        Ok(())
-    }
-}
-
-/// The hash of everything that decides the value of every sample: the validated scene (geometry,
-/// materials, lights, camera, image size, seed, bounces, filter, background, with the command-line
-/// overrides applied), the uniform parameters and arrays uploaded to the GPU, and the renderer settings
-/// that change paths (Russian roulette). It leaves out what does not change the sums: the target sample
-/// count, the display transform (exposure, gamma), where the file lives, and the kernel variant
-/// (specialised and generic kernels give the same bits, `tests/specialise.rs`).
-pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
-    // Both structs are taken apart field by field, with no `..`: a field added to either is a compile
-    // error here until it is hashed (or, like the statistics, deliberately left out). Keep it that way:
-    // a field that changes the image but escapes the hash would let a checkpoint of another scene resume.
-    let Scene {
-        path: _, // where the file lives does not change the image
-        camera,
-        image,  // only width and height: exposure and gamma are the display's
-        render, // all but the target sample count
-        materials,
-        material_names: _, // objects refer to materials by index
-        spheres,
-        triangles,
-        meshes: _, // geometry, normals, uvs and texels: hashed as uploaded (mesh_* and texels below)
-        lights,
-    } = scene;
-    let GpuScene {
-        spheres: gpu_spheres,
-        triangles: gpu_triangles,
-        materials: gpu_materials,
-        lights: gpu_lights,
-        bvh_nodes,
-        mesh_faces,
-        mesh_vertices,
-        meshes,
-        texels,
-        stats: _, // build statistics (timings): not content
-    } = gpu;
-    let mut render = *render;
-    render.samples = 0;
-    let mut h = Fnv64::new();
-    h.bytes(b"vkpath scene v1");
-    // Debug prints every field, floats in their shortest round-trip form: a faithful serialisation.
-    let _ = fmt::Write::write_fmt(
-        &mut h,
-        format_args!(
-            "{camera:?}|{}x{}|{render:?}|{materials:?}|{spheres:?}|{triangles:?}|{lights:?}",
-            image.width, image.height
-        ),
-    );
-    h.field("params", bytemuck::bytes_of(params));
-    h.field("spheres", bytemuck::cast_slice(gpu_spheres));
-    h.field("triangles", bytemuck::cast_slice(gpu_triangles));
-    h.field("materials", bytemuck::cast_slice(gpu_materials));
-    h.field("lights", bytemuck::cast_slice(gpu_lights));
-    h.field("bvh_nodes", bytemuck::cast_slice(bvh_nodes));
-    h.field("mesh_faces", bytemuck::cast_slice(mesh_faces));
-    h.field("mesh_vertices", bytemuck::cast_slice(mesh_vertices));
-    h.field("meshes", bytemuck::cast_slice(meshes));
-    h.field("texels", bytemuck::cast_slice(texels));
-    h.0
-}
 
 /// Which kernel a renderer runs, for reports: specialised and generic kernels give the same bits.
 pub fn kernel_name(features: &FeatureSet) -> &'static str {
@@ -153,89 +63,6 @@ pub fn kernel_name(features: &FeatureSet) -> &'static str {
 // ---------------------------------------------------------------------------------------------------
 // The header
 // ---------------------------------------------------------------------------------------------------
-
-/// What must be equal for two accumulation states to belong to the same render: a checkpoint is resumed,
-/// and partial renders are merged, only when these match.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Identity {
-    pub vkpath_version: String,
-    /// [`content_hash`] as 16 hexadecimal digits.
-    pub scene_hash: String,
-    pub width: u32,
-    pub height: u32,
-    pub seed: u32,
-    pub max_bounces: u32,
-    /// `u32::MAX` when Russian roulette is off.
-    pub roulette_depth: u32,
-}
-
-impl Identity {
-    /// The identity of a render of `scene` with these parameters and content hash.
-    pub fn new(params: &GpuParams, content_hash: u64) -> Identity {
-        Identity {
-            vkpath_version: VKPATH_VERSION.to_string(),
-            scene_hash: format!("{content_hash:016x}"),
-            width: params.width,
-            height: params.height,
-            seed: params.seed,
-            max_bounces: params.max_bounces,
-            roulette_depth: params.roulette_depth,
-        }
-    }
-
-    /// The differences between `self` (a file's) and `other` (this render's), in words; empty when equal.
-    pub fn differences(&self, other: &Identity) -> Vec<String> {
-        let mut d = Vec::new();
-        if self.vkpath_version != other.vkpath_version {
-            d.push(format!(
-                "it was written by vkpath {} and this is vkpath {} (only the version that wrote a \
-                 state can promise the same bits)",
-                self.vkpath_version, other.vkpath_version
-            ));
-        }
-        if (self.width, self.height) != (other.width, other.height) {
-            d.push(format!(
-                "its image is {}x{}, this one {}x{} (--width/--height)",
-                self.width, self.height, other.width, other.height
-            ));
-        }
-        if self.seed != other.seed {
-            d.push(format!(
-                "its seed is {}, this one {} (--seed)",
-                self.seed, other.seed
-            ));
-        }
-        if self.max_bounces != other.max_bounces {
-            d.push(format!(
-                "its max_bounces is {}, this one {} (--max-bounces)",
-                self.max_bounces, other.max_bounces
-            ));
-        }
-        if self.roulette_depth != other.roulette_depth {
-            let show = |r: u32| {
-                if r == u32::MAX {
-                    "off".to_string()
-                } else {
-                    r.to_string()
-                }
-            };
-            d.push(format!(
-                "its Russian roulette depth is {}, this one {} (--roulette-depth)",
-                show(self.roulette_depth),
-                show(other.roulette_depth)
-            ));
-        }
-        if d.is_empty() && self.scene_hash != other.scene_hash {
-            d.push(format!(
-                "the scene's content differs (geometry, materials, lights, camera or render settings: \
-                 content hash {} in the file, {} here)",
-                self.scene_hash, other.scene_hash
-            ));
-        }
-        d
-    }
-}
 
 /// The display transform, kept so that `vkpath merge` can write PNGs as the scene would.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -548,138 +375,13 @@ fn accum_from_bytes(bytes: &[u8]) -> Vec<GpuAccum> {
         .collect()
 }
 
-// ---------------------------------------------------------------------------------------------------
-// Merging partial renders
-// ---------------------------------------------------------------------------------------------------
-
-/// Adds partial renders of disjoint sample ranges of the same render into the state of their union.
-///
-/// Each pixel's sums of samples are exact integers (long accumulators, [`crate::accum`]): the parts'
-/// are added exactly, so the merged sums, and hence the image, are bit for bit those of a single render
-/// of the union, whatever the split. The sums of squares (which only feed the variance estimate) are
-/// Kahan pairs: each is read exactly in f64 as s - c, the parts' are added in f64 in the order of their
-/// first sample index (so the result does not depend on the order the parts are given in), and stored
-/// back as a Kahan pair (s = the f32 nearest the total, c = s - total rounded to f32). The variance of the
-/// union is kept to within a few ulps of a single render's. `tests/checkpoint.rs` tests both.
-pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
-    let Some((first_path, first)) = parts.first() else {
-        return Err(Error::Usage(
-            "merge needs at least one partial render.".into(),
-        ));
-    };
-    let identity = &first.header.identity;
-    let pixels = identity.width as usize * identity.height as usize;
-    for (path, part) in parts {
-        if part.accum.len() != pixels {
-            return Err(Error::Checkpoint {
-                path: path.clone(),
-                message: format!(
-                    "it holds {} pixels for a {}x{} image.",
-                    part.accum.len(),
-                    identity.width,
-                    identity.height
-                ),
-            });
-        }
-    }
-    for (path, part) in &parts[1..] {
-        let d = part.header.identity.differences(identity);
-        if !d.is_empty() {
-            return Err(Error::Checkpoint {
-                path: path.clone(),
-                message: format!(
-                    "this partial render is of another render than {}: {}. Merge only the parts of one \
-                     render (same scene file, flags and vkpath version).",
-                    first_path.display(),
-                    d.join("; ")
-                ),
-            });
-        }
-    }
-    // Every range, with the part it comes from, sorted by start: overlaps would count samples twice.
-    let mut ranges: Vec<([u32; 2], usize)> = parts
-        .iter()
-        .enumerate()
-        .flat_map(|(i, (_, p))| p.header.ranges.iter().map(move |r| (*r, i)))
-        .collect();
-    ranges.sort();
-    for w in ranges.windows(2) {
-        let ((a, i), (b, j)) = (w[0], w[1]);
-        if a[1] > b[0] {
-            let (pa, pb) = (&parts[i].0, &parts[j].0);
-            return Err(Error::Checkpoint {
-                path: pb.clone(),
-                message: format!(
-                    "its samples {}..{} overlap the samples {}..{} of {}: merging would count them twice. \
-                     Merge partial renders of disjoint --sample-range's only.",
-                    b[0],
-                    b[1],
-                    a[0],
-                    a[1],
-                    pa.display()
-                ),
-            });
-        }
-    }
-    let all_ranges: Vec<[u32; 2]> = ranges.iter().map(|(r, _)| *r).collect();
-    count_samples(&all_ranges).map_err(|m| Error::Checkpoint {
-        path: first_path.clone(),
-        message: format!("the merged render would be invalid: {m}."),
-    })?;
-    // Parts in the order of their first sample.
-    let mut order: Vec<usize> = (0..parts.len()).collect();
-    order.sort_by_key(|&i| parts[i].1.header.ranges.first().map_or(0, |r| r[0]));
-
-    let mut accum = Vec::with_capacity(pixels);
-    for p in 0..pixels {
-        let mut out = GpuAccum::default();
-        let mut sq = [0f64; 3];
-        for &i in &order {
-            let a = &parts[i].1.accum[p];
-            // At most 2^32 - 1 samples in all (count_samples above), so 192 bits cannot overflow.
-            crate::accum::add_sums(&mut out, a);
-            for (total, (s, c)) in sq.iter_mut().zip(a.sum_sq.iter().zip(&a.sum_sq_c)) {
-                *total += f64::from(*s) - f64::from(*c);
-            }
-        }
-        for (c, total) in sq.into_iter().enumerate() {
-            (out.sum_sq[c], out.sum_sq_c[c]) = kahan_pair(total);
-        }
-        accum.push(out);
-    }
-    let mut devices: Vec<&str> = Vec::new();
-    for &i in &order {
-        let d = parts[i].1.header.device.as_str();
-        if !devices.contains(&d) {
-            devices.push(d);
-        }
-    }
-    Ok(Checkpoint {
-        header: Header {
-            identity: identity.clone(),
-            scene: first.header.scene.clone(),
-            device: devices.join(" + "),
-            ranges: all_ranges,
-            display: first.header.display,
-            payload_crc32: 0,
-        },
-        accum,
-    })
-}
-
-/// A total as a Kahan pair (s, c) with s - c ≈ total: s the nearest f32, c the f32 nearest s - total.
-fn kahan_pair(total: f64) -> (f32, f32) {
-    let s = total as f32;
-    let c = (f64::from(s) - total) as f32;
-    (s, c)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::gpu::types::ACCUM_LIMBS;
 
-    fn state(ranges: Vec<[u32; 2]>, value: f32) -> Checkpoint {
+    /// A state of a 2x1 image holding `ranges`, built without a GPU (also used by the merge's tests).
+    pub(super) fn state(ranges: Vec<[u32; 2]>, value: f32) -> Checkpoint {
         Checkpoint {
             header: Header {
                 identity: Identity {
@@ -768,42 +470,5 @@ mod tests {
         let e = Checkpoint::read(&path).unwrap_err().to_string();
         assert!(e.contains("truncated or damaged"), "{e}");
         assert!(start.elapsed().as_secs() < 2, "the files were read");
-    }
-
-    #[test]
-    fn merge_refuses_overlaps_and_adds_disjoint_ranges() {
-        let a = (PathBuf::from("a"), state(vec![[0, 4]], 3.0));
-        let b = (PathBuf::from("b"), state(vec![[2, 6]], 3.0));
-        let e = merge(&[a.clone(), b]).unwrap_err().to_string();
-        assert!(e.contains("overlap"), "{e}");
-        let c = (PathBuf::from("c"), state(vec![[4, 8]], 1.0));
-        let m = merge(&[c.clone(), a.clone()]).unwrap();
-        assert_eq!(m.header.ranges, vec![[0, 4], [4, 8]]);
-        assert_eq!(m.samples(), 8);
-        // Order of the arguments does not matter.
-        assert_eq!(merge(&[a, c]).unwrap(), m);
-        // Sums are exact: 3 + 1, and 1e-20 + 1e-20 (exactly twice the f32 nearest 1e-20).
-        let p = &m.accum[0];
-        assert_eq!(crate::accum::to_f64(&crate::accum::channel(p, 0)), 4.0);
-        assert_eq!(
-            crate::accum::to_f64(&crate::accum::channel(p, 2)),
-            2.0 * f64::from(1e-20f32)
-        );
-        let sq = (9.0f64 - f64::from(1e-9f32)) + (1.0 - f64::from(1e-9f32));
-        assert_eq!(p.sum_sq[0] as f64 - p.sum_sq_c[0] as f64, sq);
-    }
-
-    #[test]
-    fn identity_differences_are_named() {
-        let a = state(vec![[0, 1]], 1.0).header.identity;
-        let mut b = a.clone();
-        b.seed = 9;
-        b.roulette_depth = u32::MAX;
-        let d = a.differences(&b).join("; ");
-        assert!(d.contains("seed is 0, this one 9"), "{d}");
-        assert!(d.contains("roulette depth is 3, this one off"), "{d}");
-        let mut c = a.clone();
-        c.scene_hash = "ffffffffffffffff".into();
-        assert!(a.differences(&c)[0].contains("content differs"));
     }
 }

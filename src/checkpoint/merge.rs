@@ -1,0 +1,158 @@
+//! Merging partial renders: the parts of disjoint `--sample-range`s of one render added into the state
+//! of their union (`vkpath merge`).
+
+use super::{Checkpoint, Header, count_samples};
+use crate::Error;
+use crate::gpu::types::GpuAccum;
+use std::path::PathBuf;
+
+/// Adds partial renders of disjoint sample ranges of the same render into the state of their union.
+///
+/// Each pixel's sums of samples are exact integers (long accumulators, [`crate::accum`]): the parts'
+/// are added exactly, so the merged sums, and hence the image, are bit for bit those of a single render
+/// of the union, whatever the split. The sums of squares (which only feed the variance estimate) are
+/// Kahan pairs: each is read exactly in f64 as s - c, the parts' are added in f64 in the order of their
+/// first sample index (so the result does not depend on the order the parts are given in), and stored
+/// back as a Kahan pair (s = the f32 nearest the total, c = s - total rounded to f32). The variance of the
+/// union is kept to within a few ulps of a single render's. `tests/checkpoint.rs` tests both.
+pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
+    let Some((first_path, first)) = parts.first() else {
+        return Err(Error::Usage(
+            "merge needs at least one partial render.".into(),
+        ));
+    };
+    let identity = &first.header.identity;
+    let pixels = identity.width as usize * identity.height as usize;
+    for (path, part) in parts {
+        if part.accum.len() != pixels {
+            return Err(Error::Checkpoint {
+                path: path.clone(),
+                message: format!(
+                    "it holds {} pixels for a {}x{} image.",
+                    part.accum.len(),
+                    identity.width,
+                    identity.height
+                ),
+            });
+        }
+    }
+    for (path, part) in &parts[1..] {
+        let d = part.header.identity.differences(identity);
+        if !d.is_empty() {
+            return Err(Error::Checkpoint {
+                path: path.clone(),
+                message: format!(
+                    "this partial render is of another render than {}: {}. Merge only the parts of one \
+                     render (same scene file, flags and vkpath version).",
+                    first_path.display(),
+                    d.join("; ")
+                ),
+            });
+        }
+    }
+    // Every range, with the part it comes from, sorted by start: overlaps would count samples twice.
+    let mut ranges: Vec<([u32; 2], usize)> = parts
+        .iter()
+        .enumerate()
+        .flat_map(|(i, (_, p))| p.header.ranges.iter().map(move |r| (*r, i)))
+        .collect();
+    ranges.sort();
+    for w in ranges.windows(2) {
+        let ((a, i), (b, j)) = (w[0], w[1]);
+        if a[1] > b[0] {
+            let (pa, pb) = (&parts[i].0, &parts[j].0);
+            return Err(Error::Checkpoint {
+                path: pb.clone(),
+                message: format!(
+                    "its samples {}..{} overlap the samples {}..{} of {}: merging would count them twice. \
+                     Merge partial renders of disjoint --sample-range's only.",
+                    b[0],
+                    b[1],
+                    a[0],
+                    a[1],
+                    pa.display()
+                ),
+            });
+        }
+    }
+    let all_ranges: Vec<[u32; 2]> = ranges.iter().map(|(r, _)| *r).collect();
+    count_samples(&all_ranges).map_err(|m| Error::Checkpoint {
+        path: first_path.clone(),
+        message: format!("the merged render would be invalid: {m}."),
+    })?;
+    // Parts in the order of their first sample.
+    let mut order: Vec<usize> = (0..parts.len()).collect();
+    order.sort_by_key(|&i| parts[i].1.header.ranges.first().map_or(0, |r| r[0]));
+
+    let mut accum = Vec::with_capacity(pixels);
+    for p in 0..pixels {
+        let mut out = GpuAccum::default();
+        let mut sq = [0f64; 3];
+        for &i in &order {
+            let a = &parts[i].1.accum[p];
+            // At most 2^32 - 1 samples in all (count_samples above), so 192 bits cannot overflow.
+            crate::accum::add_sums(&mut out, a);
+            for (total, (s, c)) in sq.iter_mut().zip(a.sum_sq.iter().zip(&a.sum_sq_c)) {
+                *total += f64::from(*s) - f64::from(*c);
+            }
+        }
+        for (c, total) in sq.into_iter().enumerate() {
+            (out.sum_sq[c], out.sum_sq_c[c]) = kahan_pair(total);
+        }
+        accum.push(out);
+    }
+    let mut devices: Vec<&str> = Vec::new();
+    for &i in &order {
+        let d = parts[i].1.header.device.as_str();
+        if !devices.contains(&d) {
+            devices.push(d);
+        }
+    }
+    Ok(Checkpoint {
+        header: Header {
+            identity: identity.clone(),
+            scene: first.header.scene.clone(),
+            device: devices.join(" + "),
+            ranges: all_ranges,
+            display: first.header.display,
+            payload_crc32: 0,
+        },
+        accum,
+    })
+}
+
+/// A total as a Kahan pair (s, c) with s - c ≈ total: s the nearest f32, c the f32 nearest s - total.
+fn kahan_pair(total: f64) -> (f32, f32) {
+    let s = total as f32;
+    let c = (f64::from(s) - total) as f32;
+    (s, c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::checkpoint::tests::state;
+
+    #[test]
+    fn merge_refuses_overlaps_and_adds_disjoint_ranges() {
+        let a = (PathBuf::from("a"), state(vec![[0, 4]], 3.0));
+        let b = (PathBuf::from("b"), state(vec![[2, 6]], 3.0));
+        let e = merge(&[a.clone(), b]).unwrap_err().to_string();
+        assert!(e.contains("overlap"), "{e}");
+        let c = (PathBuf::from("c"), state(vec![[4, 8]], 1.0));
+        let m = merge(&[c.clone(), a.clone()]).unwrap();
+        assert_eq!(m.header.ranges, vec![[0, 4], [4, 8]]);
+        assert_eq!(m.samples(), 8);
+        // Order of the arguments does not matter.
+        assert_eq!(merge(&[a, c]).unwrap(), m);
+        // Sums are exact: 3 + 1, and 1e-20 + 1e-20 (exactly twice the f32 nearest 1e-20).
+        let p = &m.accum[0];
+        assert_eq!(crate::accum::to_f64(&crate::accum::channel(p, 0)), 4.0);
+        assert_eq!(
+            crate::accum::to_f64(&crate::accum::channel(p, 2)),
+            2.0 * f64::from(1e-20f32)
+        );
+        let sq = (9.0f64 - f64::from(1e-9f32)) + (1.0 - f64::from(1e-9f32));
+        assert_eq!(p.sum_sq[0] as f64 - p.sum_sq_c[0] as f64, sq);
+    }
+}

@@ -1,0 +1,225 @@
+//! What must match for a resume or a merge: the identity of a render ([`Identity`]), and the hash of the
+//! scene content it is computed from ([`content_hash`]).
+//!
+//! The renderer computes both when it is built; checkpoints store the identity in their header and
+//! compare it before a state is resumed or parts are merged. Living here, beside the renderer, they let
+//! the renderer name its identity without depending on the checkpoint format (which depends on the
+//! renderer).
+
+use crate::gpu::scene::GpuScene;
+use crate::gpu::types::GpuParams;
+use crate::scene::Scene;
+use serde::{Deserialize, Serialize};
+use std::fmt;
+
+/// The version of vkpath that writes checkpoints (and the only one that resumes them): part of
+/// every [`Identity`].
+pub const VKPATH_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+// ---------------------------------------------------------------------------------------------------
+// The scene's content hash
+// ---------------------------------------------------------------------------------------------------
+
+/// FNV-1a, 64 bits: small, stable across platforms and Rust versions (std's hasher is neither promised).
+/// It detects accidental differences (another scene, another override), not adversarial ones.
+struct Fnv64(u64);
+
+impl Fnv64 {
+    fn new() -> Fnv64 {
+        Fnv64(0xcbf2_9ce4_8422_2325)
+    }
+
+    fn bytes(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= u64::from(b);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+
+    /// A labelled, length-prefixed field, so that moving bytes between fields changes the hash.
+    fn field(&mut self, label: &str, bytes: &[u8]) {
+        self.bytes(label.as_bytes());
+        self.bytes(&(bytes.len() as u64).to_le_bytes());
+        self.bytes(bytes);
+    }
+}
+
+impl fmt::Write for Fnv64 {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        self.bytes(s.as_bytes());
+        Ok(())
+    }
+}
+
+/// The hash of everything that decides the value of every sample: the validated scene (geometry,
+/// materials, lights, camera, image size, seed, bounces, filter, background, with the command-line
+/// overrides applied), the uniform parameters and arrays uploaded to the GPU, and the renderer settings
+/// that change paths (Russian roulette). It leaves out what does not change the sums: the target sample
+/// count, the display transform (exposure, gamma), where the file lives, and the kernel variant
+/// (specialised and generic kernels give the same bits, `tests/specialise.rs`).
+pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
+    // Both structs are taken apart field by field, with no `..`: a field added to either is a compile
+    // error here until it is hashed (or, like the statistics, deliberately left out). Keep it that way:
+    // a field that changes the image but escapes the hash would let a checkpoint of another scene resume.
+    let Scene {
+        path: _, // where the file lives does not change the image
+        camera,
+        image,  // only width and height: exposure and gamma are the display's
+        render, // all but the target sample count
+        materials,
+        material_names: _, // objects refer to materials by index
+        spheres,
+        triangles,
+        meshes: _, // geometry, normals, uvs and texels: hashed as uploaded (mesh_* and texels below)
+        lights,
+    } = scene;
+    let GpuScene {
+        spheres: gpu_spheres,
+        triangles: gpu_triangles,
+        materials: gpu_materials,
+        lights: gpu_lights,
+        bvh_nodes,
+        mesh_faces,
+        mesh_vertices,
+        meshes,
+        texels,
+        stats: _, // build statistics (timings): not content
+    } = gpu;
+    let mut render = *render;
+    render.samples = 0;
+    let mut h = Fnv64::new();
+    h.bytes(b"vkpath scene v1");
+    // Debug prints every field, floats in their shortest round-trip form: a faithful serialisation.
+    let _ = fmt::Write::write_fmt(
+        &mut h,
+        format_args!(
+            "{camera:?}|{}x{}|{render:?}|{materials:?}|{spheres:?}|{triangles:?}|{lights:?}",
+            image.width, image.height
+        ),
+    );
+    h.field("params", bytemuck::bytes_of(params));
+    h.field("spheres", bytemuck::cast_slice(gpu_spheres));
+    h.field("triangles", bytemuck::cast_slice(gpu_triangles));
+    h.field("materials", bytemuck::cast_slice(gpu_materials));
+    h.field("lights", bytemuck::cast_slice(gpu_lights));
+    h.field("bvh_nodes", bytemuck::cast_slice(bvh_nodes));
+    h.field("mesh_faces", bytemuck::cast_slice(mesh_faces));
+    h.field("mesh_vertices", bytemuck::cast_slice(mesh_vertices));
+    h.field("meshes", bytemuck::cast_slice(meshes));
+    h.field("texels", bytemuck::cast_slice(texels));
+    h.0
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The identity
+// ---------------------------------------------------------------------------------------------------
+
+/// What must be equal for two accumulation states to belong to the same render: a checkpoint is resumed,
+/// and partial renders are merged, only when these match.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Identity {
+    pub vkpath_version: String,
+    /// [`content_hash`] as 16 hexadecimal digits.
+    pub scene_hash: String,
+    pub width: u32,
+    pub height: u32,
+    pub seed: u32,
+    pub max_bounces: u32,
+    /// `u32::MAX` when Russian roulette is off.
+    pub roulette_depth: u32,
+}
+
+impl Identity {
+    /// The identity of a render of `scene` with these parameters and content hash.
+    pub fn new(params: &GpuParams, content_hash: u64) -> Identity {
+        Identity {
+            vkpath_version: VKPATH_VERSION.to_string(),
+            scene_hash: format!("{content_hash:016x}"),
+            width: params.width,
+            height: params.height,
+            seed: params.seed,
+            max_bounces: params.max_bounces,
+            roulette_depth: params.roulette_depth,
+        }
+    }
+
+    /// The differences between `self` (a file's) and `other` (this render's), in words; empty when equal.
+    pub fn differences(&self, other: &Identity) -> Vec<String> {
+        let mut d = Vec::new();
+        if self.vkpath_version != other.vkpath_version {
+            d.push(format!(
+                "it was written by vkpath {} and this is vkpath {} (only the version that wrote a \
+                 state can promise the same bits)",
+                self.vkpath_version, other.vkpath_version
+            ));
+        }
+        if (self.width, self.height) != (other.width, other.height) {
+            d.push(format!(
+                "its image is {}x{}, this one {}x{} (--width/--height)",
+                self.width, self.height, other.width, other.height
+            ));
+        }
+        if self.seed != other.seed {
+            d.push(format!(
+                "its seed is {}, this one {} (--seed)",
+                self.seed, other.seed
+            ));
+        }
+        if self.max_bounces != other.max_bounces {
+            d.push(format!(
+                "its max_bounces is {}, this one {} (--max-bounces)",
+                self.max_bounces, other.max_bounces
+            ));
+        }
+        if self.roulette_depth != other.roulette_depth {
+            let show = |r: u32| {
+                if r == u32::MAX {
+                    "off".to_string()
+                } else {
+                    r.to_string()
+                }
+            };
+            d.push(format!(
+                "its Russian roulette depth is {}, this one {} (--roulette-depth)",
+                show(self.roulette_depth),
+                show(other.roulette_depth)
+            ));
+        }
+        if d.is_empty() && self.scene_hash != other.scene_hash {
+            d.push(format!(
+                "the scene's content differs (geometry, materials, lights, camera or render settings: \
+                 content hash {} in the file, {} here)",
+                self.scene_hash, other.scene_hash
+            ));
+        }
+        d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identity_differences_are_named() {
+        let a = Identity {
+            vkpath_version: VKPATH_VERSION.into(),
+            scene_hash: "0123456789abcdef".into(),
+            width: 2,
+            height: 1,
+            seed: 0,
+            max_bounces: 5,
+            roulette_depth: 3,
+        };
+        let mut b = a.clone();
+        b.seed = 9;
+        b.roulette_depth = u32::MAX;
+        let d = a.differences(&b).join("; ");
+        assert!(d.contains("seed is 0, this one 9"), "{d}");
+        assert!(d.contains("roulette depth is 3, this one off"), "{d}");
+        let mut c = a.clone();
+        c.scene_hash = "ffffffffffffffff".into();
+        assert!(a.differences(&c)[0].contains("content differs"));
+    }
+}
