@@ -29,7 +29,6 @@ pub mod merge;
 
 use crate::Error;
 use crate::film::{Film, write_atomically_with};
-use crate::gpu::features::FeatureSet;
 use crate::gpu::types::GpuAccum;
 use crate::scene::{Gamma, ImageSettings, Scene};
 use serde::{Deserialize, Serialize};
@@ -50,15 +49,6 @@ pub const FORMAT_VERSION: u32 = 2;
 pub const MAX_HEADER_BYTES: u32 = 1 << 20;
 
 const ACCUM_BYTES: usize = std::mem::size_of::<GpuAccum>();
-
-/// Which kernel a renderer runs, for reports: specialised and generic kernels give the same bits.
-pub fn kernel_name(features: &FeatureSet) -> &'static str {
-    if *features == FeatureSet::generic() {
-        "generic"
-    } else {
-        "specialised"
-    }
-}
 
 // ---------------------------------------------------------------------------------------------------
 // The header

@@ -1,0 +1,53 @@
+//! `vkpath info`: the Vulkan devices, the one vkpath would choose and why, and its limits.
+
+use super::report::{InfoReport, print_json};
+use vkpath::Error;
+
+/// `vkpath info`: the devices, the one chosen (by VKPATH_DEVICE, else by type) and why, and its limits;
+/// or all of that as JSON.
+pub fn run_info(json: bool) -> Result<i32, Error> {
+    let devices = vkpath::gpu::context::list_devices()?;
+    let substring = std::env::var("VKPATH_DEVICE")
+        .ok()
+        .filter(|s| !s.is_empty());
+    let (chosen, reason) = vkpath::gpu::context::choose_device(&devices, substring.as_deref())?;
+    if json {
+        print_json(&InfoReport {
+            devices: &devices,
+            chosen,
+            reason: &reason,
+        });
+        return Ok(0);
+    }
+    for d in &devices {
+        let mark = if d.index == chosen { "*" } else { " " };
+        println!(
+            "{mark} [{}] {} ({}, Vulkan {})",
+            d.index, d.name, d.device_type, d.api_version
+        );
+    }
+    let d = &devices[chosen];
+    println!("chosen: [{}] {}, because {}", d.index, d.name, reason);
+    println!("limits:");
+    println!(
+        "  max compute workgroup count:       {:?}",
+        d.max_compute_workgroup_count
+    );
+    println!(
+        "  max compute workgroup invocations: {}",
+        d.max_compute_workgroup_invocations
+    );
+    println!(
+        "  max storage buffer range:          {} bytes",
+        d.max_storage_buffer_range
+    );
+    println!(
+        "  max memory allocation size:        {} bytes",
+        d.max_memory_allocation_size
+    );
+    println!(
+        "  device-local memory:               {} bytes",
+        d.device_local_memory_bytes
+    );
+    Ok(0)
+}

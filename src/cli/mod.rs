@@ -1,0 +1,126 @@
+//! The subcommands of the `vkpath` binary (contract: docs/cli.md), one module each, and what they share:
+//! the parsed command line, usage errors, the stop handler and the checks every command makes the same
+//! way. Each `run` returns the exit status to end with, or an error that `main` maps to one.
+
+mod bench;
+mod info;
+mod merge;
+mod preview;
+mod render;
+mod report;
+
+use clap::{Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use vkpath::{Error, Scene};
+
+#[derive(Parser)]
+#[command(
+    name = "vkpath",
+    version,
+    about = "A physically based path tracer on Vulkan compute"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand)]
+pub enum Command {
+    /// Render a scene (the embedded course scene when none is given) to PNG/EXR.
+    Render(Box<render::RenderArgs>),
+    /// Open a window and watch the render converge (cargo feature `preview`). Keys: S saves the image
+    /// (PNG + EXR), R restarts, Esc/Q quits; drag with the left button to orbit the camera.
+    Preview(Box<preview::PreviewArgs>),
+    /// Combine partial renders (checkpoints of disjoint --sample-range's) into the image of their union.
+    Merge(merge::MergeArgs),
+    /// Benchmarks that report measured ratios.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
+    /// List the Vulkan devices, the one chosen and why, and its limits.
+    Info {
+        /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Runs a parsed command: the exit status it ends with, or the error that decides it.
+pub fn run(command: Command) -> Result<i32, Error> {
+    match command {
+        Command::Render(a) => render::run_render(*a),
+        Command::Preview(p) => preview::run_preview(*p),
+        Command::Info { json } => info::run_info(json),
+        Command::Merge(m) => merge::run_merge(m),
+        Command::Bench(b) => bench::run_bench(b),
+    }
+}
+
+fn usage(msg: impl Into<String>) -> Error {
+    Error::Usage(msg.into())
+}
+
+/// The scene file given, or the embedded course scene when none is.
+fn load_scene(path: Option<&Path>) -> Result<Scene, Error> {
+    match path {
+        Some(path) => Ok(Scene::load(path)?),
+        None => Ok(Scene::default_scene()),
+    }
+}
+
+/// The image size rule of the scene file, checked again after the command line has overridden it.
+fn check_image_size(scene: &Scene) -> Result<(), Error> {
+    let (w, h) = (scene.image.width as u64, scene.image.height as u64);
+    if w == 0 || h == 0 || w > 65536 || h > 65536 || w * h > (1 << 28) {
+        return Err(usage(format!(
+            "an image of {w}x{h} pixels is not allowed: width and height must be 1..=65536 and their product at most 2^28 (268435456)."
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses, before any work, an output whose image format the extension does not name.
+fn check_output_formats(outputs: &[PathBuf]) -> Result<(), Error> {
+    for o in outputs {
+        if vkpath::film::OutputFormat::from_path(o).is_none() {
+            return Err(usage(format!(
+                "cannot tell the image format of output {}: use a .png or .exr extension.",
+                o.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Ctrl-C, SIGTERM and SIGHUP end the render after the pass in flight (the outputs and the checkpoint are
+/// then written); a second one exits at once (every file on disk is still whole: they are written
+/// atomically).
+fn install_stop_handler() -> Arc<AtomicBool> {
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    // If a handler cannot be installed (e.g. one already exists in an embedding), a signal just kills us.
+    let _ = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            eprintln!("vkpath: interrupted twice; exiting now without writing.");
+            std::process::exit(130);
+        }
+    });
+    stop
+}
+
+/// The Vulkan validation layer's errors (only collected when VKPATH_VALIDATION is set) on stderr; true
+/// when there were any, which makes the command end with status 1: they are bugs in vkpath.
+fn report_validation_errors(errors: &[String]) -> bool {
+    if errors.is_empty() {
+        return false;
+    }
+    for e in errors {
+        eprintln!("vkpath: Vulkan validation error: {e}");
+    }
+    eprintln!(
+        "vkpath: the Vulkan validation layer reported {} error(s) (VKPATH_VALIDATION is set); this is a bug in vkpath.",
+        errors.len()
+    );
+    true
+}

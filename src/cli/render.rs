@@ -1,0 +1,674 @@
+//! `vkpath render`: a scene to PNG/EXR, progressively, with time and error budgets, progress images,
+//! checkpoints, resumes and partial renders (`--sample-range`).
+//!
+//! [`run_render`] runs the steps in order, each a function that makes one decision: [`check_flags`]
+//! (what the flags decide on their own), [`prepare`] (the scene with its overrides, the options, the
+//! outputs, the checkpoint to resume), [`plan_samples`] (where this run's samples start and end),
+//! [`render_loop`] (the passes and what they write on the way), [`write_outputs`] (the final image and
+//! checkpoint) and [`report`] (what is printed, and the exit status).
+
+use super::report::{RenderReport, kernel_name, print_json, shown_paths};
+use super::{
+    check_image_size, check_output_formats, install_stop_handler, load_scene,
+    report_validation_errors, usage,
+};
+use clap::Args;
+use indicatif::ProgressBar;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+use vkpath::checkpoint::Checkpoint;
+use vkpath::film::Film;
+use vkpath::gpu::{ContextOptions, GpuContext};
+use vkpath::render::{
+    Budget, Fault, RenderOptions, Renderer, SaveEvery, StopReason, render_progressive,
+};
+use vkpath::{Error, Scene};
+
+/// `vkpath render`: the exit status, or the error that decides it. A failure part-way through the
+/// render (a lost device) is reported here, with the files still intact, and ends with its status.
+pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
+    let flags = check_flags(&a)?;
+    let job = prepare(&a)?;
+
+    let stop = install_stop_handler();
+    let ctx = GpuContext::new(&ContextOptions::default())?;
+    let mut renderer = Renderer::new(&ctx, &job.scene, &job.options)?;
+    let plan = plan_samples(&mut renderer, &job.scene, flags.range, job.resumed, a.quiet)?;
+
+    let budget = Budget {
+        spp: plan.target_spp,
+        time: flags.time,
+        progress_every: a.progress_every,
+        save_every: flags.save_every,
+        target_error: a.target_error,
+    };
+    let bar = progress_bar(a.quiet, &plan);
+    let mut disk = Disk {
+        scene: &job.scene,
+        outputs: &job.outputs,
+        checkpoint: flags.checkpoint.as_deref(),
+        saved: Saved::default(),
+    };
+    // Resuming into the file resumed from: that file is the last intact checkpoint until a new one is
+    // written.
+    if let (Some(p), true, None) = (&flags.checkpoint, plan.resumed_samples > 0, &a.checkpoint) {
+        disk.saved.checkpoint = Some((p.clone(), plan.resumed_samples));
+    }
+    let ended = match render_loop(
+        &mut renderer,
+        &job.options,
+        &budget,
+        &stop,
+        bar.as_ref(),
+        &mut disk,
+    ) {
+        Ok(v) => v,
+        Err(e) => return Ok(fail(bar.as_ref(), &disk, e)),
+    };
+    if let Some(bar) = &bar {
+        bar.finish_and_clear();
+    }
+    let film = match renderer.film() {
+        Ok(f) => f,
+        Err(e) => return Ok(fail(bar.as_ref(), &disk, e.into())),
+    };
+    if film.spp == 0 {
+        eprintln!("vkpath: interrupted before the first pass ended; no image was written.");
+        return Ok(1);
+    }
+    write_outputs(&film, &mut renderer, &mut disk)?;
+    Ok(report(&a, &renderer, &disk, &plan, &film, ended))
+}
+
+/// What the flags decide on their own, before any file is read.
+struct Flags {
+    /// `--time`.
+    time: Option<Duration>,
+    /// `--sample-range`.
+    range: Option<[u32; 2]>,
+    /// Where checkpoints go: `--checkpoint`, or back into the file resumed from.
+    checkpoint: Option<PathBuf>,
+    /// How often to save one (every 60 s when only the file is given).
+    save_every: Option<SaveEvery>,
+}
+
+/// Refuses the flags that are wrong on their own (a non-positive time or target error, a zero progress
+/// interval, a malformed range or checkpoint interval) or together (`--spp` with `--sample-range`,
+/// `--checkpoint-every` with nowhere to save), and decides the time budget, the sample range and where
+/// and how often checkpoints are saved.
+fn check_flags(a: &RenderArgs) -> Result<Flags, Error> {
+    if let Some(e) = a.target_error
+        && !(e.is_finite() && e > 0.0)
+    {
+        return Err(usage(format!(
+            "--target-error must be a positive relative error (e.g. 0.02 for 2%), not {e}."
+        )));
+    }
+    let time = match a.time {
+        Some(t) if !(t.is_finite() && t > 0.0) => {
+            return Err(usage(format!(
+                "--time must be a positive number of seconds, not {t}."
+            )));
+        }
+        Some(t) => Some(Duration::from_secs_f64(t)),
+        None => None,
+    };
+    if a.progress_every == Some(0) {
+        return Err(usage("--progress-every must be at least 1."));
+    }
+    let range = a
+        .sample_range
+        .as_deref()
+        .map(parse_sample_range)
+        .transpose()?;
+    if range.is_some() && a.spp.is_some() {
+        return Err(usage(
+            "--spp and --sample-range both set the samples to render; give one of them.",
+        ));
+    }
+    let checkpoint = a.checkpoint.clone().or_else(|| a.resume.clone());
+    let save_every = match (&a.checkpoint_every, &checkpoint) {
+        (Some(_), None) => {
+            return Err(usage(
+                "--checkpoint-every needs --checkpoint FILE (or --resume FILE) to say where to save.",
+            ));
+        }
+        (Some(text), Some(_)) => Some(parse_save_every(text)?),
+        (None, Some(_)) => Some(SaveEvery::Time(Duration::from_secs(60))),
+        (None, None) => None,
+    };
+    Ok(Flags {
+        time,
+        range,
+        checkpoint,
+        save_every,
+    })
+}
+
+/// What the render works from, all read and checked before any device work.
+struct Job {
+    /// The scene with the command line's overrides applied.
+    scene: Scene,
+    options: RenderOptions,
+    /// The images to write: `-o`'s, or `<scene-stem>.png`.
+    outputs: Vec<PathBuf>,
+    /// `--resume`'s file and its state.
+    resumed: Option<(PathBuf, Checkpoint)>,
+}
+
+/// Loads the scene and applies the overrides, decides the renderer's options and the outputs (refusing
+/// an output of unknown format), and reads the checkpoint to resume: a damaged or foreign file is
+/// refused here, before any device work.
+fn prepare(a: &RenderArgs) -> Result<Job, Error> {
+    let mut scene = load_scene(a.scene.as_deref())?;
+    apply_overrides(&mut scene, a)?;
+    let options = render_options(a)?;
+    let outputs = if a.outputs.is_empty() {
+        vec![PathBuf::from(format!("{}.png", scene.stem()))]
+    } else {
+        a.outputs.clone()
+    };
+    check_output_formats(&outputs)?;
+    let resumed = a
+        .resume
+        .as_deref()
+        .map(|p| Checkpoint::read(p).map(|c| (p.to_path_buf(), c)))
+        .transpose()?;
+    Ok(Job {
+        scene,
+        options,
+        outputs,
+        resumed,
+    })
+}
+
+/// Where this run's samples start and end.
+struct Plan {
+    /// The samples per pixel the render ends with: B - A of a range, else the scene's (or --spp's).
+    target_spp: u32,
+    /// The samples per pixel already in the accumulator when the passes start (from a checkpoint).
+    resumed_samples: u32,
+}
+
+/// Decides where the samples start: from the checkpoint resumed (which must be of this render, and, for
+/// a partial render, of the start of the same `--sample-range`: anything else would render other
+/// samples), at the start of `--sample-range`, or at 0. Puts the resumed state on the device, and warns
+/// (unless `--quiet`) when it was computed on another device.
+fn plan_samples(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    range: Option<[u32; 2]>,
+    resumed: Option<(PathBuf, Checkpoint)>,
+    quiet: bool,
+) -> Result<Plan, Error> {
+    let target_spp = match range {
+        Some([a0, b0]) => b0 - a0,
+        None => scene.render.samples,
+    };
+    match (&resumed, range) {
+        (Some((path, c)), range) => {
+            c.check_identity(path, &renderer.identity())?;
+            let held = vkpath::checkpoint::show_ranges(&c.header.ranges);
+            let first = c.header.ranges.first().map_or(0, |r| r[0]);
+            let refusal = match range {
+                Some([a0, b0])
+                    if c.header.ranges.len() != 1 || first != a0 || c.next_sample() > b0 =>
+                {
+                    Some(format!(
+                        "this checkpoint holds the samples {held}, which is not the start of --sample-range {a0}..{b0}. Resume it with the --sample-range it was made with."
+                    ))
+                }
+                None if first != 0 => Some(format!(
+                    "this is a partial render of the samples {held}: resume it with its --sample-range {first}..B, or combine it with the other parts with `vkpath merge`."
+                )),
+                _ => None,
+            };
+            if let Some(message) = refusal {
+                return Err(Error::Checkpoint {
+                    path: path.clone(),
+                    message,
+                });
+            }
+            renderer.restore(&c.header.ranges, &c.accum)?;
+            if !quiet {
+                let device = &renderer.context().device_info().name;
+                if &c.header.device != device {
+                    eprintln!(
+                        "vkpath: warning: the checkpoint was computed on {}, this render runs on {device}; the image is a valid estimate, but bit-for-bit equality with an uninterrupted render is promised only on the same device.",
+                        c.header.device
+                    );
+                }
+            }
+        }
+        (None, Some([a0, _])) => renderer.start_at(a0)?,
+        (None, None) => {}
+    }
+    // `resumed` (the whole state, as large as the accumulator) is freed here, before the passes.
+    Ok(Plan {
+        target_spp,
+        resumed_samples: renderer.samples_done(),
+    })
+}
+
+/// A progress bar on stderr when it is a terminal and `--quiet` is not given, starting at the samples
+/// resumed.
+fn progress_bar(quiet: bool, plan: &Plan) -> Option<ProgressBar> {
+    if quiet || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let bar = ProgressBar::new(plan.target_spp as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{elapsed_precise} [{bar:40}] {pos}/{len} spp ({per_sec}, eta {eta})",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    bar.set_position(plan.resumed_samples as u64);
+    Some(bar)
+}
+
+/// Where the render writes, and which of its files are whole on disk.
+struct Disk<'a> {
+    /// The scene rendered: its display transform for the images, its name for checkpoints.
+    scene: &'a Scene,
+    outputs: &'a [PathBuf],
+    checkpoint: Option<&'a Path>,
+    /// For the message if the render fails part-way.
+    saved: Saved,
+}
+
+impl Disk<'_> {
+    /// Writes `film` to every output, each atomically, noting each as written.
+    fn write_images(&mut self, film: &Film) -> Result<(), Error> {
+        for o in self.outputs {
+            film.write(o, &self.scene.image)?;
+            self.saved.image = Some((o.clone(), film.spp));
+        }
+        Ok(())
+    }
+
+    /// Writes the renderer's state to the checkpoint file, when there is one, noting it as written.
+    fn save_checkpoint(&mut self, r: &mut Renderer) -> Result<(), Error> {
+        if let Some(path) = self.checkpoint {
+            Checkpoint::of(r, self.scene)?.write(path)?;
+            self.saved.checkpoint = Some((path.to_path_buf(), r.samples_done()));
+        }
+        Ok(())
+    }
+}
+
+/// Runs passes until the sample budget, `--time`, `--target-error` or a signal ends the render,
+/// rewriting the images at every `--progress-every` and the checkpoint at every `--checkpoint-every` on
+/// the way, but not after the last pass: [`write_outputs`] writes those once. How it stopped, and when.
+fn render_loop(
+    renderer: &mut Renderer,
+    options: &RenderOptions,
+    budget: &Budget,
+    stop: &AtomicBool,
+    bar: Option<&ProgressBar>,
+    disk: &mut Disk,
+) -> Result<(StopReason, Duration), Error> {
+    render_progressive(renderer, options, budget, stop, |r, report| {
+        if let Some(bar) = bar {
+            bar.set_position(report.samples_done as u64);
+        }
+        let ending = report.samples_done >= budget.spp;
+        if report.progress && !ending {
+            disk.write_images(&r.film()?)?;
+        }
+        if report.save_state && !ending {
+            disk.save_checkpoint(r)?;
+        }
+        Ok(())
+    })
+}
+
+/// A render that failed part-way (a lost device): the error, with the files still intact on disk to go
+/// on from, and the exit status it ends with.
+fn fail(bar: Option<&ProgressBar>, disk: &Disk, e: Error) -> i32 {
+    if let Some(bar) = bar {
+        bar.abandon();
+    }
+    eprintln!("vkpath: error: {e}{}", disk.saved.hint());
+    e.exit_code()
+}
+
+/// The final image to every output, and the final state to the checkpoint file: also after an
+/// interrupt, so that the render can go on from there.
+fn write_outputs(film: &Film, renderer: &mut Renderer, disk: &mut Disk) -> Result<(), Error> {
+    disk.write_images(film)?;
+    disk.save_checkpoint(renderer)
+}
+
+/// Says how an interrupted render can go on (unless `--quiet`), prints the `--json` report, and reports
+/// the validation layer's errors. The exit status: 1 when there were any (a bug in vkpath), else 0.
+fn report(
+    a: &RenderArgs,
+    renderer: &Renderer,
+    disk: &Disk,
+    plan: &Plan,
+    film: &Film,
+    (reason, elapsed): (StopReason, Duration),
+) -> i32 {
+    if reason == StopReason::Interrupted && !a.quiet {
+        eprintln!(
+            "vkpath: interrupted; wrote the image with {} samples per pixel{}.",
+            film.spp,
+            match disk.checkpoint {
+                Some(p) => format!(
+                    " and the checkpoint {} (go on with --resume {})",
+                    p.display(),
+                    p.display()
+                ),
+                None => String::new(),
+            }
+        );
+    }
+    let ctx = renderer.context();
+    let validation_errors = ctx.validation_errors();
+    let seconds = elapsed.as_secs_f64();
+    let traced = film.spp - plan.resumed_samples;
+    let scene = disk.scene;
+    let samples = scene.image.width as f64 * scene.image.height as f64 * traced as f64;
+    if a.json {
+        let rel = film.estimated_rel_error();
+        let stats = renderer.scene_stats();
+        print_json(&RenderReport {
+            scene: scene.display_name(),
+            width: scene.image.width,
+            height: scene.image.height,
+            spp: film.spp,
+            seconds,
+            samples_per_second: samples / seconds.max(1e-12),
+            estimated_rel_error: rel.is_finite().then_some(rel),
+            device: &ctx.device_info().name,
+            max_bounces: scene.render.max_bounces,
+            seed: scene.render.seed,
+            stop_reason: reason,
+            outputs: shown_paths(disk.outputs),
+            validation_errors: validation_errors.len(),
+            triangles: stats.triangles,
+            bvh_nodes: stats.bvh_nodes,
+            bvh_build_ms: stats.bvh_build_ms,
+            kernel: kernel_name(renderer.features()),
+            features_absent: renderer.features().absent(),
+            sample_ranges: renderer.ranges(),
+            strips: renderer.tile_layout().strips.len(),
+            tiles_per_sample: renderer.tiles_per_sample(),
+            resumed_spp: plan.resumed_samples,
+            checkpoint: disk.checkpoint.map(|p| p.display().to_string()),
+        });
+    }
+    if report_validation_errors(&validation_errors) {
+        return 1;
+    }
+    0
+}
+
+/// `--sampler` (render.sampler in the scene file).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum SamplerArg {
+    Independent,
+    Sobol,
+}
+
+/// `--light-sampling` (render.light_sampling in the scene file).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum LightSamplingArg {
+    Cone,
+    Area,
+    None,
+}
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// Scene file (TOML). Default: the embedded course scene.
+    scene: Option<PathBuf>,
+    /// Output file; repeatable; the format follows the extension (.png, .exr). Default: <scene-stem>.png.
+    #[arg(short = 'o', long = "output")]
+    outputs: Vec<PathBuf>,
+    /// Samples per pixel (overrides the scene); with --time, the upper bound.
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Stop after the first pass that ends past this many seconds.
+    #[arg(long, allow_negative_numbers = true)]
+    time: Option<f64>,
+    /// Stop when the estimated relative error of the image falls below E (checked after each pass from
+    /// 16 spp on; the scene's samples, or --spp, stays the upper bound).
+    #[arg(long = "target-error", allow_negative_numbers = true)]
+    target_error: Option<f64>,
+    /// Random seed (overrides the scene).
+    #[arg(long)]
+    seed: Option<u32>,
+    /// Image width in pixels (overrides the scene).
+    #[arg(long)]
+    width: Option<u32>,
+    /// Image height in pixels (overrides the scene).
+    #[arg(long)]
+    height: Option<u32>,
+    /// Scattering events per path (overrides the scene).
+    #[arg(long = "max-bounces")]
+    max_bounces: Option<u32>,
+    /// Where random numbers come from (overrides the scene's render.sampler).
+    #[arg(long, value_enum)]
+    sampler: Option<SamplerArg>,
+    /// How sphere lights are sampled (overrides the scene's render.light_sampling).
+    #[arg(long = "light-sampling", value_enum)]
+    light_sampling: Option<LightSamplingArg>,
+    /// Rewrite the outputs after every N samples per pixel.
+    #[arg(long = "progress-every")]
+    progress_every: Option<u32>,
+    /// Print one JSON object on stdout when the render ends.
+    #[arg(long)]
+    json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+    /// Samples per pixel in each pass (default: adapted to about a quarter second per pass).
+    #[arg(long = "samples-per-pass")]
+    samples_per_pass: Option<u32>,
+    /// Start Russian roulette after this many bounces ("off" disables it). Default 3.
+    #[arg(long = "roulette-depth")]
+    roulette_depth: Option<String>,
+    /// Run the one all-features kernel instead of the kernel specialised for this scene.
+    #[arg(long)]
+    generic: bool,
+    /// Save the accumulation state to this file (atomically) every --checkpoint-every, and when the
+    /// render ends or is interrupted (Ctrl-C, SIGTERM).
+    #[arg(long)]
+    checkpoint: Option<PathBuf>,
+    /// How often to save the checkpoint: N samples per pixel, or a duration such as 30s, 10m, 1h.
+    /// Default: 60s.
+    #[arg(long = "checkpoint-every")]
+    checkpoint_every: Option<String>,
+    /// Go on from a checkpoint of this render (same scene, flags and vkpath version), to the same bits
+    /// as a render that never stopped. New checkpoints go to this file unless --checkpoint names another.
+    #[arg(long)]
+    resume: Option<PathBuf>,
+    /// Render only the sample indices A..B (A included, B excluded) of every pixel: a partial render,
+    /// to be combined with `vkpath merge` (save it with --checkpoint).
+    #[arg(long = "sample-range")]
+    sample_range: Option<String>,
+    /// Cut the image into tiles of at most WxH pixels (one dispatch each) and strips of at most H rows
+    /// (one accumulator buffer each), instead of the adaptive cut. The image is the same.
+    #[arg(long)]
+    tile: Option<String>,
+    /// Target duration of one dispatch in milliseconds (default 100): tiles adapt so that a dispatch
+    /// stays well under a desktop GPU's watchdog. The image is the same.
+    #[arg(long = "dispatch-ms", allow_negative_numbers = true)]
+    dispatch_ms: Option<f64>,
+}
+
+/// Applies the command-line overrides to the scene and checks them as the scene file's rules would.
+fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
+    if let Some(spp) = a.spp {
+        if spp == 0 {
+            return Err(usage("--spp must be at least 1."));
+        }
+        scene.render.samples = spp;
+    }
+    if let Some(w) = a.width {
+        scene.image.width = w;
+    }
+    if let Some(h) = a.height {
+        scene.image.height = h;
+    }
+    check_image_size(scene)?;
+    if let Some(b) = a.max_bounces {
+        scene.render.max_bounces = b;
+    }
+    if let Some(s) = a.sampler {
+        scene.render.sampler = match s {
+            SamplerArg::Independent => vkpath::scene::Sampler::Independent,
+            SamplerArg::Sobol => vkpath::scene::Sampler::Sobol,
+        };
+    }
+    if let Some(l) = a.light_sampling {
+        scene.render.light_sampling = match l {
+            LightSamplingArg::Cone => vkpath::scene::LightSampling::Cone,
+            LightSamplingArg::Area => vkpath::scene::LightSampling::Area,
+            LightSamplingArg::None => vkpath::scene::LightSampling::None,
+        };
+    }
+    if let Some(s) = a.seed {
+        scene.render.seed = s;
+    }
+    Ok(())
+}
+
+/// The renderer's options from the flags that tune it (pass size, roulette, tiles, dispatch time) and
+/// the fault-injection test hook.
+fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
+    let mut o = RenderOptions {
+        generic: a.generic,
+        ..Default::default()
+    };
+    if let Some(k) = a.samples_per_pass {
+        if k == 0 {
+            return Err(usage("--samples-per-pass must be at least 1."));
+        }
+        o.samples_per_pass = Some(k);
+    }
+    if let Some(r) = &a.roulette_depth {
+        o.roulette_depth = match r.as_str() {
+            "off" => u32::MAX,
+            s => s.parse().map_err(|_| {
+                usage(format!(
+                    "--roulette-depth takes a number of bounces or \"off\", not \"{s}\"."
+                ))
+            })?,
+        };
+    }
+    if let Some(t) = &a.tile {
+        let bad = || {
+            usage(format!(
+                "--tile takes WxH, a tile's width and height in pixels (each at least 1), e.g. 256x256, not \"{t}\"."
+            ))
+        };
+        let (w, h) = t.split_once(['x', 'X']).ok_or_else(bad)?;
+        let w: u32 = w.trim().parse().map_err(|_| bad())?;
+        let h: u32 = h.trim().parse().map_err(|_| bad())?;
+        if w == 0 || h == 0 {
+            return Err(bad());
+        }
+        o.max_tile = Some([w, h]);
+    }
+    if let Some(ms) = a.dispatch_ms {
+        if !(ms.is_finite() && ms > 0.0) {
+            return Err(usage(format!(
+                "--dispatch-ms must be a positive number of milliseconds, not {ms}."
+            )));
+        }
+        o.target_dispatch_seconds = ms / 1000.0;
+    }
+    // A test hook: simulate a device fault (docs/reliability.md).
+    if let Some(f) = std::env::var("VKPATH_FAULT").ok().filter(|v| !v.is_empty()) {
+        o.fault = Some(Fault::parse(&f).ok_or_else(|| {
+            usage(format!(
+                "VKPATH_FAULT={f} is not a fault to simulate: use device-lost@N, out-of-memory or shader, or unset it."
+            ))
+        })?);
+    }
+    Ok(o)
+}
+
+/// What is on disk when a render fails part-way, for the error message: the last checkpoint and the
+/// last image written, with their sample counts.
+#[derive(Default)]
+struct Saved {
+    checkpoint: Option<(PathBuf, u32)>,
+    image: Option<(PathBuf, u32)>,
+}
+
+impl Saved {
+    /// One sentence per file still on disk, to append to the error's paragraph.
+    fn hint(&self) -> String {
+        let mut s = String::new();
+        if let Some((p, n)) = &self.checkpoint {
+            s.push_str(&format!(
+                " The last checkpoint, {} ({n} samples per pixel), is intact: go on with --resume {}.",
+                p.display(),
+                p.display()
+            ));
+        }
+        if let Some((p, n)) = &self.image {
+            s.push_str(&format!(
+                " The last progress image, {} ({n} samples per pixel), is intact.",
+                p.display()
+            ));
+        }
+        s
+    }
+}
+
+/// `--checkpoint-every`: `N` samples per pixel, or a duration `Ns`, `Nm`, `Nh`.
+fn parse_save_every(text: &str) -> Result<SaveEvery, Error> {
+    let bad = || {
+        usage(format!(
+            "--checkpoint-every takes a number of samples per pixel (e.g. 64) or a duration (e.g. 30s, 10m, 1h), not \"{text}\"."
+        ))
+    };
+    let t = text.trim();
+    let (number, unit) = match t.char_indices().last() {
+        Some((i, 's')) => (&t[..i], 1.0),
+        Some((i, 'm')) => (&t[..i], 60.0),
+        Some((i, 'h')) => (&t[..i], 3600.0),
+        _ => {
+            let n: u32 = t.parse().map_err(|_| bad())?;
+            if n == 0 {
+                return Err(bad());
+            }
+            return Ok(SaveEvery::Samples(n));
+        }
+    };
+    let v: f64 = number.trim().parse().map_err(|_| bad())?;
+    let seconds = v * unit;
+    if !(seconds.is_finite() && seconds > 0.0 && seconds < 1e9) {
+        return Err(bad());
+    }
+    Ok(SaveEvery::Time(Duration::from_secs_f64(seconds)))
+}
+
+/// `--sample-range A..B`: the half-open range of sample indices [A, B), A < B.
+fn parse_sample_range(text: &str) -> Result<[u32; 2], Error> {
+    let bad = |why: &str| {
+        usage(format!(
+            "--sample-range takes A..B, the sample indices from A (included) to B (excluded) with 0 <= A < B < 2^32, e.g. 0..64; \"{text}\" {why}."
+        ))
+    };
+    let (a, b) = text.split_once("..").ok_or_else(|| bad("has no \"..\""))?;
+    let a: u32 = a
+        .trim()
+        .parse()
+        .map_err(|_| bad("does not start with a number"))?;
+    let b: u32 = b
+        .trim()
+        .parse()
+        .map_err(|_| bad("does not end with a number"))?;
+    if a >= b {
+        return Err(bad("is empty"));
+    }
+    Ok([a, b])
+}
