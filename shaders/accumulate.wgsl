@@ -29,13 +29,26 @@
 // Radiance is never negative (every factor of the estimator is >= 0); a negative channel, which only a
 // bug could produce, is counted as 0 like a non-finite one, keeping the accumulator unsigned.
 //
+// Neither change is silent: accumulate_sample returns SAMPLE_CLAMPED when some channel was at or above
+// 2^64 (clamped to just below it: a point light of intensity 1e36 next to a wall gives such samples) and
+// SAMPLE_NOT_FINITE when the sample was dropped, and the render kernel counts both for the host to
+// report. Counting was chosen over a window wide enough for every finite f32 (277 bits, 9 limbs: 132
+// bytes per pixel, so 4096x4096 would no longer fit lavapipe's 2 GiB, and three more limb additions per
+// sample) because such radiance is a scene error to be told about, not a value to be kept: its cost is
+// one comparison per sample (docs/robustness.md).
+//
 // The including kernel declares `accum: array<Accum>` (read_write storage); accumulate_sample updates
 // one entry of it in place.
+//
+// requires: (nothing)
 
 const ACCUM_LIMBS: u32 = 6u;
 // The largest f32 below 2^64, (2^24 - 1) 2^40, as bits: larger samples are clamped to it. For positive
 // floats the order of the bit patterns is the order of the values, so min() on the bits clamps.
 const ACCUM_MAX_BITS: u32 = 0x5f7fffffu;
+// accumulate_sample's result: bit flags, 0 when the sample went in exactly as it was.
+const SAMPLE_CLAMPED: u32 = 1u;
+const SAMPLE_NOT_FINITE: u32 = 2u;
 
 struct Accum {
     // Limb-major: sum[3 k + c] is limb k (k = 0..5, least significant first) of channel c. Channel c's
@@ -119,11 +132,18 @@ fn add_limb(acc: ptr<function, Accum>, j: u32, t: GridTerm, carry_in: vec3<u32>)
     return select(zero, vec3<u32>(1u), (s1 < a) | (s2 < s1));
 }
 
-// Adds one sample (linear RGB radiance) to accum[slot].
-fn accumulate_sample(slot: u32, radiance: vec3<f32>, guard: f32) {
+// Adds one sample (linear RGB radiance) to accum[slot]; returns SAMPLE_* flags saying what was changed.
+fn accumulate_sample(slot: u32, radiance: vec3<f32>, guard: f32) -> u32 {
     var l = max(radiance, vec3<f32>(0.0));
+    var fault = 0u;
     if !is_finite_vec3(radiance) {
         l = vec3<f32>(0.0);
+        fault = SAMPLE_NOT_FINITE;
+    }
+    // Positive finite floats order as their bits; -0 (which max may return) has the sign bit set.
+    let l_bits = bitcast<vec3<u32>>(l);
+    if any((l_bits > vec3<u32>(ACCUM_MAX_BITS)) & (l_bits < vec3<u32>(0x7f800000u))) {
+        fault |= SAMPLE_CLAMPED;
     }
     // The exact sums: a 192-bit add with carry, limb by limb, unrolled (lavapipe counts every loop
     // iteration against its per-invocation budget, trace.wgsl).
@@ -151,4 +171,5 @@ fn accumulate_sample(slot: u32, radiance: vec3<f32>, guard: f32) {
     acc.sum_sq_c[1] = c2.y;
     acc.sum_sq_c[2] = c2.z;
     accum[slot] = acc;
+    return fault;
 }

@@ -10,6 +10,8 @@
 //
 // A child reference with BVH_LEAF set is a leaf, first = (ref & ~BVH_LEAF) >> BVH_LEAF_COUNT_BITS and
 // count = (ref & BVH_LEAF_COUNT_MASK) + 1; otherwise it is a node index. (Mirrors src/scene/bvh.rs.)
+//
+// requires: scene_data.wgsl, intersect.wgsl
 const BVH_LEAF: u32 = 0x80000000u;
 const BVH_LEAF_COUNT_BITS: u32 = 2u;
 const BVH_LEAF_COUNT_MASK: u32 = 3u;

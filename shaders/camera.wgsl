@@ -1,4 +1,6 @@
 // camera.wgsl: primary rays. A pinhole or thin-lens camera with a horizontal field of view.
+//
+// requires: (nothing)
 
 struct CameraRay {
     o: vec3<f32>,
@@ -23,8 +25,12 @@ fn camera_ray(position: vec3<f32>, right: vec3<f32>, up: vec3<f32>, forward: vec
     if lens_radius <= 0.0 {
         return CameraRay(position, dir);
     }
-    // dot(dir, forward) > 0 always (fov < 180), so the focus point is in front of the camera.
-    let focus_point = position + dir * (focus_distance / dot(dir, forward));
-    let origin = position + lens_radius * (lens.x * right + lens.y * up);
-    return CameraRay(origin, normalize(focus_point - origin));
+    // dot(dir, forward) > 0 always (fov < 180), so the focus point position + k dir, k = focus_distance
+    // / dot(dir, forward), is in front of the camera. The direction from the lens point position + a to
+    // it is k dir - a; it is computed divided by k, as dir - a / k, which has the same direction but no
+    // longer overflows when the focus distance is huge (1e30 gave |k dir|^2 = inf and a zero direction;
+    // the limit is the focus at infinity, where every lens point sees along dir).
+    let offset = lens_radius * (lens.x * right + lens.y * up);
+    let origin = position + offset;
+    return CameraRay(origin, normalize(dir - offset * (dot(dir, forward) / focus_distance)));
 }

@@ -1,5 +1,7 @@
 // intersect.wgsl: ray–primitive tests and robust spawning of secondary rays.
 //
+// requires: (nothing)
+//
 // Conventions: ray directions are unit vectors; t is a distance along the ray. A miss returns T_MISS.
 // Every hit also returns a conservative bound on the absolute floating-point error of the hit point, so
 // that the next ray can start just outside that error box (pbrt-v4's scheme, Pharr et al. 2023, §6.8)
@@ -150,6 +152,23 @@ fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, 
     if !(t > t_min && t < t_max) {
         return miss;
     }
+    // A ray that leaves the triangle's plane does not hit it. The plane test h = ng . (v0 - o) (|ng| times
+    // the origin's distance to the plane) and ng . d decide that exactly whenever h is larger than its
+    // rounding error: the ray can meet the plane only if both have the same sign. The sheared edge
+    // functions alone cannot tell: their t carries an error that grows with the size of the triangle's
+    // coordinates relative to the origin (pbrt-v4 bounds it, §6.8.7), so on a triangle whose vertices
+    // span 1e-7 to 1e8 a ray leaving it near its small vertex found it again at a t of order 1e8 u (about
+    // one ray in four, tests/shader_intersect.rs). triangle_surface_point makes spawned origins far enough
+    // off the plane for h to be decisive, so this test rejects exactly those false hits. (Rejecting hits
+    // with t below pbrt's bound on t would also reject true hits close to large triangles, which the same
+    // tests show to be accurate.)
+    let h = dot(ng, v0 - o);
+    let ng_mag = cross_magnitude(v1 - v0, v2 - v0);
+    let nd = dot(ng, d);
+    if abs(h) > gamma_n(7.0) * dot(ng_mag, abs(v0 - o)) && abs(nd) > gamma_n(7.0) * dot(ng_mag, abs(d))
+        && (h > 0.0) != (nd > 0.0) {
+        return miss;
+    }
     // A ray that starts exactly in the triangle's plane does not hit it: t is 0 in exact arithmetic but
     // comes out of the sheared edge functions as rounding noise of either sign. This happens on
     // axis-aligned meshes at exact coordinates (a floor at y = 0): the spawned origin's error bound
@@ -164,11 +183,53 @@ fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, 
     return TriangleHit(t, vec3<f32>(e0, e1, e2) / det);
 }
 
-// Hit point from barycentrics, with pbrt's bound: |error| <= gamma(7) * sum |b_i v_i|.
+// The unit geometric normal of a triangle, (v1 - v0) x (v2 - v0) normalised, for any finite vertices.
+// The edges are first scaled by a power of two that brings their largest component into [1, 2): exact,
+// so the direction is that of the unscaled cross product, but its squared length can no longer underflow
+// (edges near 3e-14 gave NaN) or overflow (vertices near 1e18 gave 0). A zero-area triangle, which
+// intersect_triangle never reports, still has no normal.
+fn triangle_normal(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>) -> vec3<f32> {
+    let e1 = v1 - v0;
+    let e2 = v2 - v0;
+    let s = edge_scale(e1, e2);
+    return normalize(cross(e1 * s, e2 * s));
+}
+
+// 2^(127 - e) for the biased exponent e of the largest edge component, as bits (clamped to a normal
+// float for the largest ones): the edges times it have their largest component in [1, 2).
+fn edge_scale(e1: vec3<f32>, e2: vec3<f32>) -> f32 {
+    let m = max(max(abs(e1.x), max(abs(e1.y), abs(e1.z))), max(abs(e2.x), max(abs(e2.y), abs(e2.z))));
+    let e = i32((bitcast<u32>(m) >> 23u) & 0xffu);
+    return bitcast<f32>(u32(clamp(254 - e, 1, 254)) << 23u);
+}
+
+// The magnitudes of the terms of a x b, component by component: |a_y b_z| + |a_z b_y|, ...; the rounding
+// error of a computed cross product is at most gamma(2) times this (and of a dot product with it, a few
+// more roundings).
+fn cross_magnitude(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return abs(a.yzx * b.zxy) + abs(a.zxy * b.yzx);
+}
+
+// Hit point from barycentrics, with pbrt's bound on its error: |error| <= gamma(7) * sum |b_i v_i|; plus,
+// along the normal, the rounding error of the plane test in intersect_triangle for an origin near p
+// (gamma(7) (ng_mag . |v_i - p|) / |ng|, with a margin, for the farthest vertex): a ray spawned from the
+// offset point is then decidably off the plane, on the side it leaves towards, at any coordinate scale.
+// On ordinary meshes that term is the triangle's size times about 1e-6, below the first one.
 fn triangle_surface_point(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, b: vec3<f32>) -> SurfacePoint {
     let p = b.x * v0 + b.y * v1 + b.z * v2;
     let err = gamma_n(7.0) * (abs(b.x * v0) + abs(b.y * v1) + abs(b.z * v2));
-    return SurfacePoint(p, err);
+    // With the edges scaled by a power of two (exact; the ratio below does not change) so that nothing
+    // under- or overflows at extreme scales.
+    let s = edge_scale(v1 - v0, v2 - v0);
+    let e1 = (v1 - v0) * s;
+    let e2 = (v2 - v0) * s;
+    let ng = cross(e1, e2);
+    let len = length(ng);
+    let reach = max(abs(v0 - p), max(abs(v1 - p), abs(v2 - p))) + err;
+    let plane_err = gamma_n(10.0) * dot(cross_magnitude(e1, e2), reach) / len;
+    // As a box whose projection on the unit normal n = ng / |ng| is plane_err: plane_err |n|, since
+    // |n| . |n| = 1. (A zero-area triangle is never hit, so len > 0 here.)
+    return SurfacePoint(p, err + plane_err * (abs(ng) / len));
 }
 
 // --- Spawning rays ----------------------------------------------------------------------------------
@@ -203,6 +264,27 @@ fn offset_ray_origin(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, w: vec3<f32>) -
     if offset.y > 0.0 { po.y = next_float_up(po.y); } else if offset.y < 0.0 { po.y = next_float_down(po.y); }
     if offset.z > 0.0 { po.z = next_float_up(po.z); } else if offset.z < 0.0 { po.z = next_float_down(po.z); }
     return po;
+}
+
+// A shadow ray from the surface point p (error box err, geometric normal n) to the point p_to on a light
+// (pbrt-v4's SpawnRayTo, §6.8.6): it starts at the offset origin, and its direction is aimed from that
+// origin, not from p. Aimed from p, the ray would pass beside p_to by up to the offset (about 1e-3 on the
+// course's radius-940 walls), and miss a light smaller than that: a radius-0.002 sphere light rendered 7 %
+// too dark (docs/robustness.md). It stops a relative SHADOW_EPSILON short of p_to, so the light's own
+// surface (and the rounding of p_to onto it) never counts as a blocker.
+const SHADOW_EPSILON: f32 = 1.0e-4;
+
+struct ShadowRay {
+    o: vec3<f32>,
+    d: vec3<f32>, // unit
+    t_max: f32,
+}
+
+fn spawn_ray_to(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, p_to: vec3<f32>) -> ShadowRay {
+    let o = offset_ray_origin(p, err, n, p_to - p);
+    let to = p_to - o;
+    let dist = length(to);
+    return ShadowRay(o, to / dist, dist * (1.0 - SHADOW_EPSILON));
 }
 
 // --- Boxes ------------------------------------------------------------------------------------------

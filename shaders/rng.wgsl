@@ -17,6 +17,8 @@
 //   the net property and makes every point uniformly distributed, so estimates stay unbiased; and the
 //   sample index is itself scrambled the same way ("shuffled"), which decorrelates the dimension pairs
 //   (without it, every pair would walk the same sequence in the same order).
+//
+// requires: (nothing)
 
 const SAMPLER_INDEPENDENT: u32 = 0u;
 const SAMPLER_SOBOL: u32 = 1u;

@@ -1,4 +1,9 @@
-// sampling.wgsl: warping uniform numbers into the distributions the integrator needs, with their pdfs.
+// sampling.wgsl: warping uniform numbers into the distributions the integrator needs, each warp with its
+// density (`*_pdf`) beside it. The chi-square tests (tests/shader_sampling.rs) bin the warps' samples and
+// compare them with these very pdf functions, integrated over each bin on the GPU: a pdf that disagrees
+// with its warp fails there, as a material's or light's does in tests/shader_bsdf.rs and shader_lights.rs.
+//
+// requires: (nothing)
 
 const PI: f32 = 3.14159265358979323846;
 const TWO_PI: f32 = 6.28318530717958647692;
@@ -34,11 +39,22 @@ fn sample_cosine_hemisphere(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     return frame_to_world(frame_from_normal(n), vec3<f32>(r * cos(phi), r * sin(phi), z));
 }
 
+// Density of sample_cosine_hemisphere per unit solid angle, given cos(theta) = dot(w, n): cos / pi
+// above the surface, 0 below.
+fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    return max(cos_theta, 0.0) * INV_PI;
+}
+
 // Uniform point on the unit disk, polar mapping: r = sqrt(u1), phi = 2 pi u2; pdf = 1/pi.
 fn sample_uniform_disk(u: vec2<f32>) -> vec2<f32> {
     let r = sqrt(u.x);
     let phi = TWO_PI * u.y;
     return vec2<f32>(r * cos(phi), r * sin(phi));
+}
+
+// Density of sample_uniform_disk per unit area: 1/pi inside the unit disk, 0 outside.
+fn uniform_disk_pdf(p: vec2<f32>) -> f32 {
+    return select(0.0, INV_PI, dot(p, p) <= 1.0);
 }
 
 // Uniform direction inside the cone of half-angle theta_max around `axis`, given
@@ -52,6 +68,13 @@ fn sample_cone(axis: vec3<f32>, one_minus_cos_max: f32, u: vec2<f32>) -> vec3<f3
     let phi = TWO_PI * u.y;
     return frame_to_world(frame_from_normal(axis),
                           vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta));
+}
+
+// Density of sample_cone per unit solid angle for a direction whose 1 - cos(theta) from the axis is
+// `one_minus_cos` (that form for the same reason as above): 1 / (2 pi (1 - cos theta_max)) inside the
+// cone, 0 outside.
+fn cone_pdf(one_minus_cos: f32, one_minus_cos_max: f32) -> f32 {
+    return select(0.0, 1.0 / (TWO_PI * one_minus_cos_max), one_minus_cos <= one_minus_cos_max);
 }
 
 // The cone subtended by a sphere of radius r whose centre is at squared distance d2 > r^2:
@@ -70,4 +93,10 @@ fn sample_gaussian2(u: vec2<f32>, sigma: f32) -> vec2<f32> {
     let r = sigma * sqrt(max(0.0, -2.0 * log(1.0 - u.x)));
     let phi = TWO_PI * u.y;
     return vec2<f32>(r * cos(phi), r * sin(phi));
+}
+
+// Density of sample_gaussian2 per unit area at offset x: exp(-|x|^2 / (2 sigma^2)) / (2 pi sigma^2).
+fn gaussian2_pdf(x: vec2<f32>, sigma: f32) -> f32 {
+    let s2 = sigma * sigma;
+    return exp(-dot(x, x) / (2.0 * s2)) / (TWO_PI * s2);
 }

@@ -1,7 +1,10 @@
 // scene_data.wgsl: the data a render kernel reads and writes, shared by the production kernel
-// (trace.wgsl) and the hand-trimmed benchmark kernel (shaders/bench/). Struct layouts here are mirrored by
-// `#[repr(C)]` Pod types in src/gpu/types.rs; tests/layout.rs holds each Rust layout against the layout
-// naga reflects from this file.
+// (trace.wgsl) and the hand-trimmed benchmark kernel (shaders/bench/). Struct layouts here (and those of
+// the modules it requires: Material, Light, Accum) are mirrored by `#[repr(C)]` Pod types in
+// src/kernel/abi.rs; tests/layout.rs holds each Rust layout against the layout naga reflects. The host
+// binds every buffer by the name it has here (src/render/mod.rs), never by number.
+//
+// requires: bsdf.wgsl, lights.wgsl, accumulate.wgsl
 
 struct Params {
     cam_position: vec3<f32>,
@@ -19,7 +22,7 @@ struct Params {
     max_bounces: u32,
     seed: u32,
     sampler: u32, // SAMPLER_INDEPENDENT or SAMPLER_SOBOL (rng.wgsl)
-    light_sampling: u32, // LIGHT_SAMPLING_* (scene.wgsl): how sphere lights are sampled
+    light_sampling: u32, // LIGHT_SAMPLING_* (lights.wgsl): how sphere lights are sampled
     num_spheres: u32,
     num_triangles: u32,
     num_lights: u32,
@@ -44,28 +47,6 @@ struct Triangle {
     _pad0: u32,
     v2: vec3<f32>,
     _pad1: u32,
-}
-
-struct Material {
-    albedo: vec3<f32>, // diffuse albedo or mirror tint
-    kind: u32,
-    emission: vec3<f32>, // radiance of an emitter, W sr^-1 m^-2
-    ior: f32,
-}
-
-const LIGHT_POINT: u32 = 0u;
-const LIGHT_SPHERE: u32 = 1u;
-
-struct Light {
-    position: vec3<f32>, // point position or sphere centre
-    radius: f32,
-    // point: radiant intensity I = P color / (4 pi) (W/sr); sphere: radiance Le = P color / (4 pi^2 r^2)
-    intensity: vec3<f32>,
-    kind: u32,
-    sphere_index: u32, // for sphere lights: the index of its emitter sphere in `spheres`
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
 }
 
 // Triangle meshes (see src/scene/bvh.rs and src/gpu/scene.rs). An interior BVH node holds the boxes of its
@@ -108,6 +89,18 @@ struct MeshInfo {
     flags: u32, // MESH_SMOOTH | MESH_TEXTURED
 }
 
+// A closest hit: which primitive, where along the ray, and for triangles the barycentrics.
+const PRIM_NONE: u32 = 0u;
+const PRIM_SPHERE: u32 = 1u;
+const PRIM_TRIANGLE: u32 = 2u;
+
+struct Hit {
+    t: f32,
+    prim_kind: u32,
+    prim_index: u32,
+    b: vec3<f32>, // triangle barycentrics
+}
+
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> spheres: array<Sphere>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
@@ -138,3 +131,17 @@ struct PassConstants {
 
 @group(0) @binding(5) var<storage, read_write> accum: array<Accum>;
 @group(0) @binding(6) var<uniform> pass_constants: PassConstants;
+
+// Samples the accumulator could not take as they were, counted over the whole render (SAMPLE_CLAMPED and
+// SAMPLE_NOT_FINITE of accumulate.wgsl, one counter each): the host reads them after each pass and reports
+// them (`--json`, stderr), so that no sample is changed silently.
+@group(0) @binding(12) var<storage, read_write> sample_faults: array<atomic<u32>, 2>;
+
+fn count_sample_fault(fault: u32) {
+    if (fault & SAMPLE_CLAMPED) != 0u {
+        atomicAdd(&sample_faults[0], 1u);
+    }
+    if (fault & SAMPLE_NOT_FINITE) != 0u {
+        atomicAdd(&sample_faults[1], 1u);
+    }
+}

@@ -1,4 +1,6 @@
 // texture.wgsl: albedo textures, sampled with bilinear filtering after sRGB decoding.
+//
+// requires: scene_data.wgsl
 
 // The sRGB transfer curve undone (IEC 61966-2-1): an 8-bit texel value c in [0, 1] encodes the linear
 // value c / 12.92 for c <= 0.04045 and ((c + 0.055) / 1.055)^2.4 above. Albedo is a linear quantity, so

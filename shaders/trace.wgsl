@@ -9,6 +9,12 @@
 // of an invocation once the invocation has run 65535 loop iterations in total (a guard in its code
 // generator against runaway shaders): a loop over samples, each looping over bounces and primitives, would
 // be cut silently. One path per invocation keeps each invocation's loops small and bounded.
+//
+// The integrator knows no material and no light: it asks bsdf.wgsl for f, its pdf and a sampled
+// direction, and lights.wgsl for a light sample, and applies f cos / pdf itself (next-event estimation
+// with every light, plus BSDF sampling for the path's continuation).
+//
+// requires: features.wgsl, scene.wgsl, camera.wgsl, accumulate.wgsl
 
 const FILTER_NONE: u32 = 0u;
 const FILTER_BOX: u32 = 1u;
@@ -36,9 +42,50 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
     }
 }
 
+// The cosine factor of direct light arriving along wi: dot(n, wi), or with a shading normal dot(ns, wi)
+// provided the light is above the geometric surface too (a shadow ray towards a light below it would
+// start on the far side).
+fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 {
+    var cos_theta = dot(n, wi);
+    if HAS_SMOOTH_NORMALS {
+        if sp.shading_normal && cos_theta > 0.0 {
+            cos_theta = dot(ns, wi);
+        }
+    }
+    return cos_theta;
+}
+
+// Next-event estimation at a surface point with material `mat`, seen from direction wo: for each
+// selected light, one light sample (L, wi, pdf) and the estimate f(wo, wi) L cos(theta) / (pdf pmf) if
+// the sampled point on the light is visible. n is the facing geometric normal, ns the facing shading
+// normal (the same vector except on smooth meshes).
+fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec3<f32>,
+                rng: ptr<function, Rng>) -> vec3<f32> {
+    var l = vec3<f32>(0.0);
+    let strategy = light_sampling_strategy();
+    for (var k = 0u; k < light_selection_count(); k++) {
+        let chosen = light_select(k);
+        let ls = light_sample_li(chosen.light, sp.p, strategy, rng);
+        if ls.pdf == 0.0 {
+            continue;
+        }
+        let cos_theta = light_cosine(sp, n, ns, ls.wi);
+        if cos_theta <= 0.0 {
+            continue;
+        }
+        let shadow = spawn_ray_to(sp.p, sp.err, n, ls.p_light);
+        if scene_occluded(shadow.o, shadow.d, shadow.t_max) {
+            continue;
+        }
+        let f = bsdf_eval(mat, wo, ls.wi, ns);
+        l += f * ls.L * (cos_theta / (ls.pdf * chosen.pmf));
+    }
+    return l;
+}
+
 // One path: the Monte Carlo estimate of the radiance arriving at the camera through this sample.
 // L = sum over vertices of beta * (emission seen by a specular chain, or direct light by next-event
-// estimation at diffuse vertices), with beta the product of f cos / pdf along the path.
+// estimation at non-delta vertices), with beta the product of f cos / pdf along the path.
 fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     var rng = rng_new_sampler(px.y * params.width + px.x, sample, params.seed, params.sampler);
     let film = film_position(px, &rng);
@@ -60,9 +107,9 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     var beta = vec3<f32>(1.0);
     var radiance = vec3<f32>(0.0);
     // Emission found by a ray counts only when no next-event estimate already accounted for it: on camera
-    // rays and after specular bounces (mirror, glass). After a diffuse bounce, the light was sampled,
+    // rays and after delta bounces (mirror, glass). After a non-delta bounce, the light was sampled,
     // unless sphere lights are not sampled (light_sampling = "none"): then their emission always counts.
-    let nee_spheres = sphere_lights_sampled();
+    let nee_spheres = sphere_lights_sampled(light_sampling_strategy());
     var count_emission = true;
     var bounces = 0u;
     loop {
@@ -73,7 +120,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
             }
             break;
         }
-        let mat = materials[hit_material(hit)];
+        var mat = materials[hit_material(hit)];
         if HAS_EMITTERS {
             if mat.kind == MAT_EMITTER {
                 if count_emission {
@@ -99,56 +146,30 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
             ns = select(-sp.ns, sp.ns, entering);
         }
         // A texture replaces the material's albedo (diffuse) or tint (mirror).
-        var albedo = mat.albedo;
         if HAS_TEXTURES {
             if sp.textured {
-                albedo = sp.albedo;
+                mat.albedo = sp.albedo;
             }
         }
-        var wi = vec3<f32>(0.0);
-        // Whether wi must leave on the side the ray came from (reflection) rather than cross (refraction).
-        var reflected = true;
-        if HAS_DIFFUSE {
-            if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
-                // Next-event estimation: f = albedo / pi times sum of Le cos / pdf.
-                radiance += beta * albedo * INV_PI * direct_light(sp, n, ns, &rng);
-                // Continue with a cosine-weighted direction: f cos / pdf = (albedo/pi) cos / (cos/pi) = albedo.
-                wi = sample_cosine_hemisphere(ns, rng_next2(&rng));
-                beta *= albedo;
-                count_emission = !nee_spheres;
-            }
+        let wo = -d;
+        if !bsdf_is_delta(mat) {
+            radiance += beta * direct_light(mat, sp, n, ns, wo, &rng);
         }
-        if HAS_MIRROR {
-            if SINGLE_MATERIAL_KIND || mat.kind == MAT_MIRROR {
-                wi = reflect_dir(d, ns);
-                beta *= albedo;
-                count_emission = true;
-            }
+        let bs = bsdf_sample(mat, wo, ns, entering, &rng);
+        if bs.flags == 0u {
+            break; // absorbed
         }
-        if HAS_DIELECTRIC {
-            if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIELECTRIC {
-                // eta = n_t / n_i: entering goes from the outside (index 1) into the material.
-                let eta = select(1.0 / mat.ior, mat.ior, entering);
-                let f = fresnel_dielectric(-dot(d, ns), eta);
-                // Choose reflection with probability F, refraction with 1 - F: the weights F/F and
-                // (1-F)/(1-F) cancel, so beta is unchanged (radiance scaling by eta^2 is not applied:
-                // it cancels along any path that enters and leaves the same medium).
-                if rng_next(&rng) < f {
-                    wi = reflect_dir(d, ns);
-                } else {
-                    wi = refract_dir(d, ns, eta);
-                    reflected = false;
-                }
-                count_emission = true;
-            }
-        }
+        beta *= bs.weight;
+        count_emission = (bs.flags & BSDF_DELTA) != 0u || !nee_spheres;
         if HAS_SMOOTH_NORMALS {
-            if sp.shading_normal && (dot(wi, n) > 0.0) != reflected {
+            // wi must leave on the side the ray came from (reflection) or cross (transmission).
+            let reflected = (bs.flags & BSDF_REFLECTION) != 0u;
+            if sp.shading_normal && (dot(bs.wi, n) > 0.0) != reflected {
                 break;
             }
         }
-        o = offset_ray_origin(sp.p, sp.err, n, wi);
-        d = wi;
+        o = offset_ray_origin(sp.p, sp.err, n, bs.wi);
+        d = bs.wi;
         // Russian roulette (unbiased): past roulette_depth, continue with probability q and divide by q.
         if HAS_ROULETTE {
             if bounces >= params.roulette_depth {
@@ -174,5 +195,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let slot = px.y * params.width + px.x - pc.accum_base;
     let radiance = trace_path(px, pass_constants.sample_index);
-    accumulate_sample(slot, radiance, params.guard_one);
+    let fault = accumulate_sample(slot, radiance, params.guard_one);
+    if fault != 0u {
+        count_sample_fault(fault);
+    }
 }

@@ -23,6 +23,7 @@ pub mod bench;
 pub mod checkpoint;
 pub mod film;
 pub mod gpu;
+pub mod kernel;
 #[cfg(feature = "preview")]
 pub mod preview;
 pub mod render;
@@ -62,5 +63,11 @@ impl Error {
             Error::Scene(_) | Error::Usage(_) | Error::Checkpoint { .. } => 2,
             Error::Gpu(_) | Error::Io { .. } => 1,
         }
+    }
+}
+
+impl From<kernel::KernelError> for Error {
+    fn from(e: kernel::KernelError) -> Error {
+        Error::Gpu(e.into())
     }
 }

@@ -12,13 +12,12 @@
 
 mod common;
 
-use ash::vk;
 use glam::Vec3;
-use gpu_allocator::MemoryLocation;
 use std::sync::Arc;
-use vkpath::gpu::scene::{GpuScene, params_for};
-use vkpath::gpu::types::GpuParams;
-use vkpath::gpu::{Buffer, Command, GpuContext, Kernel, shader, testing};
+use vkpath::gpu::{Buffer, Command, GpuContext, Kernel, testing};
+use vkpath::kernel::abi::GpuParams;
+use vkpath::kernel::upload::{GpuScene, params_for};
+use vkpath::kernel::{library, specialise};
 use vkpath::scene::bvh::MAX_STEPS;
 use vkpath::scene::{Mesh, Scene, shapes};
 
@@ -50,7 +49,7 @@ fn mesh_scene(positions: Vec<Vec3>, normals: Vec<Vec3>, triangles: Vec<[u32; 3]>
 struct SceneKernel {
     ctx: Arc<GpuContext>,
     kernel: Kernel,
-    scene: Vec<(u32, Buffer)>,
+    scene: Vec<(&'static str, Buffer)>,
 }
 
 impl SceneKernel {
@@ -61,28 +60,36 @@ impl SceneKernel {
         params.num_spheres = gpu.spheres.len() as u32;
         params.num_triangles = gpu.triangles.len() as u32;
         params.num_lights = gpu.lights.len() as u32;
-        let source = shader::compose(&[
-            shader::SCENE_DATA,
-            shader::ACCUMULATE,
-            shader::BVH,
-            shader::TEXTURE,
-            shader::SCENE,
-            ("test kernel", test_source),
-        ]);
-        let compiled = shader::compile(&source).expect("test kernel compiles");
+        let source = library::assemble_text("test kernel", test_source).unwrap();
+        let compiled = specialise::compile(&source).expect("test kernel compiles");
         let kernel = Kernel::new(&ctx, &compiled).unwrap();
         let s = |name, bytes: &[u8]| Buffer::storage_from(&ctx, name, bytes).unwrap();
         let buffers = vec![
-            (0, Buffer::uniform_from(&ctx, "params", &params).unwrap()),
-            (1, s("spheres", bytemuck::cast_slice(&gpu.spheres))),
-            (2, s("triangles", bytemuck::cast_slice(&gpu.triangles))),
-            (3, s("materials", bytemuck::cast_slice(&gpu.materials))),
-            (4, s("lights", bytemuck::cast_slice(&gpu.lights))),
-            (7, s("bvh", bytemuck::cast_slice(&gpu.bvh_nodes))),
-            (8, s("faces", bytemuck::cast_slice(&gpu.mesh_faces))),
-            (9, s("vertices", bytemuck::cast_slice(&gpu.mesh_vertices))),
-            (10, s("meshes", bytemuck::cast_slice(&gpu.meshes))),
-            (11, s("texels", bytemuck::cast_slice(&gpu.texels))),
+            (
+                "params",
+                Buffer::uniform_from(&ctx, "params", &params).unwrap(),
+            ),
+            ("spheres", s("spheres", bytemuck::cast_slice(&gpu.spheres))),
+            (
+                "triangles",
+                s("triangles", bytemuck::cast_slice(&gpu.triangles)),
+            ),
+            (
+                "materials",
+                s("materials", bytemuck::cast_slice(&gpu.materials)),
+            ),
+            ("lights", s("lights", bytemuck::cast_slice(&gpu.lights))),
+            ("bvh_nodes", s("bvh", bytemuck::cast_slice(&gpu.bvh_nodes))),
+            (
+                "mesh_faces",
+                s("faces", bytemuck::cast_slice(&gpu.mesh_faces)),
+            ),
+            (
+                "mesh_vertices",
+                s("vertices", bytemuck::cast_slice(&gpu.mesh_vertices)),
+            ),
+            ("meshes", s("meshes", bytemuck::cast_slice(&gpu.meshes))),
+            ("texels", s("texels", bytemuck::cast_slice(&gpu.texels))),
         ];
         let k = SceneKernel {
             ctx,
@@ -97,16 +104,10 @@ impl SceneKernel {
         let ctx = &self.ctx;
         let ray_buffer = Buffer::storage_from(ctx, "rays", rays).unwrap();
         let bytes = (rays.len() * per_ray * 16) as u64;
-        let out = Buffer::new(
-            ctx,
-            "out",
-            bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::GpuToCpu,
-        )
-        .unwrap();
+        let out = Buffer::readable_storage(ctx, "out", bytes).unwrap();
         let query = Buffer::uniform_from(ctx, "query", &query).unwrap();
-        let mut bindings: Vec<(u32, &Buffer)> = vec![(12, &ray_buffer), (13, &out), (14, &query)];
+        let mut bindings: Vec<(&str, &Buffer)> =
+            vec![("rays", &ray_buffer), ("out", &out), ("query", &query)];
         bindings.extend(self.scene.iter().map(|(n, b)| (*n, b)));
         self.kernel.bind(&bindings).unwrap();
         self.kernel

@@ -1,4 +1,4 @@
-//! Every `#[repr(C)]` Pod struct in `src/gpu/types.rs` against the layout naga reflects from the
+//! Every `#[repr(C)]` Pod struct in `src/kernel/abi.rs` against the layout naga reflects from the
 //! production kernel's WGSL: member names in order, byte offsets, member types, struct sizes, alignment,
 //! and the stride of the storage-buffer arrays the renderer uploads them into.
 //!
@@ -7,14 +7,14 @@
 
 use naga::{Module, TypeInner};
 use std::mem::{offset_of, size_of};
-use vkpath::gpu::types::{
+use vkpath::kernel::abi::{
     GpuAccum, GpuLight, GpuMaterial, GpuParams, GpuPassConstants, GpuSphere, GpuTriangle,
 };
 
 /// The production kernel, parsed (and validated, so the layouts are the ones the SPIR-V gets).
 fn kernel() -> Module {
     // The same parse + validation + SPIR-V translation the renderer runs.
-    vkpath::gpu::shader::compile(&vkpath::gpu::shader::trace_source())
+    vkpath::kernel::specialise::compile(&vkpath::kernel::library::trace_source())
         .unwrap_or_else(|e| panic!("the production kernel does not compile: {e}"))
         .module
 }
@@ -406,10 +406,18 @@ fn accum_matches_wgsl() {
     check_storage_array(&module, "accum", "Accum", "GpuAccum", size_of::<GpuAccum>());
 }
 
-/// The kind constants the host writes must be the ones the shader compares against.
+/// The production kernel as parsed, before specialisation or compaction: every declared constant and
+/// override is still there, used or not.
+fn parsed_kernel() -> Module {
+    naga::front::wgsl::parse_str(&vkpath::kernel::library::trace_source())
+        .unwrap_or_else(|e| panic!("the production kernel does not parse: {e}"))
+}
+
+/// Every constant the host shares with the shader (`abi::SHARED_CONSTANTS`: kinds, knob values, mesh
+/// flags, the BVH encoding, the accumulator's width) has the same value in the WGSL.
 #[test]
-fn kind_constants_match_wgsl() {
-    let module = kernel();
+fn shared_constants_match_wgsl() {
+    let module = parsed_kernel();
     let constant = |name: &str| -> u32 {
         let (_, c) = module
             .constants
@@ -421,13 +429,46 @@ fn kind_constants_match_wgsl() {
             ref other => panic!("constant {name} is not a u32 literal: {other:?}"),
         }
     };
-    use vkpath::gpu::types::*;
-    assert_eq!(constant("MAT_DIFFUSE"), MAT_DIFFUSE, "MAT_DIFFUSE");
-    assert_eq!(constant("MAT_MIRROR"), MAT_MIRROR, "MAT_MIRROR");
-    assert_eq!(constant("MAT_DIELECTRIC"), MAT_DIELECTRIC, "MAT_DIELECTRIC");
-    assert_eq!(constant("MAT_EMITTER"), MAT_EMITTER, "MAT_EMITTER");
-    assert_eq!(constant("LIGHT_POINT"), LIGHT_POINT, "LIGHT_POINT");
-    assert_eq!(constant("LIGHT_SPHERE"), LIGHT_SPHERE, "LIGHT_SPHERE");
+    for &(name, value) in vkpath::kernel::abi::SHARED_CONSTANTS {
+        assert_eq!(constant(name), value, "{name}: WGSL vs src/kernel/abi.rs");
+    }
+    // Every kind-like WGSL constant is in the table: a new MAT_*/LIGHT_* in the shader without its Rust
+    // twin fails here.
+    for (_, c) in module.constants.iter() {
+        let name = c.name.as_deref().unwrap_or("");
+        let shared = ["MAT_", "LIGHT_", "FILTER_", "SAMPLER_", "MESH_"];
+        if shared.iter().any(|p| name.starts_with(p)) {
+            assert!(
+                vkpath::kernel::abi::SHARED_CONSTANTS
+                    .iter()
+                    .any(|(n, _)| *n == name),
+                "WGSL constant {name} has no entry in abi::SHARED_CONSTANTS"
+            );
+        }
+    }
+}
+
+/// The feature and knob tables (src/kernel/features.rs) set exactly the overrides the WGSL declares:
+/// none missing (it would keep its default in every kernel) and none unknown (naga would refuse it).
+#[test]
+fn feature_table_matches_wgsl_overrides() {
+    let module = parsed_kernel();
+    let mut wgsl: Vec<String> = module
+        .overrides
+        .iter()
+        .filter_map(|(_, o)| o.name.clone())
+        .collect();
+    let mut rust: Vec<String> = vkpath::kernel::features::FeatureSet::generic()
+        .pipeline_constants()
+        .into_iter()
+        .map(|(n, _)| n.to_string())
+        .collect();
+    wgsl.sort();
+    rust.sort();
+    assert_eq!(
+        wgsl, rust,
+        "WGSL overrides vs the Rust feature and knob tables"
+    );
 }
 
 /// The helper itself must catch a mismatch: a WGSL struct whose members are swapped relative to Rust.
@@ -500,7 +541,7 @@ fn pass_constants_match_wgsl() {
 
 #[test]
 fn mesh_structs_match_wgsl() {
-    use vkpath::gpu::types::{GpuBvhNode, GpuMeshFace, GpuMeshInfo, GpuMeshVertex};
+    use vkpath::kernel::abi::{GpuBvhNode, GpuMeshFace, GpuMeshInfo, GpuMeshVertex};
     let module = kernel();
     check_struct(
         &module,
@@ -558,31 +599,4 @@ fn mesh_structs_match_wgsl() {
         "GpuMeshInfo",
         size_of::<GpuMeshInfo>(),
     );
-}
-
-/// The BVH's encoding and limits, and the mesh flags, as the host writes them and the shader reads them.
-#[test]
-fn bvh_and_mesh_constants_match_wgsl() {
-    use vkpath::scene::bvh;
-    let module = kernel();
-    let constant = |name: &str| -> u32 {
-        let (_, c) = module
-            .constants
-            .iter()
-            .find(|(_, c)| c.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("the production kernel has no constant {name}"));
-        match module.global_expressions[c.init] {
-            naga::Expression::Literal(naga::Literal::U32(v)) => v,
-            ref other => panic!("constant {name} is not a u32 literal: {other:?}"),
-        }
-    };
-    assert_eq!(constant("BVH_LEAF"), bvh::LEAF);
-    assert_eq!(constant("BVH_LEAF_COUNT_BITS"), bvh::LEAF_COUNT_BITS);
-    assert_eq!(constant("BVH_LEAF_COUNT_MASK"), bvh::LEAF_COUNT_MASK);
-    assert_eq!(constant("BVH_STACK_SIZE") as usize, bvh::STACK_SIZE);
-    assert_eq!(constant("BVH_MAX_STEPS"), bvh::MAX_STEPS);
-    use vkpath::gpu::types::{MESH_SMOOTH, MESH_TEXTURED, NO_MESH};
-    assert_eq!(constant("NO_MESH"), NO_MESH);
-    assert_eq!(constant("MESH_SMOOTH"), MESH_SMOOTH);
-    assert_eq!(constant("MESH_TEXTURED"), MESH_TEXTURED);
 }

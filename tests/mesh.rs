@@ -366,7 +366,8 @@ fn the_mesh_scene_uses_every_mesh_feature() {
     assert_eq!(scene.meshes.len(), 3);
     let gpu = GpuScene::build(&scene);
     let features = FeatureSet::of(&gpu, &params_for(&scene, 3));
-    assert!(features.bvh && features.smooth_normals && features.textures);
+    use vkpath::kernel::features::Feature as F;
+    assert!(features.has(F::Bvh) && features.has(F::SmoothNormals) && features.has(F::Textures));
     assert_eq!(
         gpu.stats.triangles,
         scene

@@ -10,7 +10,7 @@
 use bytemuck::{Pod, Zeroable};
 use vkpath::accum;
 use vkpath::gpu::testing;
-use vkpath::gpu::types::{ACCUM_LIMBS, GpuAccum};
+use vkpath::kernel::abi::{ACCUM_LIMBS, GpuAccum};
 
 const KERNEL: &str = include_str!("../shaders/tests/accumulate_stream.wgsl");
 
@@ -44,9 +44,8 @@ const CHUNK: u32 = 50_000;
 /// Runs every stream to its end, CHUNK samples per dispatch, carrying the Accum state across runs
 /// (through the host, bit for bit, as the renderer's accumulator persists across dispatches).
 fn run(streams: &[Stream]) -> Vec<GpuAccum> {
-    let source = format!("{}\n{KERNEL}", vkpath::gpu::shader::ACCUMULATE.1);
     let mut kernel =
-        testing::TestKernel::new(&testing::context(), &source).expect("kernel compiles");
+        testing::TestKernel::new(&testing::context(), KERNEL).expect("kernel compiles");
     let longest = streams.iter().map(|s| s.count).max().unwrap_or(0);
     let mut state = vec![GpuAccum::default(); streams.len()];
     let mut start = 0u32;

@@ -4,7 +4,7 @@
 mod common;
 
 use common::*;
-use vkpath::gpu::features::FeatureSet;
+use vkpath::kernel::features::{Feature as F, FeatureSet};
 use vkpath::render::{RenderOptions, kernel_for};
 
 fn scene_files() -> Vec<std::path::PathBuf> {
@@ -90,16 +90,16 @@ fn absent_features_leave_no_code() {
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/03-shadows.toml"),
     )
     .unwrap();
-    let gpu = vkpath::gpu::scene::GpuScene::build(&s);
-    let params = vkpath::gpu::scene::params_for(&s, RenderOptions::default().roulette_depth);
+    let gpu = vkpath::kernel::upload::GpuScene::build(&s);
+    let params = vkpath::kernel::upload::params_for(&s, RenderOptions::default().roulette_depth);
     let features = FeatureSet::of(&gpu, &params);
-    assert!(features.spheres && features.diffuse && features.point_lights);
+    assert!(features.has(F::Spheres) && features.has(F::Diffuse) && features.has(F::PointLights));
     assert!(
-        !features.triangles
-            && !features.mirror
-            && !features.dielectric
-            && !features.sphere_lights
-            && !features.lens
+        !features.has(F::Triangles)
+            && !features.has(F::Mirror)
+            && !features.has(F::Dielectric)
+            && !features.has(F::SphereLights)
+            && !features.has(F::Lens)
     );
 
     let trimmed = function_names(&features);
@@ -162,24 +162,39 @@ material = "white"
 "#;
     let features = |text: &str, roulette_depth: u32| {
         let s = scene(text);
-        let gpu = vkpath::gpu::scene::GpuScene::build(&s);
-        FeatureSet::of(&gpu, &vkpath::gpu::scene::params_for(&s, roulette_depth))
+        let gpu = vkpath::kernel::upload::GpuScene::build(&s);
+        FeatureSet::of(
+            &gpu,
+            &vkpath::kernel::upload::params_for(&s, roulette_depth),
+        )
     };
     let f = features(base, 3);
-    assert!(!f.dielectric, "glass is defined but unused");
+    assert!(!f.has(F::Dielectric), "glass is defined but unused");
     assert!(
-        !f.roulette,
+        !f.has(F::Roulette),
         "roulette from depth 3 never triggers with max_bounces = 2"
     );
-    assert!(!f.lens && !f.background && !f.point_lights && !f.sphere_lights && !f.emitters);
-    assert_eq!(f.filter, Some(2), "gaussian by default");
-    assert!(features(base, 2).roulette);
+    assert!(
+        !f.has(F::Lens)
+            && !f.has(F::Background)
+            && !f.has(F::PointLights)
+            && !f.has(F::SphereLights)
+            && !f.has(F::Emitters)
+    );
+    assert_eq!(f.knob("filter"), Some(2), "gaussian by default");
+    assert!(features(base, 2).has(F::Roulette));
     let with = base
         .replace("fov = 60.0", "fov = 60.0\naperture = 0.5")
         .replace("[render]", "[render]\nbackground = [0.0, 0.1, 0.0]")
         + "[[light]]\ntype = \"sphere\"\ncenter = [0.0, 5.0, 0.0]\nradius = 1.0\npower = 10.0\n";
     let f = features(&with, 3);
-    assert!(f.lens && f.background && f.sphere_lights && f.emitters && !f.point_lights);
+    assert!(
+        f.has(F::Lens)
+            && f.has(F::Background)
+            && f.has(F::SphereLights)
+            && f.has(F::Emitters)
+            && !f.has(F::PointLights)
+    );
 }
 
 /// The hand-trimmed kernel (shaders/bench/) that bounds the specialised one in the benchmark follows
@@ -194,7 +209,7 @@ fn trimmed_kernel_renders_the_same_image() {
     s.image.height = 24;
     let specialised = render_passes(&s, &RenderOptions::default(), 1, 4);
     let trimmed_kernel = std::sync::Arc::new(
-        vkpath::gpu::shader::compile(&vkpath::gpu::shader::trimmed_source()).unwrap(),
+        vkpath::kernel::specialise::compile(&vkpath::kernel::library::trimmed_source()).unwrap(),
     );
     let ctx = vkpath::gpu::testing::context();
     let mut r =

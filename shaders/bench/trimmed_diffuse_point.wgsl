@@ -3,6 +3,8 @@
 // It is the bound that the specialised kernel is measured against (`vkpath bench specialisation`): a
 // specialised kernel should be as fast as this, since both contain only these features. It follows
 // trace.wgsl step for step, so on such a scene it renders the same bits (tests/specialise.rs).
+//
+// requires: scene.wgsl, camera.wgsl
 
 fn trimmed_closest_sphere(o: vec3<f32>, d: vec3<f32>) -> Hit {
     var hit = Hit(T_MISS, PRIM_NONE, 0u, vec3<f32>(0.0));
@@ -49,22 +51,23 @@ fn trimmed_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         let sp = Surface(sp3.p, sp3.err, sn, s.material, sn, false, vec3<f32>(0.0), false);
         let mat = materials[sp.material];
         let n = select(-sp.n, sp.n, dot(d, sp.n) < 0.0);
-        var e = vec3<f32>(0.0);
+        // Next-event estimation as trace.wgsl's direct_light computes it for a point light.
+        var l = vec3<f32>(0.0);
         for (var i = 0u; i < params.num_lights; i++) {
-            let light = lights[i];
-            let to_light = light.position - sp.p;
-            let dist2 = dot(to_light, to_light);
-            let dist = sqrt(dist2);
-            let wi = to_light / dist;
-            let cos_theta = dot(n, wi);
-            if cos_theta <= 0.0 || dist2 == 0.0 {
+            let ls = point_light_sample(lights[i], sp.p);
+            if ls.pdf == 0.0 {
                 continue;
             }
-            if !trimmed_occluded(offset_ray_origin(sp.p, sp.err, n, wi), wi, dist * (1.0 - 1.0e-4)) {
-                e += light.intensity * cos_theta / dist2;
+            let cos_theta = dot(n, ls.wi);
+            if cos_theta <= 0.0 {
+                continue;
+            }
+            let shadow = spawn_ray_to(sp.p, sp.err, n, ls.p_light);
+            if !trimmed_occluded(shadow.o, shadow.d, shadow.t_max) {
+                l += mat.albedo * INV_PI * ls.L * (cos_theta / (ls.pdf * 1.0));
             }
         }
-        radiance += beta * mat.albedo * INV_PI * e;
+        radiance += beta * l;
         let wi = sample_cosine_hemisphere(n, rng_next2(&rng));
         beta *= mat.albedo;
         o = offset_ray_origin(sp.p, sp.err, n, wi);

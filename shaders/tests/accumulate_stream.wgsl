@@ -6,6 +6,8 @@
 // every `nan_every`-th sample (if > 0) is NaN and every `inf_every`-th (if > 0) is +Inf. The three
 // channels get x, -x (negative: counted as 0) and x / 2. `guard` is 1.0, read from the buffer so that the
 // compiler cannot know it (see accumulate.wgsl).
+//
+// requires: accumulate.wgsl
 
 struct Stream {
     state: Accum,

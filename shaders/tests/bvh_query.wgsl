@@ -5,15 +5,17 @@
 // stay within lavapipe's loop budget); query.z = 1: also walk the BVH.
 // out[2 i]     = (BVH closest t, its triangle index (bits), iterations of the walk, any-hit walk's t < t_max)
 // out[2 i + 1] = (brute-force closest t over the chunk, its index (bits; 0xffffffff none), 0, 0)
+//
+// requires: scene.wgsl
 
 struct TestRay {
     o: vec4<f32>,
     d: vec4<f32>,
 }
 
-@group(0) @binding(12) var<storage, read> rays: array<TestRay>;
-@group(0) @binding(13) var<storage, read_write> out: array<vec4<f32>>;
-@group(0) @binding(14) var<uniform> query: vec4<u32>;
+@group(0) @binding(20) var<storage, read> rays: array<TestRay>;
+@group(0) @binding(21) var<storage, read_write> out: array<vec4<f32>>;
+@group(0) @binding(22) var<uniform> query: vec4<u32>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {

@@ -2,6 +2,8 @@
 // input[0] = (position.xyz, tan_half_fov), input[1] = (right.xyz, lens_radius),
 // input[2] = (up.xyz, focus_distance), input[3] = (forward.xyz, _), input[4] = (width, height, _, _),
 // input[5 + i] = (film.xy, lens.xy) -> output[i] = camera_ray(...) as (o, 0), (d, 0).
+//
+// requires: camera.wgsl
 
 struct RayOut {
     o: vec4<f32>,

@@ -1,5 +1,7 @@
 // Test kernel for materials.wgsl (tests/shader_fresnel.rs): the Fresnel reflectance on given inputs.
 // input[i] = (cos_i, eta, _, _) -> output[i] = fresnel_dielectric(cos_i, eta).
+//
+// requires: bsdf.wgsl
 
 @group(0) @binding(0) var<storage, read> input: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read_write> output: array<f32>;

@@ -1,6 +1,8 @@
 // Test kernel for materials.wgsl (tests/shader_fresnel.rs): refraction as the renderer calls it.
 // input[2i] = (d.xyz, eta), input[2i + 1] = (n.xyz, _), with n facing the incoming side (dot(d, n) <= 0).
 // output[i] = (refract_dir(d, n, eta), fresnel_dielectric(-dot(d, n), eta)).
+//
+// requires: bsdf.wgsl
 
 @group(0) @binding(0) var<storage, read> input: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read_write> output: array<vec4<f32>>;

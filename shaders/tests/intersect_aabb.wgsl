@@ -4,6 +4,8 @@
 // the host in IEEE f32, ±inf for zero components), inv.w = t_max; lo, hi the box; a: sphere centre and
 // radius or triangle v0; b, c: triangle v1, v2.
 // Out: (box entry distance or T_MISS, primitive t or T_MISS, 0, 0).
+//
+// requires: intersect.wgsl
 
 struct BoxCase {
     o: vec4<f32>,

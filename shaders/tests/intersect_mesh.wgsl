@@ -10,6 +10,8 @@
 // triangle_surface_point and geometric normal, the facing normal, offset_ray_origin), and a shadow ray
 // goes from the refracted ray's origin to the light; out = (number of triangles the shadow ray hits in
 // (0, distance to the light), the refracted ray's origin), or all -1 when the first ray missed.
+//
+// requires: intersect.wgsl, bsdf.wgsl
 
 @group(0) @binding(0) var<storage, read> input: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read_write> output: array<vec4<f32>>;
@@ -62,7 +64,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let v1 = input[2u + 3u * hit.index].xyz;
     let v2 = input[3u + 3u * hit.index].xyz;
     let sp = triangle_surface_point(v0, v1, v2, hit.b);
-    let ng = normalize(cross(v1 - v0, v2 - v0));
+    let ng = triangle_normal(v0, v1, v2);
     let d = rd.xyz;
     let entering = dot(d, ng) < 0.0;
     let nf = select(-ng, ng, entering);

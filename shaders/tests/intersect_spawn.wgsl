@@ -6,12 +6,14 @@
 // Case: o.xyz, d.xyz the incoming ray; o.w the primitive (0 sphere, 1 triangle); d.w the mode:
 //   0 reflect   wi = reflect_dir(d, n)                        next ray over (0, T_MISS)
 //   1 refract   wi = refract_dir(d, n, eta) (reflect on TIR)  next ray over (0, T_MISS)
-//   2 shadow    wi towards the light l.xyz                    next ray over (0, dist (1 - 1e-4)),
+//   2 shadow    spawn_ray_to the light l.xyz                  next ray over (0, dist (1 - 1e-4)),
 //               skipped (next.x = -1) when the light is below the horizon, as direct_light does
 //   3 refract, then a shadow ray from the refracted ray's origin towards l.xyz, over (0, dist)
 // a: sphere centre and radius, or triangle v0; b, c: triangle v1, v2; l.w: index of refraction.
 // Out: hit = (t of the incoming ray, p); next = (t of the secondary ray or T_MISS, its origin);
 //      w = (its direction, its t_max).
+//
+// requires: intersect.wgsl, bsdf.wgsl
 
 struct SpawnCase {
     o: vec4<f32>,
@@ -58,7 +60,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         n = normalize(sp.p - c.a.xyz);
     } else {
         sp = triangle_surface_point(c.a.xyz, c.b.xyz, c.c.xyz, h.b);
-        n = normalize(cross(c.b.xyz - c.a.xyz, c.c.xyz - c.a.xyz));
+        n = triangle_normal(c.a.xyz, c.b.xyz, c.c.xyz);
     }
     // trace_path (trace.wgsl): the normal on the side the ray came from.
     let entering = dot(d, n) < 0.0;
@@ -86,6 +88,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     var o2 = offset_ray_origin(sp.p, sp.err, nf, wi);
+    if mode == 2u {
+        // As direct_light aims it: from the offset origin at the light (spawn_ray_to).
+        let shadow = spawn_ray_to(sp.p, sp.err, nf, c.l.xyz);
+        o2 = shadow.o;
+        wi = shadow.d;
+        t_max = shadow.t_max;
+    }
     if mode == 3u {
         let to_light = c.l.xyz - o2;
         t_max = length(to_light);

@@ -1,6 +1,8 @@
 // Test kernel: intersect_sphere over a list of rays, one sphere each.
 // Case: o.xyz origin, o.w t_min; d.xyz direction, d.w t_max; s.xyz centre, s.w radius.
 // Out: x = t (T_MISS on a miss), yzw = sphere_surface_point(...).p when it hit (else 0).
+//
+// requires: intersect.wgsl
 
 struct SphereCase {
     o: vec4<f32>,

@@ -1,6 +1,8 @@
 // Test kernel: intersect_triangle over a list of rays, one triangle each.
 // Case: o.xyz origin, o.w t_min; d.xyz direction, d.w t_max; v0, v1, v2 the vertices (w unused).
 // Out: (t, b0, b1, b2); t = T_MISS on a miss.
+//
+// requires: intersect.wgsl
 
 struct TriangleCase {
     o: vec4<f32>,

@@ -3,14 +3,16 @@
 // rays[i] = (origin, direction) as in bvh_query.wgsl. out[3 i] = (geometric normal n, triangle index bits
 // or -1 on a miss); out[3 i + 1] = (shading normal ns, 1 if interpolated); out[3 i + 2] = (texture
 // albedo, 1 if textured).
+//
+// requires: scene.wgsl
 
 struct TestRay {
     o: vec4<f32>,
     d: vec4<f32>,
 }
 
-@group(0) @binding(12) var<storage, read> rays: array<TestRay>;
-@group(0) @binding(13) var<storage, read_write> out: array<vec4<f32>>;
+@group(0) @binding(20) var<storage, read> rays: array<TestRay>;
+@group(0) @binding(21) var<storage, read_write> out: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {

@@ -1,6 +1,8 @@
 // Test kernel for rng.wgsl (tests/shader_rng.rs): the raw hash and the float conversion.
 // input[i] = (x, y, z, w) -> output[i].hash = pcg4d(input[i]),
 // output[i].unit = the bits of u32_to_unit_float applied to each of x, y, z, w.
+//
+// requires: rng.wgsl
 
 struct BitsOut {
     hash: vec4<u32>,

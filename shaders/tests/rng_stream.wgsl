@@ -1,6 +1,8 @@
 // Test kernel for rng.wgsl (tests/shader_rng.rs): one query per invocation.
 // input[i] = (pixel, sample, seed, dim). The generator starts at rng_new(pixel, sample, seed) with its
 // dimension set to dim; output[i] = (first rng_next, rng_next2 at dim .x, .y, second rng_next (dim + 1)).
+//
+// requires: rng.wgsl
 
 @group(0) @binding(0) var<storage, read> input: array<vec4<u32>>;
 @group(0) @binding(1) var<storage, read_write> output: array<vec4<f32>>;

@@ -1,5 +1,7 @@
 // Test kernel for sampling.wgsl (tests/shader_sampling.rs): the cone a sphere light subtends.
 // input[i] = (r, d2, _, _) -> output[i] = sphere_cone_one_minus_cos(r, d2).
+//
+// requires: sampling.wgsl
 
 @group(0) @binding(0) var<storage, read> input: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read_write> output: array<f32>;

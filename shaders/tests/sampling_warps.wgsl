@@ -11,6 +11,8 @@
 //                                                                     -> (w.xyz, omc)
 // mode 3: sample_gaussian2(u, sigma = p2)                             -> (g.xy, 0, 0)
 // mode 4: sample_uniform_disk(u)                                      -> (p.xy, 0, 0)
+//
+// requires: sampling.wgsl, rng.wgsl
 
 @group(0) @binding(0) var<storage, read> input: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read_write> output: array<vec4<f32>>;

@@ -1,6 +1,8 @@
 // Test kernel for the Sobol' sampler of rng.wgsl (tests/shader_sampler.rs): one query per invocation.
 // input[i] = (pixel, sample, dim, seed); output[i] = (the scrambled point's x and y as 32-bit fractions,
 // the unscrambled Sobol' point of index `sample`: reverseBits(sample) and sobol_dim1(sample)).
+//
+// requires: rng.wgsl
 
 @group(0) @binding(0) var<storage, read> input: array<vec4<u32>>;
 @group(0) @binding(1) var<storage, read_write> output: array<vec4<u32>>;

@@ -136,8 +136,8 @@ pub fn mesh_scaling(
             }
             debug_assert!(worst_case_loop_iterations(&gpu, 1) <= bound);
             let mut features = FeatureSet::of(&gpu, &params_for(&scene, options.roulette_depth));
-            features.bvh = false;
-            features.triangle_loop = true;
+            features.set(crate::kernel::features::Feature::Bvh, false);
+            features.set(crate::kernel::features::Feature::TriangleLoop, true);
             let kernel = kernel_for(&features)?;
             let mut brute = Renderer::with_kernel(ctx, &scene, &options, kernel)?;
             // Hundreds of times slower: one timed pass is plenty.

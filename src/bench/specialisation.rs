@@ -27,17 +27,22 @@ pub struct SpecialisationRow {
 
 /// Whether the hand-trimmed kernel renders this feature set exactly.
 fn trimmed_applies(f: &FeatureSet) -> bool {
-    f.spheres
-        && f.diffuse
-        && f.point_lights
-        && !(f.triangles
-            || f.mirror
-            || f.dielectric
-            || f.emitters
-            || f.sphere_lights
-            || f.lens
-            || f.background)
-        && f.filter == Some(0)
+    use crate::kernel::features::Feature as F;
+    f.has(F::Spheres)
+        && f.has(F::Diffuse)
+        && f.has(F::PointLights)
+        && ![
+            F::Triangles,
+            F::Mirror,
+            F::Dielectric,
+            F::Emitters,
+            F::SphereLights,
+            F::Lens,
+            F::Background,
+        ]
+        .iter()
+        .any(|&x| f.has(x))
+        && f.knob("filter") == Some(crate::kernel::abi::FILTER_NONE)
 }
 
 /// Times each scene with its specialised kernel, the generic kernel and (where it applies) the trimmed

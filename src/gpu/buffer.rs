@@ -139,6 +139,102 @@ impl Buffer {
     }
 }
 
+impl Buffer {
+    /// A device-local storage buffer the kernel reads and writes and the host fills and reads through
+    /// copies (the accumulator strips).
+    pub fn device_storage(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        bytes: u64,
+    ) -> Result<Buffer, GpuError> {
+        Buffer::new(
+            ctx,
+            name,
+            bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_SRC
+                | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )
+    }
+
+    /// A host-visible buffer that copies go to and come from (readback and restore).
+    pub fn staging(ctx: &Arc<GpuContext>, name: &str, bytes: u64) -> Result<Buffer, GpuError> {
+        Buffer::new(
+            ctx,
+            name,
+            bytes,
+            vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuToCpu,
+        )
+    }
+
+    /// A device-local uniform buffer updated by copies recorded in the command buffer.
+    pub fn device_uniform(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        bytes: u64,
+    ) -> Result<Buffer, GpuError> {
+        Buffer::new(
+            ctx,
+            name,
+            bytes,
+            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuOnly,
+        )
+    }
+
+    /// A small host-visible storage buffer the kernel writes and the host reads directly (test outputs,
+    /// counters), zero-filled.
+    pub fn readable_storage(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        bytes: u64,
+    ) -> Result<Buffer, GpuError> {
+        let mut b = Buffer::new(
+            ctx,
+            name,
+            bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        b.write(&vec![0u8; b.size() as usize])?;
+        Ok(b)
+    }
+}
+
+/// A device-local storage buffer holding `data`, filled through a host-visible staging buffer and a copy
+/// recorded on `kernel` (the scene's big read-only arrays: on a discrete GPU, host-visible memory would be
+/// read across the bus on every access). Refuses an array larger than the device's storage-buffer range.
+pub fn upload_device_local<T: bytemuck::Pod>(
+    ctx: &Arc<GpuContext>,
+    kernel: &mut super::Kernel,
+    name: &str,
+    data: &[T],
+) -> Result<Buffer, GpuError> {
+    let bytes = std::mem::size_of_val(data) as u64;
+    let range = u64::from(ctx.device_info().max_storage_buffer_range);
+    if bytes > range {
+        return Err(GpuError::Limit(format!(
+            "the scene's {name} take {bytes} bytes, more than the {range} bytes one storage buffer may \
+             hold on {}. Use a smaller mesh, or a device with a larger maxStorageBufferRange.",
+            ctx.device_info().name
+        )));
+    }
+    let staging = Buffer::storage_from(ctx, name, data)?;
+    let buffer = Buffer::new(
+        ctx,
+        name,
+        bytes,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuOnly,
+    )?;
+    if bytes > 0 {
+        kernel.submit(&[super::Command::Copy(&staging, &buffer)])?;
+    }
+    Ok(buffer)
+}
+
 impl Drop for Buffer {
     fn drop(&mut self) {
         // SAFETY: the owner waits for GPU work using this buffer before dropping it.

@@ -1,8 +1,8 @@
 //! A compute kernel: pipeline + descriptor set whose layout is reflected from the shader, and a way to
 //! run it and wait.
 
-use super::shader::{BindingInfo, CompiledShader};
 use super::{Buffer, GpuContext, GpuError};
+use crate::kernel::specialise::{BindingInfo, BufferKind, CompiledShader};
 use ash::vk;
 use std::sync::Arc;
 
@@ -43,7 +43,7 @@ impl Kernel {
             .map(|b| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(b.binding)
-                    .descriptor_type(b.descriptor_type)
+                    .descriptor_type(descriptor_type(b.kind))
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -84,7 +84,7 @@ impl Kernel {
             let uniform_count = shader
                 .bindings
                 .iter()
-                .filter(|b| b.descriptor_type == vk::DescriptorType::UNIFORM_BUFFER)
+                .filter(|b| b.kind == BufferKind::Uniform)
                 .count() as u32;
             let storage_count = shader.bindings.len() as u32 - uniform_count;
             let mut sizes = Vec::new();
@@ -143,25 +143,23 @@ impl Kernel {
         &self.bindings
     }
 
-    /// Whether the (specialised, compacted) shader still uses binding `binding`.
-    pub fn uses_binding(&self, binding: u32) -> bool {
-        self.bindings.iter().any(|b| b.binding == binding)
+    /// Whether the (specialised, compacted) shader still uses the buffer named `name` (the variable's
+    /// name in the WGSL).
+    pub fn uses(&self, name: &str) -> bool {
+        self.bindings.iter().any(|b| b.name == name)
     }
 
-    /// Points the descriptor set at the buffers given as (binding, buffer). Every binding the shader uses
-    /// must be given; bindings it does not use (compacted away by specialisation) are skipped.
-    pub fn bind(&mut self, buffers: &[(u32, &Buffer)]) -> Result<(), GpuError> {
+    /// Points the descriptor set at the buffers given as (WGSL variable name, buffer). Every binding the
+    /// shader uses must be given; names it does not use (compacted away by specialisation) are skipped.
+    pub fn bind(&mut self, buffers: &[(&str, &Buffer)]) -> Result<(), GpuError> {
         let mut infos = Vec::with_capacity(self.bindings.len());
         for b in &self.bindings {
-            let buffer = buffers
-                .iter()
-                .find(|(n, _)| *n == b.binding)
-                .ok_or_else(|| {
-                    GpuError::Usage(format!(
-                        "no buffer given for binding {} (`{}`)",
-                        b.binding, b.name
-                    ))
-                })?;
+            let buffer = buffers.iter().find(|(n, _)| *n == b.name).ok_or_else(|| {
+                GpuError::Usage(format!(
+                    "no buffer given for `{}` (binding {})",
+                    b.name, b.binding
+                ))
+            })?;
             infos.push([vk::DescriptorBufferInfo {
                 buffer: buffer.1.raw,
                 offset: 0,
@@ -176,7 +174,7 @@ impl Kernel {
                 vk::WriteDescriptorSet::default()
                     .dst_set(self.set)
                     .dst_binding(b.binding)
-                    .descriptor_type(b.descriptor_type)
+                    .descriptor_type(descriptor_type(b.kind))
                     .buffer_info(info)
             })
             .collect();
@@ -334,5 +332,12 @@ impl Drop for Kernel {
             d.destroy_pipeline_layout(self.pipeline_layout, None);
             d.destroy_descriptor_set_layout(self.set_layout, None);
         }
+    }
+}
+
+fn descriptor_type(kind: BufferKind) -> vk::DescriptorType {
+    match kind {
+        BufferKind::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
+        BufferKind::Storage => vk::DescriptorType::STORAGE_BUFFER,
     }
 }

@@ -2,25 +2,19 @@
 //!
 //! - [`context`]: instance, device choice, queue, allocator, validation messages.
 //! - [`buffer`]: storage/uniform buffers and readback.
-//! - [`shader`]: the WGSL library, composed and compiled to SPIR-V by naga at run time.
-//! - [`kernel`]: a compute pipeline whose descriptor layout is reflected from the WGSL, and dispatch.
-//! - [`types`]: the `#[repr(C)]` Pod structs shared with WGSL.
-//! - [`scene`]: a [`crate::scene::Scene`] turned into GPU buffers.
+//! - [`kernel`]: a compute pipeline whose descriptor layout is reflected from the WGSL (compiled by
+//!   [`crate::kernel::specialise`]), buffers bound by their WGSL names, and dispatch.
 //! - [`present`] (feature `preview`): a window's surface and swapchain, showing 8-bit images.
 //! - [`testing`]: run a WGSL test kernel over an input buffer and read the answers back.
 
 pub mod buffer;
 pub mod context;
-pub mod features;
 pub mod kernel;
 #[cfg(feature = "preview")]
 pub mod present;
-pub mod scene;
-pub mod shader;
 pub mod testing;
-pub mod types;
 
-pub use buffer::Buffer;
+pub use buffer::{Buffer, upload_device_local};
 pub use context::{ContextOptions, DeviceInfo, GpuContext};
 pub use kernel::{Command, Kernel};
 
@@ -81,6 +75,14 @@ pub enum GpuError {
     Usage(String),
 }
 
+impl From<crate::kernel::KernelError> for GpuError {
+    fn from(e: crate::kernel::KernelError) -> GpuError {
+        match e {
+            crate::kernel::KernelError::Shader(m) => GpuError::Shader(m),
+        }
+    }
+}
+
 impl GpuError {
     pub(crate) fn vk(what: &'static str, r: vk::Result) -> GpuError {
         match r {
@@ -91,4 +93,11 @@ impl GpuError {
             other => GpuError::Vulkan(what, other),
         }
     }
+}
+
+// Transition: the old paths of what moved to `crate::kernel` (removed once every caller is updated).
+pub use crate::kernel::{abi as types, features, upload as scene};
+pub mod shader {
+    pub use crate::kernel::library::{trace_source, trimmed_source};
+    pub use crate::kernel::specialise::*;
 }

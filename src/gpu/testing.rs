@@ -4,11 +4,12 @@
 //! Lavapipe ends an invocation's loops after 65535 iterations in total (see trace.wgsl): a test that needs
 //! more work per element carries its state across several runs of a [`TestKernel`].
 //!
-//! A test kernel is WGSL appended to the library (`shaders/*.wgsl`, the same source the renderer uses).
-//! It declares its input at binding 0 and its output at binding 1, and an entry point `main` with one
-//! invocation per output element:
+//! A test kernel is WGSL assembled with the library files it declares in its `// requires:` line (the same
+//! files the renderer uses, see [`crate::kernel::library`]). It declares its input at binding 0 and its
+//! output at binding 1 (any names), and an entry point `main` with one invocation per output element:
 //!
 //! ```wgsl
+//! // requires: bsdf.wgsl
 //! @group(0) @binding(0) var<storage, read> input: array<vec4<f32>>;
 //! @group(0) @binding(1) var<storage, read_write> output: array<f32>;
 //! @compute @workgroup_size(64)
@@ -25,9 +26,8 @@
 //! # Ok::<(), vkpath::gpu::GpuError>(())
 //! ```
 
-use super::{Buffer, Command, ContextOptions, GpuContext, GpuError, Kernel, shader};
-use ash::vk;
-use gpu_allocator::MemoryLocation;
+use super::{Buffer, Command, ContextOptions, GpuContext, GpuError, Kernel};
+use crate::kernel::{library, specialise};
 use std::sync::{Arc, OnceLock};
 
 /// A process-wide context for tests, with the Khronos validation layer on when it is installed
@@ -52,15 +52,29 @@ pub fn context() -> Arc<GpuContext> {
 pub struct TestKernel {
     ctx: Arc<GpuContext>,
     kernel: Kernel,
+    /// The names of bindings 0 (input) and 1 (output).
+    input: String,
+    output: String,
 }
 
 impl TestKernel {
-    /// Compiles `kernel_source` after the shader library.
+    /// Compiles `kernel_source` with the library files it requires.
     pub fn new(ctx: &Arc<GpuContext>, kernel_source: &str) -> Result<TestKernel, GpuError> {
-        let source = shader::compose(&[("test kernel", kernel_source)]);
-        let compiled = shader::compile(&source)?;
+        let source = library::assemble_text("test kernel", kernel_source)
+            .map_err(|e| GpuError::Shader(e.to_string()))?;
+        let compiled = specialise::compile(&source)?;
+        let name_of = |binding: u32| {
+            compiled
+                .bindings
+                .iter()
+                .find(|b| b.binding == binding)
+                .map(|b| b.name.clone())
+                .ok_or_else(|| GpuError::Usage(format!("the test kernel has no binding {binding}")))
+        };
         Ok(TestKernel {
             ctx: ctx.clone(),
+            input: name_of(0)?,
+            output: name_of(1)?,
             kernel: Kernel::new(ctx, &compiled)?,
         })
     }
@@ -74,15 +88,9 @@ impl TestKernel {
         let ctx = &self.ctx;
         let input_buffer = Buffer::storage_from(ctx, "test input", input)?;
         let out_bytes = (output_len * std::mem::size_of::<O>()) as u64;
-        let mut output = Buffer::new(
-            ctx,
-            "test output",
-            out_bytes,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::GpuToCpu,
-        )?;
-        output.write(&vec![0u8; output.size() as usize])?;
-        self.kernel.bind(&[(0, &input_buffer), (1, &output)])?;
+        let output = Buffer::readable_storage(ctx, "test output", out_bytes)?;
+        self.kernel
+            .bind(&[(&self.input, &input_buffer), (&self.output, &output)])?;
         self.kernel.submit(&[Command::Dispatch {
             invocations: [output_len as u32, 1, 1],
         }])?;

@@ -11,14 +11,13 @@ pub mod identity;
 pub mod tiles;
 
 use crate::film::Film;
-use crate::gpu::features::FeatureSet;
-use crate::gpu::scene::{GpuScene, SceneStats, params_for};
-use crate::gpu::shader::CompiledShader;
-use crate::gpu::types::{GpuAccum, GpuParams, GpuPassConstants};
-use crate::gpu::{Buffer, Command, GpuContext, GpuError, Kernel, shader};
+use crate::gpu::{Buffer, Command, GpuContext, GpuError, Kernel, upload_device_local};
+use crate::kernel::abi::{GpuAccum, GpuParams, GpuPassConstants, SAMPLE_FAULT_COUNTERS};
+use crate::kernel::features::FeatureSet;
+use crate::kernel::specialise::CompiledShader;
+use crate::kernel::upload::{GpuScene, SceneStats, params_for};
+use crate::kernel::{library, specialise};
 use crate::scene::Scene;
-use ash::vk;
-use gpu_allocator::MemoryLocation;
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -143,7 +142,7 @@ pub struct Renderer {
     params: GpuParams,
     /// The accumulator, one buffer per strip of rows (one strip unless the image is large).
     strips: Vec<Strip>,
-    /// Which strip's accumulator is bound (binding 5).
+    /// Which strip's accumulator is bound (`accum`).
     bound_strip: usize,
     layout: tiles::TileLayout,
     /// The current budget of pixels per dispatch (adapted to `target_dispatch_seconds`).
@@ -152,8 +151,11 @@ pub struct Renderer {
     /// Host-visible, as large as the largest strip: film readback and checkpoint restore go through it.
     staging: Buffer,
     pass_constants: Buffer,
-    // Parameter and scene buffers with their bindings: bound to the kernel, kept alive with it.
-    bound: Vec<(u32, Buffer)>,
+    // Parameter and scene buffers with their WGSL names: bound to the kernel, kept alive with it.
+    bound: Vec<(&'static str, Buffer)>,
+    /// `sample_faults` (scene_data.wgsl): samples clamped and dropped by the accumulator since the
+    /// last reset, counted on the device.
+    sample_faults: Buffer,
     /// Set when a pass failed part-way: the accumulator then holds an unknown part of it, and reading
     /// it (a film, a checkpoint) or adding to it is refused.
     poisoned: Option<String>,
@@ -185,8 +187,8 @@ pub fn kernel_for(features: &FeatureSet) -> Result<Arc<CompiledShader>, GpuError
     {
         return Ok(hit.clone());
     }
-    let compiled = Arc::new(shader::compile_with(
-        &shader::trace_source(),
+    let compiled = Arc::new(specialise::compile_with(
+        &library::trace_source(),
         &features.pipeline_constants(),
     )?);
     cache
@@ -194,6 +196,71 @@ pub fn kernel_for(features: &FeatureSet) -> Result<Arc<CompiledShader>, GpuError
         .unwrap_or_else(|p| p.into_inner())
         .insert(*features, compiled.clone());
     Ok(compiled)
+}
+
+/// Samples that did not enter the accumulator as they were (accumulate.wgsl), counted over the samples
+/// traced since the renderer was reset: `clamped` had a channel at or above 2^64 (about 1.8e19) and went
+/// in clamped just below it; `not_finite` were NaN or infinite and went in as black. Both are zero in
+/// any sane scene; the CLI reports them on stderr and in `--json`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SampleFaults {
+    pub clamped: u32,
+    pub not_finite: u32,
+}
+
+/// Uploads the arrays the (specialised) kernel still reads, each under its WGSL name: a scene without
+/// triangles has no triangle buffer at all. The big mesh arrays (64 bytes per BVH node, 48 per
+/// triangle) live in device-local memory, uploaded through a staging copy.
+fn upload_scene(
+    ctx: &Arc<GpuContext>,
+    kernel: &mut Kernel,
+    gpu: &GpuScene,
+    params: &GpuParams,
+) -> Result<Vec<(&'static str, Buffer)>, GpuError> {
+    let mut bound = vec![("params", Buffer::uniform_from(ctx, "params", params)?)];
+    let small = |name: &'static str, bytes: &[u8]| -> Result<(&'static str, Buffer), GpuError> {
+        Ok((name, Buffer::storage_from(ctx, name, bytes)?))
+    };
+    if kernel.uses("spheres") {
+        bound.push(small("spheres", bytemuck::cast_slice(&gpu.spheres))?);
+    }
+    if kernel.uses("materials") {
+        bound.push(small("materials", bytemuck::cast_slice(&gpu.materials))?);
+    }
+    if kernel.uses("lights") {
+        bound.push(small("lights", bytemuck::cast_slice(&gpu.lights))?);
+    }
+    if kernel.uses("meshes") {
+        bound.push(small("meshes", bytemuck::cast_slice(&gpu.meshes))?);
+    }
+    let big: [(&'static str, &[u8]); 5] = [
+        ("triangles", bytemuck::cast_slice(&gpu.triangles)),
+        ("bvh_nodes", bytemuck::cast_slice(&gpu.bvh_nodes)),
+        ("mesh_faces", bytemuck::cast_slice(&gpu.mesh_faces)),
+        ("mesh_vertices", bytemuck::cast_slice(&gpu.mesh_vertices)),
+        ("texels", bytemuck::cast_slice(&gpu.texels)),
+    ];
+    for (name, bytes) in big {
+        if kernel.uses(name) {
+            bound.push((name, upload_device_local(ctx, kernel, name, bytes)?));
+        }
+    }
+    Ok(bound)
+}
+
+/// Binds the scene's buffers, one accumulator strip, the pass constants and the fault counters.
+fn bind_all(
+    kernel: &mut Kernel,
+    scene: &[(&'static str, Buffer)],
+    accum: &Buffer,
+    pass_constants: &Buffer,
+    sample_faults: &Buffer,
+) -> Result<(), GpuError> {
+    let mut bindings: Vec<(&str, &Buffer)> = scene.iter().map(|(n, b)| (*n, b)).collect();
+    bindings.push(("accum", accum));
+    bindings.push(("pass_constants", pass_constants));
+    bindings.push(("sample_faults", sample_faults));
+    kernel.bind(&bindings)
 }
 
 impl Renderer {
@@ -270,43 +337,7 @@ impl Renderer {
         .map_err(|e| GpuError::Limit(format!("{e}. Render a narrower image.")))?;
         check_device_memory(ctx, &gpu, &layout)?;
         let mut kernel = Kernel::new(ctx, &compiled)?;
-        let params_buffer = Buffer::uniform_from(ctx, "params", &params)?;
-        // Upload only the arrays the (specialised) kernel still reads: a scene without triangles has no
-        // triangle buffer at all.
-        let mut bound = vec![(0, params_buffer)];
-        if kernel.uses_binding(1) {
-            bound.push((1, Buffer::storage_from(ctx, "spheres", &gpu.spheres)?));
-        }
-        if kernel.uses_binding(3) {
-            bound.push((3, Buffer::storage_from(ctx, "materials", &gpu.materials)?));
-        }
-        if kernel.uses_binding(4) {
-            bound.push((4, Buffer::storage_from(ctx, "lights", &gpu.lights)?));
-        }
-        // The mesh arrays can be large (64 bytes per BVH node, 48 per triangle): they live in device-local
-        // memory, uploaded through a staging copy (gpu::scene::upload_device_local).
-        use crate::gpu::scene::upload_device_local as upload;
-        if kernel.uses_binding(2) {
-            bound.push((2, upload(ctx, &mut kernel, "triangles", &gpu.triangles)?));
-        }
-        if kernel.uses_binding(7) {
-            bound.push((7, upload(ctx, &mut kernel, "bvh nodes", &gpu.bvh_nodes)?));
-        }
-        if kernel.uses_binding(8) {
-            bound.push((8, upload(ctx, &mut kernel, "mesh faces", &gpu.mesh_faces)?));
-        }
-        if kernel.uses_binding(9) {
-            bound.push((
-                9,
-                upload(ctx, &mut kernel, "mesh vertices", &gpu.mesh_vertices)?,
-            ));
-        }
-        if kernel.uses_binding(10) {
-            bound.push((10, Buffer::storage_from(ctx, "meshes", &gpu.meshes)?));
-        }
-        if kernel.uses_binding(11) {
-            bound.push((11, upload(ctx, &mut kernel, "texels", &gpu.texels)?));
-        }
+        let bound = upload_scene(ctx, &mut kernel, &gpu, &params)?;
         // Device-local: every sample reads and writes its pixel's sums, one buffer per strip of rows. The
         // host reads them (and restores them) through a copy to (from) a host-visible staging buffer.
         if options.fault == Some(Fault::OutOfMemory) {
@@ -316,38 +347,27 @@ impl Renderer {
         }
         let mut strips = Vec::with_capacity(layout.strips.len());
         for (i, rows) in layout.strips.iter().enumerate() {
-            let buffer = Buffer::new(
-                ctx,
-                "accumulator",
-                layout.strip_pixels(i) * tiles::ACCUM_BYTES_PER_PIXEL,
-                vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_SRC
-                    | vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuOnly,
-            )?;
+            let bytes = layout.strip_pixels(i) * tiles::ACCUM_BYTES_PER_PIXEL;
             strips.push(Strip {
                 rows: *rows,
-                buffer,
+                buffer: Buffer::device_storage(ctx, "accumulator", bytes)?,
             });
         }
-        let staging = Buffer::new(
-            ctx,
-            "accumulator staging",
-            layout.max_strip_bytes(),
-            vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::GpuToCpu,
-        )?;
-        let pass_constants = Buffer::new(
+        let staging = Buffer::staging(ctx, "accumulator staging", layout.max_strip_bytes())?;
+        let pass_constants = Buffer::device_uniform(
             ctx,
             "pass constants",
             std::mem::size_of::<GpuPassConstants>() as u64,
-            vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
         )?;
-        let mut bindings: Vec<(u32, &Buffer)> = bound.iter().map(|(n, b)| (*n, b)).collect();
-        bindings.push((5, &strips[0].buffer));
-        bindings.push((6, &pass_constants));
-        kernel.bind(&bindings)?;
+        let sample_faults =
+            Buffer::readable_storage(ctx, "sample faults", 4 * SAMPLE_FAULT_COUNTERS as u64)?;
+        bind_all(
+            &mut kernel,
+            &bound,
+            &strips[0].buffer,
+            &pass_constants,
+            &sample_faults,
+        )?;
         let mut r = Renderer {
             ctx: ctx.clone(),
             kernel,
@@ -360,6 +380,7 @@ impl Renderer {
             staging,
             pass_constants,
             bound,
+            sample_faults,
             poisoned: None,
             fault: options.fault,
             passes: 0,
@@ -393,6 +414,8 @@ impl Renderer {
             .map(|s| Command::Zero(&s.buffer))
             .collect();
         self.kernel.submit(&zero)?;
+        self.sample_faults
+            .write(&[0u8; 4 * SAMPLE_FAULT_COUNTERS])?;
         self.next_sample = first_sample;
         self.samples_done = 0;
         self.ranges.clear();
@@ -410,17 +433,32 @@ impl Renderer {
         }
     }
 
-    /// Points binding 5 at strip `i`'s accumulator.
+    /// Points `accum` at strip `i`'s accumulator.
     fn bind_strip(&mut self, i: usize) -> Result<(), GpuError> {
         if self.bound_strip == i {
             return Ok(());
         }
-        let mut bindings: Vec<(u32, &Buffer)> = self.bound.iter().map(|(n, b)| (*n, b)).collect();
-        bindings.push((5, &self.strips[i].buffer));
-        bindings.push((6, &self.pass_constants));
-        self.kernel.bind(&bindings)?;
+        bind_all(
+            &mut self.kernel,
+            &self.bound,
+            &self.strips[i].buffer,
+            &self.pass_constants,
+            &self.sample_faults,
+        )?;
         self.bound_strip = i;
         Ok(())
+    }
+
+    /// Samples the accumulator could not take as they were since the last reset (see
+    /// [`SampleFaults`]). Read after the passes that traced them have completed.
+    pub fn sample_faults(&self) -> Result<SampleFaults, GpuError> {
+        let counts: Vec<u32> = bytemuck::pod_collect_to_vec(
+            &self.sample_faults.read_bytes()?[..4 * SAMPLE_FAULT_COUNTERS],
+        );
+        Ok(SampleFaults {
+            clamped: counts[0],
+            not_finite: counts[1],
+        })
     }
 
     /// Traces `spp` more samples per pixel (the next `spp` sample indices) and waits for them.

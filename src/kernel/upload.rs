@@ -4,7 +4,7 @@
 //! emitter material and a sphere, and the light records that sphere's index so a shadow ray can tell
 //! "hit the light" from "hit something in front of it".
 
-use super::types::*;
+use super::abi::*;
 use crate::scene::bvh::{self, Bvh};
 use crate::scene::{Filter, Light, LightSampling, Material, Sampler, Scene};
 use glam::Vec3;
@@ -294,22 +294,22 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         filter_sigma: scene.render.filter_sigma,
         background: scene.render.background.into(),
         filter_kind: match scene.render.filter {
-            Filter::None => 0,
-            Filter::Box => 1,
-            Filter::Gaussian => 2,
+            Filter::None => FILTER_NONE,
+            Filter::Box => FILTER_BOX,
+            Filter::Gaussian => FILTER_GAUSSIAN,
         },
         width: scene.image.width,
         height: scene.image.height,
         max_bounces: scene.render.max_bounces,
         seed: scene.render.seed,
         sampler: match scene.render.sampler {
-            Sampler::Independent => 0,
-            Sampler::Sobol => 1,
+            Sampler::Independent => SAMPLER_INDEPENDENT,
+            Sampler::Sobol => SAMPLER_SOBOL,
         },
         light_sampling: match scene.render.light_sampling {
-            LightSampling::Cone => 0,
-            LightSampling::Area => 1,
-            LightSampling::None => 2,
+            LightSampling::Cone => LIGHT_SAMPLING_CONE,
+            LightSampling::Area => LIGHT_SAMPLING_AREA,
+            LightSampling::None => LIGHT_SAMPLING_NONE,
         },
         num_spheres: 0,
         num_triangles: 0,
@@ -318,38 +318,4 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         guard_one: 1.0,
         _pad0: 0,
     }
-}
-
-/// A device-local storage buffer holding `data`, filled through a host-visible staging buffer and a copy
-/// recorded on `kernel` (the scene's big read-only arrays: on a discrete GPU, host-visible memory would be
-/// read across the bus on every access). Refuses an array larger than the device's storage-buffer range.
-pub fn upload_device_local<T: bytemuck::Pod>(
-    ctx: &std::sync::Arc<super::GpuContext>,
-    kernel: &mut super::Kernel,
-    name: &str,
-    data: &[T],
-) -> Result<super::Buffer, super::GpuError> {
-    use ash::vk;
-    use gpu_allocator::MemoryLocation;
-    let bytes = std::mem::size_of_val(data) as u64;
-    let range = u64::from(ctx.device_info().max_storage_buffer_range);
-    if bytes > range {
-        return Err(super::GpuError::Limit(format!(
-            "the scene's {name} take {bytes} bytes, more than the {range} bytes one storage buffer may \
-             hold on {}. Use a smaller mesh, or a device with a larger maxStorageBufferRange.",
-            ctx.device_info().name
-        )));
-    }
-    let staging = super::Buffer::storage_from(ctx, name, data)?;
-    let buffer = super::Buffer::new(
-        ctx,
-        name,
-        bytes,
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-        MemoryLocation::GpuOnly,
-    )?;
-    if bytes > 0 {
-        kernel.submit(&[super::Command::Copy(&staging, &buffer)])?;
-    }
-    Ok(buffer)
 }

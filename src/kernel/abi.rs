@@ -1,4 +1,5 @@
-//! `#[repr(C)]` Pod structs shared with the WGSL in `shaders/scene.wgsl` and `shaders/accumulate.wgsl`.
+//! The kernel's ABI: the `#[repr(C)]` Pod structs shared with the WGSL (scene_data.wgsl, bsdf.wgsl,
+//! lights.wgsl, accumulate.wgsl) and every constant the host and the shader must agree on.
 //!
 //! WGSL's layout rules put a `vec3<f32>` at 16-byte alignment with size 12, so every `vec3` here is
 //! followed by a 4-byte scalar that fills its slot, and structs are padded to a multiple of 16 bytes.
@@ -7,7 +8,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Per-render constants (uniform buffer, binding 0). Mirrors `Params` in scene.wgsl.
+/// Per-render constants (uniform buffer `params`). Mirrors `Params` in scene_data.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuParams {
@@ -25,9 +26,9 @@ pub struct GpuParams {
     pub height: u32,
     pub max_bounces: u32,
     pub seed: u32,
-    /// `scene::Sampler`: 0 independent, 1 Sobol (rng.wgsl's SAMPLER_*).
+    /// `scene::Sampler`: [`SAMPLER_INDEPENDENT`] or [`SAMPLER_SOBOL`].
     pub sampler: u32,
-    /// `scene::LightSampling`: 0 cone, 1 area, 2 none (scene.wgsl's LIGHT_SAMPLING_*).
+    /// `scene::LightSampling`: one of the `LIGHT_SAMPLING_*` constants.
     pub light_sampling: u32,
     pub num_spheres: u32,
     pub num_triangles: u32,
@@ -53,7 +54,7 @@ pub struct GpuPassConstants {
     pub _pad: [u32; 2],
 }
 
-/// Mirrors `Sphere` in scene.wgsl.
+/// Mirrors `Sphere` in scene_data.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSphere {
@@ -63,7 +64,7 @@ pub struct GpuSphere {
     pub _pad: [u32; 3],
 }
 
-/// Mirrors `Triangle` in scene.wgsl.
+/// Mirrors `Triangle` in scene_data.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangle {
@@ -75,13 +76,13 @@ pub struct GpuTriangle {
     pub _pad1: u32,
 }
 
-/// Material kinds (`MAT_*` in materials.wgsl).
+/// Material kinds (`MAT_*` in bsdf.wgsl).
 pub const MAT_DIFFUSE: u32 = 0;
 pub const MAT_MIRROR: u32 = 1;
 pub const MAT_DIELECTRIC: u32 = 2;
 pub const MAT_EMITTER: u32 = 3;
 
-/// Mirrors `Material` in scene.wgsl.
+/// Mirrors `Material` in bsdf.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -91,11 +92,11 @@ pub struct GpuMaterial {
     pub ior: f32,
 }
 
-/// Light kinds (`LIGHT_*` in scene.wgsl).
+/// Light kinds (`LIGHT_*` in lights.wgsl).
 pub const LIGHT_POINT: u32 = 0;
 pub const LIGHT_SPHERE: u32 = 1;
 
-/// Mirrors `Light` in scene.wgsl.
+/// Mirrors `Light` in lights.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuLight {
@@ -174,6 +175,52 @@ pub struct GpuMeshInfo {
     pub texture_height: u32,
     pub flags: u32,
 }
+
+/// Pixel filters (`GpuParams::filter_kind`, `FILTER_*` in trace.wgsl).
+pub const FILTER_NONE: u32 = 0;
+pub const FILTER_BOX: u32 = 1;
+pub const FILTER_GAUSSIAN: u32 = 2;
+
+/// Samplers (`GpuParams::sampler`, `SAMPLER_*` in rng.wgsl).
+pub const SAMPLER_INDEPENDENT: u32 = 0;
+pub const SAMPLER_SOBOL: u32 = 1;
+
+/// Sphere-light strategies (`GpuParams::light_sampling`, `LIGHT_SAMPLING_*` in lights.wgsl).
+pub const LIGHT_SAMPLING_CONE: u32 = 0;
+pub const LIGHT_SAMPLING_AREA: u32 = 1;
+pub const LIGHT_SAMPLING_NONE: u32 = 2;
+
+/// The counters of `sample_faults` (scene_data.wgsl): samples clamped below 2^64 by the accumulator, and
+/// samples dropped as not finite (see accumulate.wgsl).
+pub const SAMPLE_FAULT_COUNTERS: usize = 2;
+
+/// Every integer constant the host and the WGSL share, by its name in both: `tests/layout.rs` checks each
+/// against the value naga parses from the production kernel.
+pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
+    ("MAT_DIFFUSE", MAT_DIFFUSE),
+    ("MAT_MIRROR", MAT_MIRROR),
+    ("MAT_DIELECTRIC", MAT_DIELECTRIC),
+    ("MAT_EMITTER", MAT_EMITTER),
+    ("LIGHT_POINT", LIGHT_POINT),
+    ("LIGHT_SPHERE", LIGHT_SPHERE),
+    ("FILTER_NONE", FILTER_NONE),
+    ("FILTER_BOX", FILTER_BOX),
+    ("FILTER_GAUSSIAN", FILTER_GAUSSIAN),
+    ("SAMPLER_INDEPENDENT", SAMPLER_INDEPENDENT),
+    ("SAMPLER_SOBOL", SAMPLER_SOBOL),
+    ("LIGHT_SAMPLING_CONE", LIGHT_SAMPLING_CONE),
+    ("LIGHT_SAMPLING_AREA", LIGHT_SAMPLING_AREA),
+    ("LIGHT_SAMPLING_NONE", LIGHT_SAMPLING_NONE),
+    ("NO_MESH", NO_MESH),
+    ("MESH_SMOOTH", MESH_SMOOTH),
+    ("MESH_TEXTURED", MESH_TEXTURED),
+    ("ACCUM_LIMBS", ACCUM_LIMBS as u32),
+    ("BVH_LEAF", crate::scene::bvh::LEAF),
+    ("BVH_LEAF_COUNT_BITS", crate::scene::bvh::LEAF_COUNT_BITS),
+    ("BVH_LEAF_COUNT_MASK", crate::scene::bvh::LEAF_COUNT_MASK),
+    ("BVH_STACK_SIZE", crate::scene::bvh::STACK_SIZE as u32),
+    ("BVH_MAX_STEPS", crate::scene::bvh::MAX_STEPS),
+];
 
 const _: () = assert!(std::mem::size_of::<GpuParams>() == 128);
 const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);

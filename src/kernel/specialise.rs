@@ -1,90 +1,27 @@
-//! The WGSL library and its compilation to SPIR-V by naga, at run time.
+//! Compiling an assembled kernel to SPIR-V with naga, specialised for a feature set.
 //!
-//! WGSL has no `#include`, so the host composes a shader by concatenating library files in dependency
-//! order. The production kernel (`trace.wgsl`) and every test kernel call the same library functions:
-//! a test of `intersect_sphere` tests exactly the code that renders.
+//! naga's `process_overrides` folds the `override` constants (features.wgsl) to the values the feature
+//! set gives; [`prune_constant_ifs`] then removes every `if` whose condition became a constant, and
+//! compaction drops whatever only the removed code used (functions, buffers), so the SPIR-V of a scene has
+//! no code and no bindings for the features it lacks. Nothing here speaks Vulkan: the reflected bindings
+//! say what kind of buffer each is, and `gpu::kernel` makes the descriptors.
 
-use super::GpuError;
-use ash::vk;
+use super::KernelError as GpuError;
 
-/// The pure function library, in dependency order: no bindings, only functions and structs.
-pub const LIBRARY: &[(&str, &str)] = &[
-    ("rng.wgsl", include_str!("../../shaders/rng.wgsl")),
-    ("sampling.wgsl", include_str!("../../shaders/sampling.wgsl")),
-    (
-        "intersect.wgsl",
-        include_str!("../../shaders/intersect.wgsl"),
-    ),
-    (
-        "materials.wgsl",
-        include_str!("../../shaders/materials.wgsl"),
-    ),
-    ("camera.wgsl", include_str!("../../shaders/camera.wgsl")),
-];
-
-/// The per-pixel accumulator. Not in the pure library: it updates the `accum` storage array in place,
-/// which the kernel that includes it declares (binding 5 of scene_data.wgsl, or a test kernel's own).
-pub const ACCUMULATE: (&str, &str) = (
-    "accumulate.wgsl",
-    include_str!("../../shaders/accumulate.wgsl"),
-);
-
-/// The render kernels' data: structs and bindings 0–6.
-pub const SCENE_DATA: (&str, &str) = (
-    "scene_data.wgsl",
-    include_str!("../../shaders/scene_data.wgsl"),
-);
-/// Scene queries and direct lighting, with the specialisation constants.
-pub const SCENE: (&str, &str) = ("scene.wgsl", include_str!("../../shaders/scene.wgsl"));
-/// The triangle BVH's traversal (bindings 2 and 7).
-pub const BVH: (&str, &str) = ("bvh.wgsl", include_str!("../../shaders/bvh.wgsl"));
-/// Albedo textures: sRGB decoding and bilinear filtering (bindings 10 and 11).
-pub const TEXTURE: (&str, &str) = ("texture.wgsl", include_str!("../../shaders/texture.wgsl"));
-/// The path-tracing kernel (binding 5: the accumulator).
-pub const TRACE: (&str, &str) = ("trace.wgsl", include_str!("../../shaders/trace.wgsl"));
-
-/// A kernel written by hand for diffuse spheres and point lights only: the bound that specialisation is
-/// measured against (`vkpath bench specialisation`).
-pub const TRIMMED_DIFFUSE_POINT: (&str, &str) = (
-    "bench/trimmed_diffuse_point.wgsl",
-    include_str!("../../shaders/bench/trimmed_diffuse_point.wgsl"),
-);
-
-/// The full source of the hand-trimmed benchmark kernel.
-pub fn trimmed_source() -> String {
-    compose(&[
-        SCENE_DATA,
-        ACCUMULATE,
-        BVH,
-        TEXTURE,
-        SCENE,
-        TRIMMED_DIFFUSE_POINT,
-    ])
+/// What kind of buffer a binding is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BufferKind {
+    Uniform,
+    Storage,
 }
 
-/// Concatenates the library with extra modules, marking where each file starts so that naga's error
-/// messages can be traced back to a file.
-pub fn compose(extra: &[(&str, &str)]) -> String {
-    let mut out = String::new();
-    for (name, text) in LIBRARY.iter().chain(extra.iter()) {
-        out.push_str(&format!("// ---- {name} ----\n"));
-        out.push_str(text);
-        out.push('\n');
-    }
-    out
-}
-
-/// The full source of the production kernel.
-pub fn trace_source() -> String {
-    compose(&[SCENE_DATA, ACCUMULATE, BVH, TEXTURE, SCENE, TRACE])
-}
-
-/// One resource binding of a compiled shader, reflected from the WGSL.
+/// One resource binding of a compiled shader, reflected from the WGSL: its number, the name of its
+/// variable (which the host binds buffers by) and its kind.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct BindingInfo {
     pub binding: u32,
     pub name: String,
-    pub descriptor_type: vk::DescriptorType,
+    pub kind: BufferKind,
 }
 
 /// A validated naga module, its SPIR-V and its bindings (all in group 0).
@@ -162,9 +99,9 @@ pub fn compile_with(source: &str, constants: &[(&str, f64)]) -> Result<CompiledS
                 rb.group
             )));
         }
-        let descriptor_type = match var.space {
-            naga::AddressSpace::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
-            naga::AddressSpace::Storage { .. } => vk::DescriptorType::STORAGE_BUFFER,
+        let kind = match var.space {
+            naga::AddressSpace::Uniform => BufferKind::Uniform,
+            naga::AddressSpace::Storage { .. } => BufferKind::Storage,
             other => {
                 return Err(GpuError::Shader(format!(
                     "unsupported binding address space {other:?}"
@@ -174,7 +111,7 @@ pub fn compile_with(source: &str, constants: &[(&str, f64)]) -> Result<CompiledS
         bindings.push(BindingInfo {
             binding: rb.binding,
             name: var.name.clone().unwrap_or_default(),
-            descriptor_type,
+            kind,
         });
     }
     bindings.sort_by_key(|b| b.binding);
@@ -304,5 +241,25 @@ fn collect_evaluated(
             S::Switch { cases, .. } => cases.iter().for_each(|c| collect_evaluated(&c.body, live)),
             _ => {}
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::features::FeatureSet;
+    use crate::kernel::library;
+
+    #[test]
+    fn production_and_benchmark_kernels_compile() {
+        compile(&library::trace_source()).unwrap_or_else(|e| panic!("{e}"));
+        compile(&library::trimmed_source()).unwrap_or_else(|e| panic!("{e}"));
+        // Specialised with every feature off: everything prunes, and what is left still validates.
+        let mut none = FeatureSet::generic();
+        for row in crate::kernel::features::FEATURES {
+            none.set(row.feature, false);
+        }
+        compile_with(&library::trace_source(), &none.pipeline_constants())
+            .unwrap_or_else(|e| panic!("{e}"));
     }
 }

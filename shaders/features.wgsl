@@ -1,0 +1,37 @@
+// features.wgsl: the kernel's specialisation constants, one per feature a scene may or may not use.
+//
+// Each is a pipeline-overridable constant. The generic kernel keeps the defaults (everything on); for a
+// given scene the host sets each from the scene's feature set (src/kernel/features.rs, one table row per
+// constant below), naga folds them into constants, and src/kernel/specialise.rs prunes every
+// `if FEATURE { ... }` whose condition became `false` before the SPIR-V is written: an absent feature
+// leaves no code at all. Guards are written `if HAS_X { if runtime_test { ... } }` so that the outer
+// condition is a bare constant. A present feature runs exactly the generic code, so both kernels give the
+// same bits. tests/layout.rs holds this list against the Rust table, both ways.
+//
+// requires: (nothing)
+
+override HAS_SPHERES: bool = true;
+override HAS_TRIANGLES: bool = true;
+// Triangles are found through the BVH (bvh.wgsl) when the scene has one (more than 16 triangles: the
+// host uploads no nodes for fewer, and the generic kernel then finds `bvh_nodes` empty); otherwise by a
+// loop over every triangle, which is also the reference the BVH is tested and benchmarked against.
+override HAS_BVH: bool = true;
+override HAS_TRIANGLE_LOOP: bool = true;
+// Meshes: interpolated vertex normals, albedo textures, and either (the per-triangle shading data).
+override HAS_SMOOTH_NORMALS: bool = true;
+override HAS_TEXTURES: bool = true;
+override HAS_MESH_SHADING: bool = true;
+// Materials (bsdf.wgsl).
+override HAS_DIFFUSE: bool = true;
+override HAS_MIRROR: bool = true;
+override HAS_DIELECTRIC: bool = true;
+override HAS_EMITTERS: bool = true; // sphere lights are visible spheres with an emitting material
+// Lights (lights.wgsl).
+override HAS_POINT_LIGHTS: bool = true;
+override HAS_SPHERE_LIGHTS: bool = true;
+override HAS_LENS: bool = true; // aperture > 0
+override HAS_ROULETTE: bool = true;
+override HAS_BACKGROUND: bool = true;
+// Exactly one material kind (counting emitters) / one light kind in the scene: the kind tests go.
+override SINGLE_MATERIAL_KIND: bool = false;
+override SINGLE_LIGHT_KIND: bool = false;

@@ -1,0 +1,251 @@
+// lights.wgsl: the light sources, behind one interface the integrator calls (after pbrt-v4's
+// Light::SampleLi / PDF_Li / L; Pharr, Jakob & Humphreys, "Physically Based Rendering", 4th ed., §12.1).
+//
+// requires: features.wgsl, sampling.wgsl, rng.wgsl, intersect.wgsl
+//
+// A light is sampled from a reference point p (the shaded point): light_sample_li returns the radiance L
+// arriving at p along a direction wi, the solid-angle density of wi, the point sampled on the light and
+// its distance, and whether the light is a delta light (a point: then pdf is 1 and L already holds the
+// delta's weight, I / r^2). The integrator, not the light, multiplies by the BSDF and the cosine and
+// divides by the pdf, and casts the shadow ray towards p_light (spawn_ray_to, intersect.wgsl) — so any
+// material can use any light, and multiple importance sampling can weigh light_pdf_li against bsdf_pdf.
+// pdf == 0 means "no sample" (p inside the light, or a sample the light cannot see p from).
+//
+// Adding a light kind: a LIGHT_* constant (mirrored in src/kernel/abi.rs), its sample and pdf here under
+// its feature constant (features.wgsl), and a row in src/kernel/features.rs.
+
+const LIGHT_POINT: u32 = 0u;
+const LIGHT_SPHERE: u32 = 1u;
+
+// One light, as uploaded (`lights` in scene_data.wgsl; GpuLight in Rust).
+struct Light {
+    position: vec3<f32>, // point position or sphere centre
+    radius: f32,
+    // point: radiant intensity I = P color / (4 pi) (W/sr); sphere: radiance Le = P color / (4 pi^2 r^2)
+    intensity: vec3<f32>,
+    kind: u32,
+    sphere_index: u32, // for sphere lights: the index of its emitter sphere in `spheres`
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// How sphere lights are sampled (params.light_sampling, `render.light_sampling`): read from params by
+// the generic kernel, a constant when specialised (the other strategies' code is then pruned).
+const LIGHT_SAMPLING_CONE: u32 = 0u;
+const LIGHT_SAMPLING_AREA: u32 = 1u;
+const LIGHT_SAMPLING_NONE: u32 = 2u;
+override LIGHT_SAMPLING_FROM_PARAMS: bool = true;
+override LIGHT_SAMPLING_IS_AREA: bool = false;
+override LIGHT_SAMPLING_IS_NONE: bool = false;
+
+struct LightLiSample {
+    L: vec3<f32>, // radiance arriving at p along wi (point light: I / r^2)
+    wi: vec3<f32>, // unit, from p towards p_light
+    pdf: f32, // per unit solid angle; 1 for a delta light; 0: no sample
+    p_light: vec3<f32>, // the point on the light the shadow ray aims at
+    dist: f32, // |p_light - p|
+    delta: bool,
+}
+
+fn no_light_sample() -> LightLiSample {
+    return LightLiSample(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, vec3<f32>(0.0), 0.0, false);
+}
+
+// Whether next-event estimation samples sphere lights at all with this strategy (with "none", emission
+// found by BSDF-sampled rays is what lights the scene).
+fn sphere_lights_sampled(strategy: u32) -> bool {
+    if LIGHT_SAMPLING_FROM_PARAMS {
+        return strategy != LIGHT_SAMPLING_NONE;
+    }
+    return !LIGHT_SAMPLING_IS_NONE;
+}
+
+// --- Point light -------------------------------------------------------------------------------------
+// Intensity I (W/sr) at `position`: irradiance I cos(theta) / r^2 on a surface at distance r. Delta in
+// position, so pdf = 1 and L = I / r^2.
+fn point_light_sample(light: Light, p: vec3<f32>) -> LightLiSample {
+    let to_light = light.position - p;
+    let d2 = dot(to_light, to_light);
+    if d2 == 0.0 {
+        return no_light_sample();
+    }
+    let dist = sqrt(d2);
+    return LightLiSample(light.intensity / d2, to_light / dist, 1.0, light.position, dist, true);
+}
+
+// --- Sphere light, cone strategy ---------------------------------------------------------------------
+// A direction uniform in the cone the sphere subtends from p (pdf 1 / (2 pi (1 - cos theta_max)) per sr,
+// sampling.wgsl's sample_cone): every direction in it sees the sphere, so no sample is wasted, and L = Le
+// on all of them. The point on the sphere where wi meets it comes from the angles rather than from
+// intersecting the ray (which loses the point at the cone's rim to rounding): with D = |c - p|,
+// sin(theta_max) = r / D and theta the sampled angle from the axis, the near intersection's normal makes
+// the angle alpha with -axis where cos(alpha) = sin^2(theta) / sin(theta_max)
+// + cos(theta) sqrt(1 - sin^2(theta) / sin^2(theta_max)) (the law of sines in the triangle p, c, point;
+// pbrt-v4 §6.2.4 derives the same), and it lies in the plane of the axis and wi.
+fn sphere_light_sample_cone(light: Light, p: vec3<f32>, u: vec2<f32>) -> LightLiSample {
+    let to_center = light.position - p;
+    let d2 = dot(to_center, to_center);
+    let r = light.radius;
+    if d2 <= r * r {
+        return no_light_sample(); // inside the light: it does not illuminate its own interior
+    }
+    let dc = sqrt(d2);
+    let axis = to_center / dc;
+    let omc_max = sphere_cone_one_minus_cos(r, d2);
+    let wi = sample_cone(axis, omc_max, u);
+    // The sampled angle, as sample_cone drew it.
+    let omc = u.x * omc_max;
+    let cos_t = 1.0 - omc;
+    let sin2_t = omc * (2.0 - omc);
+    let sin_max = min(1.0, r / dc);
+    let ratio = min(1.0, sin2_t / (sin_max * sin_max));
+    let cos_alpha = min(1.0, sin2_t / sin_max + cos_t * sqrt(1.0 - ratio));
+    let sin_alpha = sqrt(max(0.0, 1.0 - cos_alpha * cos_alpha));
+    let phi = TWO_PI * u.y;
+    let n_light = frame_to_world(frame_from_normal(axis),
+                                 vec3<f32>(sin_alpha * cos(phi), sin_alpha * sin(phi), -cos_alpha));
+    let p_light = light.position + r * n_light;
+    return LightLiSample(light.intensity, wi, cone_pdf(omc, omc_max), p_light,
+                         length(p_light - p), false);
+}
+
+// --- Sphere light, area strategy (the course's method) -----------------------------------------------
+// A point x_l = c + R m on the hemisphere of the light that faces p, with m cosine-distributed about
+// a = (p - c)/|p - c|: density per unit area pdf_A = (m . a) / (pi R^2), per unit solid angle at p
+// pdf = pdf_A d^2 / cos(theta_l), with d = |x_l - p| and theta_l the angle at x_l between m and the
+// direction back to p. Every point of the sphere visible from p lies on that hemisphere, and a point of it
+// with cos(theta_l) <= 0 is hidden by the sphere itself, so the estimate is unbiased. Compared with the
+// cone it wastes the samples near the hemisphere's rim that p cannot see, and its pdf varies across the
+// light: more noise, most of all when p is close to the light.
+fn sphere_light_sample_area(light: Light, p: vec3<f32>, u: vec2<f32>) -> LightLiSample {
+    let to_p = p - light.position;
+    let dc2 = dot(to_p, to_p);
+    let r = light.radius;
+    if dc2 <= r * r {
+        return no_light_sample();
+    }
+    let axis = to_p / sqrt(dc2);
+    let m = sample_cosine_hemisphere(axis, u);
+    let cos_m = dot(m, axis);
+    let x_l = light.position + r * m;
+    let to_light = x_l - p;
+    let d2 = dot(to_light, to_light);
+    let d = sqrt(d2);
+    let wi = to_light / d;
+    let cos_l = -dot(m, wi);
+    if cos_l <= 0.0 || cos_m <= 0.0 {
+        return no_light_sample();
+    }
+    let pdf = cos_m * d2 / (PI * r * r * cos_l);
+    return LightLiSample(light.intensity, wi, pdf, x_l, d, false);
+}
+
+// The density sphere_light_sample_area gives direction wi from p (0 if wi misses the sphere).
+fn sphere_light_pdf_area(light: Light, p: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let r = light.radius;
+    let t = intersect_sphere(p, wi, light.position, r, 0.0, T_MISS);
+    if t == T_MISS {
+        return 0.0;
+    }
+    let x_l = p + t * wi;
+    let m = (x_l - light.position) / r;
+    let to_p = p - light.position;
+    let cos_m = dot(m, to_p) / length(to_p);
+    let cos_l = -dot(m, wi);
+    if cos_l <= 0.0 || cos_m <= 0.0 {
+        return 0.0;
+    }
+    return cos_m * t * t / (PI * r * r * cos_l);
+}
+
+// The density sphere_light_sample_cone gives direction wi from p: uniform inside the cone. 1 - cos of
+// the angle to the axis is |wi - axis|^2 / 2 for unit vectors, which keeps its precision in tiny cones.
+fn sphere_light_pdf_cone(light: Light, p: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let to_center = light.position - p;
+    let d2 = dot(to_center, to_center);
+    if d2 <= light.radius * light.radius {
+        return 0.0;
+    }
+    let delta = wi - to_center / sqrt(d2);
+    return cone_pdf(0.5 * dot(delta, delta), sphere_cone_one_minus_cos(light.radius, d2));
+}
+
+fn sphere_light_sample(light: Light, p: vec3<f32>, strategy: u32, u: vec2<f32>) -> LightLiSample {
+    if LIGHT_SAMPLING_FROM_PARAMS {
+        if strategy == LIGHT_SAMPLING_AREA {
+            return sphere_light_sample_area(light, p, u);
+        }
+        if strategy == LIGHT_SAMPLING_NONE {
+            return no_light_sample();
+        }
+        return sphere_light_sample_cone(light, p, u);
+    }
+    if LIGHT_SAMPLING_IS_AREA {
+        return sphere_light_sample_area(light, p, u);
+    }
+    if LIGHT_SAMPLING_IS_NONE {
+        return no_light_sample();
+    }
+    return sphere_light_sample_cone(light, p, u);
+}
+
+fn sphere_light_pdf(light: Light, p: vec3<f32>, wi: vec3<f32>, strategy: u32) -> f32 {
+    if LIGHT_SAMPLING_FROM_PARAMS {
+        if strategy == LIGHT_SAMPLING_AREA {
+            return sphere_light_pdf_area(light, p, wi);
+        }
+        if strategy == LIGHT_SAMPLING_NONE {
+            return 0.0;
+        }
+        return sphere_light_pdf_cone(light, p, wi);
+    }
+    if LIGHT_SAMPLING_IS_AREA {
+        return sphere_light_pdf_area(light, p, wi);
+    }
+    if LIGHT_SAMPLING_IS_NONE {
+        return 0.0;
+    }
+    return sphere_light_pdf_cone(light, p, wi);
+}
+
+// --- The dispatchers -----------------------------------------------------------------------------------
+
+// A sample of `light` seen from p. Sphere lights draw their two numbers whatever the strategy ("none"
+// included), so that the numbers drawn after them are at the same dimensions in every variant.
+fn light_sample_li(light: Light, p: vec3<f32>, strategy: u32, rng: ptr<function, Rng>) -> LightLiSample {
+    if HAS_POINT_LIGHTS {
+        if SINGLE_LIGHT_KIND || light.kind == LIGHT_POINT {
+            return point_light_sample(light, p);
+        }
+    }
+    if HAS_SPHERE_LIGHTS {
+        if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
+            let u = rng_next2(rng);
+            return sphere_light_sample(light, p, strategy, u);
+        }
+    }
+    return no_light_sample();
+}
+
+// The solid-angle density light_sample_li gives direction wi from p (0 for delta lights: no direction
+// found by another strategy can be the one point).
+fn light_pdf_li(light: Light, p: vec3<f32>, wi: vec3<f32>, strategy: u32) -> f32 {
+    if HAS_SPHERE_LIGHTS {
+        if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
+            return sphere_light_pdf(light, p, wi, strategy);
+        }
+    }
+    return 0.0;
+}
+
+// The radiance a ray that hits the light receives from it (a sphere light's surface radiance; a point
+// light cannot be hit).
+fn light_radiance(light: Light) -> vec3<f32> {
+    if HAS_SPHERE_LIGHTS {
+        if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
+            return light.intensity;
+        }
+    }
+    return vec3<f32>(0.0);
+}

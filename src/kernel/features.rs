@@ -1,0 +1,465 @@
+//! The feature set of a scene: which parts of the kernel it needs. The renderer specialises the kernel
+//! for it (shaders/features.wgsl), so that a scene pays only for what it uses.
+//!
+//! One table, [`FEATURES`], has a row per feature: its name (in reports and `vkpath bench
+//! specialisation`), the WGSL `override` constant it sets, and whether a scene needs it. Everything else
+//! follows from the table: [`FeatureSet::generic`], [`FeatureSet::of`], the pipeline constants,
+//! [`FeatureSet::absent`], [`FeatureSet::enable`] and the kernel's name. The three run-time knobs (pixel
+//! filter, sampler, light-sampling strategy) are in [`KNOBS`], a row each: a constant value when
+//! specialised, read from `Params` by the generic kernel. `tests/layout.rs` holds both tables against
+//! the overrides the WGSL declares, both ways.
+//!
+//! Adding a feature: a row here and its `override` in features.wgsl (the test fails until both exist).
+
+use super::abi::*;
+use super::upload::GpuScene;
+
+/// A feature of the kernel; the discriminant is the row's index in [`FEATURES`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Feature {
+    Spheres,
+    Triangles,
+    Bvh,
+    TriangleLoop,
+    SmoothNormals,
+    Textures,
+    Diffuse,
+    Mirror,
+    Dielectric,
+    Emitters,
+    PointLights,
+    SphereLights,
+    Lens,
+    Roulette,
+    Background,
+}
+
+/// What decides whether a scene needs a feature.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Group {
+    /// Geometry, camera and render settings.
+    Other,
+    /// A material kind (`MAT_*`): counted by `SINGLE_MATERIAL_KIND`.
+    Material(u32),
+    /// A light kind (`LIGHT_*`): counted by `SINGLE_LIGHT_KIND`.
+    Light(u32),
+}
+
+/// One row of the feature table.
+pub struct FeatureRow {
+    pub feature: Feature,
+    /// The name in reports (`features_absent`) and `vkpath bench specialisation`.
+    pub name: &'static str,
+    /// The WGSL `override` constant (features.wgsl).
+    pub constant: &'static str,
+    pub group: Group,
+    /// Whether the scene, as uploaded with its parameters, needs it (material and light rows are
+    /// decided by their group: a kind some object uses, a kind of light present).
+    pub needed: fn(&GpuScene, &GpuParams) -> bool,
+    /// Whether the row is listed by [`FeatureSet::absent`] (rows that only refine another, such as the
+    /// BVH and the triangle loop under `triangles`, are not: they follow from it and the scene).
+    pub reported: bool,
+}
+
+fn by_group(_: &GpuScene, _: &GpuParams) -> bool {
+    false // decided by FeatureSet::of from the group
+}
+
+fn mesh_flag(g: &GpuScene, flag: u32) -> bool {
+    g.meshes.iter().any(|m| m.flags & flag != 0)
+}
+
+/// The feature table.
+pub const FEATURES: &[FeatureRow] = &[
+    FeatureRow {
+        feature: Feature::Spheres,
+        name: "spheres",
+        constant: "HAS_SPHERES",
+        group: Group::Other,
+        needed: |g, _| !g.spheres.is_empty(),
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Triangles,
+        name: "triangles",
+        constant: "HAS_TRIANGLES",
+        group: Group::Other,
+        needed: |g, _| !g.triangles.is_empty(),
+        reported: true,
+    },
+    FeatureRow {
+        // Triangles are found through the BVH (scenes of more than `upload::BVH_MIN_TRIANGLES`);
+        // otherwise by a loop over every triangle, which is also the reference that tests and the
+        // scaling benchmark compare the BVH against.
+        feature: Feature::Bvh,
+        name: "bvh",
+        constant: "HAS_BVH",
+        group: Group::Other,
+        needed: |g, _| !g.bvh_nodes.is_empty(),
+        reported: false,
+    },
+    FeatureRow {
+        feature: Feature::TriangleLoop,
+        name: "triangle_loop",
+        constant: "HAS_TRIANGLE_LOOP",
+        group: Group::Other,
+        needed: |g, _| !g.triangles.is_empty() && g.bvh_nodes.is_empty(),
+        reported: false,
+    },
+    FeatureRow {
+        feature: Feature::SmoothNormals,
+        name: "smooth_normals",
+        constant: "HAS_SMOOTH_NORMALS",
+        group: Group::Other,
+        needed: |g, _| mesh_flag(g, MESH_SMOOTH),
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Textures,
+        name: "textures",
+        constant: "HAS_TEXTURES",
+        group: Group::Other,
+        needed: |g, _| mesh_flag(g, MESH_TEXTURED),
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Diffuse,
+        name: "diffuse",
+        constant: "HAS_DIFFUSE",
+        group: Group::Material(MAT_DIFFUSE),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Mirror,
+        name: "mirror",
+        constant: "HAS_MIRROR",
+        group: Group::Material(MAT_MIRROR),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Dielectric,
+        name: "dielectric",
+        constant: "HAS_DIELECTRIC",
+        group: Group::Material(MAT_DIELECTRIC),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Emitters,
+        name: "emitters",
+        constant: "HAS_EMITTERS",
+        group: Group::Material(MAT_EMITTER),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::PointLights,
+        name: "point_lights",
+        constant: "HAS_POINT_LIGHTS",
+        group: Group::Light(LIGHT_POINT),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::SphereLights,
+        name: "sphere_lights",
+        constant: "HAS_SPHERE_LIGHTS",
+        group: Group::Light(LIGHT_SPHERE),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Lens,
+        name: "lens",
+        constant: "HAS_LENS",
+        group: Group::Other,
+        needed: |_, p| p.lens_radius > 0.0,
+        reported: true,
+    },
+    FeatureRow {
+        // The roulette test runs after scattering event `bounces` (1..=max_bounces).
+        feature: Feature::Roulette,
+        name: "roulette",
+        constant: "HAS_ROULETTE",
+        group: Group::Other,
+        needed: |_, p| p.roulette_depth <= p.max_bounces,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Background,
+        name: "background",
+        constant: "HAS_BACKGROUND",
+        group: Group::Other,
+        needed: |_, p| p.background.iter().any(|&c| c != 0.0),
+        reported: true,
+    },
+];
+
+/// The constants derived from the rows rather than set by one: a single material kind, a single light
+/// kind, and the per-triangle shading data that smooth normals and textures both read.
+pub const SINGLE_MATERIAL_KIND: &str = "SINGLE_MATERIAL_KIND";
+pub const SINGLE_LIGHT_KIND: &str = "SINGLE_LIGHT_KIND";
+pub const HAS_MESH_SHADING: &str = "HAS_MESH_SHADING";
+
+/// A run-time choice (a `Params` field) that a specialised kernel has as a constant.
+pub struct KnobRow {
+    pub name: &'static str,
+    /// The `bool` override that makes the kernel read the value from `Params` (the generic kernel).
+    pub from_params: &'static str,
+    /// The overrides that fix the value when specialised: `(constant, value)`, for `u32` constants the
+    /// value itself (`value == u32::MAX`), for `bool` ones whether the knob has that value.
+    pub values: &'static [(&'static str, u32)],
+    /// The knob's value in the parameters.
+    pub read: fn(&GpuParams) -> u32,
+}
+
+/// `KnobRow::values` entry of a `u32` override that takes the knob's value itself.
+pub const KNOB_VALUE: u32 = u32::MAX;
+
+/// The knob table.
+pub const KNOBS: &[KnobRow] = &[
+    KnobRow {
+        name: "filter",
+        from_params: "FILTER_FROM_PARAMS",
+        values: &[("FILTER_KIND", KNOB_VALUE)],
+        read: |p| p.filter_kind,
+    },
+    KnobRow {
+        name: "sampler",
+        from_params: "SAMPLER_FROM_RNG",
+        values: &[("SAMPLER_IS_SOBOL", SAMPLER_SOBOL)],
+        read: |p| p.sampler,
+    },
+    KnobRow {
+        name: "light_sampling",
+        from_params: "LIGHT_SAMPLING_FROM_PARAMS",
+        values: &[
+            ("LIGHT_SAMPLING_IS_AREA", LIGHT_SAMPLING_AREA),
+            ("LIGHT_SAMPLING_IS_NONE", LIGHT_SAMPLING_NONE),
+        ],
+        read: |p| p.light_sampling,
+    },
+];
+
+/// The features a kernel keeps (a bit per [`FEATURES`] row), and the knobs it has as constants
+/// (`None`: read at run time, as the generic kernel does).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct FeatureSet {
+    on: u32,
+    knobs: [Option<u32>; KNOBS.len()],
+}
+
+const _: () = assert!(FEATURES.len() <= 32);
+const _: () = {
+    // Row i is Feature i: `FeatureSet::has` indexes the table by the discriminant.
+    let mut i = 0;
+    while i < FEATURES.len() {
+        assert!(FEATURES[i].feature as usize == i);
+        i += 1;
+    }
+};
+
+impl FeatureSet {
+    /// Everything on, every knob read at run time: the one kernel that renders any scene.
+    pub fn generic() -> FeatureSet {
+        FeatureSet {
+            on: (1u32 << FEATURES.len()) - 1,
+            knobs: [None; KNOBS.len()],
+        }
+    }
+
+    /// What `scene` (as uploaded, with its parameters) needs. Material kinds count only when an object
+    /// uses them; a light kind only when present.
+    pub fn of(scene: &GpuScene, params: &GpuParams) -> FeatureSet {
+        let used_kinds: Vec<u32> = scene
+            .spheres
+            .iter()
+            .map(|s| s.material)
+            .chain(scene.triangles.iter().map(|t| t.material))
+            .filter_map(|m| scene.materials.get(m as usize).map(|m| m.kind))
+            .collect();
+        let mut set = FeatureSet {
+            on: 0,
+            knobs: [None; KNOBS.len()],
+        };
+        for row in FEATURES {
+            let needed = match row.group {
+                Group::Other => (row.needed)(scene, params),
+                Group::Material(kind) => used_kinds.contains(&kind),
+                Group::Light(kind) => scene.lights.iter().any(|l| l.kind == kind),
+            };
+            set.set(row.feature, needed);
+        }
+        for (k, knob) in KNOBS.iter().enumerate() {
+            set.knobs[k] = Some((knob.read)(params));
+        }
+        set
+    }
+
+    pub fn has(&self, f: Feature) -> bool {
+        self.on & (1 << f as u32) != 0
+    }
+
+    pub fn set(&mut self, f: Feature, on: bool) {
+        if on {
+            self.on |= 1 << f as u32;
+        } else {
+            self.on &= !(1 << f as u32);
+        }
+    }
+
+    /// The knob's constant value, or `None` when the kernel reads it at run time.
+    pub fn knob(&self, name: &str) -> Option<u32> {
+        KNOBS
+            .iter()
+            .position(|k| k.name == name)
+            .and_then(|i| self.knobs[i])
+    }
+
+    fn count_group(&self, material: bool) -> usize {
+        FEATURES
+            .iter()
+            .filter(|r| match r.group {
+                Group::Material(_) => material,
+                Group::Light(_) => !material,
+                Group::Other => false,
+            })
+            .filter(|r| self.has(r.feature))
+            .count()
+    }
+
+    /// Exactly one material kind is used (emitters included), so the kernel need not test the kind.
+    pub fn single_material_kind(&self) -> bool {
+        self.count_group(true) == 1
+    }
+
+    /// Exactly one light kind is present.
+    pub fn single_light_kind(&self) -> bool {
+        self.count_group(false) == 1
+    }
+
+    /// The values of the kernel's `override` constants (naga takes them as f64).
+    pub fn pipeline_constants(&self) -> Vec<(&'static str, f64)> {
+        let b = |v: bool| if v { 1.0 } else { 0.0 };
+        let mut out: Vec<(&'static str, f64)> = FEATURES
+            .iter()
+            .map(|r| (r.constant, b(self.has(r.feature))))
+            .collect();
+        out.push((SINGLE_MATERIAL_KIND, b(self.single_material_kind())));
+        out.push((SINGLE_LIGHT_KIND, b(self.single_light_kind())));
+        let shading = self.has(Feature::SmoothNormals) || self.has(Feature::Textures);
+        out.push((HAS_MESH_SHADING, b(shading)));
+        for (k, knob) in KNOBS.iter().enumerate() {
+            let value = self.knobs[k];
+            out.push((knob.from_params, b(value.is_none())));
+            for &(constant, when) in knob.values {
+                out.push(match when {
+                    KNOB_VALUE => (constant, value.unwrap_or(0) as f64),
+                    _ => (constant, b(value == Some(when))),
+                });
+            }
+        }
+        out
+    }
+
+    /// Switches the feature named as in [`FeatureSet::absent`] on (its code back in the kernel). Naming
+    /// `triangles` brings back both ways of finding them (BVH and loop), as in the generic kernel.
+    pub fn enable(&mut self, name: &str) {
+        if let Some(row) = FEATURES.iter().find(|r| r.name == name) {
+            self.set(row.feature, true);
+            if row.feature == Feature::Triangles {
+                self.set(Feature::Bvh, true);
+                self.set(Feature::TriangleLoop, true);
+            }
+        }
+    }
+
+    /// The reported features this set leaves out, by name.
+    pub fn absent(&self) -> Vec<&'static str> {
+        FEATURES
+            .iter()
+            .filter(|r| r.reported && !self.has(r.feature))
+            .map(|r| r.name)
+            .collect()
+    }
+
+    /// A short name of the kernel for reports: `generic`, or the features it keeps and the knobs it
+    /// fixes, e.g. `spheres+diffuse+point_lights+roulette/filter=2,sampler=0,light_sampling=0`.
+    pub fn kernel_name(&self) -> String {
+        if *self == FeatureSet::generic() {
+            return "generic".into();
+        }
+        let on: Vec<&str> = FEATURES
+            .iter()
+            .filter(|r| self.has(r.feature))
+            .map(|r| r.name)
+            .collect();
+        let knobs: Vec<String> = KNOBS
+            .iter()
+            .zip(self.knobs)
+            .filter_map(|(k, v)| v.map(|v| format!("{}={v}", k.name)))
+            .collect();
+        format!("{}/{}", on.join("+"), knobs.join(","))
+    }
+}
+
+/// Serialised as the feature names it keeps and its knobs (for `--json` reports).
+impl serde::Serialize for FeatureSet {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut map = s.serialize_map(None)?;
+        for r in FEATURES {
+            map.serialize_entry(r.name, &self.has(r.feature))?;
+        }
+        for (k, v) in KNOBS.iter().zip(self.knobs) {
+            map.serialize_entry(k.name, &v)?;
+        }
+        map.end()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_and_constants_are_unique() {
+        let mut names: Vec<&str> = FEATURES.iter().map(|r| r.name).collect();
+        let mut constants: Vec<&str> = FEATURES.iter().map(|r| r.constant).collect();
+        names.extend(KNOBS.iter().map(|k| k.name));
+        constants.extend(
+            KNOBS
+                .iter()
+                .flat_map(|k| std::iter::once(k.from_params).chain(k.values.iter().map(|v| v.0))),
+        );
+        let (n, c) = (names.len(), constants.len());
+        names.sort();
+        names.dedup();
+        constants.sort();
+        constants.dedup();
+        assert_eq!((names.len(), constants.len()), (n, c));
+    }
+
+    #[test]
+    fn generic_has_everything_and_reads_every_knob() {
+        let g = FeatureSet::generic();
+        assert!(FEATURES.iter().all(|r| g.has(r.feature)));
+        assert!(g.absent().is_empty());
+        assert_eq!(g.kernel_name(), "generic");
+        let consts = g.pipeline_constants();
+        assert!(consts.contains(&("LIGHT_SAMPLING_FROM_PARAMS", 1.0)));
+        assert!(consts.contains(&("SINGLE_MATERIAL_KIND", 0.0)));
+    }
+
+    #[test]
+    fn enable_and_set() {
+        let mut f = FeatureSet::generic();
+        f.set(Feature::Triangles, false);
+        f.set(Feature::Bvh, false);
+        assert_eq!(f.absent(), vec!["triangles"]);
+        f.enable("triangles");
+        assert!(f.has(Feature::Bvh) && f.has(Feature::TriangleLoop));
+    }
+}
