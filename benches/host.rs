@@ -12,8 +12,8 @@
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::time::Duration;
-use vkpath::gpu::scene::GpuScene;
 use vkpath::gpu::{ContextOptions, GpuContext};
+use vkpath::kernel::upload::GpuScene;
 use vkpath::render::{RenderOptions, Renderer};
 use vkpath::scene::{DEFAULT_SCENE_TOML, Scene, bvh, shapes};
 

@@ -9,7 +9,7 @@
 //! exact and associative: whatever way the samples were split (passes, tiles, checkpoints, sample
 //! ranges), the total has the same bits, and so does the image computed from it.
 
-use crate::gpu::types::{ACCUM_LIMBS, GpuAccum};
+use crate::kernel::abi::{ACCUM_LIMBS, GpuAccum};
 
 /// The accumulator's unit, as a power of two: one unit of limb 0 is 2^-96.
 pub const UNIT_EXP: i32 = -96;

@@ -1,7 +1,7 @@
 //! The film: per-pixel means and variances read back from the GPU, the display transform, and atomic
 //! PNG/EXR writing.
 
-use crate::gpu::types::GpuAccum;
+use crate::kernel::abi::GpuAccum;
 use crate::scene::{Gamma, ImageSettings};
 use std::io::Write;
 use std::path::{Path, PathBuf};

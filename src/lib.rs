@@ -1,7 +1,7 @@
 //! vkpath: a physically based path tracer whose every ray runs in a Vulkan compute shader.
 //!
 //! Data flows one way:
-//! `scene.toml` → [`scene::Scene`] (parse + validate) → [`gpu::scene::GpuScene`] (Pod buffers) →
+//! `scene.toml` → [`scene::Scene`] (parse + validate) → [`kernel::upload::GpuScene`] (Pod buffers) →
 //! [`render::Renderer`] (WGSL compiled by naga, dispatched through ash, accumulated progressively) →
 //! [`film::Film`] (linear f32 means and variances) → PNG / EXR.
 //!

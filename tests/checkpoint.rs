@@ -13,7 +13,7 @@ use common::*;
 use std::path::PathBuf;
 use vkpath::checkpoint::{self, Checkpoint};
 use vkpath::gpu::testing;
-use vkpath::gpu::types::GpuAccum;
+use vkpath::kernel::abi::GpuAccum;
 use vkpath::render::{RenderOptions, Renderer};
 use vkpath::{Error, Scene};
 

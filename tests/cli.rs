@@ -836,3 +836,36 @@ fn missing_scene_file() {
         &["missing.toml"],
     );
 }
+
+/// Samples the exact accumulator cannot hold (radiance of 2^64, 1.8e19, or more) are counted and said:
+/// a warning on stderr, even with --quiet, and `sample_faults` in the JSON. TINY's light made a
+/// trillion trillion times stronger lights the ball and the floor far past the limit; as it is, no
+/// sample is clamped and nothing is said.
+#[test]
+fn clamped_samples_are_reported() {
+    let bright = TINY.replace("power  = 40000.0", "power  = 4.0e28");
+    assert_ne!(bright, TINY);
+    for (text, clamped) in [(bright.as_str(), true), (TINY, false)] {
+        let dir = dir_with("tiny.toml", text);
+        let run = vkpath(
+            dir.path(),
+            &["render", "tiny.toml", "--spp", "1", "--quiet", "--json"],
+        );
+        run.assert_success();
+        let json = run.json();
+        let faults = json["sample_faults"]
+            .as_object()
+            .unwrap_or_else(|| panic!("no sample_faults object: {json:?}"));
+        let n = faults["clamped"].as_u64().expect("clamped is a count");
+        assert_eq!(faults["not_finite"].as_u64(), Some(0));
+        let warned = run.stderr.contains("were clamped");
+        if clamped {
+            assert!(n > 100, "the bright light clamped only {n} samples");
+            assert!(warned, "no warning on stderr: {}", run.stderr);
+            assert!(run.stderr.contains(&n.to_string()), "{}", run.stderr);
+        } else {
+            assert_eq!(n, 0);
+            assert!(!warned, "a warning without clamped samples: {}", run.stderr);
+        }
+    }
+}

@@ -645,7 +645,7 @@ fn checkpoint_bytes() -> Vec<u8> {
             },
             payload_crc32: 0,
         },
-        accum: vec![vkpath::gpu::types::GpuAccum::default(); 6],
+        accum: vec![vkpath::kernel::abi::GpuAccum::default(); 6],
     };
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("c.ckpt");

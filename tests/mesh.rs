@@ -11,8 +11,8 @@ mod common;
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use vkpath::gpu::features::FeatureSet;
-use vkpath::gpu::scene::{GpuScene, params_for};
+use vkpath::kernel::features::FeatureSet;
+use vkpath::kernel::upload::{GpuScene, params_for};
 use vkpath::render::{LAVAPIPE_LOOP_BUDGET, RenderOptions, worst_case_loop_iterations};
 use vkpath::scene::{Scene, SceneError, shapes};
 

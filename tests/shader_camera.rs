@@ -478,3 +478,60 @@ fn thin_lens_focuses_on_the_plane() {
         }
     }
 }
+
+/// Defect 4: a thin lens focused at 1e30 gave a zero ray direction (the focus point, 1e30 away, has a
+/// squared length that overflows f32 inside normalize). The direction is now computed divided by the
+/// distance to the focus point, with no overflow: for every focus distance up to f32::MAX the rays are
+/// finite and unit, and they approach the pinhole direction as the focus goes to infinity (every lens
+/// point then looks along it), within aperture / focus plus the pinhole tolerance. The old formula,
+/// replayed on the CPU in f32, breaks there (asserted, so that the case keeps testing something).
+#[test]
+fn thin_lens_with_huge_focus_distances() {
+    let (w, h) = (64u32, 48u32);
+    let films = film_landmarks(w, h);
+    let lenses = lens_samples();
+    let mut old_formula_failed = false;
+    for focus in [1e10f32, 1e19, 1e20, 1e30, f32::MAX] {
+        let aperture = 0.5f32;
+        let cam = generic(60.0, w, h).lens(aperture, focus);
+        let q: Vec<_> = films
+            .iter()
+            .flat_map(|&fl| lenses.iter().map(move |&l| (fl, l)))
+            .collect();
+        let out = rays(&cam, &q);
+        for ((film, lens), ray) in q.iter().zip(&out) {
+            let what = format!("focus {focus:e} film {film:?} lens {lens:?}");
+            assert!(ray.d.iter().all(|x| x.is_finite()), "{what}: {ray:?}");
+            assert!(
+                (length(ray.d) - 1.0).abs() <= 4.0 * U,
+                "{what}: |d| = {}",
+                length(ray.d)
+            );
+            let want = cam.reference_dir([film[0] as f64, film[1] as f64]);
+            let a = angle(ray.d, want);
+            assert!(
+                a <= 2.0 * ANGLE_TOL + 2.0 * aperture as f64 / focus as f64,
+                "{what}: {a:e} rad from the pinhole direction"
+            );
+            // The previous formula: normalize(position + dir k - origin), k = focus / dot(dir, forward).
+            let f32v = |v: V3| glam::Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32);
+            let (pos, r, u, fw) = (
+                glam::Vec3::from(cam.position),
+                glam::Vec3::from(cam.right),
+                glam::Vec3::from(cam.up),
+                glam::Vec3::from(cam.forward),
+            );
+            let dir = f32v(want);
+            let focus_point = pos + dir * (focus / dir.dot(fw));
+            let origin = pos + aperture * (lens[0] * r + lens[1] * u);
+            let old = (focus_point - origin).normalize();
+            if !old.is_finite() || old.length() < 0.5 {
+                old_formula_failed = true;
+            }
+        }
+    }
+    assert!(
+        old_formula_failed,
+        "the old formula was expected to fail at 1e30"
+    );
+}

@@ -7,7 +7,7 @@ mod common;
 
 use common::*;
 use vkpath::gpu::testing;
-use vkpath::gpu::types::GpuAccum;
+use vkpath::kernel::abi::GpuAccum;
 use vkpath::render::{RenderOptions, Renderer};
 use vkpath::{Error, Scene};
 

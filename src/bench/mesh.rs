@@ -8,8 +8,8 @@
 use super::BenchSettings;
 use crate::Error;
 use crate::gpu::GpuContext;
-use crate::gpu::features::FeatureSet;
-use crate::gpu::scene::{GpuScene, params_for};
+use crate::kernel::features::FeatureSet;
+use crate::kernel::upload::{GpuScene, params_for};
 use crate::render::{
     LAVAPIPE_LOOP_BUDGET, RenderOptions, Renderer, kernel_for, worst_case_loop_iterations,
 };

@@ -3,8 +3,9 @@
 //! absence buys.
 
 use super::{BenchSettings, median, pass_times};
-use crate::gpu::features::FeatureSet;
-use crate::gpu::{GpuContext, shader};
+use crate::gpu::GpuContext;
+use crate::kernel::features::FeatureSet;
+use crate::kernel::{library, specialise};
 use crate::render::{RenderOptions, Renderer};
 use crate::{Error, Scene};
 use std::path::PathBuf;
@@ -52,7 +53,7 @@ pub fn specialisation(
     scenes: &[PathBuf],
     settings: BenchSettings,
 ) -> Result<Vec<SpecialisationRow>, Error> {
-    let trimmed_kernel = Arc::new(shader::compile(&shader::trimmed_source())?);
+    let trimmed_kernel = Arc::new(specialise::compile(&library::trimmed_source())?);
     let mut rows = Vec::new();
     for path in scenes {
         let mut scene = Scene::load(path)?;

@@ -3,7 +3,7 @@
 
 use super::{Checkpoint, Header, count_samples};
 use crate::Error;
-use crate::gpu::types::GpuAccum;
+use crate::kernel::abi::GpuAccum;
 use std::path::PathBuf;
 
 /// Adds partial renders of disjoint sample ranges of the same render into the state of their union.

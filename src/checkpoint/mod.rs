@@ -29,7 +29,7 @@ pub mod merge;
 
 use crate::Error;
 use crate::film::{Film, write_atomically_with};
-use crate::gpu::types::GpuAccum;
+use crate::kernel::abi::GpuAccum;
 use crate::scene::{Gamma, ImageSettings, Scene};
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
@@ -368,7 +368,7 @@ fn accum_from_bytes(bytes: &[u8]) -> Vec<GpuAccum> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gpu::types::ACCUM_LIMBS;
+    use crate::kernel::abi::ACCUM_LIMBS;
 
     /// A state of a 2x1 image holding `ranges`, built without a GPU (also used by the merge's tests).
     pub(super) fn state(ranges: Vec<[u32; 2]>, value: f32) -> Checkpoint {

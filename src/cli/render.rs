@@ -368,6 +368,9 @@ fn report(
     }
     let ctx = renderer.context();
     let validation_errors = ctx.validation_errors();
+    // Read once the passes have completed; a failed read only loses the warning.
+    let faults = renderer.sample_faults().unwrap_or_default();
+    warn_sample_faults(&faults);
     let seconds = elapsed.as_secs_f64();
     let traced = film.spp - plan.resumed_samples;
     let scene = disk.scene;
@@ -399,12 +402,34 @@ fn report(
             tiles_per_sample: renderer.tiles_per_sample(),
             resumed_spp: plan.resumed_samples,
             checkpoint: disk.checkpoint.map(|p| p.display().to_string()),
+            sample_faults: faults,
         });
     }
     if report_validation_errors(&validation_errors) {
         return 1;
     }
     0
+}
+
+/// Says on stderr (whatever --quiet) how many samples did not enter the image as they were, and what
+/// that means for the image.
+fn warn_sample_faults(faults: &vkpath::render::SampleFaults) {
+    if faults.clamped > 0 {
+        eprintln!(
+            "vkpath: warning: {} samples had a radiance of 2^64 (1.8e19) or more and were clamped below \
+             it, so the image is darker than the scene where they fell. Such radiance usually means a \
+             light far too powerful for the scale of the scene: check the lights' power (W) and the \
+             distances.",
+            faults.clamped
+        );
+    }
+    if faults.not_finite > 0 {
+        eprintln!(
+            "vkpath: warning: {} samples were NaN or infinite and were counted as black. This is a bug \
+             in vkpath; please report it with the scene.",
+            faults.not_finite
+        );
+    }
 }
 
 /// `--sampler` (render.sampler in the scene file).

@@ -4,7 +4,7 @@
 use serde::Serialize;
 use std::path::PathBuf;
 use vkpath::gpu::context::DeviceInfo;
-use vkpath::gpu::features::FeatureSet;
+use vkpath::kernel::features::FeatureSet;
 use vkpath::render::StopReason;
 
 /// Prints a report as one line of JSON. It goes through a `serde_json::Value`, whose objects (without
@@ -63,6 +63,9 @@ pub struct RenderReport<'a> {
     /// Samples per pixel taken from the checkpoint resumed (0 when none).
     pub resumed_spp: u32,
     pub checkpoint: Option<String>,
+    /// Samples of this run that the accumulator clamped (radiance of 2^64 or more) or dropped as not
+    /// finite: both 0 in a sane scene (see accumulate.wgsl).
+    pub sample_faults: vkpath::render::SampleFaults,
 }
 
 /// `vkpath merge --json`: the merged render and where it was written.

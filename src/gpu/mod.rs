@@ -94,10 +94,3 @@ impl GpuError {
         }
     }
 }
-
-// Transition: the old paths of what moved to `crate::kernel` (removed once every caller is updated).
-pub use crate::kernel::{abi as types, features, upload as scene};
-pub mod shader {
-    pub use crate::kernel::library::{trace_source, trimmed_source};
-    pub use crate::kernel::specialise::*;
-}

@@ -6,8 +6,8 @@
 //! the renderer name its identity without depending on the checkpoint format (which depends on the
 //! renderer).
 
-use crate::gpu::scene::GpuScene;
-use crate::gpu::types::GpuParams;
+use crate::kernel::abi::GpuParams;
+use crate::kernel::upload::GpuScene;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::fmt;

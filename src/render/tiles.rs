@@ -17,7 +17,7 @@
 //! bit).
 
 use crate::gpu::GpuContext;
-use crate::gpu::types::GpuAccum;
+use crate::kernel::abi::GpuAccum;
 
 /// Bytes of accumulator per pixel.
 pub const ACCUM_BYTES_PER_PIXEL: u64 = std::mem::size_of::<GpuAccum>() as u64;

@@ -1,7 +1,7 @@
 //! Triangle meshes: Wavefront OBJ files read with `tobj`, placed in the scene by a similarity transform,
 //! with per-vertex shading normals and an optional sRGB albedo texture.
 //!
-//! Everything here is host data in `f32`/glam types; `gpu::scene` flattens it into the triangle, BVH and
+//! Everything here is host data in `f32`/glam types; `kernel::upload` flattens it into the triangle, BVH and
 //! shading buffers. Errors are [`ObjError`]s that carry the OBJ's own line number: the scene parser wraps
 //! them into a `SceneError` that also names the scene file, its line and the `[[mesh]]` key.
 

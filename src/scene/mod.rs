@@ -1,7 +1,7 @@
 //! Scenes: the TOML file format (`../shared/docs/scene-format.md` is the contract), its validation, and
 //! the in-memory [`Scene`] the renderer consumes.
 //!
-//! Everything here is plain data in `f32`/glam types: it knows nothing of Vulkan. `gpu::scene` turns a
+//! Everything here is plain data in `f32`/glam types: it knows nothing of Vulkan. `kernel::upload` turns a
 //! [`Scene`] into the Pod buffers the shader reads.
 
 pub mod bvh;
