@@ -2,11 +2,14 @@
 //!
 //! * Distributions: Pearson's chi-square goodness of fit of 2^20 GPU samples, binned in (1 - cos theta,
 //!   phi) for directions (axis-relative, computed without cancellation so that tiny cones bin exactly),
-//!   and in (radial CDF, phi) for the Gaussian and the disk. Expected counts come from Gauss–Legendre
-//!   quadrature of the documented pdf over each bin; the sum over all bins is asserted to be 1 (the pdf
-//!   integrates to 1). Significance level ALPHA = 1e-4 with fixed seeds; each test has a negative twin
-//!   that asserts a huge statistic for a slightly wrong pdf (uniform instead of cosine hemisphere, a 2%
-//!   wider cone, a 5% wider Gaussian, ...), so the test could fail.
+//!   and in (radial CDF, phi) for the Gaussian and the disk. Expected counts come from the shader's own
+//!   pdf functions (`cosine_hemisphere_pdf`, `cone_pdf`, `gaussian2_pdf`, `uniform_disk_pdf`), evaluated
+//!   on the GPU at every node of a Gauss–Legendre quadrature over each bin (times the Jacobian of the
+//!   bin coordinates in the pdf's measure): the warp is tested against its own density, so a pdf that
+//!   disagrees with its warp fails. The sum over all bins is asserted to be 1 (the shader's pdf is
+//!   normalised). Significance level ALPHA = 1e-4 with fixed seeds; each test has a negative twin that
+//!   asserts a huge statistic for a slightly wrong pdf, written on the CPU (uniform instead of cosine
+//!   hemisphere, a 2% wider cone, a 5% wider Gaussian, ...), so the test could fail.
 //! * Monte Carlo: estimates of integrals with known values (f / pdf averaged) within 5 standard errors.
 //! * The sphere-light cone as the light shrinks to a point: `sphere_cone_one_minus_cos` against the f64
 //!   value, the solid-angle estimate against the point-light irradiance, and directions inside the cone.
@@ -17,12 +20,14 @@ mod common;
 
 use common::stats::{Chi2, assert_fits, assert_rejects, chi2};
 use common::vec::{V3, cross, dot, length, normalize, widen};
+use std::cell::{Cell, RefCell};
 use std::f64::consts::PI;
 use std::sync::OnceLock;
 use vkpath::gpu::testing;
 
 const WARPS: &str = include_str!("../shaders/tests/sampling_warps.wgsl");
 const SPHERE_CONE: &str = include_str!("../shaders/tests/sampling_sphere_cone.wgsl");
+const PDFS: &str = include_str!("../shaders/tests/sampling_pdfs.wgsl");
 
 /// Samples per chi-square test: 1024 cells expecting ~1000 each.
 const N: usize = 1 << 20;
@@ -127,11 +132,16 @@ impl Grid {
 
     /// Pearson's chi-square of `samples` (a, phi) against `prob`.
     fn chi2(&self, samples: &[(f64, f64)], prob: &dyn Fn(f64, f64, f64, f64) -> f64) -> Chi2 {
+        self.chi2_of(samples, &self.probabilities(prob).0)
+    }
+
+    /// Pearson's chi-square of `samples` (a, phi) against cell probabilities `p` from `probabilities`.
+    fn chi2_of(&self, samples: &[(f64, f64)], p: &[f64]) -> Chi2 {
+        assert_eq!(p.len(), self.cells());
         let mut obs = vec![0.0; self.cells()];
         for &(a, phi) in samples {
             obs[self.cell(a, phi)] += 1.0;
         }
-        let (p, _) = self.probabilities(prob);
         let n = samples.len() as f64;
         let exp: Vec<f64> = p.iter().map(|p| p * n).collect();
         chi2(&obs, &exp)
@@ -141,6 +151,76 @@ impl Grid {
 /// The probability of a cell by quadrature of a density over (a, phi).
 fn by_quadrature(pdf: impl Fn(f64, f64) -> f64) -> impl Fn(f64, f64, f64, f64) -> f64 {
     move |a0, a1, p0, p1| quad2(&pdf, a0, a1, p0, p1)
+}
+
+/// One call of a pdf in shaders/tests/sampling_pdfs.wgsl: (mode, x, y, param), its arguments as given.
+type PdfQuery = [f32; 4];
+
+/// The shader's density at each query, one dispatch for all; every value finite and non-negative (an
+/// unknown mode gives -1).
+fn shader_pdfs(queries: &[PdfQuery]) -> Vec<f32> {
+    let out: Vec<f32> =
+        testing::run_kernel(&testing::context(), PDFS, queries, queries.len()).expect("kernel");
+    let errors = testing::context().validation_errors();
+    assert!(errors.is_empty(), "validation errors: {errors:?}");
+    for (q, v) in queries.iter().zip(&out) {
+        assert!(v.is_finite() && *v >= 0.0, "pdf query {q:?}: {v}");
+    }
+    out
+}
+
+/// `probs(pdf)` where `pdf` answers a query with the shader's density, evaluated on the GPU.
+///
+/// A quadrature asks for its nodes one at a time, and a kernel compiled and dispatched per node (up to
+/// ~10^6 of them) would be far too slow, so `probs` runs twice: first with a pdf that only records the queries (answering 0), then, after one dispatch for
+/// all of them, with a pdf that answers from the GPU's values in the recorded order. The quadrature
+/// depends on the answers only through its sums, never in where it asks next, so the second run asks
+/// the same queries in the same order; each is compared bit for bit with the recorded one all the same,
+/// so a mismatch fails loudly instead of pairing a node with another node's density.
+fn with_shader_pdf<T>(probs: impl Fn(&dyn Fn(PdfQuery) -> f64) -> T) -> T {
+    let recorded = RefCell::new(Vec::new());
+    probs(&|q| {
+        recorded.borrow_mut().push(q);
+        0.0
+    });
+    let queries = recorded.into_inner();
+    eprintln!("{} pdf queries, one dispatch", queries.len());
+    let values = shader_pdfs(&queries);
+    let next = Cell::new(0);
+    let out = probs(&|q| {
+        let i = next.get();
+        next.set(i + 1);
+        assert!(
+            i < queries.len() && queries[i].map(f32::to_bits) == q.map(f32::to_bits),
+            "pdf query {i} changed between the runs: {q:?} vs {:?}",
+            queries.get(i)
+        );
+        values[i] as f64
+    });
+    assert_eq!(
+        next.get(),
+        queries.len(),
+        "the second run asked fewer queries"
+    );
+    out
+}
+
+/// How far the f32 shader pdf's probabilities may sum from 1. Each value carries a few ulps (2^-24) of
+/// rounding from its f32 arguments and operations; the Gaussian's exp(x) is bounded by Vulkan only to
+/// (3 + 2|x|) ulps, but weighted by the mass E|x| = 1, so at those bounds the sum is within ~1e-6 of the
+/// exact integral (on lavapipe it is within 1e-7). A pdf off by a factor fails by far more.
+const PDF_SUM_TOL: f64 = 1e-5;
+
+/// Asserts that the shader's pdf integrates to 1 over the grid, within PDF_SUM_TOL.
+fn assert_normalised(what: &str, total: f64) {
+    eprintln!(
+        "{what}: shader pdf sums to 1 {:+.2e} over the grid",
+        total - 1.0
+    );
+    assert!(
+        (total - 1.0).abs() < PDF_SUM_TOL,
+        "{what}: the shader's pdf integrates to {total}, not 1"
+    );
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -266,20 +346,20 @@ fn cosine_grid() -> Grid {
     Grid::from_inverse_cdf(32, 32, |p| 1.0 - (1.0 - p).sqrt())
 }
 
-/// The pdf per unit (a, phi) = per steradian (d omega = d(cos) d phi): cos / pi.
-fn cosine_pdf(a: f64, _phi: f64) -> f64 {
-    (1.0 - a) / PI
-}
-
 /// Chi-square for the +z normal and for a normal with negative z (the other branch of the shader's
-/// frame), and the pdf integrates to 1 over the hemisphere.
+/// frame) against the shader's `cosine_hemisphere_pdf`, which integrates to 1 over the hemisphere. A unit
+/// of (a, phi) is a steradian (d omega = d(cos) dphi = da dphi): the pdf needs no Jacobian.
 #[test]
 fn cosine_hemisphere_chi_square() {
     let grid = cosine_grid();
-    let (_, total) = grid.probabilities(&by_quadrature(cosine_pdf));
-    assert!((total - 1.0).abs() < 1e-12, "cos/pi integrates to {total}");
+    let (p, total) = with_shader_pdf(|pdf| {
+        grid.probabilities(&by_quadrature(|a, _| {
+            pdf([0.0, (1.0 - a) as f32, 0.0, 0.0])
+        }))
+    });
+    assert_normalised("cosine hemisphere", total);
     for (k, n) in COS_NORMALS.iter().enumerate() {
-        let t = grid.chi2(&cosine_coords(k), &by_quadrature(cosine_pdf));
+        let t = grid.chi2_of(&cosine_coords(k), &p);
         assert_fits(&format!("cosine hemisphere, n = {n:?}"), &t);
     }
 }
@@ -430,22 +510,31 @@ fn uniform_cone(omc: f64) -> impl Fn(f64, f64) -> f64 {
     }
 }
 
+/// The f32 1 - cos(theta_max) the GPU warp sampled the cone with (sampling_warps.wgsl returns it in .w).
+fn cone_gpu_omc(k: usize) -> f32 {
+    let s = cone_samples(k);
+    let omc = s[0][3];
+    assert!(s.iter().all(|o| o[3] == omc), "one cone per run");
+    omc
+}
+
 /// Uniform in the cone, for the big and the tiny cone, with the cone from `sphere_cone_one_minus_cos` as
-/// the renderer samples sphere lights; the pdf integrates to 1 over the cone.
+/// the renderer samples sphere lights, against the shader's `cone_pdf` for the same f32 cone (the one
+/// the warp used, so that the test compares the warp and its pdf rather than two cones); the pdf
+/// integrates to 1 over the cone. A unit of (a = 1 - cos, phi) is a steradian: no Jacobian.
 #[test]
 fn cone_chi_square_big_and_tiny() {
     for (k, cone) in CONES.iter().enumerate() {
-        let (s, omc) = cone_coords_of(k);
+        let (s, _) = cone_coords_of(k);
+        let omc32 = cone_gpu_omc(k);
+        let omc = omc32 as f64;
         let grid = Grid::from_inverse_cdf(32, 32, |p| p * omc);
-        let (_, total) = grid.probabilities(&by_quadrature(uniform_cone(omc)));
-        assert!(
-            (total - 1.0).abs() < 1e-12,
-            "the cone pdf integrates to {total}"
-        );
-        assert_fits(
-            &format!("cone r/d = {}", cone.r),
-            &grid.chi2(&s, &by_quadrature(uniform_cone(omc))),
-        );
+        let (p, total) = with_shader_pdf(|pdf| {
+            grid.probabilities(&by_quadrature(|a, _| pdf([1.0, a as f32, omc32, 0.0])))
+        });
+        let what = format!("cone r/d = {}", cone.r);
+        assert_normalised(&what, total);
+        assert_fits(&what, &grid.chi2_of(&s, &p));
     }
 }
 
@@ -669,23 +758,24 @@ fn gaussian_coords(sigma: f64) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// The 2-D normal density in (F, phi) coordinates, by quadrature of the density in (r, phi): the cell
-/// [F0, F1] x [p0, p1] is the annulus sector [r(F0), r(F1)], r(F) = sigma sqrt(-2 ln(1 - F)), integrated
-/// as N(r) r dr dphi with N(r) = exp(-r^2 / 2 sigma^2) / (2 pi sigma^2). The outermost cell is cut at
-/// 40 sigma (the mass beyond is e^-800).
-fn gaussian_cell(sigma: f64) -> impl Fn(f64, f64, f64, f64) -> f64 {
+/// A density per unit area in (F, phi) coordinates, by quadrature in (r, phi): the cell [F0, F1] x
+/// [p0, p1] is the annulus sector [r(F0), r(F1)], r(F) = sigma sqrt(-2 ln(1 - F)), integrated as
+/// `area_pdf(r, phi) r dr dphi` (dA = r dr dphi). The outermost cell is cut at `r_max`.
+fn annulus_cell(
+    sigma: f64,
+    r_max: f64,
+    area_pdf: impl Fn(f64, f64) -> f64,
+) -> impl Fn(f64, f64, f64, f64) -> f64 {
     move |f0, f1, p0, p1| {
         let r = |f: f64| {
             if f >= 1.0 {
-                40.0 * sigma
+                r_max
             } else {
                 sigma * (-2.0 * (-f).ln_1p()).sqrt()
             }
         };
         let (r0, r1) = (r(f0), r(f1));
-        let density = |r: f64, _p: f64| {
-            (-(r * r) / (2.0 * sigma * sigma)).exp() / (2.0 * PI * sigma * sigma) * r
-        };
+        let density = |r: f64, phi: f64| area_pdf(r, phi) * r;
         // Split the radial range into pieces of sigma/8 so that the quadrature stays exact to ~1e-15.
         let pieces = (((r1 - r0) / (sigma / 8.0)).ceil() as usize).max(1);
         let h = (r1 - r0) / pieces as f64;
@@ -695,18 +785,31 @@ fn gaussian_cell(sigma: f64) -> impl Fn(f64, f64, f64, f64) -> f64 {
     }
 }
 
+/// The 2-D normal N(r) = exp(-r^2 / 2 sigma^2) / (2 pi sigma^2) in (F, phi) coordinates, written on the
+/// CPU for the negative tests. The outermost cell is cut at 40 sigma (the mass beyond is e^-800).
+fn gaussian_cell(sigma: f64) -> impl Fn(f64, f64, f64, f64) -> f64 {
+    annulus_cell(sigma, 40.0 * sigma, move |r, _| {
+        (-(r * r) / (2.0 * sigma * sigma)).exp() / (2.0 * PI * sigma * sigma)
+    })
+}
+
+/// Box–Muller against the shader's `gaussian2_pdf` at (r cos phi, r sin phi) of each node (a density per
+/// unit area, so the annulus quadrature's r dr dphi is its measure), and the moments.
 #[test]
 fn gaussian_chi_square_and_moments() {
     let sigma = SIGMA as f64;
     let grid = Grid::from_inverse_cdf(32, 32, |p| p);
-    let (_, total) = grid.probabilities(&gaussian_cell(sigma));
-    assert!(
-        (total - 1.0).abs() < 1e-10,
-        "the 2-D normal integrates to {total}"
-    );
+    // The outermost cell is cut at 12 sigma: the mass beyond is e^-72, and the f32 density underflows
+    // to 0 near 13-14 sigma anyway, so nodes further out would only add queries.
+    let (p, total) = with_shader_pdf(|pdf| {
+        grid.probabilities(&annulus_cell(sigma, 12.0 * sigma, |r, phi| {
+            pdf([3.0, (r * phi.cos()) as f32, (r * phi.sin()) as f32, SIGMA])
+        }))
+    });
+    assert_normalised("Box-Muller", total);
     assert_fits(
         "Box-Muller (F(r), phi)",
-        &grid.chi2(&gaussian_coords(sigma), &gaussian_cell(sigma)),
+        &grid.chi2_of(&gaussian_coords(sigma), &p),
     );
     // Moments: E x = E y = 0, E x^2 = E y^2 = sigma^2, E xy = 0, each within 5 standard errors
     // (sd of x: sigma; of x^2: sqrt(2) sigma^2; of xy: sigma^2).
@@ -812,16 +915,21 @@ fn disk_samples() -> &'static [(f64, f64)] {
     S.get_or_init(disk_coords)
 }
 
-/// Uniform on the unit disk: pdf 1/pi per area; in (a = r^2, phi), dA = r dr dphi = da dphi / 2, so the
-/// density is 1 / (2 pi). 32 equal bins of r^2.
+/// Uniform on the unit disk, against the shader's `uniform_disk_pdf` (per unit area) at the point
+/// (sqrt(a) cos phi, sqrt(a) sin phi) of each node; in (a = r^2, phi), dA = r dr dphi = da dphi / 2, so
+/// the density per unit (a, phi) is half the pdf. 32 equal bins of r^2.
 #[test]
 fn disk_chi_square() {
     let grid = Grid::from_inverse_cdf(32, 32, |p| p);
-    let pdf = |_a: f64, _p: f64| 1.0 / (2.0 * PI);
-    let (_, total) = grid.probabilities(&by_quadrature(pdf));
-    assert!((total - 1.0).abs() < 1e-12);
+    let (p, total) = with_shader_pdf(|pdf| {
+        grid.probabilities(&by_quadrature(|a, phi| {
+            let r = a.sqrt();
+            0.5 * pdf([4.0, (r * phi.cos()) as f32, (r * phi.sin()) as f32, 0.0])
+        }))
+    });
+    assert_normalised("uniform disk", total);
     let s = disk_samples();
-    assert_fits("uniform disk", &grid.chi2(s, &by_quadrature(pdf)));
+    assert_fits("uniform disk", &grid.chi2_of(s, &p));
     assert!(
         s.iter().all(|&(a, _)| a < 1.0),
         "a sample outside the unit disk"
