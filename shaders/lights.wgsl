@@ -159,16 +159,19 @@ fn sphere_light_pdf_area(light: Light, p: vec3<f32>, wi: vec3<f32>) -> f32 {
     return cos_m * t * t / (PI * r * r * cos_l);
 }
 
-// The density sphere_light_sample_cone gives direction wi from p: uniform inside the cone. 1 - cos of
-// the angle to the axis is |wi - axis|^2 / 2 for unit vectors, which keeps its precision in tiny cones.
+// The density sphere_light_sample_cone gives direction wi from p: uniform over the directions that
+// meet the sphere (decided by intersecting the ray, as for a BSDF-sampled ray that found the light; at the
+// cone's rim the two tests can disagree by rounding, on a set of directions of negligible measure).
 fn sphere_light_pdf_cone(light: Light, p: vec3<f32>, wi: vec3<f32>) -> f32 {
     let to_center = light.position - p;
     let d2 = dot(to_center, to_center);
     if d2 <= light.radius * light.radius {
         return 0.0;
     }
-    let delta = wi - to_center / sqrt(d2);
-    return cone_pdf(0.5 * dot(delta, delta), sphere_cone_one_minus_cos(light.radius, d2));
+    if intersect_sphere(p, wi, light.position, light.radius, 0.0, T_MISS) == T_MISS {
+        return 0.0;
+    }
+    return 1.0 / (TWO_PI * sphere_cone_one_minus_cos(light.radius, d2));
 }
 
 fn sphere_light_sample(light: Light, p: vec3<f32>, strategy: u32, u: vec2<f32>) -> LightLiSample {

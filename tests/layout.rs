@@ -436,7 +436,7 @@ fn shared_constants_match_wgsl() {
     // twin fails here.
     for (_, c) in module.constants.iter() {
         let name = c.name.as_deref().unwrap_or("");
-        let shared = ["MAT_", "LIGHT_", "FILTER_", "SAMPLER_", "MESH_"];
+        let shared = ["MAT_", "BSDF_", "LIGHT_", "FILTER_", "SAMPLER_", "MESH_"];
         if shared.iter().any(|p| name.starts_with(p)) {
             assert!(
                 vkpath::kernel::abi::SHARED_CONSTANTS

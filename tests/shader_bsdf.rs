@@ -1,5 +1,12 @@
-//! Fresnel reflectance and Snell refraction (shaders/materials.wgsl), read back from the GPU and compared
-//! with f64 references evaluated on the same f32 inputs.
+//! The materials of shaders/bsdf.wgsl, read back from the GPU.
+//!
+//! * The BSDF interface (end of this file): each material's `sample` against its own `eval` and `pdf`
+//!   (weight = f cos / pdf, pdf(sampled wi) = the pdf it reported), a chi-square of the diffuse sampler's
+//!   directions against the shader's own `bsdf_pdf` integrated over each bin on the GPU, reciprocity,
+//!   the delta lobes' directions and probabilities (mirror, glass: reflection chosen with probability F),
+//!   and the emitter absorbing.
+//! * Fresnel reflectance and Snell refraction, compared with f64 references evaluated on the same f32
+//!   inputs.
 //!
 //! Tolerances. u = 2^-24 is the f32 unit roundoff; Vulkan allows 2.5 ulps (5u) for division and 3 ulps
 //! (6u) for sqrt, the other operations being correctly rounded.
@@ -23,6 +30,7 @@ use common::vec::{V3, cross, dot, length, normalize};
 use vkpath::gpu::testing;
 
 const EVAL: &str = include_str!("../shaders/tests/fresnel_eval.wgsl");
+const BSDF: &str = include_str!("../shaders/tests/bsdf_sample.wgsl");
 const REFRACT: &str = include_str!("../shaders/tests/fresnel_refract.wgsl");
 
 /// Unit roundoff of f32.
@@ -422,4 +430,382 @@ fn slab_round_trip() {
         );
     }
     eprintln!("slab: largest amplification {worst_amp:.0}");
+}
+
+// --- The BSDF interface (bsdf_sample / bsdf_eval / bsdf_pdf) -----------------------------------------
+
+use common::stats::{assert_fits, assert_rejects, chi2};
+use vkpath::kernel::abi::{
+    BSDF_DELTA, BSDF_REFLECTION, BSDF_TRANSMISSION, MAT_DIELECTRIC, MAT_DIFFUSE, MAT_EMITTER,
+    MAT_MIRROR,
+};
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct BsdfCase {
+    m: [f32; 4],
+    k: [f32; 4],
+    wo: [f32; 4],
+    ns: [f32; 4],
+    q: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct BsdfOut {
+    s: [f32; 4],
+    w: [f32; 4],
+    at: [f32; 4],
+    aq: [f32; 4],
+    r: [f32; 4],
+}
+
+fn v4(v: V3) -> [f32; 4] {
+    [v[0] as f32, v[1] as f32, v[2] as f32, 0.0]
+}
+
+fn v3(v: [f32; 4]) -> V3 {
+    [v[0] as f64, v[1] as f64, v[2] as f64]
+}
+
+/// A material and a shading configuration; `q` per case.
+#[derive(Clone, Copy)]
+struct Setup {
+    kind: u32,
+    albedo: [f32; 3],
+    ior: f32,
+    entering: bool,
+    wo: V3,
+    ns: V3,
+}
+
+impl Setup {
+    fn case(&self, seed: u32, q: V3) -> BsdfCase {
+        BsdfCase {
+            m: [
+                self.albedo[0],
+                self.albedo[1],
+                self.albedo[2],
+                self.kind as f32,
+            ],
+            k: [self.ior, self.entering as u32 as f32, seed as f32, 0.0],
+            wo: v4(self.wo),
+            ns: v4(self.ns),
+            q: v4(q),
+        }
+    }
+}
+
+fn bsdf_gpu(cases: &[BsdfCase]) -> Vec<BsdfOut> {
+    let out = testing::run_kernel(&testing::context(), BSDF, cases, cases.len()).expect("kernel");
+    let errors = testing::context().validation_errors();
+    assert!(errors.is_empty(), "validation errors: {errors:?}");
+    out
+}
+
+/// `n` samples of one setup, invocation i drawing from rng_new(i, 0, seed).
+fn samples(setup: &Setup, seed: u32, n: usize) -> Vec<BsdfOut> {
+    bsdf_gpu(&vec![setup.case(seed, setup.ns); n])
+}
+
+/// A CPU basis (t, b) around the unit n: the tests only rely on symmetry about n.
+fn basis(n: V3) -> (V3, V3) {
+    let a = if n[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let t = normalize(cross(a, n));
+    (t, cross(n, t))
+}
+
+fn from_angles(n: V3, cos: f64, phi: f64) -> V3 {
+    let (t, b) = basis(n);
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    std::array::from_fn(|k| sin * phi.cos() * t[k] + sin * phi.sin() * b[k] + cos * n[k])
+}
+
+fn reflect64(wo: V3, n: V3) -> V3 {
+    let c = dot(wo, n);
+    std::array::from_fn(|k| 2.0 * c * n[k] - wo[k])
+}
+
+/// Shading normals for the tests: the axes (both branches of the shader's frame) and a generic one.
+fn normals() -> [V3; 3] {
+    [
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        normalize([0.3, -0.5, 0.81]),
+    ]
+}
+
+/// Diffuse: the sampler against its own pdf. Directions binned in (cos^2 theta, phi) (16 x 16 cells of
+/// equal probability for a cosine lobe); each bin's expected count is the shader's bsdf_pdf integrated
+/// over it on the GPU (4 x 4 Gauss–Legendre nodes, d omega = d(cos^2) dphi / (2 cos)). The probabilities
+/// sum to 1 (the pdf is normalised over the hemisphere); the same samples are rejected against the
+/// uniform hemisphere (a negative control).
+#[test]
+fn diffuse_sampler_matches_its_own_pdf() {
+    const N: usize = 1 << 18;
+    const K: usize = 16;
+    let gl = [
+        (-0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
+        (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+        (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+        (0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
+    ];
+    for (k, ns) in normals().into_iter().enumerate() {
+        let wo = from_angles(ns, 0.6, 1.0);
+        let setup = Setup {
+            kind: MAT_DIFFUSE,
+            albedo: [0.8, 0.5, 0.2],
+            ior: 1.0,
+            entering: true,
+            wo,
+            ns,
+        };
+        let out = samples(&setup, 100 + k as u32, N);
+        let (t, b) = basis(ns);
+        let step = 2.0 * std::f64::consts::PI / K as f64;
+        let mut observed = vec![0.0; K * K + 1];
+        for o in &out {
+            let w = v3(o.s);
+            let c = dot(w, ns);
+            let phi = dot(w, b)
+                .atan2(dot(w, t))
+                .rem_euclid(2.0 * std::f64::consts::PI);
+            let cell = if c > 0.0 {
+                let i = ((c * c * K as f64) as usize).min(K - 1);
+                let j = ((phi / step) as usize).min(K - 1);
+                i * K + j
+            } else {
+                K * K // below the surface: expected never
+            };
+            observed[cell] += 1.0;
+        }
+        // The quadrature nodes of every cell, queried on the GPU as `q`.
+        let mut nodes = Vec::new();
+        for i in 0..K {
+            for j in 0..K {
+                for &(x, wx) in &gl {
+                    for &(y, wy) in &gl {
+                        let a = (i as f64 + 0.5 * (x + 1.0)) / K as f64;
+                        let phi = (j as f64 + 0.5 * (y + 1.0)) * step;
+                        let jac = 1.0 / (2.0 * a.sqrt());
+                        let weight = wx * wy * 0.25 / K as f64 * step * jac;
+                        nodes.push((from_angles(ns, a.sqrt(), phi), weight));
+                    }
+                }
+            }
+        }
+        let cases: Vec<BsdfCase> = nodes.iter().map(|(q, _)| setup.case(0, *q)).collect();
+        let pdfs = bsdf_gpu(&cases);
+        let mut expected = vec![0.0; K * K + 1];
+        for (n, ((_, weight), o)) in nodes.iter().zip(&pdfs).enumerate() {
+            expected[n / 16] += weight * o.aq[3] as f64;
+        }
+        let total: f64 = expected.iter().sum();
+        assert!(
+            (total - 1.0).abs() < 1e-4,
+            "normal {ns:?}: bsdf_pdf integrates to {total}"
+        );
+        let scaled: Vec<f64> = expected.iter().map(|p| p * N as f64).collect();
+        assert_fits(
+            &format!("diffuse sampler, ns = {ns:?}"),
+            &chi2(&observed, &scaled),
+        );
+        let uniform: Vec<f64> = (0..=K * K)
+            .map(|c| {
+                if c == K * K {
+                    0.0
+                } else {
+                    // P(cos^2 in [a0, a1]) for a uniform hemisphere: sqrt(a1) - sqrt(a0), per phi bin.
+                    let i = c / K;
+                    let (a0, a1) = (i as f64 / K as f64, (i + 1) as f64 / K as f64);
+                    (a1.sqrt() - a0.sqrt()) / K as f64 * N as f64
+                }
+            })
+            .collect();
+        assert_rejects(
+            "diffuse vs uniform hemisphere",
+            &chi2(&observed, &uniform),
+            10.0,
+        );
+    }
+}
+
+/// Diffuse: every sample is consistent with eval and pdf: the weight is albedo = f cos / pdf, the pdf
+/// reported is bsdf_pdf at the sampled direction, f = albedo / pi above the surface and 0 below, and
+/// f is reciprocal (f(wo, q) = f(q, wo) for directions above the surface).
+#[test]
+fn diffuse_sample_eval_pdf_agree() {
+    for (k, ns) in normals().into_iter().enumerate() {
+        let setup = Setup {
+            kind: MAT_DIFFUSE,
+            albedo: [0.8, 0.5, 0.2],
+            ior: 1.0,
+            entering: true,
+            wo: from_angles(ns, 0.3, 2.0),
+            ns,
+        };
+        let qs: Vec<V3> = (0..4096)
+            .map(|i| {
+                from_angles(
+                    ns,
+                    -1.0 + 2.0 * ((i * 37 % 4096) as f64 + 0.5) / 4096.0,
+                    i as f64,
+                )
+            })
+            .collect();
+        let cases: Vec<BsdfCase> = qs.iter().map(|&q| setup.case(7 + k as u32, q)).collect();
+        for (q, o) in qs.iter().zip(bsdf_gpu(&cases)) {
+            assert_eq!(o.w[3] as u32, BSDF_REFLECTION);
+            assert_eq!(o.r[3], 0.0, "diffuse is not delta");
+            assert_eq!(&o.w[..3], &setup.albedo, "weight = albedo");
+            assert_eq!(o.s[3], o.at[3], "pdf reported = bsdf_pdf(wi)");
+            let cos = dot(v3(o.s), ns);
+            assert!(cos >= 0.0, "sampled below the surface: {o:?}");
+            for c in 0..3 {
+                let f_cos_over_pdf = o.at[c] as f64 * cos / o.s[3] as f64;
+                assert!(
+                    (f_cos_over_pdf - o.w[c] as f64).abs() <= 1e-5 * o.w[c] as f64 || cos < 1e-6,
+                    "f cos / pdf = {f_cos_over_pdf} vs weight {}",
+                    o.w[c]
+                );
+            }
+            let above = dot(*q, ns) > 0.0;
+            let f = if above {
+                setup.albedo[0] as f64 / std::f64::consts::PI
+            } else {
+                0.0
+            };
+            assert!(
+                (o.aq[0] as f64 - f).abs() <= 1e-6,
+                "f at {q:?}: {}",
+                o.aq[0]
+            );
+            if above {
+                // (The integrator always passes wo above ns: it flips ns to wo's side.)
+                assert_eq!(o.aq[0], o.r[0], "reciprocity");
+            }
+            let pdf = dot(*q, ns).max(0.0) / std::f64::consts::PI;
+            assert!(
+                (o.aq[3] as f64 - pdf).abs() <= 1e-6,
+                "pdf at {q:?}: {}",
+                o.aq[3]
+            );
+        }
+    }
+}
+
+/// Mirror: the exact reflection about ns, weight = tint, a delta lobe of probability 1; f and pdf are 0
+/// for every given direction (no direction but the sampled one has probability).
+#[test]
+fn mirror_is_a_delta_reflection() {
+    for ns in normals() {
+        for cos in [1.0, 0.5, 1e-3] {
+            let setup = Setup {
+                kind: MAT_MIRROR,
+                albedo: [0.9, 0.8, 0.7],
+                ior: 1.0,
+                entering: true,
+                wo: from_angles(ns, cos, 0.7),
+                ns,
+            };
+            let q = reflect64(setup.wo, ns);
+            let o = bsdf_gpu(&[setup.case(0, q)])[0];
+            let err = length(std::array::from_fn::<f64, 3, _>(|k| v3(o.s)[k] - q[k]));
+            assert!(err < 1e-6, "mirror direction off by {err}");
+            assert_eq!(o.w[3] as u32, BSDF_REFLECTION | BSDF_DELTA);
+            assert_eq!((o.s[3], &o.w[..3]), (1.0, &setup.albedo[..]));
+            assert_eq!(
+                &o.aq, &[0.0; 4],
+                "f and pdf of a delta lobe at any direction"
+            );
+            assert_eq!(o.r[3], 1.0, "mirror is delta");
+        }
+    }
+}
+
+/// Glass: reflection is chosen with probability F (the f64 Fresnel reference), within 5 binomial
+/// standard errors over 2^16 samples, entering and leaving, below and beyond the critical angle; each
+/// sample reports its lobe's probability as its pdf and weight 1; refracted directions obey Snell's law.
+#[test]
+fn dielectric_chooses_reflection_with_probability_fresnel() {
+    const N: usize = 1 << 16;
+    let ns = normals()[2];
+    for entering in [true, false] {
+        for cos in [1.0, 0.8, 0.5, 0.2, 0.05] {
+            let ior = 1.5f32;
+            let setup = Setup {
+                kind: MAT_DIELECTRIC,
+                albedo: [1.0; 3],
+                ior,
+                entering,
+                wo: from_angles(ns, cos, 0.3),
+                ns,
+            };
+            let eta = if entering {
+                ior as f64
+            } else {
+                1.0 / ior as f64
+            };
+            let cos_i = dot(setup.wo, ns);
+            let (f, ..) = fresnel_ref(cos_i, eta, 0.0);
+            let out = samples(&setup, 11, N);
+            let reflected = out
+                .iter()
+                .filter(|o| o.w[3] as u32 == BSDF_REFLECTION | BSDF_DELTA)
+                .count() as f64;
+            let se = (f * (1.0 - f) / N as f64).sqrt().max(1.0 / N as f64);
+            let frac = reflected / N as f64;
+            assert!(
+                (frac - f).abs() <= 5.0 * se + 1e-6,
+                "entering {entering} cos {cos_i}: reflected {frac} vs F = {f}"
+            );
+            for o in &out {
+                let flags = o.w[3] as u32;
+                assert_eq!(&o.w[..3], &[1.0, 1.0, 1.0], "glass weight");
+                let wi = v3(o.s);
+                if flags == BSDF_REFLECTION | BSDF_DELTA {
+                    assert!(
+                        (o.s[3] as f64 - f).abs() < 1e-5,
+                        "pdf of reflection {}",
+                        o.s[3]
+                    );
+                    let q = reflect64(setup.wo, ns);
+                    assert!(length(std::array::from_fn::<f64, 3, _>(|k| wi[k] - q[k])) < 1e-5);
+                } else {
+                    assert_eq!(flags, BSDF_TRANSMISSION | BSDF_DELTA);
+                    assert!((o.s[3] as f64 - (1.0 - f)).abs() < 1e-5);
+                    // Snell: sin_t = sin_i / eta, on the other side.
+                    let cos_t = -dot(wi, ns);
+                    assert!(cos_t > 0.0, "refracted to the wrong side");
+                    // Sines from cross products: exact near normal incidence, unlike sqrt(1 - cos^2).
+                    let sin_i = length(cross(setup.wo, ns));
+                    let sin_t = length(cross(wi, ns)) / length(wi);
+                    assert!(
+                        (sin_t * eta - sin_i).abs() < 1e-5,
+                        "Snell: {sin_t} {sin_i} {eta}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// The emitter scatters nothing: the path ends there (flags 0, zero weight and pdf).
+#[test]
+fn emitter_absorbs() {
+    let setup = Setup {
+        kind: MAT_EMITTER,
+        albedo: [1.0; 3],
+        ior: 1.0,
+        entering: true,
+        wo: [0.0, 0.0, 1.0],
+        ns: [0.0, 0.0, 1.0],
+    };
+    let o = bsdf_gpu(&[setup.case(0, [0.0, 0.0, 1.0])])[0];
+    assert_eq!((o.w, o.s[3], o.aq), ([0.0; 4], 0.0, [0.0; 4]));
+    assert_eq!(o.r[3], 1.0, "no next-event estimation on an emitter");
 }

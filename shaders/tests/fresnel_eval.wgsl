@@ -1,4 +1,4 @@
-// Test kernel for materials.wgsl (tests/shader_fresnel.rs): the Fresnel reflectance on given inputs.
+// Test kernel for bsdf.wgsl (tests/shader_bsdf.rs): the Fresnel reflectance on given inputs.
 // input[i] = (cos_i, eta, _, _) -> output[i] = fresnel_dielectric(cos_i, eta).
 //
 // requires: bsdf.wgsl

@@ -1,4 +1,4 @@
-// Test kernel for materials.wgsl (tests/shader_fresnel.rs): refraction as the renderer calls it.
+// Test kernel for bsdf.wgsl (tests/shader_bsdf.rs): refraction as the renderer calls it.
 // input[2i] = (d.xyz, eta), input[2i + 1] = (n.xyz, _), with n facing the incoming side (dot(d, n) <= 0).
 // output[i] = (refract_dir(d, n, eta), fresnel_dielectric(-dot(d, n), eta)).
 //

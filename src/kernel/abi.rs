@@ -82,6 +82,11 @@ pub const MAT_MIRROR: u32 = 1;
 pub const MAT_DIELECTRIC: u32 = 2;
 pub const MAT_EMITTER: u32 = 3;
 
+/// `BsdfSample::flags` (bsdf.wgsl): the lobe a sampled direction came from.
+pub const BSDF_REFLECTION: u32 = 1;
+pub const BSDF_TRANSMISSION: u32 = 2;
+pub const BSDF_DELTA: u32 = 4;
+
 /// Mirrors `Material` in bsdf.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -201,6 +206,9 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("MAT_MIRROR", MAT_MIRROR),
     ("MAT_DIELECTRIC", MAT_DIELECTRIC),
     ("MAT_EMITTER", MAT_EMITTER),
+    ("BSDF_REFLECTION", BSDF_REFLECTION),
+    ("BSDF_TRANSMISSION", BSDF_TRANSMISSION),
+    ("BSDF_DELTA", BSDF_DELTA),
     ("LIGHT_POINT", LIGHT_POINT),
     ("LIGHT_SPHERE", LIGHT_SPHERE),
     ("FILTER_NONE", FILTER_NONE),
