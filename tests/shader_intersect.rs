@@ -1652,7 +1652,7 @@ fn reflect32(d: Vec3, n: Vec3) -> Vec3 {
     d - 2.0 * d.dot(n) * n
 }
 
-/// refract_dir of materials.wgsl, with the reflection on total internal reflection that the kernel does.
+/// refract_dir of bsdf.wgsl, with the reflection on total internal reflection that the kernel does.
 fn refract32(d: Vec3, n: Vec3, eta: f32) -> Vec3 {
     let cos_i = (-d.dot(n)).clamp(0.0, 1.0);
     let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);

@@ -12,7 +12,7 @@ use std::f32::consts::PI;
 
 /// Scenes with at most this many triangles test them all in a loop instead of walking a BVH: a walk's
 /// fixed costs (the traversal stack, two box tests per node) exceed a few triangle tests. Measured on
-/// lavapipe (`bench_mesh::mesh_scaling`, direct lighting in the course's box): with 2 triangles the loop
+/// lavapipe (`bench::mesh::mesh_scaling`, direct lighting in the course's box): with 2 triangles the loop
 /// renders 2.2x faster than the walk; with 24 the walk is already 1.9x faster, 59x with 960.
 pub const BVH_MIN_TRIANGLES: usize = 16;
 

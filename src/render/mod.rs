@@ -168,7 +168,7 @@ pub struct Renderer {
     next_sample: u32,
     /// Samples per pixel in the accumulator.
     samples_done: u32,
-    /// The sample indices in the accumulator: sorted disjoint `[start, end)` ranges (see checkpoint.rs).
+    /// The sample indices in the accumulator: sorted disjoint `[start, end)` ranges (see src/checkpoint/mod.rs).
     ranges: Vec<[u32; 2]>,
     features: FeatureSet,
     /// [`identity::content_hash`] of the scene as uploaded.
