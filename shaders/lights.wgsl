@@ -76,7 +76,7 @@ fn point_light_sample(light: Light, p: vec3<f32>) -> LightLiSample {
 
 // --- Sphere light, cone strategy ---------------------------------------------------------------------
 // A direction uniform in the cone the sphere subtends from p (pdf 1 / (2 pi (1 - cos theta_max)) per sr,
-// sampling.wgsl's sample_cone): every direction in it sees the sphere, so no sample is wasted, and L = Le
+// sampling.wgsl's sample_cone_local): every direction in it sees the sphere, so no sample is wasted, and L = Le
 // on all of them. The point on the sphere where wi meets it comes from the angles rather than from
 // intersecting the ray (which loses the point at the cone's rim to rounding): with D = |c - p|,
 // sin(theta_max) = r / D and theta the sampled angle from the axis, the near intersection's normal makes
@@ -93,20 +93,19 @@ fn sphere_light_sample_cone(light: Light, p: vec3<f32>, u: vec2<f32>) -> LightLi
     let dc = sqrt(d2);
     let axis = to_center / dc;
     let omc_max = sphere_cone_one_minus_cos(r, d2);
-    let wi = sample_cone(axis, omc_max, u);
-    // The sampled angle, as sample_cone drew it.
-    let omc = u.x * omc_max;
-    let cos_t = 1.0 - omc;
-    let sin2_t = omc * (2.0 - omc);
+    let cone = sample_cone_local(omc_max, u);
+    let frame = frame_from_normal(axis);
+    let wi = frame_to_world(frame, cone.local);
+    let cos_t = cone.local.z;
+    let sin2_t = cone.sin2;
     let sin_max = min(1.0, r / dc);
     let ratio = min(1.0, sin2_t / (sin_max * sin_max));
     let cos_alpha = min(1.0, sin2_t / sin_max + cos_t * sqrt(1.0 - ratio));
     let sin_alpha = sqrt(max(0.0, 1.0 - cos_alpha * cos_alpha));
-    let phi = TWO_PI * u.y;
-    let n_light = frame_to_world(frame_from_normal(axis),
-                                 vec3<f32>(sin_alpha * cos(phi), sin_alpha * sin(phi), -cos_alpha));
+    let n_light = frame_to_world(frame, vec3<f32>(sin_alpha * cone.cos_phi, sin_alpha * cone.sin_phi,
+                                                  -cos_alpha));
     let p_light = light.position + r * n_light;
-    return LightLiSample(light.intensity, wi, cone_pdf(omc, omc_max), p_light,
+    return LightLiSample(light.intensity, wi, cone_pdf(cone.one_minus_cos, omc_max), p_light,
                          length(p_light - p), false);
 }
 

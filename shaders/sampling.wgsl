@@ -61,13 +61,30 @@ fn uniform_disk_pdf(p: vec2<f32>) -> f32 {
 // one_minus_cos_max = 1 - cos(theta_max) (passed in that form so that tiny cones keep their precision).
 // cos(theta) = 1 - u1 * (1 - cos theta_max), phi = 2 pi u2; pdf = 1 / (2 pi (1 - cos theta_max)) per sr.
 fn sample_cone(axis: vec3<f32>, one_minus_cos_max: f32, u: vec2<f32>) -> vec3<f32> {
+    return frame_to_world(frame_from_normal(axis), sample_cone_local(one_minus_cos_max, u).local);
+}
+
+// sample_cone in the frame of the axis (z up), with the angles it drew: for a caller that needs more than
+// the direction (the point on a sphere light, lights.wgsl).
+struct ConeSample {
+    local: vec3<f32>,
+    one_minus_cos: f32,
+    sin2: f32, // sin^2 theta
+    cos_phi: f32,
+    sin_phi: f32,
+}
+
+fn sample_cone_local(one_minus_cos_max: f32, u: vec2<f32>) -> ConeSample {
     let one_minus_cos = u.x * one_minus_cos_max;
     let cos_theta = 1.0 - one_minus_cos;
     // sin^2 = 1 - cos^2 = (1 - cos)(1 + cos), written without cancellation for small angles.
-    let sin_theta = sqrt(max(0.0, one_minus_cos * (2.0 - one_minus_cos)));
+    let sin2 = one_minus_cos * (2.0 - one_minus_cos);
+    let sin_theta = sqrt(max(0.0, sin2));
     let phi = TWO_PI * u.y;
-    return frame_to_world(frame_from_normal(axis),
-                          vec3<f32>(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta));
+    let cos_phi = cos(phi);
+    let sin_phi = sin(phi);
+    return ConeSample(vec3<f32>(sin_theta * cos_phi, sin_theta * sin_phi, cos_theta), one_minus_cos,
+                      sin2, cos_phi, sin_phi);
 }
 
 // Density of sample_cone per unit solid angle for a direction whose 1 - cos(theta) from the axis is
