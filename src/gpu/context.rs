@@ -470,6 +470,41 @@ impl GpuContext {
             .unwrap_or_default()
     }
 
+    /// A command pool on the context's queue family and one primary command buffer from it, for an
+    /// owner that re-records that single buffer before each submit (a kernel, the presenter): hence
+    /// `RESET_COMMAND_BUFFER`, so the buffer can be reset on its own. The caller owns the pool and
+    /// destroys it (which frees the buffer); if the allocation fails, the pool is destroyed here, so
+    /// that a failure leaves nothing behind.
+    pub(crate) fn create_command_buffer(
+        &self,
+    ) -> Result<(vk::CommandPool, vk::CommandBuffer), GpuError> {
+        // SAFETY: plain object creation on a valid device; on failure the pool has no buffers and is
+        // not yet known to anyone else.
+        unsafe {
+            let pool = self
+                .device
+                .create_command_pool(
+                    &vk::CommandPoolCreateInfo::default()
+                        .queue_family_index(self.queue_family)
+                        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
+                    None,
+                )
+                .map_err(|e| GpuError::vk("vkCreateCommandPool", e))?;
+            match self.device.allocate_command_buffers(
+                &vk::CommandBufferAllocateInfo::default()
+                    .command_pool(pool)
+                    .level(vk::CommandBufferLevel::PRIMARY)
+                    .command_buffer_count(1),
+            ) {
+                Ok(buffers) => Ok((pool, buffers[0])),
+                Err(e) => {
+                    self.device.destroy_command_pool(pool, None);
+                    Err(GpuError::vk("vkAllocateCommandBuffers", e))
+                }
+            }
+        }
+    }
+
     pub(crate) fn allocator(&self) -> std::sync::MutexGuard<'_, Option<Allocator>> {
         // A poisoned lock means a panic elsewhere already; the allocator itself is still consistent.
         self.allocator.lock().unwrap_or_else(|p| p.into_inner())

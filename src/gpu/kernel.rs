@@ -115,22 +115,8 @@ impl Kernel {
                         .set_layouts(&set_layouts),
                 )
                 .map_err(|e| GpuError::vk("vkAllocateDescriptorSets", e))?[0];
-            k.command_pool = device
-                .create_command_pool(
-                    &vk::CommandPoolCreateInfo::default()
-                        .queue_family_index(ctx.queue_family)
-                        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
-                    None,
-                )
-                .map_err(|e| GpuError::vk("vkCreateCommandPool", e))?;
-            k.command_buffer = device
-                .allocate_command_buffers(
-                    &vk::CommandBufferAllocateInfo::default()
-                        .command_pool(k.command_pool)
-                        .level(vk::CommandBufferLevel::PRIMARY)
-                        .command_buffer_count(1),
-                )
-                .map_err(|e| GpuError::vk("vkAllocateCommandBuffers", e))?[0];
+            // Re-recorded for every submit (see `submit`).
+            (k.command_pool, k.command_buffer) = ctx.create_command_buffer()?;
             k.fence = device
                 .create_fence(&vk::FenceCreateInfo::default(), None)
                 .map_err(|e| GpuError::vk("vkCreateFence", e))?;

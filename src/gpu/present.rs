@@ -183,23 +183,9 @@ impl Presenter {
                     None,
                 )
                 .map_err(|e| GpuError::vk("vkCreateFence", e))?;
-            p.pool = device
-                .create_command_pool(
-                    &vk::CommandPoolCreateInfo::default()
-                        .queue_family_index(ctx.queue_family)
-                        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER),
-                    None,
-                )
-                .map_err(|e| GpuError::vk("vkCreateCommandPool", e))?;
-            p.cb = device
-                .allocate_command_buffers(
-                    &vk::CommandBufferAllocateInfo::default()
-                        .command_pool(p.pool)
-                        .level(vk::CommandBufferLevel::PRIMARY)
-                        .command_buffer_count(1),
-                )
-                .map_err(|e| GpuError::vk("vkAllocateCommandBuffers", e))?[0];
         }
+        // Re-recorded for every present (see `record`).
+        (p.pool, p.cb) = ctx.create_command_buffer()?;
         p.rebuild()?;
         Ok(p)
     }
@@ -611,35 +597,14 @@ impl Presenter {
         }
     }
 
-    /// Records: upload the staged image (if one is pending), clear the swapchain image, blit the source
-    /// into it (fitted, aspect kept), and hand it to the presentation engine.
+    /// Records one present into `self.cb`: upload the staged image (if one is pending), clear the
+    /// swapchain image `target`, blit the source into it (fitted, aspect kept), optionally read it back,
+    /// and hand it to the presentation engine. Every step but the last runs in the transfer stage, in
+    /// this order; each leaves `target` in the layout the next one expects.
     fn record(&mut self, target: vk::Image) -> Result<(), GpuError> {
         let device = &self.ctx.device;
         let cb = self.cb;
-        let color = vk::ImageSubresourceRange {
-            aspect_mask: vk::ImageAspectFlags::COLOR,
-            base_mip_level: 0,
-            level_count: 1,
-            base_array_layer: 0,
-            layer_count: 1,
-        };
-        let barrier = |image: vk::Image,
-                       from: vk::ImageLayout,
-                       to: vk::ImageLayout,
-                       src: vk::AccessFlags,
-                       dst: vk::AccessFlags| {
-            vk::ImageMemoryBarrier::default()
-                .image(image)
-                .old_layout(from)
-                .new_layout(to)
-                .src_access_mask(src)
-                .dst_access_mask(dst)
-                .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                .subresource_range(color)
-        };
-        let transfer = vk::PipelineStageFlags::TRANSFER;
-        // SAFETY: the command buffer is idle (fence waited); every handle is alive.
+        // SAFETY: the command buffer is idle (the caller waited for the fence); every handle is alive.
         unsafe {
             device
                 .reset_command_buffer(cb, vk::CommandBufferResetFlags::empty())
@@ -651,81 +616,121 @@ impl Presenter {
                         .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
                 )
                 .map_err(|e| GpuError::vk("vkBeginCommandBuffer", e))?;
-            if let (true, Some(src), Some(staging)) =
-                (self.pending_upload, &mut self.source, &self.staging)
-            {
-                let from = if src.initialised {
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL
-                } else {
-                    vk::ImageLayout::UNDEFINED
-                };
-                device.cmd_pipeline_barrier(
-                    cb,
-                    transfer,
-                    transfer,
-                    vk::DependencyFlags::empty(),
-                    &[],
-                    &[],
-                    &[barrier(
-                        src.image,
-                        from,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        vk::AccessFlags::TRANSFER_READ,
-                        vk::AccessFlags::TRANSFER_WRITE,
-                    )],
-                );
-                device.cmd_copy_buffer_to_image(
-                    cb,
-                    staging.raw,
+        }
+        // SAFETY: `cb` is recording (begun above, ended below) and `target` is an image of the current
+        // swapchain; the source, staging and capture resources are alive and idle (fence waited).
+        unsafe {
+            self.record_upload();
+            self.record_clear_and_blit(target);
+            let layout = self.record_capture(target);
+            self.record_present_transition(target, layout);
+        }
+        // SAFETY: `cb` is recording.
+        unsafe { self.ctx.device.end_command_buffer(cb) }
+            .map_err(|e| GpuError::vk("vkEndCommandBuffer", e))
+    }
+
+    /// Records the copy of the staged 8-bit image into the source image, when one is pending (a new
+    /// image was given to [`Presenter::present`]); otherwise records nothing and the source keeps the
+    /// last image. Leaves the source in `TRANSFER_SRC_OPTIMAL`, ready to be blitted, and marks it
+    /// initialised.
+    ///
+    /// # Safety
+    /// `self.cb` is recording (called from [`Presenter::record`] only); the staging buffer and source
+    /// image are alive and no earlier work on them is still running.
+    unsafe fn record_upload(&mut self) {
+        let device = &self.ctx.device;
+        let cb = self.cb;
+        let transfer = vk::PipelineStageFlags::TRANSFER;
+        let (true, Some(src), Some(staging)) =
+            (self.pending_upload, &mut self.source, &self.staging)
+        else {
+            return;
+        };
+        // The first upload finds the image UNDEFINED; later ones find it where the last blit read it.
+        // Either way its old content is overwritten whole, and the copy's writes wait for the previous
+        // blit's reads (write after read).
+        let from = if src.initialised {
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL
+        } else {
+            vk::ImageLayout::UNDEFINED
+        };
+        // SAFETY: see the function's contract; the copy covers the whole image, which the staging
+        // buffer holds (both sized by `stage`).
+        unsafe {
+            image_barrier(
+                device,
+                cb,
+                color_barrier(
+                    src.image,
+                    from,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::AccessFlags::TRANSFER_READ,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                ),
+                transfer,
+                transfer,
+            );
+            device.cmd_copy_buffer_to_image(
+                cb,
+                staging.raw,
+                src.image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[vk::BufferImageCopy::default()
+                    .image_subresource(COLOR_LAYERS)
+                    .image_extent(vk::Extent3D {
+                        width: src.size[0],
+                        height: src.size[1],
+                        depth: 1,
+                    })],
+            );
+            // The copy's writes are made visible to the blit's reads, in the layout the blit reads.
+            image_barrier(
+                device,
+                cb,
+                color_barrier(
                     src.image,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[vk::BufferImageCopy::default()
-                        .image_subresource(vk::ImageSubresourceLayers {
-                            aspect_mask: vk::ImageAspectFlags::COLOR,
-                            mip_level: 0,
-                            base_array_layer: 0,
-                            layer_count: 1,
-                        })
-                        .image_extent(vk::Extent3D {
-                            width: src.size[0],
-                            height: src.size[1],
-                            depth: 1,
-                        })],
-                );
-                device.cmd_pipeline_barrier(
-                    cb,
-                    transfer,
-                    transfer,
-                    vk::DependencyFlags::empty(),
-                    &[],
-                    &[],
-                    &[barrier(
-                        src.image,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                        vk::AccessFlags::TRANSFER_WRITE,
-                        vk::AccessFlags::TRANSFER_READ,
-                    )],
-                );
-                src.initialised = true;
-                self.pending_upload = false;
-            }
-            // The swapchain image: its old content is not needed. The acquire semaphore is waited at the
-            // transfer stage, which this barrier's source stage chains to.
-            device.cmd_pipeline_barrier(
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::AccessFlags::TRANSFER_READ,
+                ),
+                transfer,
+                transfer,
+            );
+        }
+        src.initialised = true;
+        self.pending_upload = false;
+    }
+
+    /// Records the clear of the swapchain image `target` to opaque black (the bars around a fitted
+    /// image, or the whole window before any image was given), then, once the source holds an image,
+    /// its blit into the rectangle [`fit`] gives for the swapchain's size. Leaves `target` in
+    /// `TRANSFER_DST_OPTIMAL`.
+    ///
+    /// # Safety
+    /// `self.cb` is recording (called from [`Presenter::record`] only, after
+    /// [`Presenter::record_upload`]); `target` is an image of the current swapchain.
+    unsafe fn record_clear_and_blit(&self, target: vk::Image) {
+        let device = &self.ctx.device;
+        let cb = self.cb;
+        let transfer = vk::PipelineStageFlags::TRANSFER;
+        // SAFETY: see the function's contract.
+        unsafe {
+            // The swapchain image: its old content is not needed (from UNDEFINED). The acquire semaphore
+            // is waited at the transfer stage, which this barrier's source stage chains to.
+            image_barrier(
+                device,
                 cb,
-                transfer,
-                transfer,
-                vk::DependencyFlags::empty(),
-                &[],
-                &[],
-                &[barrier(
+                color_barrier(
                     target,
                     vk::ImageLayout::UNDEFINED,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                     vk::AccessFlags::empty(),
                     vk::AccessFlags::TRANSFER_WRITE,
-                )],
+                ),
+                transfer,
+                transfer,
             );
             device.cmd_clear_color_image(
                 cb,
@@ -734,146 +739,149 @@ impl Presenter {
                 &vk::ClearColorValue {
                     float32: [0.0, 0.0, 0.0, 1.0],
                 },
-                &[color],
+                &[COLOR_RANGE],
             );
-            if let Some(src) = self.source.as_ref().filter(|s| s.initialised) {
-                // Write after write on the same image: the clear, then the blit over part of it.
-                device.cmd_pipeline_barrier(
-                    cb,
-                    transfer,
-                    transfer,
-                    vk::DependencyFlags::empty(),
-                    &[],
-                    &[],
-                    &[barrier(
-                        target,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        vk::AccessFlags::TRANSFER_WRITE,
-                        vk::AccessFlags::TRANSFER_WRITE,
-                    )],
-                );
-                let [x0, y0, x1, y1] = fit(src.size, [self.extent.width, self.extent.height]);
-                let corner = |x: u32, y: u32| vk::Offset3D {
-                    x: x as i32,
-                    y: y as i32,
-                    z: 0,
-                };
-                let layers = vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                };
-                let region = vk::ImageBlit::default()
-                    .src_subresource(layers)
-                    .src_offsets([
-                        corner(0, 0),
-                        vk::Offset3D {
-                            x: src.size[0] as i32,
-                            y: src.size[1] as i32,
-                            z: 1,
-                        },
-                    ])
-                    .dst_subresource(layers)
-                    .dst_offsets([
-                        corner(x0, y0),
-                        vk::Offset3D {
-                            x: x1 as i32,
-                            y: y1 as i32,
-                            z: 1,
-                        },
-                    ]);
-                // Nearest: at 1:1 (the usual case) it copies the bytes exactly, and it needs no
-                // filterable format.
-                device.cmd_blit_image(
-                    cb,
-                    src.image,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            let Some(src) = self.source.as_ref().filter(|s| s.initialised) else {
+                return;
+            };
+            // Write after write on the same image: the clear, then the blit over part of it.
+            image_barrier(
+                device,
+                cb,
+                color_barrier(
                     target,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
-                    vk::Filter::NEAREST,
-                );
-            }
-            let mut layout = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
-            let buffer_bytes = u64::from(self.extent.width) * u64::from(self.extent.height) * 4;
-            let shown = self
-                .source
-                .as_ref()
-                .filter(|s| s.initialised)
-                .map(|s| fit(s.size, [self.extent.width, self.extent.height]));
-            if let (Some(buffer), Some(rect)) = (&self.capture, shown)
-                && buffer.size() >= buffer_bytes
-            {
-                // Read back what this present shows: the blit's writes, then a copy to the buffer.
-                device.cmd_pipeline_barrier(
-                    cb,
-                    transfer,
-                    transfer,
-                    vk::DependencyFlags::empty(),
-                    &[],
-                    &[],
-                    &[barrier(
-                        target,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                        vk::AccessFlags::TRANSFER_WRITE,
-                        vk::AccessFlags::TRANSFER_READ,
-                    )],
-                );
-                device.cmd_copy_image_to_buffer(
-                    cb,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::AccessFlags::TRANSFER_WRITE,
+                ),
+                transfer,
+                transfer,
+            );
+            let [x0, y0, x1, y1] = fit(src.size, [self.extent.width, self.extent.height]);
+            let corner = |x: u32, y: u32, z: i32| vk::Offset3D {
+                x: x as i32,
+                y: y as i32,
+                z,
+            };
+            // Offsets are corners: z from 0 to 1 is the single layer of a 2D image.
+            let region = vk::ImageBlit::default()
+                .src_subresource(COLOR_LAYERS)
+                .src_offsets([corner(0, 0, 0), corner(src.size[0], src.size[1], 1)])
+                .dst_subresource(COLOR_LAYERS)
+                .dst_offsets([corner(x0, y0, 0), corner(x1, y1, 1)]);
+            // Nearest: at 1:1 (the usual case) it copies the bytes exactly, and it needs no
+            // filterable format.
+            device.cmd_blit_image(
+                cb,
+                src.image,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                target,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+                vk::Filter::NEAREST,
+            );
+        }
+    }
+
+    /// Records the readback for [`Presenter::request_capture`]: when a capture buffer is waiting, the
+    /// source holds an image (so this present shows one) and the buffer still fits the swapchain (it
+    /// may have been resized since the request), copies the whole swapchain image into it and notes
+    /// where the image was blitted (`self.captured`). Returns the layout `target` is left in:
+    /// `TRANSFER_SRC_OPTIMAL` after a copy, else still `TRANSFER_DST_OPTIMAL`.
+    ///
+    /// # Safety
+    /// `self.cb` is recording (called from [`Presenter::record`] only, after
+    /// [`Presenter::record_clear_and_blit`]); `target` is an image of the current swapchain, in
+    /// `TRANSFER_DST_OPTIMAL`.
+    unsafe fn record_capture(&mut self, target: vk::Image) -> vk::ImageLayout {
+        let device = &self.ctx.device;
+        let cb = self.cb;
+        let transfer = vk::PipelineStageFlags::TRANSFER;
+        let buffer_bytes = u64::from(self.extent.width) * u64::from(self.extent.height) * 4;
+        let shown = self
+            .source
+            .as_ref()
+            .filter(|s| s.initialised)
+            .map(|s| fit(s.size, [self.extent.width, self.extent.height]));
+        let (Some(buffer), Some(rect)) = (&self.capture, shown) else {
+            return vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+        };
+        if buffer.size() < buffer_bytes {
+            return vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+        }
+        // SAFETY: see the function's contract; the buffer holds the whole image (checked above).
+        unsafe {
+            // Read back what this present shows: the blit's writes, then a copy to the buffer.
+            image_barrier(
+                device,
+                cb,
+                color_barrier(
                     target,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                     vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    buffer.raw,
-                    &[vk::BufferImageCopy::default()
-                        .image_subresource(vk::ImageSubresourceLayers {
-                            aspect_mask: vk::ImageAspectFlags::COLOR,
-                            mip_level: 0,
-                            base_array_layer: 0,
-                            layer_count: 1,
-                        })
-                        .image_extent(vk::Extent3D {
-                            width: self.extent.width,
-                            height: self.extent.height,
-                            depth: 1,
-                        })],
-                );
-                device.cmd_pipeline_barrier(
-                    cb,
-                    transfer,
-                    vk::PipelineStageFlags::HOST,
-                    vk::DependencyFlags::empty(),
-                    &[vk::MemoryBarrier::default()
-                        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                        .dst_access_mask(vk::AccessFlags::HOST_READ)],
-                    &[],
-                    &[],
-                );
-                layout = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
-                self.captured = Some((rect, self.extent, self.format));
-            }
+                    vk::AccessFlags::TRANSFER_WRITE,
+                    vk::AccessFlags::TRANSFER_READ,
+                ),
+                transfer,
+                transfer,
+            );
+            device.cmd_copy_image_to_buffer(
+                cb,
+                target,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                buffer.raw,
+                &[vk::BufferImageCopy::default()
+                    .image_subresource(COLOR_LAYERS)
+                    .image_extent(vk::Extent3D {
+                        width: self.extent.width,
+                        height: self.extent.height,
+                        depth: 1,
+                    })],
+            );
+            // The copy's writes become visible to the host once the fence signals (take_capture
+            // waits for it before reading the buffer).
             device.cmd_pipeline_barrier(
                 cb,
                 transfer,
-                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+                vk::PipelineStageFlags::HOST,
                 vk::DependencyFlags::empty(),
+                &[vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::HOST_READ)],
                 &[],
                 &[],
-                &[barrier(
+            );
+        }
+        self.captured = Some((rect, self.extent, self.format));
+        vk::ImageLayout::TRANSFER_SRC_OPTIMAL
+    }
+
+    /// Records the final change of `target` from `layout` (where the earlier steps left it) to
+    /// `PRESENT_SRC_KHR`, which presentation requires. The transfer writes must be done first; nothing
+    /// later in this submit accesses the image (hence `BOTTOM_OF_PIPE` and no destination access), and
+    /// the present waits on the `copied` semaphore the submit signals, which makes them visible.
+    ///
+    /// # Safety
+    /// `self.cb` is recording (called from [`Presenter::record`] only, last); `target` is an image of
+    /// the current swapchain, in `layout`.
+    unsafe fn record_present_transition(&self, target: vk::Image, layout: vk::ImageLayout) {
+        // SAFETY: see the function's contract.
+        unsafe {
+            image_barrier(
+                &self.ctx.device,
+                self.cb,
+                color_barrier(
                     target,
                     layout,
                     vk::ImageLayout::PRESENT_SRC_KHR,
                     vk::AccessFlags::TRANSFER_WRITE,
                     vk::AccessFlags::empty(),
-                )],
+                ),
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
             );
-            device
-                .end_command_buffer(cb)
-                .map_err(|e| GpuError::vk("vkEndCommandBuffer", e))?;
         }
-        Ok(())
     }
 }
 
@@ -895,6 +903,69 @@ impl Drop for Presenter {
             d.destroy_command_pool(self.pool, None);
         }
     }
+}
+
+/// The one mip level and layer of a color image: all of the source and swapchain images.
+const COLOR_RANGE: vk::ImageSubresourceRange = vk::ImageSubresourceRange {
+    aspect_mask: vk::ImageAspectFlags::COLOR,
+    base_mip_level: 0,
+    level_count: 1,
+    base_array_layer: 0,
+    layer_count: 1,
+};
+
+/// [`COLOR_RANGE`] as the layers of a copy or blit region.
+const COLOR_LAYERS: vk::ImageSubresourceLayers = vk::ImageSubresourceLayers {
+    aspect_mask: vk::ImageAspectFlags::COLOR,
+    mip_level: 0,
+    base_array_layer: 0,
+    layer_count: 1,
+};
+
+/// A layout change (`from` to `to`) of the whole color `image`, making the `src` accesses before it
+/// available to the `dst` accesses after it. No queue family transfer: one queue does everything.
+fn color_barrier(
+    image: vk::Image,
+    from: vk::ImageLayout,
+    to: vk::ImageLayout,
+    src: vk::AccessFlags,
+    dst: vk::AccessFlags,
+) -> vk::ImageMemoryBarrier<'static> {
+    vk::ImageMemoryBarrier::default()
+        .image(image)
+        .old_layout(from)
+        .new_layout(to)
+        .src_access_mask(src)
+        .dst_access_mask(dst)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .subresource_range(COLOR_RANGE)
+}
+
+/// Records a pipeline barrier that holds just `barrier` (no memory or buffer barriers, no dependency
+/// flags), between the `src_stage` work before it and the `dst_stage` work after it.
+///
+/// # Safety
+/// `cb` is a command buffer of `device` in the recording state, and the barrier's image is alive.
+unsafe fn image_barrier(
+    device: &ash::Device,
+    cb: vk::CommandBuffer,
+    barrier: vk::ImageMemoryBarrier,
+    src_stage: vk::PipelineStageFlags,
+    dst_stage: vk::PipelineStageFlags,
+) {
+    // SAFETY: see the function's contract.
+    unsafe {
+        device.cmd_pipeline_barrier(
+            cb,
+            src_stage,
+            dst_stage,
+            vk::DependencyFlags::empty(),
+            &[],
+            &[],
+            &[barrier],
+        )
+    };
 }
 
 fn is_srgb(f: vk::Format) -> bool {
