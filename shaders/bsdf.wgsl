@@ -129,63 +129,73 @@ fn dielectric_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, entering: bool
     // eta = n_t / n_i: entering goes from the outside (index 1) into the material.
     let eta = select(1.0 / mat.ior, mat.ior, entering);
     let f = fresnel_dielectric(dot(wo, ns), eta);
+    var s = BsdfSample(vec3<f32>(0.0), vec3<f32>(1.0), f, BSDF_REFLECTION | BSDF_DELTA);
     if rng_next(rng) < f {
-        return BsdfSample(reflect_dir(-wo, ns), vec3<f32>(1.0), f, BSDF_REFLECTION | BSDF_DELTA);
+        s.wi = reflect_dir(-wo, ns);
+    } else {
+        s.wi = refract_dir(-wo, ns, eta);
+        s.pdf = 1.0 - f;
+        s.flags = BSDF_TRANSMISSION | BSDF_DELTA;
     }
-    return BsdfSample(refract_dir(-wo, ns, eta), vec3<f32>(1.0), 1.0 - f,
-                      BSDF_TRANSMISSION | BSDF_DELTA);
+    return s;
 }
 
 // --- The dispatchers -------------------------------------------------------------------------------
 // Each material's branch sits under its feature constant, so a kernel specialised for a scene keeps only
 // the materials the scene uses; with one material kind (SINGLE_MATERIAL_KIND) the kind test goes too.
-// Emitters (and any kind the kernel was specialised without) absorb.
+// Emitters (and any kind the kernel was specialised without) absorb. Each dispatcher has one exit: on
+// lavapipe, whose invocations run as SIMD lanes, a return inside a branch costs mask bookkeeping at every
+// later statement.
 
 fn bsdf_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, entering: bool,
                rng: ptr<function, Rng>) -> BsdfSample {
+    var s = bsdf_absorbed();
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
-            return diffuse_sample(mat, wo, ns, rng);
+            s = diffuse_sample(mat, wo, ns, rng);
         }
     }
     if HAS_MIRROR {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_MIRROR {
-            return mirror_sample(mat, wo, ns);
+            s = mirror_sample(mat, wo, ns);
         }
     }
     if HAS_DIELECTRIC {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIELECTRIC {
-            return dielectric_sample(mat, wo, ns, entering, rng);
+            s = dielectric_sample(mat, wo, ns, entering, rng);
         }
     }
-    return bsdf_absorbed();
+    return s;
 }
 
 fn bsdf_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>) -> vec3<f32> {
+    var f = vec3<f32>(0.0); // delta lobes and emitters
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
-            return diffuse_eval(mat, wo, wi, ns);
+            f = diffuse_eval(mat, wo, wi, ns);
         }
     }
-    return vec3<f32>(0.0); // delta lobes and emitters
+    return f;
 }
 
 fn bsdf_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>) -> f32 {
+    var pdf = 0.0; // delta lobes and emitters
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
-            return diffuse_pdf(wo, wi, ns);
+            pdf = diffuse_pdf(wo, wi, ns);
         }
     }
-    return 0.0; // delta lobes and emitters
+    return pdf;
 }
 
 // Whether the material has only delta lobes (or none): next-event estimation cannot help there, since
 // bsdf_eval is 0 for every direction a light sample could give.
 fn bsdf_is_delta(mat: Material) -> bool {
+    var delta = true;
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
-            return false;
+            delta = false;
         }
     }
-    return true;
+    return delta;
 }

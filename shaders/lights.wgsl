@@ -38,6 +38,7 @@ const LIGHT_SAMPLING_NONE: u32 = 2u;
 override LIGHT_SAMPLING_FROM_PARAMS: bool = true;
 override LIGHT_SAMPLING_IS_AREA: bool = false;
 override LIGHT_SAMPLING_IS_NONE: bool = false;
+override LIGHT_SAMPLING_IS_CONE: bool = false;
 
 struct LightLiSample {
     L: vec3<f32>, // radiance arriving at p along wi (point light: I / r^2)
@@ -173,81 +174,85 @@ fn sphere_light_pdf_cone(light: Light, p: vec3<f32>, wi: vec3<f32>) -> f32 {
     return 1.0 / (TWO_PI * sphere_cone_one_minus_cos(light.radius, d2));
 }
 
+// The strategy's sample: read from params by the generic kernel (LIGHT_SAMPLING_FROM_PARAMS), fixed by a
+// constant in a specialised one. Every guard is a bare constant, so pruning keeps only the strategy used.
 fn sphere_light_sample(light: Light, p: vec3<f32>, strategy: u32, u: vec2<f32>) -> LightLiSample {
+    var ls = no_light_sample();
     if LIGHT_SAMPLING_FROM_PARAMS {
         if strategy == LIGHT_SAMPLING_AREA {
-            return sphere_light_sample_area(light, p, u);
+            ls = sphere_light_sample_area(light, p, u);
+        } else if strategy != LIGHT_SAMPLING_NONE {
+            ls = sphere_light_sample_cone(light, p, u);
         }
-        if strategy == LIGHT_SAMPLING_NONE {
-            return no_light_sample();
-        }
-        return sphere_light_sample_cone(light, p, u);
     }
     if LIGHT_SAMPLING_IS_AREA {
-        return sphere_light_sample_area(light, p, u);
+        ls = sphere_light_sample_area(light, p, u);
     }
-    if LIGHT_SAMPLING_IS_NONE {
-        return no_light_sample();
+    if LIGHT_SAMPLING_IS_CONE {
+        ls = sphere_light_sample_cone(light, p, u);
     }
-    return sphere_light_sample_cone(light, p, u);
+    return ls;
 }
 
 fn sphere_light_pdf(light: Light, p: vec3<f32>, wi: vec3<f32>, strategy: u32) -> f32 {
+    var pdf = 0.0;
     if LIGHT_SAMPLING_FROM_PARAMS {
         if strategy == LIGHT_SAMPLING_AREA {
-            return sphere_light_pdf_area(light, p, wi);
+            pdf = sphere_light_pdf_area(light, p, wi);
+        } else if strategy != LIGHT_SAMPLING_NONE {
+            pdf = sphere_light_pdf_cone(light, p, wi);
         }
-        if strategy == LIGHT_SAMPLING_NONE {
-            return 0.0;
-        }
-        return sphere_light_pdf_cone(light, p, wi);
     }
     if LIGHT_SAMPLING_IS_AREA {
-        return sphere_light_pdf_area(light, p, wi);
+        pdf = sphere_light_pdf_area(light, p, wi);
     }
-    if LIGHT_SAMPLING_IS_NONE {
-        return 0.0;
+    if LIGHT_SAMPLING_IS_CONE {
+        pdf = sphere_light_pdf_cone(light, p, wi);
     }
-    return sphere_light_pdf_cone(light, p, wi);
+    return pdf;
 }
 
 // --- The dispatchers -----------------------------------------------------------------------------------
+// One exit each, as in bsdf.wgsl.
 
 // A sample of `light` seen from p. Sphere lights draw their two numbers whatever the strategy ("none"
 // included), so that the numbers drawn after them are at the same dimensions in every variant.
 fn light_sample_li(light: Light, p: vec3<f32>, strategy: u32, rng: ptr<function, Rng>) -> LightLiSample {
+    var ls = no_light_sample();
     if HAS_POINT_LIGHTS {
         if SINGLE_LIGHT_KIND || light.kind == LIGHT_POINT {
-            return point_light_sample(light, p);
+            ls = point_light_sample(light, p);
         }
     }
     if HAS_SPHERE_LIGHTS {
         if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
             let u = rng_next2(rng);
-            return sphere_light_sample(light, p, strategy, u);
+            ls = sphere_light_sample(light, p, strategy, u);
         }
     }
-    return no_light_sample();
+    return ls;
 }
 
 // The solid-angle density light_sample_li gives direction wi from p (0 for delta lights: no direction
 // found by another strategy can be the one point).
 fn light_pdf_li(light: Light, p: vec3<f32>, wi: vec3<f32>, strategy: u32) -> f32 {
+    var pdf = 0.0;
     if HAS_SPHERE_LIGHTS {
         if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
-            return sphere_light_pdf(light, p, wi, strategy);
+            pdf = sphere_light_pdf(light, p, wi, strategy);
         }
     }
-    return 0.0;
+    return pdf;
 }
 
 // The radiance a ray that hits the light receives from it (a sphere light's surface radiance; a point
 // light cannot be hit).
 fn light_radiance(light: Light) -> vec3<f32> {
+    var l = vec3<f32>(0.0);
     if HAS_SPHERE_LIGHTS {
         if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
-            return light.intensity;
+            l = light.intensity;
         }
     }
-    return vec3<f32>(0.0);
+    return l;
 }

@@ -66,19 +66,15 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
     for (var k = 0u; k < light_selection_count(); k++) {
         let chosen = light_select(k);
         let ls = light_sample_li(chosen.light, sp.p, strategy, rng);
-        if ls.pdf == 0.0 {
-            continue;
-        }
         let cos_theta = light_cosine(sp, n, ns, ls.wi);
-        if cos_theta <= 0.0 {
-            continue;
+        // (Nested tests rather than `continue`: one exit per iteration, as in the dispatchers.)
+        if ls.pdf > 0.0 && cos_theta > 0.0 {
+            let shadow = spawn_ray_to(sp.p, sp.err, n, ls.p_light);
+            if !scene_occluded(shadow.o, shadow.d, shadow.t_max) {
+                let f = bsdf_eval(mat, wo, ls.wi, ns);
+                l += f * ls.L * (cos_theta / (ls.pdf * chosen.pmf));
+            }
         }
-        let shadow = spawn_ray_to(sp.p, sp.err, n, ls.p_light);
-        if scene_occluded(shadow.o, shadow.d, shadow.t_max) {
-            continue;
-        }
-        let f = bsdf_eval(mat, wo, ls.wi, ns);
-        l += f * ls.L * (cos_theta / (ls.pdf * chosen.pmf));
     }
     return l;
 }

@@ -108,7 +108,7 @@ fn absent_features_leave_no_code() {
         "intersect_triangle",
         "fresnel_dielectric",
         "refract_dir",
-        "sample_cone",
+        "sample_cone_local",
         "sample_uniform_disk",
         "triangle_surface",
         "sobol_owen2",

@@ -236,6 +236,7 @@ pub const KNOBS: &[KnobRow] = &[
         name: "light_sampling",
         from_params: "LIGHT_SAMPLING_FROM_PARAMS",
         values: &[
+            ("LIGHT_SAMPLING_IS_CONE", LIGHT_SAMPLING_CONE),
             ("LIGHT_SAMPLING_IS_AREA", LIGHT_SAMPLING_AREA),
             ("LIGHT_SAMPLING_IS_NONE", LIGHT_SAMPLING_NONE),
         ],
