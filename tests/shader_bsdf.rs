@@ -548,12 +548,7 @@ fn normals() -> [V3; 3] {
 fn diffuse_sampler_matches_its_own_pdf() {
     const N: usize = 1 << 18;
     const K: usize = 16;
-    let gl = [
-        (-0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
-        (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-        (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-        (0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
-    ];
+    let gl = common::stats::GAUSS_LEGENDRE_4;
     for (k, ns) in normals().into_iter().enumerate() {
         let wo = from_angles(ns, 0.6, 1.0);
         let setup = Setup {

@@ -198,12 +198,7 @@ fn sphere_light_samples_agree_with_their_pdf_and_geometry() {
 fn sphere_light_directions_fit_their_own_pdf() {
     const N: usize = 1 << 18;
     const K: usize = 16;
-    let gl = [
-        (-0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
-        (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-        (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-        (0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
-    ];
+    let gl = common::stats::GAUSS_LEGENDRE_4;
     for strategy in [LIGHT_SAMPLING_CONE, LIGHT_SAMPLING_AREA] {
         for ratio in [0.3, 0.6] {
             let s = Setup::sphere(ratio, strategy);

@@ -148,3 +148,12 @@ pub fn assert_rejects(what: &str, t: &Chi2, factor: f64) {
         t.critical
     );
 }
+
+/// The 4-point Gauss–Legendre rule on [-1, 1] (nodes, weights): exact for polynomials of degree 7. The
+/// chi-square tests integrate a shader's pdf over each bin with it, 4 x 4 nodes per bin.
+pub const GAUSS_LEGENDRE_4: [(f64, f64); 4] = [
+    (-0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
+    (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+    (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
+    (0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
+];
