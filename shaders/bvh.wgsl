@@ -21,7 +21,7 @@ const BVH_STACK_SIZE: u32 = 64u;
 // Lavapipe ends all loops of an invocation after 65535 iterations in total, and the renderer bounds a
 // path's iterations before rendering, so one traversal runs at most this many iterations: one interior
 // node or one triangle each. Typical rays need a few dozen to a few hundred (src/scene/bvh.rs, MAX_STEPS,
-// explains the choice; tests/bvh.rs measures it).
+// explains the choice; tests/shader_bvh.rs measures it).
 const BVH_MAX_STEPS: u32 = 2048u;
 
 // Boxes are culled against the closest hit so far widened by this factor (~128 ulps). A box's entry
@@ -40,7 +40,7 @@ const BVH_CULL_SLACK: f32 = 1.0000153; // 1 + 2^-16
 var<private> bvh_stack_ref: array<u32, BVH_STACK_SIZE>;
 var<private> bvh_stack_t: array<f32, BVH_STACK_SIZE>;
 
-// Iterations the last walk ran (BVH_MAX_STEPS when it reached the cap); read by tests/bvh.rs, dead in the
+// Iterations the last walk ran (BVH_MAX_STEPS when it reached the cap); read by tests/shader_bvh.rs, dead in the
 // render kernel (the compiler drops the store).
 var<private> bvh_last_steps: u32;
 

@@ -1,4 +1,4 @@
-// Test kernel for the Sobol' sampler of rng.wgsl (tests/shader_sampler.rs): one query per invocation.
+// Test kernel for the Sobol' sampler of rng.wgsl (tests/shader_rng_sobol.rs): one query per invocation.
 // input[i] = (pixel, sample, dim, seed); output[i] = (the scrambled point's x and y as 32-bit fractions,
 // the unscrambled Sobol' point of index `sample`: reverseBits(sample) and sobol_dim1(sample)).
 //

@@ -44,7 +44,7 @@ pub const LAVAPIPE_LOOP_BUDGET: u64 = 65_535;
 ///
 /// One BVH walk runs at most `bvh::MAX_STEPS` iterations (2048), whatever the number of triangles: that
 /// cap is what lets a 10^6-triangle mesh fit lavapipe's budget, and it is far above what a ray needs in
-/// a SAH tree (about 2 log2(N) nodes and a few leaves; `tests/bvh.rs` measures it). A small tree needs
+/// a SAH tree (about 2 log2(N) nodes and a few leaves; `tests/shader_bvh.rs` measures it). A small tree needs
 /// fewer: a walk visits each interior node at most once, tests each triangle at most once, skips at most
 /// one stacked entry per interior node and ends with one more iteration, so it runs at most
 /// 2 nodes + triangles + 1 iterations. With the course's settings (5 bounces, one light) a mesh of any
@@ -208,6 +208,68 @@ pub struct SampleFaults {
     pub not_finite: u32,
 }
 
+/// Refuses, on lavapipe, a scene whose longest possible path could run more loop iterations than
+/// lavapipe allows one invocation (see [`LAVAPIPE_LOOP_BUDGET`]), naming the limit and what to lower.
+fn check_loop_budget(ctx: &GpuContext, gpu: &GpuScene, max_bounces: u32) -> Result<(), GpuError> {
+    let device = &ctx.device_info().name;
+    let iterations = worst_case_loop_iterations(gpu, max_bounces);
+    if device.contains("llvmpipe") && iterations > LAVAPIPE_LOOP_BUDGET {
+        let per_bounce = worst_case_loop_iterations(gpu, 0);
+        let max_ok = (LAVAPIPE_LOOP_BUDGET / per_bounce).saturating_sub(1);
+        return Err(GpuError::Limit(format!(
+            "this scene is too heavy for {device}: a path of up to {max_bounces} bounces over {} primitives \
+             and {} lights could run {iterations} shader loop iterations, and lavapipe stops every loop of \
+             an invocation after {LAVAPIPE_LOOP_BUDGET}, which would cut paths short silently. Lower \
+             max_bounces to {max_ok} or less (Russian roulette keeps the result unbiased), use fewer \
+             primitives, or render on a GPU (VKPATH_DEVICE).",
+            gpu.spheres.len() + gpu.triangles.len(),
+            gpu.lights.len()
+        )));
+    }
+    Ok(())
+}
+
+/// The kernel's parameters for `scene` as uploaded: the scene's settings and the array sizes.
+fn render_params(scene: &Scene, gpu: &GpuScene, options: &RenderOptions) -> GpuParams {
+    let mut params = params_for(scene, options.roulette_depth);
+    params.num_spheres = gpu.spheres.len() as u32;
+    params.num_triangles = gpu.triangles.len() as u32;
+    params.num_lights = gpu.lights.len() as u32;
+    params
+}
+
+/// The compiled kernel for `features` (from the process-wide cache), or the injected shader fault.
+fn compile_kernel(
+    features: &FeatureSet,
+    fault: Option<Fault>,
+) -> Result<Arc<CompiledShader>, GpuError> {
+    if fault == Some(Fault::Shader) {
+        return Err(GpuError::Shader(
+            "error: injected fault (VKPATH_FAULT=shader)".into(),
+        ));
+    }
+    kernel_for(features)
+}
+
+/// One device-local accumulator buffer per strip of rows of `layout`.
+fn allocate_strips(
+    ctx: &Arc<GpuContext>,
+    layout: &tiles::TileLayout,
+) -> Result<Vec<Strip>, GpuError> {
+    layout
+        .strips
+        .iter()
+        .enumerate()
+        .map(|(i, rows)| {
+            let bytes = layout.strip_pixels(i) * tiles::ACCUM_BYTES_PER_PIXEL;
+            Ok(Strip {
+                rows: *rows,
+                buffer: Buffer::device_storage(ctx, "accumulator", bytes)?,
+            })
+        })
+        .collect()
+}
+
 /// Uploads the arrays the (specialised) kernel still reads, each under its WGSL name: a scene without
 /// triangles has no triangle buffer at all. The big mesh arrays (64 bytes per BVH node, 48 per
 /// triangle) live in device-local memory, uploaded through a staging copy.
@@ -291,26 +353,8 @@ impl Renderer {
         custom_kernel: Option<Arc<CompiledShader>>,
     ) -> Result<Renderer, GpuError> {
         let gpu = GpuScene::build(scene);
-        let device = &ctx.device_info().name;
-        let iterations = worst_case_loop_iterations(&gpu, scene.render.max_bounces);
-        if device.contains("llvmpipe") && iterations > LAVAPIPE_LOOP_BUDGET {
-            let per_bounce = worst_case_loop_iterations(&gpu, 0);
-            let max_ok = (LAVAPIPE_LOOP_BUDGET / per_bounce).saturating_sub(1);
-            return Err(GpuError::Limit(format!(
-                "this scene is too heavy for {device}: a path of up to {} bounces over {} primitives and {} \
-                 lights could run {iterations} shader loop iterations, and lavapipe stops every loop of an \
-                 invocation after {LAVAPIPE_LOOP_BUDGET}, which would cut paths short silently. Lower \
-                 max_bounces to {max_ok} or less (Russian roulette keeps the result unbiased), use fewer \
-                 primitives, or render on a GPU (VKPATH_DEVICE).",
-                scene.render.max_bounces,
-                gpu.spheres.len() + gpu.triangles.len(),
-                gpu.lights.len()
-            )));
-        }
-        let mut params = params_for(scene, options.roulette_depth);
-        params.num_spheres = gpu.spheres.len() as u32;
-        params.num_triangles = gpu.triangles.len() as u32;
-        params.num_lights = gpu.lights.len() as u32;
+        check_loop_budget(ctx, &gpu, scene.render.max_bounces)?;
+        let params = render_params(scene, &gpu, options);
         let features = if options.generic {
             FeatureSet::generic()
         } else {
@@ -319,12 +363,7 @@ impl Renderer {
         let content_hash = identity::content_hash(scene, &gpu, &params);
         let compiled = match custom_kernel {
             Some(k) => k,
-            None if options.fault == Some(Fault::Shader) => {
-                return Err(GpuError::Shader(
-                    "error: injected fault (VKPATH_FAULT=shader)".into(),
-                ));
-            }
-            None => kernel_for(&features)?,
+            None => compile_kernel(&features, options.fault)?,
         };
         // Refuse, before allocating anything, what the device cannot hold.
         let layout = tiles::TileLayout::new(
@@ -345,14 +384,7 @@ impl Renderer {
                 "vkAllocateMemory (injected: VKPATH_FAULT=out-of-memory)",
             ));
         }
-        let mut strips = Vec::with_capacity(layout.strips.len());
-        for (i, rows) in layout.strips.iter().enumerate() {
-            let bytes = layout.strip_pixels(i) * tiles::ACCUM_BYTES_PER_PIXEL;
-            strips.push(Strip {
-                rows: *rows,
-                buffer: Buffer::device_storage(ctx, "accumulator", bytes)?,
-            });
-        }
+        let strips = allocate_strips(ctx, &layout)?;
         let staging = Buffer::staging(ctx, "accumulator staging", layout.max_strip_bytes())?;
         let pass_constants = Buffer::device_uniform(
             ctx,

@@ -50,7 +50,7 @@ pub const SAH_MAX_DEPTH: usize = 32;
 /// would refuse every mesh scene. With the cap, a path costs at most (bounces + 1) x (lights + 1)
 /// traversals of 2048 iterations: the course's settings (5 bounces, 1 light) need 12 x 2048 = 24,576,
 /// within the budget with room for spheres and lights. A ray through a good BVH needs far fewer:
-/// roughly 2 log2(N) interior nodes plus a few leaves, and `tests/bvh.rs` measures the largest count over
+/// roughly 2 log2(N) interior nodes plus a few leaves, and `tests/shader_bvh.rs` measures the largest count over
 /// random rays into meshes of up to 10^5 triangles (a few hundred at most). A ray that reached the cap
 /// would keep the closest hit found so far (a shadow ray: unoccluded); the tests check that none does.
 pub const MAX_STEPS: u32 = 2048;

@@ -1,5 +1,5 @@
 //! Small f64 vector helpers shared by the shader tests' CPU references (tests/shader_camera.rs,
-//! tests/shader_fresnel.rs, tests/shader_sampling.rs).
+//! tests/shader_bsdf.rs, tests/shader_sampling.rs).
 
 pub type V3 = [f64; 3];
 
