@@ -35,10 +35,13 @@ struct Light {
 const LIGHT_SAMPLING_CONE: u32 = 0u;
 const LIGHT_SAMPLING_AREA: u32 = 1u;
 const LIGHT_SAMPLING_NONE: u32 = 2u;
+// Multiple importance sampling: the cone's sample weighted against the BSDF's (trace.wgsl).
+const LIGHT_SAMPLING_MIS: u32 = 3u;
 override LIGHT_SAMPLING_FROM_PARAMS: bool = true;
 override LIGHT_SAMPLING_IS_AREA: bool = false;
 override LIGHT_SAMPLING_IS_NONE: bool = false;
 override LIGHT_SAMPLING_IS_CONE: bool = false;
+override LIGHT_SAMPLING_IS_MIS: bool = false;
 
 struct LightLiSample {
     L: vec3<f32>, // radiance arriving at p along wi (point light: I / r^2)
@@ -60,6 +63,15 @@ fn sphere_lights_sampled(strategy: u32) -> bool {
         return strategy != LIGHT_SAMPLING_NONE;
     }
     return !LIGHT_SAMPLING_IS_NONE;
+}
+
+// Whether light samples and BSDF-sampled hits of sphere lights are combined by multiple importance
+// sampling ("mis"; its light samples are the cone's).
+fn sphere_lights_mis(strategy: u32) -> bool {
+    if LIGHT_SAMPLING_FROM_PARAMS {
+        return strategy == LIGHT_SAMPLING_MIS;
+    }
+    return LIGHT_SAMPLING_IS_MIS;
 }
 
 // --- Point light -------------------------------------------------------------------------------------
@@ -182,13 +194,16 @@ fn sphere_light_sample(light: Light, p: vec3<f32>, strategy: u32, u: vec2<f32>) 
         if strategy == LIGHT_SAMPLING_AREA {
             ls = sphere_light_sample_area(light, p, u);
         } else if strategy != LIGHT_SAMPLING_NONE {
-            ls = sphere_light_sample_cone(light, p, u);
+            ls = sphere_light_sample_cone(light, p, u); // cone, and the light half of mis
         }
     }
     if LIGHT_SAMPLING_IS_AREA {
         ls = sphere_light_sample_area(light, p, u);
     }
     if LIGHT_SAMPLING_IS_CONE {
+        ls = sphere_light_sample_cone(light, p, u);
+    }
+    if LIGHT_SAMPLING_IS_MIS {
         ls = sphere_light_sample_cone(light, p, u);
     }
     return ls;
@@ -207,6 +222,9 @@ fn sphere_light_pdf(light: Light, p: vec3<f32>, wi: vec3<f32>, strategy: u32) ->
         pdf = sphere_light_pdf_area(light, p, wi);
     }
     if LIGHT_SAMPLING_IS_CONE {
+        pdf = sphere_light_pdf_cone(light, p, wi);
+    }
+    if LIGHT_SAMPLING_IS_MIS {
         pdf = sphere_light_pdf_cone(light, p, wi);
     }
     return pdf;

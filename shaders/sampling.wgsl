@@ -117,3 +117,15 @@ fn gaussian2_pdf(x: vec2<f32>, sigma: f32) -> f32 {
     let s2 = sigma * sigma;
     return exp(-dot(x, x) / (2.0 * s2)) / (TWO_PI * s2);
 }
+
+// The power heuristic (Veach 1997, §9.2.4, exponent 2): the weight of a sample drawn with density `a`
+// when another strategy could have drawn it with density `b`, a^2 / (a^2 + b^2); the two weights of one
+// direction sum to 1. Written as 1 / (1 + (b/a)^2) so that the huge densities of tiny lights (1e20 and
+// more) do not overflow when squared; a = 0 gives 0.
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    if a == 0.0 {
+        return 0.0;
+    }
+    let r = b / a;
+    return 1.0 / (1.0 + r * r);
+}

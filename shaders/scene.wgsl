@@ -175,6 +175,19 @@ fn light_select(k: u32) -> SelectedLight {
     return SelectedLight(lights[k], 1.0);
 }
 
+// The light whose emitter sphere is spheres[i], as light_select would give it (with its selection
+// probability), for weighing a BSDF-sampled ray that hit it against the light's own sampling.
+fn light_of_sphere(i: u32) -> SelectedLight {
+    var chosen = SelectedLight(lights[0], 0.0);
+    for (var k = 0u; k < light_selection_count(); k++) {
+        let light = lights[k];
+        if light.kind == LIGHT_SPHERE && light.sphere_index == i {
+            chosen = SelectedLight(light, 1.0);
+        }
+    }
+    return chosen;
+}
+
 // The sphere-light strategy (`render.light_sampling`) for the lights.wgsl dispatchers (a constant there
 // when the kernel is specialised).
 fn light_sampling_strategy() -> u32 {

@@ -59,7 +59,12 @@ fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 
 // selected light, one light sample (L, wi, pdf) and the estimate f(wo, wi) L cos(theta) / (pdf pmf) if
 // the sampled point on the light is visible. n is the facing geometric normal, ns the facing shading
 // normal (the same vector except on smooth meshes).
-fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec3<f32>,
+//
+// With multiple importance sampling (`mis`), a sample of a non-delta light is weighted by the power
+// heuristic against the density bsdf_pdf would have given its direction; trace_path weighs the BSDF's
+// own samples that hit the light the other way round, so the two estimates of that light's contribution
+// add up to one unbiased estimate (Veach 1997, ch. 9), each strategy dominating where it is good.
+fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec3<f32>, mis: bool,
                 rng: ptr<function, Rng>) -> vec3<f32> {
     var l = vec3<f32>(0.0);
     let strategy = light_sampling_strategy();
@@ -72,7 +77,14 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
             let shadow = spawn_ray_to(sp.p, sp.err, n, ls.p_light);
             if !scene_occluded(shadow.o, shadow.d, shadow.t_max) {
                 let f = bsdf_eval(mat, wo, ls.wi, ns);
-                l += f * ls.L * (cos_theta / (ls.pdf * chosen.pmf));
+                let pdf = ls.pdf * chosen.pmf;
+                var w = 1.0;
+                if HAS_SPHERE_LIGHTS {
+                    if mis && !ls.delta {
+                        w = power_heuristic(pdf, bsdf_pdf(mat, wo, ls.wi, ns));
+                    }
+                }
+                l += f * ls.L * (w * cos_theta / pdf);
             }
         }
     }
@@ -104,8 +116,16 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     var radiance = vec3<f32>(0.0);
     // Emission found by a ray counts only when no next-event estimate already accounted for it: on camera
     // rays and after delta bounces (mirror, glass). After a non-delta bounce, the light was sampled,
-    // unless sphere lights are not sampled (light_sampling = "none"): then their emission always counts.
-    let nee_spheres = sphere_lights_sampled(light_sampling_strategy());
+    // unless sphere lights are not sampled (light_sampling = "none"): then their emission always counts;
+    // with "mis" it counts with its weight.
+    let strategy = light_sampling_strategy();
+    let nee_spheres = sphere_lights_sampled(strategy);
+    // With mis, emission found by a BSDF-sampled ray always counts, weighted against the light's
+    // sampling of the same direction from the previous vertex (prev_p, with the BSDF's density
+    // prev_pdf; 0 on camera rays and after delta bounces, where no light sample competed).
+    let mis = sphere_lights_mis(strategy);
+    var prev_p = vec3<f32>(0.0);
+    var prev_pdf = 0.0;
     var count_emission = true;
     var bounces = 0u;
     loop {
@@ -120,7 +140,15 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         if HAS_EMITTERS {
             if mat.kind == MAT_EMITTER {
                 if count_emission {
-                    radiance += beta * mat.emission;
+                    var w = 1.0;
+                    if HAS_SPHERE_LIGHTS {
+                        if mis && prev_pdf > 0.0 {
+                            let chosen = light_of_sphere(hit.prim_index);
+                            let light_pdf = chosen.pmf * light_pdf_li(chosen.light, prev_p, d, strategy);
+                            w = power_heuristic(prev_pdf, light_pdf);
+                        }
+                    }
+                    radiance += beta * mat.emission * w;
                 }
                 break;
             }
@@ -149,14 +177,17 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         }
         let wo = -d;
         if !bsdf_is_delta(mat) {
-            radiance += beta * direct_light(mat, sp, n, ns, wo, &rng);
+            radiance += beta * direct_light(mat, sp, n, ns, wo, mis, &rng);
         }
         let bs = bsdf_sample(mat, wo, ns, entering, &rng);
         if bs.flags == 0u {
             break; // absorbed
         }
         beta *= bs.weight;
-        count_emission = (bs.flags & BSDF_DELTA) != 0u || !nee_spheres;
+        let delta = (bs.flags & BSDF_DELTA) != 0u;
+        count_emission = delta || !nee_spheres || mis;
+        prev_pdf = select(bs.pdf, 0.0, delta);
+        prev_p = sp.p;
         if HAS_SMOOTH_NORMALS {
             // wi must leave on the side the ray came from (reflection) or cross (transmission).
             let reflected = (bs.flags & BSDF_REFLECTION) != 0u;

@@ -187,7 +187,7 @@ fn knob_settings_parse_apply_and_refuse() {
         ("samples_per_pass=0", "at least 1"),
         ("roulette=sometimes", "or off"),
         ("sampler=halton", "independent or sobol"),
-        ("light_sampling=bsdf", "cone, area or none"),
+        ("light_sampling=bsdf", "cone, area, none or mis"),
         ("default,default", "twice"),
         (" , ", "no setting"),
     ] {

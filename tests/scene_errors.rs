@@ -609,7 +609,10 @@ fn unknown_light_sampling() {
     expect_error_exact(&text, 10, "render.light_sampling");
     let text = with_base("[render]\nlight_sampling = \"solid-angle\"   # line 10\n");
     let err = expect_error_exact(&text, 10, "render.light_sampling");
-    assert!(err.to_string().contains("\"cone\""), "{err}");
+    assert!(
+        err.to_string().contains("\"cone\"") && err.to_string().contains("\"mis\""),
+        "{err}"
+    );
 }
 
 #[test]

@@ -36,6 +36,7 @@ fn specialised_equals_generic_for_every_scene() {
         (Sampler::Sobol, LightSampling::Cone),
         (Sampler::Independent, LightSampling::Area),
         (Sampler::Sobol, LightSampling::None),
+        (Sampler::Independent, LightSampling::Mis),
     ] {
         cases.push((soft.clone(), Some(knobs)));
     }

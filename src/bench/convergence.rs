@@ -72,14 +72,10 @@ pub const KNOBS: &[Knob] = &[
     },
     Knob {
         name: "light_sampling",
-        values: "cone, area or none",
+        values: "cone, area, none or mis",
         apply: |v, s, _| {
-            s.render.light_sampling = match v {
-                "cone" => LightSampling::Cone,
-                "area" => LightSampling::Area,
-                "none" => LightSampling::None,
-                _ => return Err(format!("\"{v}\" is not a light-sampling strategy")),
-            };
+            s.render.light_sampling = LightSampling::from_name(v)
+                .ok_or_else(|| format!("\"{v}\" is not a light-sampling strategy"))?;
             Ok(())
         },
     },

@@ -439,14 +439,6 @@ enum SamplerArg {
     Sobol,
 }
 
-/// `--light-sampling` (render.light_sampling in the scene file).
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-enum LightSamplingArg {
-    Cone,
-    Area,
-    None,
-}
-
 #[derive(Args)]
 pub struct RenderArgs {
     /// Scene file (TOML). Default: the embedded course scene.
@@ -480,8 +472,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum)]
     sampler: Option<SamplerArg>,
     /// How sphere lights are sampled (overrides the scene's render.light_sampling).
-    #[arg(long = "light-sampling", value_enum)]
-    light_sampling: Option<LightSamplingArg>,
+    #[arg(long = "light-sampling", value_parser = light_sampling_names())]
+    light_sampling: Option<String>,
     /// Rewrite the outputs after every N samples per pixel.
     #[arg(long = "progress-every")]
     progress_every: Option<u32>,
@@ -550,12 +542,10 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
             SamplerArg::Sobol => vkpath::scene::Sampler::Sobol,
         };
     }
-    if let Some(l) = a.light_sampling {
-        scene.render.light_sampling = match l {
-            LightSamplingArg::Cone => vkpath::scene::LightSampling::Cone,
-            LightSamplingArg::Area => vkpath::scene::LightSampling::Area,
-            LightSamplingArg::None => vkpath::scene::LightSampling::None,
-        };
+    if let Some(l) = &a.light_sampling {
+        // clap has already checked the name against the same list.
+        scene.render.light_sampling =
+            vkpath::scene::LightSampling::from_name(l).unwrap_or_default();
     }
     if let Some(s) = a.seed {
         scene.render.seed = s;
@@ -696,4 +686,9 @@ fn parse_sample_range(text: &str) -> Result<[u32; 2], Error> {
         return Err(bad("is empty"));
     }
     Ok([a, b])
+}
+
+/// `--light-sampling`'s values: the names of `LightSampling::ALL` (render.light_sampling in the scene).
+fn light_sampling_names() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(vkpath::scene::LightSampling::ALL.map(|(_, n)| n))
 }

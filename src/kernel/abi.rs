@@ -194,6 +194,7 @@ pub const SAMPLER_SOBOL: u32 = 1;
 pub const LIGHT_SAMPLING_CONE: u32 = 0;
 pub const LIGHT_SAMPLING_AREA: u32 = 1;
 pub const LIGHT_SAMPLING_NONE: u32 = 2;
+pub const LIGHT_SAMPLING_MIS: u32 = 3;
 
 /// The counters of `sample_faults` (scene_data.wgsl): samples clamped below 2^64 by the accumulator, and
 /// samples dropped as not finite (see accumulate.wgsl).
@@ -219,6 +220,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("LIGHT_SAMPLING_CONE", LIGHT_SAMPLING_CONE),
     ("LIGHT_SAMPLING_AREA", LIGHT_SAMPLING_AREA),
     ("LIGHT_SAMPLING_NONE", LIGHT_SAMPLING_NONE),
+    ("LIGHT_SAMPLING_MIS", LIGHT_SAMPLING_MIS),
     ("NO_MESH", NO_MESH),
     ("MESH_SMOOTH", MESH_SMOOTH),
     ("MESH_TEXTURED", MESH_TEXTURED),

@@ -239,6 +239,7 @@ pub const KNOBS: &[KnobRow] = &[
             ("LIGHT_SAMPLING_IS_CONE", LIGHT_SAMPLING_CONE),
             ("LIGHT_SAMPLING_IS_AREA", LIGHT_SAMPLING_AREA),
             ("LIGHT_SAMPLING_IS_NONE", LIGHT_SAMPLING_NONE),
+            ("LIGHT_SAMPLING_IS_MIS", LIGHT_SAMPLING_MIS),
         ],
         read: |p| p.light_sampling,
     },

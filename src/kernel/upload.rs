@@ -310,6 +310,7 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
             LightSampling::Cone => LIGHT_SAMPLING_CONE,
             LightSampling::Area => LIGHT_SAMPLING_AREA,
             LightSampling::None => LIGHT_SAMPLING_NONE,
+            LightSampling::Mis => LIGHT_SAMPLING_MIS,
         },
         num_spheres: 0,
         num_triangles: 0,

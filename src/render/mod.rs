@@ -59,7 +59,9 @@ pub fn worst_case_loop_iterations(gpu: &GpuScene, max_bounces: u32) -> u64 {
     };
     let per_query = gpu.spheres.len() as u64 + walk;
     let lights = gpu.lights.len() as u64;
-    let per_cast = per_query + lights * (per_query + 1) + 1;
+    // Per cast: the closest hit, a shadow query per light, and (with mis) a look-up of the light a hit
+    // emitter belongs to.
+    let per_cast = per_query + lights * (per_query + 2) + 1;
     (max_bounces as u64 + 1) * per_cast + 1
 }
 

@@ -106,6 +106,37 @@ pub enum LightSampling {
     Area,
     /// No next-event estimation for sphere lights: their emission counts when a path hits them.
     None,
+    /// Both: the cone's light sample and the BSDF-sampled ray that hits the light, each weighted by the
+    /// power heuristic (Veach 1997), so that whichever strategy has the higher density dominates.
+    Mis,
+}
+
+impl LightSampling {
+    /// Every strategy with its name in scene files and on the command line (the one list of names).
+    pub const ALL: [(LightSampling, &'static str); 4] = [
+        (LightSampling::Cone, "cone"),
+        (LightSampling::Area, "area"),
+        (LightSampling::None, "none"),
+        (LightSampling::Mis, "mis"),
+    ];
+
+    pub fn from_name(name: &str) -> Option<LightSampling> {
+        Self::ALL.iter().find(|(_, n)| *n == name).map(|(s, _)| *s)
+    }
+
+    pub fn name(self) -> &'static str {
+        Self::ALL
+            .iter()
+            .find(|(s, _)| *s == self)
+            .map_or("cone", |(_, n)| n)
+    }
+
+    /// The names, quoted and listed for an error message: `"cone", "area", "none" or "mis"`.
+    pub fn names_listed() -> String {
+        let quoted: Vec<String> = Self::ALL.iter().map(|(_, n)| format!("\"{n}\"")).collect();
+        let (last, rest) = quoted.split_last().expect("strategies");
+        format!("{} or {last}", rest.join(", "))
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -650,16 +650,17 @@ impl Checker<'_> {
         };
         let light_sampling = match &raw.light_sampling {
             None => LightSampling::Cone,
-            Some(s) => match s.get_ref().as_str() {
-                "cone" => LightSampling::Cone,
-                "area" => LightSampling::Area,
-                "none" => LightSampling::None,
-                other => {
+            Some(s) => match LightSampling::from_name(s.get_ref()) {
+                Some(l) => l,
+                None => {
                     return Err(self.error(
                         s.span(),
                         "render.light_sampling",
-                        format!("unknown light sampling strategy \"{other}\""),
-                        "Use \"cone\" (the default), \"area\" or \"none\".",
+                        format!("unknown light sampling strategy \"{}\"", s.get_ref()),
+                        &format!(
+                            "Use {} (\"cone\" is the default).",
+                            LightSampling::names_listed()
+                        ),
                     ));
                 }
             },
