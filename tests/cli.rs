@@ -895,7 +895,14 @@ fn light_sampling_flag_takes_every_strategy() {
     }
     let run = vkpath(
         dir.path(),
-        &["render", "tiny.toml", "--light-sampling", "bsdf", "-o", "x.png"],
+        &[
+            "render",
+            "tiny.toml",
+            "--light-sampling",
+            "bsdf",
+            "-o",
+            "x.png",
+        ],
     );
     assert_eq!(run.code, Some(2), "{}", run.stderr);
     assert!(

@@ -657,7 +657,7 @@ impl Checker<'_> {
                         s.span(),
                         "render.light_sampling",
                         format!("unknown light sampling strategy \"{}\"", s.get_ref()),
-                        &format!(
+                        format!(
                             "Use {} (\"cone\" is the default).",
                             LightSampling::names_listed()
                         ),
