@@ -29,6 +29,7 @@ override HAS_EMITTERS: bool = true; // sphere lights are visible spheres with an
 // Lights (lights.wgsl).
 override HAS_POINT_LIGHTS: bool = true;
 override HAS_SPHERE_LIGHTS: bool = true;
+override HAS_DIRECTIONAL_LIGHTS: bool = true; // suns: light from infinitely far, delta or a small cone
 override HAS_LENS: bool = true; // aperture > 0
 override HAS_ROULETTE: bool = true;
 override HAS_BACKGROUND: bool = true;

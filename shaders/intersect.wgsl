@@ -280,6 +280,11 @@ struct ShadowRay {
     t_max: f32,
 }
 
+// A shadow ray from p towards a light at infinity along the unit direction w (a sun): unbounded.
+fn spawn_ray_towards(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, w: vec3<f32>) -> ShadowRay {
+    return ShadowRay(offset_ray_origin(p, err, n, w), w, T_MISS);
+}
+
 fn spawn_ray_to(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, p_to: vec3<f32>) -> ShadowRay {
     let o = offset_ray_origin(p, err, n, p_to - p);
     let to = p_to - o;

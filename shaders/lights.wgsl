@@ -16,12 +16,14 @@
 
 const LIGHT_POINT: u32 = 0u;
 const LIGHT_SPHERE: u32 = 1u;
+const LIGHT_DIRECTIONAL: u32 = 2u;
 
 // One light, as uploaded (`lights` in scene_data.wgsl; GpuLight in Rust).
 struct Light {
-    position: vec3<f32>, // point position or sphere centre
-    radius: f32,
-    // point: radiant intensity I = P color / (4 pi) (W/sr); sphere: radiance Le = P color / (4 pi^2 r^2)
+    position: vec3<f32>, // point position or sphere centre; directional: the unit direction to the light
+    radius: f32, // sphere radius; directional: 1 - cos of the cone's half-angle (0 for a delta light)
+    // point: radiant intensity I = P color / (4 pi) (W/sr); sphere: radiance Le = P color / (4 pi^2 r^2);
+    // directional: the irradiance E color (delta) or the disc's radiance E color / (pi sin^2 a)
     intensity: vec3<f32>,
     kind: u32,
     sphere_index: u32, // for sphere lights: the index of its emitter sphere in `spheres`
@@ -48,7 +50,7 @@ struct LightLiSample {
     wi: vec3<f32>, // unit, from p towards p_light
     pdf: f32, // per unit solid angle; 1 for a delta light; 0: no sample
     p_light: vec3<f32>, // the point on the light the shadow ray aims at
-    dist: f32, // |p_light - p|
+    dist: f32, // |p_light - p|; T_MISS for a light at infinity (the shadow ray goes along wi, unbounded)
     delta: bool,
 }
 
@@ -85,6 +87,28 @@ fn point_light_sample(light: Light, p: vec3<f32>) -> LightLiSample {
     }
     let dist = sqrt(d2);
     return LightLiSample(light.intensity / d2, to_light / dist, 1.0, light.position, dist, true);
+}
+
+// --- Directional light (a sun) -------------------------------------------------------------------------
+// From infinitely far: every point sees it along the same directions. A delta light (radius = 0) arrives
+// along `position` with L = E (pdf 1); a sun of angular radius a fills the cone of half-angle a around
+// it with radiance Le, sampled uniformly in that cone (pdf 1 / (2 pi (1 - cos a))), so that
+// L cos / pdf averages to Le pi sin^2(a) cos = E cos on a surface whose horizon the cone clears.
+// The two numbers are drawn in both cases (so that later dimensions line up).
+fn directional_light_sample(light: Light, u: vec2<f32>) -> LightLiSample {
+    if light.radius == 0.0 {
+        return LightLiSample(light.intensity, light.position, 1.0, vec3<f32>(0.0), T_MISS, true);
+    }
+    let cone = sample_cone_local(light.radius, u);
+    let wi = frame_to_world(frame_from_normal(light.position), cone.local);
+    return LightLiSample(light.intensity, wi, cone_pdf(cone.one_minus_cos, light.radius), vec3<f32>(0.0),
+                         T_MISS, false);
+}
+
+// Whether direction w (unit) lies in a directional light's cone (never, for a delta light).
+fn directional_light_covers(light: Light, w: vec3<f32>) -> bool {
+    let delta = w - light.position;
+    return light.radius > 0.0 && 0.5 * dot(delta, delta) <= light.radius;
 }
 
 // --- Sphere light, cone strategy ---------------------------------------------------------------------
@@ -248,6 +272,11 @@ fn light_sample_li(light: Light, p: vec3<f32>, strategy: u32, rng: ptr<function,
             ls = sphere_light_sample(light, p, strategy, u);
         }
     }
+    if HAS_DIRECTIONAL_LIGHTS {
+        if SINGLE_LIGHT_KIND || light.kind == LIGHT_DIRECTIONAL {
+            ls = directional_light_sample(light, rng_next2(rng));
+        }
+    }
     return ls;
 }
 
@@ -260,16 +289,31 @@ fn light_pdf_li(light: Light, p: vec3<f32>, wi: vec3<f32>, strategy: u32) -> f32
             pdf = sphere_light_pdf(light, p, wi, strategy);
         }
     }
+    if HAS_DIRECTIONAL_LIGHTS {
+        if SINGLE_LIGHT_KIND || light.kind == LIGHT_DIRECTIONAL {
+            if directional_light_covers(light, wi) {
+                pdf = 1.0 / (TWO_PI * light.radius);
+            }
+        }
+    }
     return pdf;
 }
 
-// The radiance a ray that hits the light receives from it (a sphere light's surface radiance; a point
-// light cannot be hit).
-fn light_radiance(light: Light) -> vec3<f32> {
+// The radiance a ray along w receives from the light when it reaches it (a sphere light's surface
+// radiance for a ray that hit it; a sun's for an escaping ray inside its cone; a point light and a delta
+// sun cannot be reached).
+fn light_radiance(light: Light, w: vec3<f32>) -> vec3<f32> {
     var l = vec3<f32>(0.0);
     if HAS_SPHERE_LIGHTS {
         if SINGLE_LIGHT_KIND || light.kind == LIGHT_SPHERE {
             l = light.intensity;
+        }
+    }
+    if HAS_DIRECTIONAL_LIGHTS {
+        if SINGLE_LIGHT_KIND || light.kind == LIGHT_DIRECTIONAL {
+            if directional_light_covers(light, w) {
+                l = light.intensity;
+            }
         }
     }
     return l;

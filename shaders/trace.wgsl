@@ -74,7 +74,12 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
         let cos_theta = light_cosine(sp, n, ns, ls.wi);
         // (Nested tests rather than `continue`: one exit per iteration, as in the dispatchers.)
         if ls.pdf > 0.0 && cos_theta > 0.0 {
-            let shadow = spawn_ray_to(sp.p, sp.err, n, ls.p_light);
+            var shadow = spawn_ray_to(sp.p, sp.err, n, ls.p_light);
+            if HAS_DIRECTIONAL_LIGHTS {
+                if ls.dist >= T_MISS {
+                    shadow = spawn_ray_towards(sp.p, sp.err, n, ls.wi);
+                }
+            }
             if !scene_occluded(shadow.o, shadow.d, shadow.t_max) {
                 let f = bsdf_eval(mat, wo, ls.wi, ns);
                 let pdf = ls.pdf * chosen.pmf;
@@ -86,6 +91,18 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
                 }
                 l += f * ls.L * (w * cos_theta / pdf);
             }
+        }
+    }
+    return l;
+}
+
+// The radiance of the suns whose cones contain direction d.
+fn suns_seen(d: vec3<f32>) -> vec3<f32> {
+    var l = vec3<f32>(0.0);
+    for (var k = 0u; k < light_selection_count(); k++) {
+        let light = light_select(k).light;
+        if light.kind == LIGHT_DIRECTIONAL {
+            l += light_radiance(light, d);
         }
     }
     return l;
@@ -126,6 +143,9 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     let mis = sphere_lights_mis(strategy);
     var prev_p = vec3<f32>(0.0);
     var prev_pdf = 0.0;
+    // Whether the ray was spawned by a delta bounce (or is the camera ray): then no light sample at its
+    // origin could have found what it finds.
+    var last_delta = true;
     var count_emission = true;
     var bounces = 0u;
     loop {
@@ -133,6 +153,13 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         if hit.prim_kind == PRIM_NONE {
             if HAS_BACKGROUND {
                 radiance += beta * params.background;
+            }
+            // A sun of nonzero size seen directly, or through a mirror or glass (its caustics included):
+            // after a non-delta bounce it was light-sampled instead (suns are not weighed by mis).
+            if HAS_DIRECTIONAL_LIGHTS {
+                if last_delta {
+                    radiance += beta * suns_seen(d);
+                }
             }
             break;
         }
@@ -188,6 +215,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         count_emission = delta || !nee_spheres || mis;
         prev_pdf = select(bs.pdf, 0.0, delta);
         prev_p = sp.p;
+        last_delta = delta;
         if HAS_SMOOTH_NORMALS {
             // wi must leave on the side the ray came from (reflection) or cross (transmission).
             let reflected = (bs.flags & BSDF_REFLECTION) != 0u;

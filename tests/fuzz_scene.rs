@@ -424,6 +424,16 @@ fn check_scene_answer(result: Result<Scene, vkpath::scene::SceneError>, file: &s
                     } => {
                         assert!(finite(center) && radius > 0.0 && power > 0.0 && finite(color));
                     }
+                    vkpath::scene::Light::Directional {
+                        direction,
+                        irradiance,
+                        color,
+                        angle_deg,
+                    } => {
+                        assert!((direction.length() - 1.0).abs() < 1e-5, "{direction}");
+                        assert!(irradiance > 0.0 && irradiance.is_finite() && finite(color));
+                        assert!((0.0..180.0).contains(&angle_deg));
+                    }
                 }
             }
         }

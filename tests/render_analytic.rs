@@ -738,3 +738,112 @@ fn mis_renders_the_same_image_mean_as_cone() {
         stats[1].0
     );
 }
+
+/// A sun on a tilted plane: a diffuse plane of albedo a (two triangles, seen from a pinhole camera)
+/// under a directional light of irradiance E arriving at an angle theta to its normal reflects
+/// L = a E cos(theta) / pi, for a delta sun (exactly, up to f32) and for a sun of angular diameter 8
+/// degrees (its cone clears the horizon; within 5 standard errors of each pixel).
+#[test]
+fn sun_on_a_tilted_plane_gives_lambert() {
+    let theta = 35f64.to_radians();
+    // The light travels towards -y rotated by theta about z: it meets the plane y = 0 at theta.
+    let dir = [theta.sin(), -theta.cos(), 0.0];
+    for angle in [0.0, 8.0] {
+        let text = format!(
+            r#"
+[camera]
+position = [0.0, 3.0, 4.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 30.0
+[image]
+width = 16
+height = 16
+[render]
+samples = 16
+max_bounces = 1
+filter = "none"
+[materials]
+grey = {{ type = "diffuse", albedo = [0.6, 0.6, 0.6] }}
+[[triangle]]
+vertices = [[-50.0, 0.0, -50.0], [50.0, 0.0, -50.0], [50.0, 0.0, 50.0]]
+material = "grey"
+[[triangle]]
+vertices = [[-50.0, 0.0, -50.0], [50.0, 0.0, 50.0], [-50.0, 0.0, 50.0]]
+material = "grey"
+[[light]]
+type = "directional"
+direction = [{}, {}, {}]
+irradiance = 2.5
+angle = {angle}
+"#,
+            dir[0], dir[1], dir[2]
+        );
+        let film = render(&scene(&text));
+        let expected = 0.6 * 2.5 * theta.cos() / PI;
+        for (p, v) in film.mean.iter().zip(&film.variance) {
+            let tol = 5.0 * (v[0] as f64).sqrt() + 1e-5 * expected;
+            assert!(
+                (p[0] as f64 - expected).abs() <= tol,
+                "sun {angle} deg: {} vs {expected}",
+                p[0]
+            );
+        }
+    }
+}
+
+/// A sun of nonzero size seen directly: looking towards it with `max_bounces = 0`, a pixel whose ray
+/// lies inside its cone shows its disc's radiance E / (pi sin^2 a), and every other pixel shows the
+/// black sky (pixels within 1e-4 rad of the disc's edge are skipped).
+#[test]
+fn a_sun_seen_directly_shows_its_radiance() {
+    let (e, angle) = (2.0f64, 12.0f64);
+    let text = format!(
+        r#"
+[camera]
+position = [0.0, 0.0, 0.0]
+look_at = [0.0, 0.0, -1.0]
+fov = 30.0
+[image]
+width = 16
+height = 16
+[render]
+samples = 1
+max_bounces = 0
+filter = "none"
+[materials]
+white = {{ type = "diffuse", albedo = [0.5, 0.5, 0.5] }}
+[[sphere]]
+center = [0.0, 0.0, 100.0]
+radius = 1.0
+material = "white"
+[[light]]
+type = "directional"
+direction = [0.0, 0.0, 1.0]
+irradiance = {e}
+angle = {angle}
+"#
+    );
+    let film = render(&scene(&text));
+    let cam = CpuCamera::new([0.0; 3], [0.0, 0.0, -1.0], 30.0, 16, 16);
+    let half = (angle / 2.0).to_radians();
+    let le = e / (PI * half.sin().powi(2));
+    let (mut inside, mut outside) = (0, 0);
+    for py in 0..16 {
+        for px in 0..16 {
+            let d = cam.ray(px, py);
+            let off = d.angle_between(DVec3::new(0.0, 0.0, -1.0));
+            if (off - half).abs() < 1e-4 {
+                continue;
+            }
+            let got = film.pixel(px, py)[0] as f64;
+            if off < half {
+                inside += 1;
+                assert!((got - le).abs() <= 1e-5 * le, "pixel ({px},{py}): {got} vs {le}");
+            } else {
+                outside += 1;
+                assert_eq!(got, 0.0, "pixel ({px},{py}) outside the sun");
+            }
+        }
+    }
+    assert!(inside > 20 && outside > 20, "{inside} inside, {outside} outside");
+}

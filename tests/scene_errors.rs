@@ -708,3 +708,46 @@ fn sphere_light_too_small_for_f32() {
     let ok = text.replace("1e-20", "1e-6");
     assert!(vkpath::scene::Scene::from_toml_str(&ok, None).is_ok());
 }
+
+/// The sun's keys (scene-format.md, Additions): a direction that is present, finite and not zero, an
+/// irradiance > 0, an angular diameter in [0, 180) degrees, and none of the other lights' keys.
+#[test]
+fn directional_light_errors() {
+    let sun = |extra: &str| {
+        with_base(&format!(
+            "[[light]]  # line 9\ntype = \"directional\"\n{extra}"
+        ))
+    };
+    expect_error_exact(&sun("irradiance = 3\n"), 9, "light[0].direction");
+    expect_error_exact(
+        &sun("direction = [0, 0, 0]  # line 11\nirradiance = 3\n"),
+        11,
+        "light[0].direction",
+    );
+    expect_error_exact(&sun("direction = [0, -1, 0]\n"), 9, "light[0].irradiance");
+    expect_error_exact(
+        &sun("direction = [0, -1, 0]\nirradiance = 0  # line 12\n"),
+        12,
+        "light[0].irradiance",
+    );
+    expect_error_exact(
+        &sun("direction = [0, -1, 0]\nirradiance = 3\nangle = 180  # line 13\n"),
+        13,
+        "light[0].angle",
+    );
+    expect_error_exact(
+        &sun("direction = [0, -1, 0]\nirradiance = 3\nangle = -1  # line 13\n"),
+        13,
+        "light[0].angle",
+    );
+    expect_error_exact(
+        &sun("direction = [0, -1, 0]\nirradiance = 3\npower = 10  # line 13\n"),
+        13,
+        "light[0].power",
+    );
+    // And a point light has no direction.
+    let text = with_base(
+        "[[light]]\ntype = \"point\"\nposition = [0, 5, 0]\npower = 10\ndirection = [0, -1, 0]  # line 13\n",
+    );
+    expect_error_exact(&text, 13, "light[0].direction");
+}

@@ -350,3 +350,82 @@ fn point_light_is_a_delta_light() {
     assert!(length(sub(wi, scale(to, 1.0 / d2.sqrt()))) < 1e-6);
     assert_eq!((o.d[0], o.d[1], o.d[2]), (0.0, 0.0, 0.0));
 }
+
+/// A sun (directional light): a delta sun arrives along -direction with L = E, pdf 1, at infinity; a sun
+/// of angular diameter 2a is sampled uniformly in its cone (pdf = light_pdf_li at every sample), and the
+/// estimate L cos / pdf on a surface facing it averages to E (within 5 standard errors), on a surface
+/// tilted by 40 degrees to E cos 40 (the cone clears the horizon). light_radiance is Le inside the cone
+/// and 0 outside.
+#[test]
+fn directional_light_gives_its_irradiance() {
+    use vkpath::kernel::abi::LIGHT_DIRECTIONAL;
+    let to_light = normalize([0.2, 0.9, -0.3]);
+    let e = 3.0;
+    for angle_deg in [0.0f64, 0.53, 10.0, 60.0] {
+        let half = (angle_deg / 2.0).to_radians();
+        let omc = 2.0 * (half / 2.0).sin().powi(2);
+        let sin2 = omc * (2.0 - omc);
+        let le = if omc > 0.0 { e / (PI * sin2) } else { e };
+        let s = Setup {
+            centre: to_light,
+            radius: omc,
+            le,
+            kind: LIGHT_DIRECTIONAL,
+            p: [1.0, 2.0, 3.0],
+            strategy: LIGHT_SAMPLING_CONE,
+        };
+        let out = samples(&s, 17, 1 << 16);
+        // A normal facing the light, and one tilted by 40 degrees from it.
+        let (t, _) = {
+            let a = if to_light[0].abs() < 0.9 {
+                [1.0, 0.0, 0.0]
+            } else {
+                [0.0, 1.0, 0.0]
+            };
+            let t = normalize(cross(a, to_light));
+            (t, ())
+        };
+        let tilt = 40f64.to_radians();
+        let tilted: V3 = std::array::from_fn(|k| tilt.cos() * to_light[k] + tilt.sin() * t[k]);
+        for (normal, expected) in [(to_light, e), (tilted, e * tilt.cos())] {
+            let est: Vec<f64> = out
+                .iter()
+                .map(|o| o.a[0] as f64 * dot(v3(o.b), normal).max(0.0) / o.a[3] as f64)
+                .collect();
+            let n = est.len() as f64;
+            let mean = est.iter().sum::<f64>() / n;
+            let var = est.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+            assert!(
+                (mean - expected).abs() <= 5.0 * (var / n).sqrt() + 2e-6 * expected,
+                "angle {angle_deg}: E = {mean} vs {expected}"
+            );
+        }
+        for o in &out {
+            assert!(o.b[3] >= 3.0e38, "a sun is at infinity: dist {}", o.b[3]);
+            if angle_deg == 0.0 {
+                assert_eq!((o.a[3], o.c[3]), (1.0, 1.0), "a delta sun: pdf 1, delta");
+                assert!(length(sub(v3(o.b), to_light)) < 1e-6);
+            } else {
+                assert_eq!(o.c[3], 0.0);
+                let pdf = o.a[3] as f64;
+                assert!(
+                    (pdf - 1.0 / (2.0 * PI * omc)).abs() <= 1e-4 * pdf,
+                    "pdf {pdf}"
+                );
+                assert!(
+                    (o.d[0] as f64 - pdf).abs() <= 1e-4 * pdf,
+                    "light_pdf_li {}",
+                    o.d[0]
+                );
+            }
+        }
+        // light_radiance along the axis and straight away from it.
+        let probe = run(&[s.case(0, to_light), s.case(0, scale(to_light, -1.0))]);
+        let inside = if angle_deg == 0.0 { 0.0 } else { le as f32 };
+        assert_eq!(
+            (probe[0].d[2], probe[1].d[2]),
+            (inside, 0.0),
+            "angle {angle_deg}"
+        );
+    }
+}

@@ -2,7 +2,7 @@
 // Case (4 vec4): l0 = (position.xyz, radius), l1 = (intensity.xyz, kind), p = (p.xyz, strategy),
 // q = (query direction.xyz, seed). The generator is rng_new(invocation, 0, seed).
 // Out (4 vec4): a = (L.xyz, pdf), b = (wi.xyz, dist), c = (p_light.xyz, delta),
-// d = (light_pdf_li at the sampled wi, light_pdf_li at q, light_radiance.x, 0).
+// d = (light_pdf_li at the sampled wi, light_pdf_li at q, light_radiance(q).x, 0).
 //
 // requires: lights.wgsl, rng.wgsl
 
@@ -39,6 +39,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     o.b = vec4<f32>(ls.wi, ls.dist);
     o.c = vec4<f32>(ls.p_light, select(0.0, 1.0, ls.delta));
     o.d = vec4<f32>(light_pdf_li(light, c.p.xyz, ls.wi, strategy),
-                    light_pdf_li(light, c.p.xyz, c.q.xyz, strategy), light_radiance(light).x, 0.0);
+                    light_pdf_li(light, c.p.xyz, c.q.xyz, strategy),
+                    light_radiance(light, c.q.xyz).x, 0.0);
     output[i] = o;
 }

@@ -100,6 +100,7 @@ pub struct GpuMaterial {
 /// Light kinds (`LIGHT_*` in lights.wgsl).
 pub const LIGHT_POINT: u32 = 0;
 pub const LIGHT_SPHERE: u32 = 1;
+pub const LIGHT_DIRECTIONAL: u32 = 2;
 
 /// Mirrors `Light` in lights.wgsl.
 #[repr(C)]
@@ -212,6 +213,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("BSDF_DELTA", BSDF_DELTA),
     ("LIGHT_POINT", LIGHT_POINT),
     ("LIGHT_SPHERE", LIGHT_SPHERE),
+    ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
     ("FILTER_NONE", FILTER_NONE),
     ("FILTER_BOX", FILTER_BOX),
     ("FILTER_GAUSSIAN", FILTER_GAUSSIAN),

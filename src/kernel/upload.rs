@@ -127,6 +127,32 @@ impl GpuScene {
                         ..Default::default()
                     });
                 }
+                Light::Directional {
+                    direction,
+                    irradiance,
+                    color,
+                    angle_deg,
+                } => {
+                    // `position` holds the unit direction towards the light, `radius` 1 - cos of the
+                    // cone's half-angle a (0: a delta light). A disc of uniform radiance Le filling the
+                    // cone gives E = Le pi sin^2(a) on a surface facing it (the projected solid angle of
+                    // the cap), so Le = E / (pi sin^2 a); a delta light carries E itself.
+                    let half = (angle_deg as f64 / 2.0).to_radians();
+                    let omc = 2.0 * (half / 2.0).sin().powi(2); // 1 - cos, without cancellation
+                    let sin2 = omc * (2.0 - omc);
+                    let scale = if omc > 0.0 {
+                        irradiance as f64 / (std::f64::consts::PI * sin2)
+                    } else {
+                        irradiance as f64
+                    };
+                    g.lights.push(GpuLight {
+                        position: (-direction).into(),
+                        radius: omc as f32,
+                        intensity: (color * scale as f32).into(),
+                        kind: LIGHT_DIRECTIONAL,
+                        ..Default::default()
+                    });
+                }
             }
         }
         g.stats.scene_bytes = g.bytes();

@@ -187,6 +187,16 @@ pub enum Light {
         power: f32,
         color: Vec3,
     },
+    /// A sun: light arriving from infinitely far along `direction` (unit, the way the light travels),
+    /// giving `irradiance * color` W/m^2 on a surface facing it. With an angular diameter `angle_deg`
+    /// > 0 it is a disc of uniform radiance filling a cone of half-angle `angle_deg / 2` (soft shadows);
+    /// with 0, a delta light.
+    Directional {
+        direction: Vec3,
+        irradiance: f32,
+        color: Vec3,
+        angle_deg: f32,
+    },
 }
 
 impl Scene {

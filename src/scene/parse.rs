@@ -243,8 +243,11 @@ struct RawLight {
     position: Option<Spanned<RawVec3>>,
     center: Option<Spanned<RawVec3>>,
     radius: Option<Spanned<f32>>,
-    power: Spanned<f32>,
+    power: Option<Spanned<f32>>,
     color: Option<Spanned<RawVec3>>,
+    direction: Option<Spanned<RawVec3>>,
+    irradiance: Option<Spanned<f32>>,
+    angle: Option<Spanned<f32>>,
 }
 
 /// A TOML array of exactly three numbers (integers accepted). serde's own `[f32; 3]` silently ignores
@@ -921,13 +924,23 @@ impl Checker<'_> {
     fn light(&self, i: usize, raw: &Spanned<RawLight>) -> Result<Light, SceneError> {
         let l = raw.get_ref();
         let key = |field: &str| format!("light[{i}].{field}");
-        let power = self.number_unless(
-            &l.power,
-            &key("power"),
-            |p| p <= 0.0,
-            "a light's power must be > 0",
-            "power is the light's total emitted flux in watts; remove the light rather than giving it no power.",
-        )?;
+        let kind = l.kind.get_ref().as_str();
+        // Point and sphere lights are given by their power; a sun by its irradiance.
+        let power = || -> Result<f32, SceneError> {
+            let power = self.required(
+                &l.power,
+                raw,
+                &key("power"),
+                &format!("a {kind} light needs a power"),
+            )?;
+            self.number_unless(
+                power,
+                &key("power"),
+                |p| p <= 0.0,
+                "a light's power must be > 0",
+                "power is the light's total emitted flux in watts; remove the light rather than giving it no power.",
+            )
+        };
         let color = l.color.as_ref().map_or(Ok(Vec3::ONE), |c| {
             self.vec3_unless(
                 c,
@@ -937,9 +950,9 @@ impl Checker<'_> {
                 "color multiplies power per channel; use components >= 0 ([1, 1, 1] is white).",
             )
         })?;
-        let kind = l.kind.get_ref().as_str();
         let (allowed, light): (&[&str], _) = match kind {
             "point" => {
+                let power = power()?;
                 let position = self.required(
                     &l.position,
                     raw,
@@ -948,7 +961,7 @@ impl Checker<'_> {
                 )?;
                 let position = self.vec3(position, &key("position"))?;
                 (
-                    &["position"],
+                    &["position", "power"],
                     Light::Point {
                         position,
                         power,
@@ -957,6 +970,7 @@ impl Checker<'_> {
                 )
             }
             "sphere" => {
+                let power = power()?;
                 let center = self.required(
                     &l.center,
                     raw,
@@ -990,7 +1004,7 @@ impl Checker<'_> {
                     ));
                 }
                 (
-                    &["center", "radius"],
+                    &["center", "radius", "power"],
                     Light::Sphere {
                         center,
                         radius,
@@ -999,12 +1013,17 @@ impl Checker<'_> {
                     },
                 )
             }
+            "directional" => (
+                &["direction", "irradiance", "angle"],
+                self.directional_light(raw, &key, color)?,
+            ),
             other => {
                 return Err(self.error(
                     l.kind.span(),
                     &key("type"),
                     format!("unknown light type \"{other}\""),
-                    "Use \"point\" (with position) or \"sphere\" (with center and radius).",
+                    "Use \"point\" (with position), \"sphere\" (with center and radius) or \"directional\" \
+                     (with direction and irradiance).",
                 ));
             }
         };
@@ -1012,6 +1031,10 @@ impl Checker<'_> {
             ("position", l.position.as_ref().map(Spanned::span)),
             ("center", l.center.as_ref().map(Spanned::span)),
             ("radius", l.radius.as_ref().map(Spanned::span)),
+            ("power", l.power.as_ref().map(Spanned::span)),
+            ("direction", l.direction.as_ref().map(Spanned::span)),
+            ("irradiance", l.irradiance.as_ref().map(Spanned::span)),
+            ("angle", l.angle.as_ref().map(Spanned::span)),
         ];
         self.reject_foreign_keys(
             &present,
@@ -1020,6 +1043,61 @@ impl Checker<'_> {
             &format!("a {kind} light"),
         )?;
         Ok(light)
+    }
+
+    /// `type = "directional"`: a sun (see [`Light::Directional`]).
+    fn directional_light(
+        &self,
+        raw: &Spanned<RawLight>,
+        key: &dyn Fn(&str) -> String,
+        color: Vec3,
+    ) -> Result<Light, SceneError> {
+        let l = raw.get_ref();
+        let direction = self.required(
+            &l.direction,
+            raw,
+            &key("direction"),
+            "a directional light needs a direction",
+        )?;
+        let d = self.vec3(direction, &key("direction"))?;
+        let length = d.as_dvec3().length();
+        if !(length > 0.0 && length.is_finite() && (d.as_dvec3() / length).as_vec3().is_finite()) {
+            return Err(self.error(
+                direction.span(),
+                &key("direction"),
+                format!("the direction [{}, {}, {}] has no length", d.x, d.y, d.z),
+                "Give the direction the light travels in, e.g. [0, -1, 0] for light from straight above.",
+            ));
+        }
+        let irradiance = self.required(
+            &l.irradiance,
+            raw,
+            &key("irradiance"),
+            "a directional light needs an irradiance",
+        )?;
+        let irradiance = self.number_unless(
+            irradiance,
+            &key("irradiance"),
+            |e| e <= 0.0,
+            "a directional light's irradiance must be > 0",
+            "irradiance is in W/m^2 on a surface facing the light (the sun gives about 1000).",
+        )?;
+        let angle_deg = match &l.angle {
+            None => 0.0,
+            Some(a) => self.number_unless(
+                a,
+                &key("angle"),
+                |a| !(0.0..180.0).contains(&a),
+                "the angular diameter must be in [0, 180) degrees",
+                "Use 0 for a delta light (sharp shadows) or the source's angular diameter (the sun: 0.53).",
+            )?,
+        };
+        Ok(Light::Directional {
+            direction: (d.as_dvec3() / length).as_vec3(),
+            irradiance,
+            color,
+            angle_deg,
+        })
     }
 
     // ----- small checks shared by the rules above -----
