@@ -838,12 +838,18 @@ angle = {angle}
             let got = film.pixel(px, py)[0] as f64;
             if off < half {
                 inside += 1;
-                assert!((got - le).abs() <= 1e-5 * le, "pixel ({px},{py}): {got} vs {le}");
+                assert!(
+                    (got - le).abs() <= 1e-5 * le,
+                    "pixel ({px},{py}): {got} vs {le}"
+                );
             } else {
                 outside += 1;
                 assert_eq!(got, 0.0, "pixel ({px},{py}) outside the sun");
             }
         }
     }
-    assert!(inside > 20 && outside > 20, "{inside} inside, {outside} outside");
+    assert!(
+        inside > 20 && outside > 20,
+        "{inside} inside, {outside} outside"
+    );
 }

@@ -188,9 +188,9 @@ pub enum Light {
         color: Vec3,
     },
     /// A sun: light arriving from infinitely far along `direction` (unit, the way the light travels),
-    /// giving `irradiance * color` W/m^2 on a surface facing it. With an angular diameter `angle_deg`
-    /// > 0 it is a disc of uniform radiance filling a cone of half-angle `angle_deg / 2` (soft shadows);
-    /// with 0, a delta light.
+    /// giving `irradiance * color` W/m^2 on a surface facing it. With a positive angular diameter
+    /// `angle_deg` it is a disc of uniform radiance filling a cone of half-angle `angle_deg / 2` (soft
+    /// shadows); with 0, a delta light.
     Directional {
         direction: Vec3,
         irradiance: f32,
