@@ -1,10 +1,22 @@
-// camera.wgsl: primary rays. A pinhole or thin-lens camera with a horizontal field of view.
+// camera.wgsl: primary rays. A pinhole or thin-lens camera with a horizontal field of view, and an
+// orthographic camera (parallel rays).
 //
 // requires: (nothing)
+
+const CAMERA_PERSPECTIVE: u32 = 0u;
+const CAMERA_ORTHOGRAPHIC: u32 = 1u;
 
 struct CameraRay {
     o: vec3<f32>,
     d: vec3<f32>,
+}
+
+// A film position (in pixels) on a plane spanning [-half_width, half_width] across the image width,
+// with square pixels: x to the right, y up.
+fn film_to_plane(half_width: f32, width: u32, height: u32, film: vec2<f32>) -> vec2<f32> {
+    let half_w = 0.5 * f32(width);
+    let half_h = 0.5 * f32(height);
+    return vec2<f32>((film.x - half_w) / half_w * half_width, (half_h - film.y) / half_w * half_width);
 }
 
 // `film` is a position on the image in pixels, (0,0) the top-left corner, x right, y down; the pixel
@@ -17,11 +29,8 @@ struct CameraRay {
 fn camera_ray(position: vec3<f32>, right: vec3<f32>, up: vec3<f32>, forward: vec3<f32>,
               tan_half_fov: f32, width: u32, height: u32, film: vec2<f32>,
               lens_radius: f32, focus_distance: f32, lens: vec2<f32>) -> CameraRay {
-    let half_w = 0.5 * f32(width);
-    let half_h = 0.5 * f32(height);
-    let sx = (film.x - half_w) / half_w * tan_half_fov;
-    let sy = (half_h - film.y) / half_w * tan_half_fov;
-    let dir = normalize(forward + sx * right + sy * up);
+    let s = film_to_plane(tan_half_fov, width, height, film);
+    let dir = normalize(forward + s.x * right + s.y * up);
     if lens_radius <= 0.0 {
         return CameraRay(position, dir);
     }
@@ -33,4 +42,13 @@ fn camera_ray(position: vec3<f32>, right: vec3<f32>, up: vec3<f32>, forward: vec
     let offset = lens_radius * (lens.x * right + lens.y * up);
     let origin = position + offset;
     return CameraRay(origin, normalize(dir - offset * (dot(dir, forward) / focus_distance)));
+}
+
+// Orthographic: every ray goes along `forward`, from the point of the film plane through `position`
+// that the film position maps to. The film spans [-half_width, half_width] across the image width (in
+// scene units) with square pixels, mapped exactly as the perspective image plane above.
+fn orthographic_ray(position: vec3<f32>, right: vec3<f32>, up: vec3<f32>, forward: vec3<f32>,
+                    half_width: f32, width: u32, height: u32, film: vec2<f32>) -> CameraRay {
+    let s = film_to_plane(half_width, width, height, film);
+    return CameraRay(position + s.x * right + s.y * up, forward);
 }

@@ -31,6 +31,7 @@ override HAS_POINT_LIGHTS: bool = true;
 override HAS_SPHERE_LIGHTS: bool = true;
 override HAS_DIRECTIONAL_LIGHTS: bool = true; // suns: light from infinitely far, delta or a small cone
 override HAS_LENS: bool = true; // aperture > 0
+override HAS_ORTHOGRAPHIC: bool = true; // camera.type = "orthographic"
 override HAS_ROULETTE: bool = true;
 override HAS_BACKGROUND: bool = true;
 // Exactly one material kind (counting emitters) / one light kind in the scene: the kind tests go.

@@ -10,7 +10,7 @@ struct Params {
     cam_position: vec3<f32>,
     lens_radius: f32,
     cam_right: vec3<f32>,
-    tan_half_fov: f32,
+    view_half_width: f32, // tan(fov / 2) (perspective) or extent / 2 (orthographic)
     cam_up: vec3<f32>,
     focus_distance: f32,
     cam_forward: vec3<f32>,
@@ -28,7 +28,7 @@ struct Params {
     num_lights: u32,
     roulette_depth: u32, // Russian roulette from this many scattering events on
     guard_one: f32, // always 1.0; see accumulate.wgsl
-    _pad0: u32,
+    camera_kind: u32, // CAMERA_PERSPECTIVE or CAMERA_ORTHOGRAPHIC (camera.wgsl)
 }
 
 struct Sphere {

@@ -124,9 +124,16 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     } else {
         rng.dim += 1u;
     }
-    let cam = camera_ray(params.cam_position, params.cam_right, params.cam_up, params.cam_forward,
-                         params.tan_half_fov, params.width, params.height, film,
+    var cam = camera_ray(params.cam_position, params.cam_right, params.cam_up, params.cam_forward,
+                         params.view_half_width, params.width, params.height, film,
                          lens_radius, params.focus_distance, lens);
+    if HAS_ORTHOGRAPHIC {
+        if params.camera_kind == CAMERA_ORTHOGRAPHIC {
+            cam = orthographic_ray(params.cam_position, params.cam_right, params.cam_up,
+                                   params.cam_forward, params.view_half_width, params.width,
+                                   params.height, film);
+        }
+    }
     var o = cam.o;
     var d = cam.d;
     var beta = vec3<f32>(1.0);

@@ -295,9 +295,9 @@ fn params_matches_wgsl() {
         "GpuParams",
         size_of::<GpuParams>(),
         fields!(GpuParams:
-            cam_position, lens_radius, cam_right, tan_half_fov, cam_up, focus_distance, cam_forward,
+            cam_position, lens_radius, cam_right, view_half_width, cam_up, focus_distance, cam_forward,
             filter_sigma, background, filter_kind, width, height, max_bounces, seed, sampler,
-            light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, _pad0),
+            light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, camera_kind),
     );
     // The uniform buffer holds one Params.
     let (_, params) = module
@@ -436,7 +436,9 @@ fn shared_constants_match_wgsl() {
     // twin fails here.
     for (_, c) in module.constants.iter() {
         let name = c.name.as_deref().unwrap_or("");
-        let shared = ["MAT_", "BSDF_", "LIGHT_", "FILTER_", "SAMPLER_", "MESH_"];
+        let shared = [
+            "MAT_", "BSDF_", "LIGHT_", "CAMERA_", "FILTER_", "SAMPLER_", "MESH_",
+        ];
         if shared.iter().any(|p| name.starts_with(p)) {
             assert!(
                 vkpath::kernel::abi::SHARED_CONSTANTS

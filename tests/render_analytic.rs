@@ -853,3 +853,81 @@ angle = {angle}
         "{inside} inside, {outside} outside"
     );
 }
+
+/// An orthographic camera looking straight down at a grey floor with a white ball on it, under a
+/// delta sun: every pixel whose ray (parallel, known on the CPU) misses the ball shows the floor's
+/// L = a E cos(theta) / pi exactly (up to f32), and the pixels that hit the ball (skipping those within
+/// 1e-3 of its silhouette) show something else; the ball covers the number of pixels its disc predicts.
+#[test]
+fn orthographic_view_of_a_lit_floor() {
+    let theta = 20f64.to_radians();
+    let (e, a) = (2.0f64, 0.5f64);
+    let text = format!(
+        r#"
+[camera]
+type = "orthographic"
+position = [0.0, 10.0, 0.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, -1.0]
+extent = 8.0
+[image]
+width = 32
+height = 24
+[render]
+samples = 4
+max_bounces = 1
+filter = "none"
+[materials]
+grey = {{ type = "diffuse", albedo = [{a}, {a}, {a}] }}
+white = {{ type = "diffuse", albedo = [0.9, 0.9, 0.9] }}
+[[triangle]]
+vertices = [[-50.0, 0.0, -50.0], [50.0, 0.0, 50.0], [50.0, 0.0, -50.0]]
+material = "grey"
+[[triangle]]
+vertices = [[-50.0, 0.0, -50.0], [-50.0, 0.0, 50.0], [50.0, 0.0, 50.0]]
+material = "grey"
+[[sphere]]
+center = [1.0, 1.0, 0.5]
+radius = 1.0
+material = "white"
+[[light]]
+type = "directional"
+direction = [{}, {}, 0.0]
+irradiance = {e}
+"#,
+        theta.sin(),
+        -theta.cos()
+    );
+    let film = render(&scene(&text));
+    let floor = a * e * theta.cos() / PI;
+    // Pixel (px, py) centre -> world (x, z): right = +x, up = -z, extent 8 across 32 pixels.
+    let (mut ball, mut lit_floor) = (0, 0);
+    for py in 0..24u32 {
+        for px in 0..32u32 {
+            let x = (2.0 * (px as f64 + 0.5) / 32.0 - 1.0) * 4.0;
+            let z = -(1.0 - 2.0 * (py as f64 + 0.5) / 24.0) * 4.0 * (24.0 / 32.0);
+            let d2 = (x - 1.0).powi(2) + (z - 0.5).powi(2);
+            let got = film.pixel(px, py)[0] as f64;
+            if (d2.sqrt() - 1.0).abs() < 1e-3 {
+                continue;
+            }
+            if d2 < 1.0 {
+                ball += 1;
+                assert!(
+                    (got - floor).abs() > 1e-3,
+                    "pixel ({px},{py}) should show the ball"
+                );
+            } else if got > 0.0 {
+                // Floor pixels outside the ball's shadow.
+                lit_floor += 1;
+                assert!(
+                    (got - floor).abs() <= 1e-5 * floor,
+                    "pixel ({px},{py}): {got} vs {floor}"
+                );
+            }
+        }
+    }
+    // The disc covers pi r^2 / (pixel area 0.25^2) = 50.3 pixel centres, up to its boundary pixels.
+    assert!((40..=60).contains(&ball), "{ball} pixels on the ball");
+    assert!(lit_floor > 500, "{lit_floor} lit floor pixels");
+}

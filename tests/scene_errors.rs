@@ -751,3 +751,41 @@ fn directional_light_errors() {
     );
     expect_error_exact(&text, 13, "light[0].direction");
 }
+
+/// The orthographic camera's keys (scene-format.md, Additions): `type` is perspective or orthographic;
+/// an orthographic camera needs an `extent` > 0 and has no `fov` and no lens; a perspective one has no
+/// `extent`.
+#[test]
+fn orthographic_camera_errors() {
+    let cam = |rest: &str| {
+        format!("[camera]   # line 1\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\n{rest}")
+    };
+    expect_error_exact(
+        &cam("type = \"fisheye\"  # line 4\nfov = 60\n"),
+        4,
+        "camera.type",
+    );
+    expect_error_exact(&cam("type = \"orthographic\"\n"), 1, "camera.extent");
+    expect_error_exact(
+        &cam("type = \"orthographic\"\nextent = 0  # line 5\n"),
+        5,
+        "camera.extent",
+    );
+    expect_error_exact(
+        &cam("type = \"orthographic\"\nextent = 4\nfov = 60  # line 6\n"),
+        6,
+        "camera.fov",
+    );
+    expect_error_exact(
+        &cam("type = \"orthographic\"\nextent = 4\naperture = 0.5  # line 6\n"),
+        6,
+        "camera.aperture",
+    );
+    expect_error_exact(&cam("fov = 60\nextent = 4  # line 5\n"), 5, "camera.extent");
+    // And a valid one parses, with aperture 0 allowed.
+    let ok = cam("type = \"orthographic\"\nextent = 4\naperture = 0\n");
+    let s =
+        Scene::from_toml_str(&ok, Some(Path::new("ok.toml"))).expect("valid orthographic camera");
+    assert_eq!(s.camera.projection, vkpath::scene::Projection::Orthographic);
+    assert_eq!(s.camera.extent, 4.0);
+}

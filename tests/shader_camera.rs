@@ -535,3 +535,52 @@ fn thin_lens_with_huge_focus_distances() {
         "the old formula was expected to fail at 1e30"
     );
 }
+
+/// The orthographic camera: every ray has the view direction, and starts on the film plane through the
+/// camera position at the point the film position maps to: x = (2 fx / w - 1) e/2 along right and
+/// y = (1 - 2 fy / h) (e/2) (h / w) along up, for an extent (view width) e; square pixels. Checked at the
+/// film's landmarks for a generic camera and extents from 1e-3 to 1e4, against f64.
+#[test]
+fn orthographic_rays_are_parallel_and_tile_the_film() {
+    for (w, h) in [(64u32, 48u32), (1, 1), (300, 20)] {
+        for extent in [1e-3f32, 2.0, 1e4] {
+            let mut cam = generic(60.0, w, h);
+            cam.tan_half_fov = 0.5 * extent; // the kernel's view_half_width
+            let films = film_landmarks(w, h);
+            let p = cam.position;
+            let mut input = vec![
+                [p[0], p[1], p[2], cam.tan_half_fov],
+                [cam.right[0], cam.right[1], cam.right[2], 0.0],
+                [cam.up[0], cam.up[1], cam.up[2], 1.0],
+                [cam.forward[0], cam.forward[1], cam.forward[2], 0.0],
+                [w as f32, h as f32, 1.0, 0.0],
+            ];
+            input.extend(films.iter().map(|f| [f[0], f[1], 0.3, -0.2]));
+            let out: Vec<[[f32; 4]; 2]> =
+                testing::run_kernel(&testing::context(), KERNEL, &input, films.len())
+                    .expect("kernel");
+            let (pos, r, u, fw) = (
+                widen(cam.position),
+                widen(cam.right),
+                widen(cam.up),
+                widen(cam.forward),
+            );
+            let half = 0.5 * extent as f64;
+            for (f, [o, d]) in films.iter().zip(&out) {
+                let what = format!("{w}x{h} extent {extent} film {f:?}");
+                assert_eq!(&d[..3], &cam.forward, "{what}: the view direction, exactly");
+                let x = (2.0 * f[0] as f64 / w as f64 - 1.0) * half;
+                let y = (1.0 - 2.0 * f[1] as f64 / h as f64) * half * (h as f64 / w as f64);
+                let want = add(pos, add(scale(r, x), scale(u, y)));
+                let got = [o[0] as f64, o[1] as f64, o[2] as f64];
+                let err = length(sub(got, want));
+                assert!(
+                    err <= 8.0 * U * (length(pos) + half),
+                    "{what}: origin off by {err}"
+                );
+                // On the film plane through the camera position.
+                assert!(dot(sub(got, pos), fw).abs() <= 8.0 * U * (length(pos) + half));
+            }
+        }
+    }
+}

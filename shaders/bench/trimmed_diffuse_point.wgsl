@@ -32,7 +32,7 @@ fn trimmed_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     var rng = rng_new(px.y * params.width + px.x, sample, params.seed);
     rng.dim += 2u; // the filter and lens dimensions, unused here
     let cam = camera_ray(params.cam_position, params.cam_right, params.cam_up, params.cam_forward,
-                         params.tan_half_fov, params.width, params.height, vec2<f32>(px) + vec2<f32>(0.5),
+                         params.view_half_width, params.width, params.height, vec2<f32>(px) + vec2<f32>(0.5),
                          0.0, params.focus_distance, vec2<f32>(0.0));
     var o = cam.o;
     var d = cam.d;

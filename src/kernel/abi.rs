@@ -15,7 +15,9 @@ pub struct GpuParams {
     pub cam_position: [f32; 3],
     pub lens_radius: f32,
     pub cam_right: [f32; 3],
-    pub tan_half_fov: f32,
+    /// Half the width of the view: of the image plane at distance 1, tan(fov / 2), for a perspective
+    /// camera; of the film itself, extent / 2, for an orthographic one.
+    pub view_half_width: f32,
     pub cam_up: [f32; 3],
     pub focus_distance: f32,
     pub cam_forward: [f32; 3],
@@ -35,7 +37,8 @@ pub struct GpuParams {
     pub num_lights: u32,
     pub roulette_depth: u32,
     pub guard_one: f32,
-    pub _pad0: u32,
+    /// [`CAMERA_PERSPECTIVE`] or [`CAMERA_ORTHOGRAPHIC`].
+    pub camera_kind: u32,
 }
 
 /// Mirrors `PassConstants` in scene_data.wgsl: which sample the next dispatch traces, over which tile,
@@ -182,6 +185,10 @@ pub struct GpuMeshInfo {
     pub flags: u32,
 }
 
+/// Projections (`GpuParams::camera_kind`, `CAMERA_*` in camera.wgsl).
+pub const CAMERA_PERSPECTIVE: u32 = 0;
+pub const CAMERA_ORTHOGRAPHIC: u32 = 1;
+
 /// Pixel filters (`GpuParams::filter_kind`, `FILTER_*` in trace.wgsl).
 pub const FILTER_NONE: u32 = 0;
 pub const FILTER_BOX: u32 = 1;
@@ -214,6 +221,8 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("LIGHT_POINT", LIGHT_POINT),
     ("LIGHT_SPHERE", LIGHT_SPHERE),
     ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
+    ("CAMERA_PERSPECTIVE", CAMERA_PERSPECTIVE),
+    ("CAMERA_ORTHOGRAPHIC", CAMERA_ORTHOGRAPHIC),
     ("FILTER_NONE", FILTER_NONE),
     ("FILTER_BOX", FILTER_BOX),
     ("FILTER_GAUSSIAN", FILTER_GAUSSIAN),

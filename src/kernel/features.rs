@@ -31,6 +31,7 @@ pub enum Feature {
     SphereLights,
     DirectionalLights,
     Lens,
+    Orthographic,
     Roulette,
     Background,
 }
@@ -185,6 +186,14 @@ pub const FEATURES: &[FeatureRow] = &[
         constant: "HAS_LENS",
         group: Group::Other,
         needed: |_, p| p.lens_radius > 0.0,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Orthographic,
+        name: "orthographic",
+        constant: "HAS_ORTHOGRAPHIC",
+        group: Group::Other,
+        needed: |_, p| p.camera_kind == CAMERA_ORTHOGRAPHIC,
         reported: true,
     },
     FeatureRow {

@@ -6,7 +6,7 @@
 
 use super::abi::*;
 use crate::scene::bvh::{self, Bvh};
-use crate::scene::{Filter, Light, LightSampling, Material, Sampler, Scene};
+use crate::scene::{Filter, Light, LightSampling, Material, Projection, Sampler, Scene};
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -313,7 +313,10 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         cam_position: cam.position.into(),
         lens_radius: cam.aperture,
         cam_right: right.into(),
-        tan_half_fov: (cam.fov_deg.to_radians() * 0.5).tan(),
+        view_half_width: match cam.projection {
+            Projection::Perspective => (cam.fov_deg.to_radians() * 0.5).tan(),
+            Projection::Orthographic => 0.5 * cam.extent,
+        },
         cam_up: up.into(),
         focus_distance: cam.focus_distance,
         cam_forward: forward.into(),
@@ -343,6 +346,9 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         num_lights: 0,
         roulette_depth,
         guard_one: 1.0,
-        _pad0: 0,
+        camera_kind: match cam.projection {
+            Projection::Perspective => CAMERA_PERSPECTIVE,
+            Projection::Orthographic => CAMERA_ORTHOGRAPHIC,
+        },
     }
 }

@@ -114,7 +114,9 @@ mod tests {
             position: Vec3::new(0.0, 1.0, 5.0),
             look_at: Vec3::new(0.0, 1.0, 0.0),
             up: Vec3::Y,
+            projection: crate::scene::Projection::Perspective,
             fov_deg: 40.0,
+            extent: 0.0,
             aperture: 0.0,
             focus_distance: 5.0,
         }

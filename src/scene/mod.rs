@@ -48,12 +48,26 @@ pub struct Camera {
     pub position: Vec3,
     pub look_at: Vec3,
     pub up: Vec3,
-    /// Horizontal field of view across the image width, in degrees, in (0, 180).
+    pub projection: Projection,
+    /// Perspective: the horizontal field of view across the image width, in degrees, in (0, 180).
     pub fov_deg: f32,
+    /// Orthographic: the width of the view in scene units (> 0); the height follows the image.
+    pub extent: f32,
     /// Lens radius in scene units; 0 is a pinhole.
     pub aperture: f32,
     /// Distance along the view axis to the plane in focus (> 0).
     pub focus_distance: f32,
+}
+
+/// How the camera maps the film to rays (`camera.type`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Projection {
+    /// Rays from one point (or a thin lens) through the film: a field of view `fov_deg`.
+    #[default]
+    Perspective,
+    /// Parallel rays along the view direction from a film `extent` wide: no perspective, for technical
+    /// renders and tests.
+    Orthographic,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

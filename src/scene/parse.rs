@@ -18,8 +18,8 @@
 
 use super::mesh::{self, Mesh, ObjMesh, Placement, Texture};
 use super::{
-    Camera, Filter, Gamma, ImageSettings, Light, LightSampling, Material, RenderSettings, Sampler,
-    Scene, Sphere, Triangle,
+    Camera, Filter, Gamma, ImageSettings, Light, LightSampling, Material, Projection,
+    RenderSettings, Sampler, Scene, Sphere, Triangle,
 };
 use glam::Vec3;
 use serde::Deserialize;
@@ -162,10 +162,13 @@ struct RawScene {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawCamera {
+    #[serde(rename = "type")]
+    kind: Option<Spanned<String>>,
     position: Spanned<RawVec3>,
     look_at: Spanned<RawVec3>,
     up: Option<Spanned<RawVec3>>,
-    fov: Spanned<f32>,
+    fov: Option<Spanned<f32>>,
+    extent: Option<Spanned<f32>>,
     aperture: Option<Spanned<f32>>,
     focus_distance: Option<Spanned<f32>>,
 }
@@ -405,13 +408,72 @@ impl Checker<'_> {
         let c = raw.get_ref();
         let position = self.vec3(&c.position, "camera.position")?;
         let look_at = self.vec3(&c.look_at, "camera.look_at")?;
-        let fov_deg = self.number_unless(
-            &c.fov,
-            "camera.fov",
-            |fov| !(fov > 0.0 && fov < 180.0),
-            "the field of view must be strictly between 0 and 180 degrees",
-            "fov is the horizontal angle across the image width in degrees; 60 is a typical value.",
-        )?;
+        let projection = match &c.kind {
+            None => Projection::Perspective,
+            Some(k) => match k.get_ref().as_str() {
+                "perspective" => Projection::Perspective,
+                "orthographic" => Projection::Orthographic,
+                other => {
+                    return Err(self.error(
+                        k.span(),
+                        "camera.type",
+                        format!("unknown camera type \"{other}\""),
+                        "Use \"perspective\" (the default, with fov) or \"orthographic\" (with extent).",
+                    ));
+                }
+            },
+        };
+        // Each projection has its own key for the size of the view, and refuses the other's.
+        let (fov_deg, extent) = match projection {
+            Projection::Perspective => {
+                if let Some(e) = &c.extent {
+                    return Err(self.error(
+                        e.span(),
+                        "camera.extent",
+                        "a perspective camera has no `extent`",
+                        "Remove `extent`, or set `type = \"orthographic\"` for a parallel projection.",
+                    ));
+                }
+                let fov = self.required(
+                    &c.fov,
+                    raw,
+                    "camera.fov",
+                    "a perspective camera needs a fov",
+                )?;
+                let fov_deg = self.number_unless(
+                    fov,
+                    "camera.fov",
+                    |fov| !(fov > 0.0 && fov < 180.0),
+                    "the field of view must be strictly between 0 and 180 degrees",
+                    "fov is the horizontal angle across the image width in degrees; 60 is a typical value.",
+                )?;
+                (fov_deg, 0.0)
+            }
+            Projection::Orthographic => {
+                if let Some(f) = &c.fov {
+                    return Err(self.error(
+                        f.span(),
+                        "camera.fov",
+                        "an orthographic camera has no `fov`",
+                        "Remove `fov`: `extent` gives the width of the view in scene units.",
+                    ));
+                }
+                let extent = self.required(
+                    &c.extent,
+                    raw,
+                    "camera.extent",
+                    "an orthographic camera needs an extent",
+                )?;
+                let extent = self.number_unless(
+                    extent,
+                    "camera.extent",
+                    |e| e <= 0.0,
+                    "the extent must be > 0",
+                    "extent is the width of the view in scene units (the height follows the image's aspect).",
+                )?;
+                (0.0, extent)
+            }
+        };
         if look_at == position {
             return Err(self.error(
                 c.look_at.span(),
@@ -468,6 +530,16 @@ impl Checker<'_> {
                 "Use 0 for a pinhole camera, or a positive lens radius in scene units for depth of field.",
             )
         })?;
+        if let (Projection::Orthographic, Some(a)) = (projection, &c.aperture)
+            && aperture > 0.0
+        {
+            return Err(self.error(
+                a.span(),
+                "camera.aperture",
+                "an orthographic camera has no lens: depth of field needs a perspective camera",
+                "Remove `aperture` (or set it to 0), or use `type = \"perspective\"`.",
+            ));
+        }
 
         let focus_distance = match &c.focus_distance {
             Some(d) => self.number_unless(
@@ -496,7 +568,9 @@ impl Checker<'_> {
             position,
             look_at,
             up,
+            projection,
             fov_deg,
+            extent,
             aperture,
             focus_distance,
         })
@@ -1635,7 +1709,9 @@ fov      = 45
                 position: Vec3::new(0.0, 0.0, 55.0),
                 look_at: Vec3::ZERO,
                 up: Vec3::Y,
+                projection: Projection::Perspective,
                 fov_deg: 60.0,
+                extent: 0.0,
                 aperture: 0.0,
                 focus_distance: 55.0,
             }
