@@ -49,7 +49,7 @@ struct Triangle {
     _pad1: u32,
 }
 
-// Triangle meshes (see src/scene/bvh.rs and src/gpu/scene.rs). An interior BVH node holds the boxes of its
+// Triangle meshes (see src/scene/bvh.rs and src/kernel/upload.rs). An interior BVH node holds the boxes of its
 // two children; a child reference is a node index, or a leaf (BVH_LEAF set, see bvh.wgsl).
 struct BvhNode {
     lo_a: vec3<f32>,

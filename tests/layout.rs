@@ -539,7 +539,7 @@ fn pass_constants_match_wgsl() {
     assert_eq!(module.types[var.ty].name.as_deref(), Some("PassConstants"));
 }
 
-// ----- meshes and the BVH (src/gpu/types.rs, shaders/scene_data.wgsl, shaders/bvh.wgsl) -----
+// ----- meshes and the BVH (src/kernel/abi.rs, shaders/scene_data.wgsl, shaders/bvh.wgsl) -----
 
 #[test]
 fn mesh_structs_match_wgsl() {

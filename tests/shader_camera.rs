@@ -26,7 +26,7 @@ fn angle(a: V3, b: V3) -> f64 {
     length(cross(a, b)).atan2(dot(a, b))
 }
 
-/// A camera as the renderer passes it to the shader (gpu/scene.rs): an f32 frame built from position,
+/// A camera as the renderer passes it to the shader (src/kernel/upload.rs): an f32 frame built from position,
 /// look_at and the world up (forward towards look_at, right = forward x up, up = right x forward).
 #[derive(Clone, Copy, Debug)]
 struct Camera {

@@ -1,7 +1,7 @@
 """Translate a vkpath scene (TOML) into a Mitsuba 3 scene dict with the same radiometry.
 
 The contract for the TOML is shared/docs/scene-format.md; what the renderer really does is in src/scene/,
-src/gpu/scene.rs and shaders/*.wgsl. Everything below states which vkpath rule it reproduces and which
+src/kernel/upload.rs and shaders/*.wgsl. Everything below states which vkpath rule it reproduces and which
 Mitsuba 3 convention it relies on (Mitsuba 3 documentation, "Plugin reference": sensors, emitters, BSDFs,
 integrators, films, reconstruction filters; https://mitsuba.readthedocs.io/en/stable/src/plugin_reference.html).
 
@@ -29,7 +29,7 @@ Mapping (vkpath -> Mitsuba 3):
   the scattering events done, the same test), survival min(max(throughput) * eta^2, 0.95). Same start
   (rr_depth = 3); the probabilities differ slightly (no 0.05 floor, eta^2 factor), which changes noise
   only: both are unbiased.
-* point light: vkpath intensity I = power * color / (4 pi) W/sr (src/gpu/scene.rs) -> `point` emitter,
+* point light: vkpath intensity I = power * color / (4 pi) W/sr (src/kernel/upload.rs) -> `point` emitter,
   `intensity` = I (Mitsuba: radiant intensity in W/sr).
 * sphere light: a visible sphere of uniform radiance Le = power * color / (4 pi^2 r^2) that absorbs what
   hits it -> `sphere` shape + `area` emitter with `radiance` = Le and a black diffuse BSDF (Mitsuba's
@@ -336,12 +336,12 @@ def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_dept
         color = _v3(light.get("color", [1.0, 1.0, 1.0]))
         power = float(light["power"])
         if light["type"] == "point":
-            intensity = [c * power / (4.0 * math.pi) for c in color]  # W/sr, as src/gpu/scene.rs
+            intensity = [c * power / (4.0 * math.pi) for c in color]  # W/sr, as src/kernel/upload.rs
             scene[f"light-{k}"] = {"type": "point", "position": _v3(light["position"]),
                                    "intensity": _rgb(intensity)}
         else:
             r = float(light["radius"])
-            le = [c * power / (4.0 * math.pi ** 2 * r * r) for c in color]  # radiance, as src/gpu/scene.rs
+            le = [c * power / (4.0 * math.pi ** 2 * r * r) for c in color]  # radiance, as src/kernel/upload.rs
             scene[f"light-{k}"] = {
                 "type": "sphere",
                 "center": _v3(light["center"]),
