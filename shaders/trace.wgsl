@@ -83,9 +83,11 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
             if !scene_occluded(shadow.o, shadow.d, shadow.t_max) {
                 let f = bsdf_eval(mat, wo, ls.wi, ns);
                 let pdf = ls.pdf * chosen.pmf;
+                // Only sphere lights are weighed: they are the lights a BSDF-sampled ray is counted for
+                // after a non-delta bounce (suns are found by escaping rays only after delta ones).
                 var w = 1.0;
                 if HAS_SPHERE_LIGHTS {
-                    if mis && !ls.delta {
+                    if mis && chosen.light.kind == LIGHT_SPHERE {
                         w = power_heuristic(pdf, bsdf_pdf(mat, wo, ls.wi, ns));
                     }
                 }

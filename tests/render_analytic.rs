@@ -931,3 +931,65 @@ irradiance = {e}
     assert!((40..=60).contains(&ball), "{ball} pixels on the ball");
     assert!(lit_floor > 500, "{lit_floor} lit floor pixels");
 }
+
+/// With `mis`, only sphere lights are weighed against the BSDF (a sun is found by escaping rays only
+/// after delta bounces, so its light samples must keep their full weight): a scene lit by both a
+/// sphere light and a wide sun (120 degrees, where the weights would be far from 1) renders the same
+/// image mean with `mis` as with `cone`, within 4 standard errors.
+#[test]
+fn mis_leaves_suns_unweighted() {
+    let text = r#"
+[camera]
+position = [0.0, 2.0, 8.0]
+look_at = [0.0, 0.5, 0.0]
+fov = 40.0
+[image]
+width = 24
+height = 24
+[render]
+samples = 64
+max_bounces = 2
+filter = "none"
+[materials]
+white = { type = "diffuse", albedo = [0.7, 0.7, 0.7] }
+[[sphere]]
+center = [0.0, -1000.0, 0.0]
+radius = 1000.0
+material = "white"
+[[sphere]]
+center = [0.0, 1.0, 0.0]
+radius = 1.0
+material = "white"
+[[light]]
+type = "sphere"
+center = [3.0, 4.0, 2.0]
+radius = 0.5
+power = 400.0
+[[light]]
+type = "directional"
+direction = [-0.3, -1.0, -0.2]
+irradiance = 1.5
+angle = 120.0
+"#;
+    let mut stats = Vec::new();
+    for strategy in [
+        vkpath::scene::LightSampling::Cone,
+        vkpath::scene::LightSampling::Mis,
+    ] {
+        let mut s = scene(text);
+        s.render.light_sampling = strategy;
+        let film = render(&s);
+        let n = film.mean.len() as f64;
+        let mean = film.mean.iter().map(|p| p[1] as f64).sum::<f64>() / n;
+        let var = film.variance.iter().map(|v| v[1] as f64).sum::<f64>() / (n * n);
+        println!("{strategy:?}: image mean {mean:.5} (se {:.2e})", var.sqrt());
+        stats.push((mean, var));
+    }
+    let (d, se) = (stats[0].0 - stats[1].0, (stats[0].1 + stats[1].1).sqrt());
+    assert!(
+        d.abs() <= 4.0 * se,
+        "cone {} vs mis {}: {d} > 4 x {se}",
+        stats[0].0,
+        stats[1].0
+    );
+}
