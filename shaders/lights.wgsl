@@ -112,14 +112,16 @@ fn directional_light_covers(light: Light, w: vec3<f32>) -> bool {
 }
 
 // --- Sphere light, cone strategy ---------------------------------------------------------------------
-// A direction uniform in the cone the sphere subtends from p (pdf 1 / (2 pi (1 - cos theta_max)) per sr,
-// sampling.wgsl's sample_cone_local): every direction in it sees the sphere, so no sample is wasted, and L = Le
-// on all of them. The point on the sphere where wi meets it comes from the angles rather than from
-// intersecting the ray (which loses the point at the cone's rim to rounding): with D = |c - p|,
-// sin(theta_max) = r / D and theta the sampled angle from the axis, the near intersection's normal makes
-// the angle alpha with -axis where cos(alpha) = sin^2(theta) / sin(theta_max)
-// + cos(theta) sqrt(1 - sin^2(theta) / sin^2(theta_max)) (the law of sines in the triangle p, c, point;
-// pbrt-v4 §6.2.4 derives the same), and it lies in the plane of the axis and wi.
+// A direction uniform in the cone the sphere subtends from p (pdf 1 / (2 pi (1 - cos theta_max)) per
+// sr, sampling.wgsl's sample_cone_local): every direction in it sees the sphere, so no sample is wasted,
+// and L = Le on all of them. The point on the sphere where wi meets it, which shadow rays aim at, comes
+// from the sampled angle rather than from intersecting the ray (which loses the point at the cone's rim
+// to rounding): with D = |c - p|, sin(theta_max) = r / D and theta the sampled angle from the axis, the
+// near root t = D cos(theta) - sqrt(r^2 - D^2 sin^2(theta)) puts the point's normal at the angle alpha
+// from -axis with cos(alpha) = (D - t cos(theta)) / r = sin^2(theta) / sin(theta_max)
+// + cos(theta) sqrt(1 - sin^2(theta) / sin^2(theta_max)) (pbrt-v4 §6.2.4 derives the same), in the
+// plane of the axis and wi. The point c + r n is then on the sphere to rounding, whatever the error in
+// alpha.
 fn sphere_light_sample_cone(light: Light, p: vec3<f32>, u: vec2<f32>) -> LightLiSample {
     let to_center = light.position - p;
     let d2 = dot(to_center, to_center);
