@@ -155,7 +155,6 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     // Whether the ray was spawned by a delta bounce (or is the camera ray): then no light sample at its
     // origin could have found what it finds.
     var last_delta = true;
-    var count_emission = true;
     var bounces = 0u;
     loop {
         let hit = scene_intersect(o, d, T_MISS);
@@ -175,7 +174,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         var mat = materials[hit_material(hit)];
         if HAS_EMITTERS {
             if mat.kind == MAT_EMITTER {
-                if count_emission {
+                if last_delta || !nee_spheres || mis {
                     var w = 1.0;
                     if HAS_SPHERE_LIGHTS {
                         if mis && prev_pdf > 0.0 {
@@ -221,7 +220,6 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         }
         beta *= bs.weight;
         let delta = (bs.flags & BSDF_DELTA) != 0u;
-        count_emission = delta || !nee_spheres || mis;
         prev_pdf = select(bs.pdf, 0.0, delta);
         prev_p = sp.p;
         last_delta = delta;

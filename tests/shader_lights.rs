@@ -111,6 +111,18 @@ fn strategy_name(s: u32) -> &'static str {
     }
 }
 
+/// A CPU basis (t, b) around the unit `axis`, independent of the shader's frame (the tests rely only on
+/// symmetry about the axis).
+fn basis(axis: V3) -> (V3, V3) {
+    let a = if axis[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let t = normalize(cross(a, axis));
+    (t, cross(axis, t))
+}
+
 /// 1 - cos of the angle between unit a and b, without cancellation: |a - b|^2 / 2.
 fn one_minus_cos(a: V3, b: V3) -> f64 {
     let d = sub(a, b);
@@ -205,13 +217,7 @@ fn sphere_light_directions_fit_their_own_pdf() {
             let what = format!("{} r/d = {ratio}", strategy_name(strategy));
             let (axis, _) = s.axis();
             let omc_max = s.sin2_max() / (1.0 + (1.0 - s.sin2_max()).sqrt());
-            let a = if axis[0].abs() < 0.9 {
-                [1.0, 0.0, 0.0]
-            } else {
-                [0.0, 1.0, 0.0]
-            };
-            let t = normalize(cross(a, axis));
-            let b = cross(axis, t);
+            let (t, b) = basis(axis);
             let step = 2.0 * PI / K as f64;
             let out = samples(&s, 9, N);
             let mut observed = vec![0.0; K * K + 1];
@@ -376,15 +382,7 @@ fn directional_light_gives_its_irradiance() {
         };
         let out = samples(&s, 17, 1 << 16);
         // A normal facing the light, and one tilted by 40 degrees from it.
-        let (t, _) = {
-            let a = if to_light[0].abs() < 0.9 {
-                [1.0, 0.0, 0.0]
-            } else {
-                [0.0, 1.0, 0.0]
-            };
-            let t = normalize(cross(a, to_light));
-            (t, ())
-        };
+        let (t, _) = basis(to_light);
         let tilt = 40f64.to_radians();
         let tilted: V3 = std::array::from_fn(|k| tilt.cos() * to_light[k] + tilt.sin() * t[k]);
         for (normal, expected) in [(to_light, e), (tilted, e * tilt.cos())] {

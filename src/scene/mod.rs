@@ -138,13 +138,6 @@ impl LightSampling {
         Self::ALL.iter().find(|(_, n)| *n == name).map(|(s, _)| *s)
     }
 
-    pub fn name(self) -> &'static str {
-        Self::ALL
-            .iter()
-            .find(|(s, _)| *s == self)
-            .map_or("cone", |(_, n)| n)
-    }
-
     /// The names, quoted and listed for an error message: `"cone", "area", "none" or "mis"`.
     pub fn names_listed() -> String {
         let quoted: Vec<String> = Self::ALL.iter().map(|(_, n)| format!("\"{n}\"")).collect();
