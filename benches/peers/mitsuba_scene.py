@@ -13,6 +13,15 @@ Mapping (vkpath -> Mitsuba 3):
   up = right x forward); Mitsuba's look_at does the same. Image orientation (x right, y down, up is up):
   compare.py's unbiasedness check compares the two images pixel by pixel (a mirrored image differs by
   more than 100%; the references agree to their noise).
+* camera.type = "orthographic" -> `orthographic` with
+  `to_world = look_at(origin, target, up) @ scale(extent/2, extent/2, 1)`. Mitsuba's orthographic sensor
+  sees camera-space x in [-1, 1] across the image width and y in [-1/aspect, 1/aspect] (square pixels); the
+  scale makes the view `extent` wide with the height following the image, as vkpath (camera.wgsl:
+  film_to_plane with half_width = extent / 2, rays parallel to the view direction from the plane through
+  `position`). Mitsuba starts its rays `near_clip` along the view axis (default 0.01, must be > 0) ->
+  near_clip = 1e-6. Verified with Mitsuba 3.6.4: extent 4 on a 16x8 image, an emitting strip 2 wide lights
+  exactly the middle 8 columns and a strip 1 high the middle 4 rows; the ray for film x = 1/4 starts at
+  camera-space x = -1 (left is left).
 * aperture > 0 -> `thinlens` with `aperture_radius = aperture` (vkpath: lens RADIUS, uniform disk) and
   `focus_distance` (vkpath: distance ALONG THE VIEW AXIS to the plane in focus, camera.wgsl divides by
   dot(dir, forward); Mitsuba's thinlens focuses on the plane z = focus_distance in camera space: the same).
@@ -44,8 +53,51 @@ Mapping (vkpath -> Mitsuba 3):
   by 1/eta^2 on each crossing, vkpath does not; on every path that contributes (light leaves the glass
   before it reaches the camera: no light, camera or diffuse surface is inside glass in these scenes) the
   factors cancel, so the expectations agree.
-* background -> `constant` emitter of that radiance (vkpath finds it only by escaping rays; Mitsuba
-  also samples it as a light: different noise, same mean). Omitted when black.
+* render.background, and `[environment] radiance` without a map -> `constant` emitter of that radiance
+  (Mitsuba samples it as a light too; vkpath's strategies differ in noise, not in mean). Omitted when black.
+  The contract says [environment] replaces render.background; a scene that sets both (background not
+  black) is not translated (unsupported_reasons: which one wins is not specified). Checked: a white
+  (albedo 1) diffuse sphere under a uniform [environment] radiance = [1, 1, 1] renders 1.00003 on average
+  (64x64, 256 spp; each pixel 1 within its noise).
+* `[environment] map` -> `envmap` with `filename` = the map's absolute path (relative paths are taken
+  relative to the scene file: with_overrides makes them absolute in the copy, mitsuba_dict takes scene_dir)
+  and `to_world = rotate(axis = [0, 1, 0], angle = rotate)` (degrees). `radiance` multiplies the map: a
+  uniform [s, s, s] becomes `scale = s`; a non-uniform tint, which Mitsuba's scalar `scale` cannot express,
+  is applied to the texels instead (the map is read with mi.Bitmap, multiplied per channel and handed over
+  as `bitmap`): the same radiance, since Mitsuba's lookup is linear in the texels. Black radiance: omitted.
+  Mitsuba 3.6.4's envmap, which vkpath reproduces (verified by evaluating Emitter.eval for chosen directions
+  on a map whose texels hold their own column and row indices):
+    - a world direction w (from the scene towards the sky; the ray direction) is taken to the map's frame
+      by d = to_world^-1 w; u = atan2(d.x, -d.z) / (2 pi), wrapped into [0, 1); v = acos(d.y) / pi. So the
+      image's top row is +y (up), its left edge and right edge are -z, u = 1/4 is +x, u = 1/2 (the middle
+      column) is +z and u = 3/4 is -x;
+    - texel lookup, W x H texels: continuous coordinates x = u W - 1/2 (periodic: column W is column 0)
+      and y = v (H - 1), bilinear between the four texels around (x, y). So texel (i, j) sits at
+      u = (i + 1/2) / W but at v = j / (H - 1): rows 0 and H-1 lie ON the poles (not at (j + 1/2) / H);
+      probed: u = 2.5 / W, v = 2 / (H - 1) returns exactly texel (2, 2), v = 2.5 / (H - 1) the mean of rows
+      2 and 3. (Exactly straight down, d.y = -1, Mitsuba wraps v = 1 to 0 and returns row 0; a set of
+      directions of measure zero.)
+    - rotate(axis = [0, 1, 0], angle = a) is the right-handed rotation about +y (counter-clockwise seen
+      from above): world = R(a) local; R(90) takes local +z to world +x and local +x to world -z. Probed:
+      with rotate = 90 the world direction +x returns the texels at u = 1/2 (the map's +z) and world +z those at
+      u = 3/4 (the map's -x). In terms of the map's azimuth phi = atan2(x, -z) = 2 pi u: a sun drawn at
+      phi0 appears in the world at azimuth phi0 - rotate (the same elevation).
+    - Mitsuba samples the map by luminance x sin(theta), vkpath its own way: noise only.
+* `[[light]] type = "directional"`, angle = 0 -> `directional` with `direction` = direction / |direction|
+  (the way the light travels, as vkpath) and `irradiance` = irradiance * color (W m^-2 on a surface facing it).
+  Verified: a white (albedo 1) diffuse floor under irradiance 3 from straight above renders 3 / pi = 0.95493.
+* `type = "emitter"` material -> black `diffuse` BSDF (vkpath's emitter reflects nothing) plus an `area`
+  emitter with `radiance` on every shape that uses it; `emission` on a diffuse, mirror or dielectric
+  material -> that material's BSDF plus an `area` emitter with `radiance` = emission. Spheres get one each;
+  triangles, written as one OBJ mesh per material, get one per mesh (Mitsuba samples a mesh emitter
+  uniformly by area; noise only). Mitsuba's area emitter emits only towards the side the surface normal
+  faces: verified with 3.6.4, a triangle written by _write_obj in vkpath's vertex order (v0, v1, v2) has
+  Mitsuba normal (v1 - v0) x (v2 - v0) (the OBJ keeps the winding; face_normals) and shows its radiance
+  exactly from that side, black from the other; a sphere shows it from outside, black from inside
+  (Mitsuba's sphere normals point outwards). That is vkpath's front side (triangle normal (v1 - v0) x (v2 - v0),
+  sphere outward): the one-sided emission matches.
+* render.light_sampling ("cone", "area", "none", "mis") only chooses vkpath's estimator; Mitsuba's `path`
+  always combines emitter and BSDF sampling by MIS. Unbiased either way: the same expected image.
 * triangles -> one OBJ mesh per material (written next to the other temporary files), face normals,
   both faces shaded via `twosided`.
 
@@ -54,6 +106,15 @@ Not matched (these scenes are excluded, with the reason, by `unsupported_reasons
   normals (vkpath ends a path whose sampled direction falls below the geometric surface; Mitsuba does
   not), so the two renderers would not compute the same image.
 * `filter = "gaussian"` / `"none"` are not compared: the box filter is forced on both sides.
+* Two-sided emission (`two_sided = true` on an emitter material, `two_sided_emission = true`): Mitsuba 3's
+  `area` emitter has no two-sided option (3.6.4 refuses `twosided` as an unreferenced property). Two
+  coincident, opposite-facing emitters are no stand-in (which of two coincident surfaces a ray meets is
+  arbitrary, so half of the hits would see the dark side), and copies moved apart change the geometry.
+* A directional light with angle > 0 (a sun disc of uniform radiance): Mitsuba's `directional` is a delta
+  light only, and no other Mitsuba emitter is a uniform cone of directions (a map would pixelate the disc,
+  a distant sphere shows parallax).
+* Material types other than diffuse, mirror, dielectric and emitter, light types other than point, sphere
+  and directional, camera types other than perspective and orthographic.
 """
 
 from __future__ import annotations
@@ -86,6 +147,54 @@ def _norm(a) -> float:
     return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
+BLACK = [0.0, 0.0, 0.0]
+WHITE = [1.0, 1.0, 1.0]
+
+
+def _material(m: dict) -> dict:
+    """A material with its defaults (scene-format.md and its Additions)."""
+    out = copy.deepcopy(m)
+    kind = out.get("type")
+    if kind == "emitter":
+        out["radiance"] = _v3(out.get("radiance", BLACK))
+        out["two_sided"] = bool(out.get("two_sided", False))
+    elif kind in ("diffuse", "mirror", "dielectric"):
+        if kind == "mirror":
+            out["tint"] = _v3(out.get("tint", WHITE))
+        out["emission"] = _v3(out.get("emission", BLACK))
+        out["two_sided_emission"] = bool(out.get("two_sided_emission", False))
+    return out
+
+
+def _light(light: dict) -> dict:
+    out = copy.deepcopy(light)
+    out["color"] = _v3(out.get("color", WHITE))
+    if out.get("type") == "directional":
+        out["angle"] = float(out.get("angle", 0.0))
+    return out
+
+
+def _environment(raw: dict) -> dict | None:
+    """[environment] with its defaults: radiance (black without a map, white with one), map (the path as
+    written, None without), rotate (degrees about +y); None when the scene has no [environment]."""
+    env = raw.get("environment")
+    if env is None:
+        return None
+    has_map = env.get("map") is not None
+    return {
+        "radiance": _v3(env.get("radiance", WHITE if has_map else BLACK)),
+        "map": env.get("map"),
+        "rotate": float(env.get("rotate", 0.0)),
+    }
+
+
+def emission_of(material: dict) -> list[float]:
+    """The front-side radiance a (resolved) material emits: black for most."""
+    if material.get("type") == "emitter":
+        return _v3(material.get("radiance", BLACK))
+    return _v3(material.get("emission", BLACK))
+
+
 def resolved(raw: dict) -> dict:
     """The scene with every default of scene-format.md filled in (a normalised copy)."""
     cam = raw["camera"]
@@ -93,12 +202,16 @@ def resolved(raw: dict) -> dict:
     render = raw.get("render", {})
     position = _v3(cam["position"])
     look_at = _v3(cam["look_at"])
+    kind = cam.get("type", "perspective")
     return {
         "camera": {
+            "type": kind,
             "position": position,
             "look_at": look_at,
             "up": _v3(cam.get("up", [0.0, 1.0, 0.0])),
-            "fov": float(cam["fov"]),
+            # perspective: the horizontal fov (degrees); orthographic: the view's width (scene units)
+            "fov": float(cam["fov"]) if "fov" in cam else None,
+            "extent": float(cam["extent"]) if "extent" in cam else None,
             "aperture": float(cam.get("aperture", 0.0)),
             "focus_distance": float(cam.get("focus_distance", _norm(_sub(look_at, position)))),
         },
@@ -109,13 +222,17 @@ def resolved(raw: dict) -> dict:
             "seed": int(render.get("seed", 0)),
             "filter": render.get("filter", "gaussian"),
             "filter_sigma": float(render.get("filter_sigma", 0.5)),
-            "background": _v3(render.get("background", [0.0, 0.0, 0.0])),
+            "background": _v3(render.get("background", BLACK)),
+            # vkpath's estimators (docs/scene-format.md): they change the noise, not the expected image
+            "sampler": render.get("sampler", "independent"),
+            "light_sampling": render.get("light_sampling", "cone"),
         },
-        "materials": copy.deepcopy(raw.get("materials", {})),
+        "environment": _environment(raw),
+        "materials": {name: _material(m) for name, m in raw.get("materials", {}).items()},
         "sphere": copy.deepcopy(raw.get("sphere", [])),
         "triangle": copy.deepcopy(raw.get("triangle", [])),
         "mesh": copy.deepcopy(raw.get("mesh", [])),
-        "light": copy.deepcopy(raw.get("light", [])),
+        "light": [_light(li) for li in raw.get("light", [])],
     }
 
 
@@ -127,12 +244,31 @@ def unsupported_reasons(raw: dict) -> list[str]:
             "OBJ meshes ([[mesh]]): sRGB textures and vkpath's shading-normal rule (paths below the "
             "geometric surface end) have no exact Mitsuba counterpart"
         )
+    kind = raw.get("camera", {}).get("type", "perspective")
+    if kind not in ("perspective", "orthographic"):
+        reasons.append(f"camera of unknown type {kind!r}")
     for name, m in raw.get("materials", {}).items():
-        if m.get("type") not in ("diffuse", "mirror", "dielectric"):
-            reasons.append(f"material {name!r} of unknown type {m.get('type')!r}")
+        if m.get("type") not in ("diffuse", "mirror", "dielectric", "emitter"):
+            reasons.append(f"material {name!r} of type {m.get('type')!r} (not translated)")
+        if m.get("two_sided") or m.get("two_sided_emission"):
+            reasons.append(
+                f"material {name!r} emits from both sides: Mitsuba 3's area emitter is one-sided only "
+                "(coincident opposite emitters would show the dark side to half the rays; offset copies "
+                "change the geometry)"
+            )
     for light in raw.get("light", []):
-        if light.get("type") not in ("point", "sphere"):
+        if light.get("type") not in ("point", "sphere", "directional"):
             reasons.append(f"light of unknown type {light.get('type')!r}")
+        elif light["type"] == "directional" and float(light.get("angle", 0.0)) > 0.0:
+            reasons.append(
+                f"directional light with angle {light['angle']} > 0: Mitsuba's `directional` is a delta "
+                "light; no Mitsuba emitter is a uniform cone of directions"
+            )
+    env = raw.get("environment")
+    background = raw.get("render", {}).get("background")
+    if env is not None and background is not None and any(float(c) != 0.0 for c in background):
+        reasons.append("both render.background and [environment]: the contract does not say which one "
+                       "lights the scene")
     return reasons
 
 
@@ -144,8 +280,8 @@ def unsupported_reasons(raw: dict) -> list[str]:
 def with_overrides(raw: dict, scene_dir: str | os.PathLike, *, filter: str | None = "box",
                    width: int | None = None, height: int | None = None,
                    max_bounces: int | None = None) -> dict:
-    """A copy of the raw scene with [render]/[image] keys replaced; mesh paths made absolute so that the
-    copy can live anywhere."""
+    """A copy of the raw scene with [render]/[image] keys replaced; mesh and environment-map paths made
+    absolute so that the copy can live anywhere."""
     out = copy.deepcopy(raw)
     render = out.setdefault("render", {})
     image = out.setdefault("image", {})
@@ -163,6 +299,9 @@ def with_overrides(raw: dict, scene_dir: str | os.PathLike, *, filter: str | Non
         for key in ("obj", "texture"):
             if key in m:
                 m[key] = str((Path(scene_dir) / m[key]).resolve())
+    env = out.get("environment")
+    if env is not None and env.get("map") is not None:
+        env["map"] = str((Path(scene_dir) / env["map"]).resolve())
     return out
 
 
@@ -176,6 +315,17 @@ def render_key(raw: dict) -> str:
     r["render"].pop("seed")
     if r["render"]["filter"] != "gaussian":
         r["render"].pop("filter_sigma")
+    cam = r["camera"]
+    if cam["type"] == "orthographic":
+        cam.pop("focus_distance")  # no lens: the focus does not enter
+    elif cam["aperture"] == 0.0:
+        cam.pop("focus_distance")  # pinhole: the focus does not enter
+    # render.background and a map-less [environment] mean the same uniform radiance: one form in the key.
+    env = r["environment"] or {"radiance": r["render"]["background"], "map": None, "rotate": 0.0}
+    r["render"].pop("background")
+    if env["map"] is None:
+        env.pop("rotate")  # a uniform environment is the same however turned
+    r["environment"] = None if env["map"] is None and all(c == 0.0 for c in env["radiance"]) else env
     return json.dumps(r, sort_keys=True)
 
 
@@ -251,6 +401,56 @@ def _black_bsdf() -> dict:
     return {"type": "diffuse", "reflectance": _rgb([0.0, 0.0, 0.0])}
 
 
+def _material_bsdf(material: dict) -> dict:
+    """The BSDF of a (resolved) material: an emitter-type material reflects nothing."""
+    if material["type"] == "emitter":
+        return _black_bsdf()
+    return _bsdf(material)
+
+
+def _area_emitter(material: dict) -> dict | None:
+    """The `area` emitter a shape of this (resolved) material carries, None when it does not emit. Mitsuba's
+    area emitter emits on the side the shape's normal faces, as vkpath's one-sided emission."""
+    le = emission_of(material)
+    if all(c == 0.0 for c in le):
+        return None
+    return {"type": "area", "radiance": _rgb(le)}
+
+
+def _environment_emitter(mi, env: dict, scene_dir: str | os.PathLike | None) -> dict | None:
+    """`envmap` (with a map) or `constant` (without) for a resolved [environment]; None when black."""
+    radiance = env["radiance"]
+    if all(c == 0.0 for c in radiance):
+        return None
+    if env["map"] is None:
+        return {"type": "constant", "radiance": _rgb(radiance)}
+    path = Path(env["map"])
+    if not path.is_absolute():
+        if scene_dir is None:
+            raise ValueError(f"environment map {env['map']!r} is relative: pass scene_dir (the scene "
+                             "file's folder) or a copy from with_overrides")
+        path = Path(scene_dir) / path
+    path = path.resolve()
+    emitter = {
+        "type": "envmap",
+        # world = R local, R the right-handed rotation about +y by `rotate` degrees (see the docstring)
+        "to_world": mi.ScalarTransform4f().rotate(axis=[0.0, 1.0, 0.0], angle=env["rotate"]),
+    }
+    if radiance[0] == radiance[1] == radiance[2]:
+        emitter["filename"] = str(path)
+        if radiance[0] != 1.0:
+            emitter["scale"] = radiance[0]
+    else:
+        # A per-channel tint: Mitsuba's `scale` is a scalar, so the texels are tinted instead (the lookup
+        # is bilinear, hence linear in the texels: the same radiance as vkpath's map x radiance).
+        import numpy as np
+
+        bitmap = mi.Bitmap(str(path)).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, False)
+        texels = np.array(bitmap, dtype=np.float32) * np.array(radiance, dtype=np.float32)
+        emitter["bitmap"] = mi.Bitmap(np.ascontiguousarray(texels, dtype=np.float32))
+    return emitter
+
+
 def _write_obj(path: Path, triangles: list[list[list[float]]]) -> None:
     with open(path, "w") as f:
         f.write("# triangles of a vkpath scene, written by benches/peers/mitsuba_scene.py\n")
@@ -261,9 +461,11 @@ def _write_obj(path: Path, triangles: list[list[list[float]]]) -> None:
             f.write(f"f {3 * i + 1} {3 * i + 2} {3 * i + 3}\n")
 
 
-def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_depth: int = 3) -> dict:
+def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_depth: int = 3,
+                 scene_dir: str | os.PathLike | None = None) -> dict:
     """The Mitsuba 3 scene dict for `raw` (already overridden: size, bounces, filter). `mi` is the mitsuba
-    module with a variant set. Triangles are written as OBJ files under tmp_dir."""
+    module with a variant set. Triangles are written as OBJ files under tmp_dir. A relative environment
+    map is found relative to scene_dir (with_overrides makes it absolute already)."""
     reasons = unsupported_reasons(raw)
     if reasons:
         raise ValueError("; ".join(reasons))
@@ -273,12 +475,20 @@ def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_dept
         raise ValueError(f"only the box filter is matched (scene has {render['filter']!r})")
 
     to_world = mi.ScalarTransform4f().look_at(origin=cam["position"], target=cam["look_at"], up=cam["up"])
+    if cam["type"] == "orthographic":
+        # Mitsuba's view spans camera-space x in [-1, 1] across the width: scale it to extent / 2.
+        half = 0.5 * cam["extent"]
+        projection = {"type": "orthographic",
+                      "to_world": to_world @ mi.ScalarTransform4f().scale([half, half, 1.0]),
+                      "near_clip": 1e-6}  # rays start (almost) on the plane through position, as vkpath's
+    else:
+        projection = {"type": "perspective",
+                      "fov": cam["fov"],
+                      "fov_axis": "x",  # vkpath's fov is horizontal (scene-format.md, camera.wgsl)
+                      "to_world": to_world,
+                      "near_clip": 1e-3}
     sensor = {
-        "type": "perspective",
-        "fov": cam["fov"],
-        "fov_axis": "x",  # vkpath's fov is horizontal (scene-format.md, camera.wgsl)
-        "to_world": to_world,
-        "near_clip": 1e-3,
+        **projection,
         "far_clip": 1e6,  # the course's wall spheres reach 2000 units away; never clip them
         "sampler": {"type": "independent", "sample_count": int(spp)},
         "film": {
@@ -290,7 +500,7 @@ def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_dept
             "component_format": "float32",
         },
     }
-    if cam["aperture"] > 0.0:
+    if cam["aperture"] > 0.0 and cam["type"] == "perspective":
         sensor["type"] = "thinlens"
         sensor["aperture_radius"] = cam["aperture"]
         sensor["focus_distance"] = cam["focus_distance"]
@@ -306,15 +516,19 @@ def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_dept
     scene: dict = {"type": "scene", "integrator": integrator, "sensor": sensor}
     materials = s["materials"]
     for name, m in materials.items():
-        scene[f"bsdf-{name}"] = {**_bsdf(m), "id": f"bsdf-{name}"}
+        scene[f"bsdf-{name}"] = {**_material_bsdf(m), "id": f"bsdf-{name}"}
 
     for i, sph in enumerate(s["sphere"]):
-        scene[f"sphere-{i:03d}"] = {
+        shape = {
             "type": "sphere",
             "center": _v3(sph["center"]),
             "radius": float(sph["radius"]),
             "bsdf": {"type": "ref", "id": f"bsdf-{sph['material']}"},
         }
+        emitter = _area_emitter(materials[sph["material"]])  # outward, as vkpath's sphere normal
+        if emitter is not None:
+            shape["emitter"] = emitter
+        scene[f"sphere-{i:03d}"] = shape
 
     by_material: dict[str, list] = {}
     for tri in s["triangle"]:
@@ -325,15 +539,28 @@ def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_dept
     for j, (name, tris) in enumerate(by_material.items()):
         path = Path(tmp_dir) / f"triangles-{j}.obj"
         _write_obj(path, tris)
-        scene[f"triangles-{j}"] = {
+        shape = {
             "type": "obj",
             "filename": str(path),
-            "face_normals": True,
+            "face_normals": True,  # normal (v1 - v0) x (v2 - v0): _write_obj keeps vkpath's vertex order
             "bsdf": {"type": "ref", "id": f"bsdf-{name}"},
         }
+        emitter = _area_emitter(materials[name])
+        if emitter is not None:
+            shape["emitter"] = emitter
+        scene[f"triangles-{j}"] = shape
 
     for k, light in enumerate(s["light"]):
-        color = _v3(light.get("color", [1.0, 1.0, 1.0]))
+        color = light["color"]
+        if light["type"] == "directional":
+            d = _v3(light["direction"])
+            n = _norm(d)
+            scene[f"light-{k}"] = {
+                "type": "directional",
+                "direction": [c / n for c in d],  # the way the light travels, as vkpath's
+                "irradiance": _rgb([float(light["irradiance"]) * c for c in color]),  # W/m^2 facing it
+            }
+            continue
         power = float(light["power"])
         if light["type"] == "point":
             intensity = [c * power / (4.0 * math.pi) for c in color]  # W/sr, as src/kernel/upload.rs
@@ -350,6 +577,63 @@ def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_dept
                 "emitter": {"type": "area", "radiance": _rgb(le)},
             }
 
-    if any(c != 0.0 for c in render["background"]):
-        scene["background"] = {"type": "constant", "radiance": _rgb(render["background"])}
+    env = s["environment"]
+    if env is None:
+        env = {"radiance": render["background"], "map": None, "rotate": 0.0}  # the same uniform radiance
+    emitter = _environment_emitter(mi, env, scene_dir)
+    if emitter is not None:
+        scene["environment"] = emitter
     return scene
+
+
+# ---------------------------------------------------------------------------------------------------
+# Rendering one scene with Mitsuba 3 (a check of the translation; compare.py does the comparisons)
+# ---------------------------------------------------------------------------------------------------
+
+
+def main(argv: list[str] | None = None) -> int:
+    """python mitsuba_scene.py SCENE.toml -o OUT.png|OUT.exr [--spp N] [--size W] [--max-bounces N]: render a
+    vkpath scene with Mitsuba 3 through mitsuba_dict (box filter), print the image mean per channel."""
+    import argparse
+    import sys
+    import tempfile
+
+    ap = argparse.ArgumentParser(description=main.__doc__)
+    ap.add_argument("scene", help="a vkpath scene (.toml)")
+    ap.add_argument("-o", "--output", required=True, help=".exr (linear) or .png (sRGB-encoded, clamped)")
+    ap.add_argument("--spp", type=int, default=16)
+    ap.add_argument("--size", type=int, help="image width (the height keeps the aspect); default the scene's")
+    ap.add_argument("--max-bounces", type=int, help="override render.max_bounces")
+    ap.add_argument("--seed", type=int, default=0)
+    a = ap.parse_args(argv)
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from compare import import_mitsuba  # LLVM 19 for Dr.Jit, llvm_ad_rgb
+
+    _, mi, _ = import_mitsuba()
+    raw = load_toml(a.scene)
+    reasons = unsupported_reasons(raw)
+    if reasons:
+        sys.exit("mitsuba_scene.py: not translatable: " + "; ".join(reasons))
+    r = resolved(raw)
+    width = a.size or r["image"]["width"]
+    height = max(1, round(width * r["image"]["height"] / r["image"]["width"]))
+    over = with_overrides(raw, Path(a.scene).parent, filter="box", width=width, height=height,
+                          max_bounces=a.max_bounces)
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = mi.load_dict(mitsuba_dict(mi, over, spp=a.spp, tmp_dir=tmp))
+        img = mi.render(scene, spp=a.spp, seed=a.seed)
+    out = Path(a.output)
+    if out.suffix.lower() == ".png":
+        mi.util.write_bitmap(str(out), img, write_async=False)  # sRGB transfer curve, 8 bit
+    else:
+        mi.Bitmap(img).write(str(out))
+    import numpy as np
+
+    mean = np.array(img, dtype=np.float64).reshape(-1, 3).mean(axis=0)
+    print(f"{out}: {width}x{height}, {a.spp} spp, mean RGB {mean[0]:.5f} {mean[1]:.5f} {mean[2]:.5f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
