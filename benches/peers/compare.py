@@ -35,6 +35,13 @@ log(modelled seconds) between the renders; beyond the last render, error = c / s
 three renders, marked with ~ in the table) and the error at equal time (the longest time that every
 renderer's ladder reached on that scene, interpolated the same way): the figure of merit.
 
+Several vkpath settings can be compared in one run: each `--vkpath-config 'LABEL:FLAGS'` is a ladder of its
+own (e.g. `--vkpath-config 'mis:--light-sampling mis' --vkpath-config 'none:--light-sampling none'`), a row
+per scene in the main table and a column in the side-by-side tables (error at equal time, noise per sample;
+configs in the order given, then Mitsuba). The first config renders the reference with Mitsuba; with
+--check-every-config every config also renders reference batches and is checked against Mitsuba's (one
+unbiasedness row per config).
+
 Outputs, under --out (default benches/peers/results/): <tag>-ladder.csv (every render),
 <tag>-summary.csv (per scene and renderer), <tag>-reference.csv (the unbiasedness check), <tag>.md
 (the tables, also printed), images/<tag>/ (the reference EXRs; git-ignored), tmp/ (scene copies).
@@ -356,6 +363,25 @@ def parse_config(spec: str) -> tuple[str, list[str]]:
     return label.strip() or "vkpath", args.split()
 
 
+def check_configs(configs: list[tuple[str, list[str]]]) -> None:
+    """Each config is one ladder, one summary row and one column of the side-by-side tables, found by its
+    label: labels must be distinct, and none may be Mitsuba's."""
+    labels = [label for label, _ in configs]
+    for label in labels:
+        if labels.count(label) > 1:
+            sys.exit(f"compare.py: two --vkpath-config share the label {label!r}; give each its own "
+                     "(e.g. 'mis:--light-sampling mis' 'cone:--light-sampling cone')")
+        if label == Mitsuba.label:
+            sys.exit(f"compare.py: the label {label!r} is Mitsuba's; choose another")
+        if "|" in label:
+            sys.exit(f"compare.py: a label may not contain '|' (it breaks the Markdown tables): {label!r}")
+
+
+def file_label(label: str) -> str:
+    """A label made safe for a file name."""
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in label)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -371,8 +397,13 @@ def main() -> int:
                     help="Russian roulette start for Mitsuba (vkpath's default roulette_depth is 3)")
     ap.add_argument("--vkpath", default=str(ROOT / "target" / "release" / "vkpath"), help="vkpath binary")
     ap.add_argument("--vkpath-config", action="append", metavar="LABEL:ARGS",
-                    help="a vkpath setting to compare, e.g. 'vkpath generic:--generic' (repeatable; the "
-                    "first also renders the reference); default 'vkpath:' (no extra flags)")
+                    help="a vkpath setting to compare, e.g. 'vkpath generic:--generic' or "
+                    "'mis:--light-sampling mis' (repeatable: one ladder each, side by side in the tables; "
+                    "the first also renders the reference); default 'vkpath:' (no extra flags)")
+    ap.add_argument("--check-every-config", action="store_true",
+                    help="render the reference batches with every --vkpath-config (not only the first) and "
+                    "check each against Mitsuba's (the unbiasedness table gets a row per config); costs "
+                    "--ref-spp more samples per extra config and scene")
     ap.add_argument("--seed-base", type=int, default=0,
                     help="added to every seed, for an independent repetition of a run")
     ap.add_argument("--repeat", type=int, default=1,
@@ -395,6 +426,7 @@ def main() -> int:
     if ref_spp % batches:
         sys.exit("compare.py: --ref-spp must be a multiple of --ref-batches")
     configs = [parse_config(c) for c in (a.vkpath_config or ["vkpath:"])]
+    check_configs(configs)
     vkpath_bin = Path(a.vkpath)
     if not vkpath_bin.exists():
         sys.exit(f"compare.py: no vkpath binary at {vkpath_bin}; run `cargo build --release` first")
@@ -475,32 +507,42 @@ def main() -> int:
 
         # 1. The common reference and the unbiasedness check. Batches alternate between the renderers
         # so that a change of load on the machine hits both alike.
+        # With --check-every-config each vkpath config renders reference batches too and is checked against
+        # Mitsuba on its own; the common reference stays the first config's and Mitsuba's.
         per = ref_spp // batches
-        vk_batches, mi_batches = [], []
+        checked = vks if a.check_every_config else vks[:1]
+        vk_batches: dict[str, list] = {v.label: [] for v in checked}
+        mi_batches = []
         for k in range(batches):
-            vk_batches.append(vks[0].render(per, seed=a.seed_base + 1 + k))
+            for v in checked:
+                vk_batches[v.label].append(v.render(per, seed=a.seed_base + 1 + k))
             mi_batches.append(mit.render(per, seed=a.seed_base + 1 + k))
-        ref_vk = reference_from_batches(vk_batches)
+        refs_vk = {label: reference_from_batches(b) for label, b in vk_batches.items()}
+        ref_vk = refs_vk[vks[0].label]
         ref_mi = reference_from_batches(mi_batches)
         ref = Reference(0.5 * (ref_vk.mean + ref_mi.mean), 0.25 * (ref_vk.var_of_mean + ref_mi.var_of_mean),
                         ref_vk.spp + ref_mi.spp, ref_vk.seconds + ref_mi.seconds)
         ref_noise_ms = float(ref.var_of_mean.mean())
         ref_noise_rel = math.sqrt(ref_noise_ms) / float(ref.mean.mean())
-        check = unbiasedness(ref_vk, ref_mi)
         write_exr(imgdir / f"{name}-ref.exr", ref.mean)
-        write_exr(imgdir / f"{name}-ref-vkpath.exr", ref_vk.mean)
         write_exr(imgdir / f"{name}-ref-mitsuba.exr", ref_mi.mean)
-        ref_rows.append({
-            "scene": name, "width": w, "height": h, "spp_each": ref_spp, "batches": batches,
-            "vkpath_seconds": round(ref_vk.seconds, 3), "mitsuba_seconds": round(ref_mi.seconds, 3),
-            "ref_rel_noise": f"{ref_noise_rel:.5f}",
-            **{k: (f"{v:.5g}" if isinstance(v, float) else v) for k, v in check.items()},
-        })
-        print(f"   reference: {ref_vk.spp}+{ref_mi.spp} spp, noise {100 * ref_noise_rel:.2f}%; "
-              f"vkpath vs Mitsuba: rms diff {100 * check['rel_rms_diff']:.2f}% (expected "
-              f"{100 * check['rel_rms_expected']:.2f}% from noise, ratio of squares {check['ms_ratio']:.3f}), "
-              f"mean diff {100 * check['rel_mean_diff']:+.3f}% (z = {check['mean_diff_z']:+.2f}), "
-              f"max |z| of {check['blocks']} blocks {check['max_block_abs_z']:.2f}", flush=True)
+        print(f"   reference: {ref_vk.spp}+{ref_mi.spp} spp, noise {100 * ref_noise_rel:.2f}%", flush=True)
+        for i, (label, rv) in enumerate(refs_vk.items()):
+            check = unbiasedness(rv, ref_mi)
+            suffix = "" if i == 0 else "-" + file_label(label)
+            write_exr(imgdir / f"{name}-ref-vkpath{suffix}.exr", rv.mean)
+            ref_rows.append({
+                "scene": name, "vkpath_config": label, "width": w, "height": h, "spp_each": ref_spp,
+                "batches": batches,
+                "vkpath_seconds": round(rv.seconds, 3), "mitsuba_seconds": round(ref_mi.seconds, 3),
+                "ref_rel_noise": f"{ref_noise_rel:.5f}",
+                **{k: (f"{v:.5g}" if isinstance(v, float) else v) for k, v in check.items()},
+            })
+            print(f"   {label} vs Mitsuba: rms diff {100 * check['rel_rms_diff']:.2f}% (expected "
+                  f"{100 * check['rel_rms_expected']:.2f}% from noise, ratio of squares "
+                  f"{check['ms_ratio']:.3f}), mean diff {100 * check['rel_mean_diff']:+.3f}% "
+                  f"(z = {check['mean_diff_z']:+.2f}), max |z| of {check['blocks']} blocks "
+                  f"{check['max_block_abs_z']:.2f}", flush=True)
 
         # 2. The ladders, interleaved: at each spp every renderer renders once (the order rotating from
         # one step to the next), so that load from elsewhere on the machine falls on all of them alike.
@@ -630,6 +672,47 @@ def summarize(ladder_rows: list[dict]) -> list[dict]:
     return rows
 
 
+def side_by_side(summary_rows: list[dict], shown) -> list[str]:
+    """Markdown: one row per scene, one column per renderer (every vkpath config in the order given, then
+    Mitsuba 3), for the error at the scene's equal time and for the noise per sample (error x sqrt(spp)).
+    The lowest error of each row is in bold."""
+    renderers: list[str] = []
+    by_scene: dict[str, dict[str, dict]] = {}
+    for row in summary_rows:
+        if row["renderer"] not in renderers:
+            renderers.append(row["renderer"])
+        by_scene.setdefault(row["scene"], {})[row["renderer"]] = row
+    # Mitsuba last, the vkpath configs in the order of the command line (the ladder CSV's order).
+    renderers = [r for r in renderers if r != Mitsuba.label] + [r for r in renderers if r == Mitsuba.label]
+    md: list[str] = []
+    for title, key, fmt in (
+        ("Relative error at equal time (the longest time every renderer's ladder reached on the scene)",
+         "error_at_equal_time", lambda v: f"{100 * v:.2f}%"),
+        ("Noise per sample, error x sqrt(spp) (speed left out)", "error_x_sqrt_spp", lambda v: f"{v:.4f}"),
+    ):
+        md += ["", title + ":", "",
+               "| scene | " + ("equal time | " if key == "error_at_equal_time" else "")
+               + " | ".join(renderers) + " |",
+               "| --- | " + ("---: | " if key == "error_at_equal_time" else "")
+               + " | ".join("---:" for _ in renderers) + " |"]
+        for rows in by_scene.values():
+            values = {r: float(rows[r][key]) for r in renderers if r in rows and rows[r].get(key)}
+            best = min(values.values()) if values else None
+            cells = []
+            for r in renderers:
+                if r not in values:
+                    cells.append("n/a")
+                else:
+                    text = fmt(values[r])
+                    cells.append(f"**{text}**" if values[r] == best and len(values) > 1 else text)
+            first = next(iter(rows.values()))
+            lead = [shown(first)]
+            if key == "error_at_equal_time":
+                lead.append(f"{float(first['equal_time_s']):.2f} s")
+            md.append("| " + " | ".join(lead + cells) + " |")
+    return md
+
+
 def report(out: Path, tag: str) -> int:
     """Summary CSV and Markdown tables from <tag>-ladder.csv, <tag>-reference.csv and <tag>-meta.json."""
     ladder_rows = read_csv(out / f"{tag}-ladder.csv")
@@ -663,13 +746,16 @@ def report(out: Path, tag: str) -> int:
            "< : reached by the ladder's first render (an upper bound). Times and samples/s come from "
            "each ladder's fitted time model seconds = a + b spp (measured seconds: the ladder CSV). "
            "error x sqrt(spp): the noise per sample, whatever the speed (lower is better). Last "
-           "column: the fitted convergence rate (-0.5 expected).",
-           "", "Unbiasedness (the two renderers' references; expected: ratio ~1, |z| small):", "",
-           "| scene | ref spp each | ref noise | rms diff | expected from noise | ratio of squares | "
-           "mean diff (z) | max block abs z (blocks, over 4) |",
-           "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+           "column: the fitted convergence rate (-0.5 expected)."]
+    md += side_by_side(summary_rows, shown)
+    with_config = any(r.get("vkpath_config") for r in ref_rows)
+    md += ["", "Unbiasedness (vkpath's reference against Mitsuba's; expected: ratio ~1, |z| small):", "",
+           "| scene | " + ("vkpath config | " if with_config else "") + "ref spp each | ref noise | rms diff | "
+           "expected from noise | ratio of squares | mean diff (z) | max block abs z (blocks, over 4) |",
+           "| --- | " + ("--- | " if with_config else "") + "---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in ref_rows:
-        md.append(f"| {shown(r)} | {r['spp_each']} | {100 * float(r['ref_rel_noise']):.2f}% | "
+        config = f"{r.get('vkpath_config', '')} | " if with_config else ""
+        md.append(f"| {shown(r)} | {config}{r['spp_each']} | {100 * float(r['ref_rel_noise']):.2f}% | "
                   f"{100 * float(r['rel_rms_diff']):.2f}% | {100 * float(r['rel_rms_expected']):.2f}% | "
                   f"{float(r['ms_ratio']):.3f} | {100 * float(r['rel_mean_diff']):+.3f}% "
                   f"({float(r['mean_diff_z']):+.2f}) | {float(r['max_block_abs_z']):.2f} "
