@@ -750,9 +750,11 @@ def report(out: Path, tag: str) -> int:
     md += side_by_side(summary_rows, shown)
     with_config = any(r.get("vkpath_config") for r in ref_rows)
     md += ["", "Unbiasedness (vkpath's reference against Mitsuba's; expected: ratio ~1, |z| small):", "",
-           "| scene | " + ("vkpath config | " if with_config else "") + "ref spp each | ref noise | rms diff | "
-           "expected from noise | ratio of squares | mean diff (z) | max block abs z (blocks, over 4) |",
-           "| --- | " + ("--- | " if with_config else "") + "---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+           "| scene | " + ("vkpath config | " if with_config else "")
+           + "ref spp each | ref noise | rms diff | expected from noise | ratio of squares | mean diff (z) | "
+           "max block abs z (blocks, over 4) |",
+           "| --- | " + ("--- | " if with_config else "")
+           + "---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in ref_rows:
         config = f"{r.get('vkpath_config', '')} | " if with_config else ""
         md.append(f"| {shown(r)} | {config}{r['spp_each']} | {100 * float(r['ref_rel_noise']):.2f}% | "
