@@ -25,15 +25,30 @@
 const MAT_DIFFUSE: u32 = 0u;
 const MAT_MIRROR: u32 = 1u;
 const MAT_DIELECTRIC: u32 = 2u;
-// The surface of a sphere light: emits `emission`, scatters nothing (a path ends there).
+// The `emitter` material (a lamp's surface, and a sphere light's): emits `emission`, scatters nothing
+// (a path ends there).
 const MAT_EMITTER: u32 = 3u;
+
+// Material::flags: emission leaves both faces, not only the front.
+const MATERIAL_TWO_SIDED_EMISSION: u32 = 1u;
 
 // One material's parameters, as uploaded (`materials` in scene_data.wgsl; GpuMaterial in Rust).
 struct Material {
     albedo: vec3<f32>, // diffuse albedo or mirror tint (a texture replaces it per hit)
     kind: u32,
-    emission: vec3<f32>, // radiance of an emitter, W sr^-1 m^-2
+    emission: vec3<f32>, // emitted radiance, W sr^-1 m^-2 (any kind may emit; zero: it does not)
     ior: f32, // dielectric: index of refraction inside over outside
+    flags: u32, // MATERIAL_TWO_SIDED_EMISSION
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// The radiance the material emits towards a viewer on its front side (`front`: the side the geometric
+// normal faces) or its back: its emission, on the back only if two-sided.
+fn material_emission(mat: Material, front: bool) -> vec3<f32> {
+    let seen = front || (mat.flags & MATERIAL_TWO_SIDED_EMISSION) != 0u;
+    return select(vec3<f32>(0.0), mat.emission, seen);
 }
 
 // BsdfSample::flags.

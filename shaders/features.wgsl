@@ -25,15 +25,18 @@ override HAS_MESH_SHADING: bool = true;
 override HAS_DIFFUSE: bool = true;
 override HAS_MIRROR: bool = true;
 override HAS_DIELECTRIC: bool = true;
-override HAS_EMITTERS: bool = true; // sphere lights are visible spheres with an emitting material
+override HAS_EMITTERS: bool = true; // the `emitter` material: black, it only emits
+override HAS_EMISSION: bool = true; // some surface emits (an emitter, or any material with `emission`)
 // Lights (lights.wgsl).
 override HAS_POINT_LIGHTS: bool = true;
 override HAS_SPHERE_LIGHTS: bool = true;
 override HAS_DIRECTIONAL_LIGHTS: bool = true; // suns: light from infinitely far, delta or a small cone
+override HAS_TRIANGLE_LIGHTS: bool = true; // emitting triangles and meshes
+override HAS_ENVIRONMENT: bool = true; // light from infinity: uniform (`background`) or a map
+override HAS_ENVIRONMENT_MAP: bool = true;
 override HAS_LENS: bool = true; // aperture > 0
 override HAS_ORTHOGRAPHIC: bool = true; // camera.type = "orthographic"
 override HAS_ROULETTE: bool = true;
-override HAS_BACKGROUND: bool = true;
 // Exactly one material kind (counting emitters) / one light kind in the scene: the kind tests go.
 override SINGLE_MATERIAL_KIND: bool = false;
 override SINGLE_LIGHT_KIND: bool = false;

@@ -129,3 +129,57 @@ fn power_heuristic(a: f32, b: f32) -> f32 {
     let r = b / a;
     return 1.0 / (1.0 + r * r);
 }
+
+// Uniform point on a triangle, as barycentrics (b0, b1, b2) of its vertices: b0 = 1 - sqrt(u1),
+// b1 = u2 sqrt(u1) (Shirley & Chiu's warp of the square). pdf = 1 / area.
+fn sample_uniform_triangle(u: vec2<f32>) -> vec3<f32> {
+    let su = sqrt(u.x);
+    let b0 = 1.0 - su;
+    let b1 = u.y * su;
+    return vec3<f32>(b0, b1, max(0.0, 1.0 - b0 - b1));
+}
+
+// The angle between unit vectors a and b, accurate near 0 and pi (2 asin of half the chord rather than
+// acos of the dot product).
+fn angle_between(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    if dot(a, b) < 0.0 {
+        return PI - 2.0 * asin(min(1.0, 0.5 * length(a + b)));
+    }
+    return 2.0 * asin(min(1.0, 0.5 * length(b - a)));
+}
+
+// The solid angle of the spherical triangle with unit vertices a, b, c (Van Oosterom & Strackee 1983):
+// tan(omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a); atan2 keeps omega right above pi (a
+// negative denominator) up to 2 pi.
+fn spherical_triangle_area(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
+    let triple = abs(dot(a, cross(b, c)));
+    return 2.0 * atan2(triple, 1.0 + dot(a, b) + dot(b, c) + dot(c, a));
+}
+
+// A direction uniform in solid angle over the spherical triangle with unit vertices a, b, c and solid
+// angle `area` (> 0): Arvo, "Stratified Sampling of Spherical Triangles", SIGGRAPH 1995. u1 chooses the
+// sub-triangle (a, b, c') of area u1 * area, which fixes c' on the arc from a to c; u2 then chooses the
+// point on the arc from b to c' by the cosine of its angle from b, linear in u2. pdf = 1 / area.
+// Its f32 precision degrades as the triangle shrinks (1 - c'.b cancels): lights.wgsl samples triangles
+// below TRIANGLE_SPHERICAL_MIN_SR by area instead.
+fn sample_spherical_triangle(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, area: f32,
+                             u: vec2<f32>) -> vec3<f32> {
+    // The angle at vertex a: between the planes through (a, b) and (a, c).
+    let alpha = angle_between(normalize(cross(a, b)), normalize(cross(a, c)));
+    let area_hat = u.x * area;
+    let s = sin(area_hat - alpha);
+    let t = cos(area_hat - alpha);
+    let cos_alpha = cos(alpha);
+    let sin_alpha = sin(alpha);
+    let uu = t - cos_alpha;
+    let vv = s + sin_alpha * dot(a, b); // dot(a, b): the cosine of the edge (a, b)'s arc length
+    let q = clamp(((vv * t - uu * s) * cos_alpha - vv) / ((vv * s + uu * t) * sin_alpha), -1.0, 1.0);
+    let c_hat = q * a + sqrt(max(0.0, 1.0 - q * q)) * normalize(c - dot(c, a) * a);
+    let z = 1.0 - u.y * (1.0 - dot(c_hat, b));
+    let perp = c_hat - dot(c_hat, b) * b;
+    let len = length(perp);
+    if len == 0.0 {
+        return b; // c' = b: the arc has shrunk to b itself
+    }
+    return normalize(z * b + sqrt(max(0.0, 1.0 - z * z)) * (perp / len));
+}

@@ -159,9 +159,10 @@ fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
 
 // --- Lights ------------------------------------------------------------------------------------------
 // Light selection: which lights one next-event estimate samples, each with its selection probability.
-// Today every light is sampled once at each vertex (probability 1, light_selection_count() of them):
-// exact for the few lights a course scene has. A power-proportional choice of one light (an alias table)
-// is this one function's job when scenes bring many.
+// Every light is sampled once at each vertex (probability 1, light_selection_count() of them): exact,
+// and cheapest in noise, for the few lights a scene lists (its point, sphere and directional lights, the
+// environment). The many emissive triangles of a mesh are one light among them (LIGHT_TRIANGLES),
+// whose sample picks one triangle in proportion to its power with an alias table: O(1) per sample.
 struct SelectedLight {
     light: Light,
     pmf: f32,
@@ -181,11 +182,34 @@ fn light_of_sphere(i: u32) -> SelectedLight {
     var chosen = SelectedLight(lights[0], 0.0);
     for (var k = 0u; k < light_selection_count(); k++) {
         let light = lights[k];
-        if light.kind == LIGHT_SPHERE && light.sphere_index == i {
+        if light.kind == LIGHT_SPHERE && light.index == i {
             chosen = SelectedLight(light, 1.0);
         }
     }
     return chosen;
+}
+
+// The density with which next-event estimation from p samples direction wi towards the emitting surface
+// of `hit` (the MIS weight of a BSDF-sampled ray that found it): the light's selection probability times
+// its direction density (for a triangle, its pick by the alias table too).
+fn emitter_light_pdf(hit: Hit, p: vec3<f32>, wi: vec3<f32>, strategy: u32) -> f32 {
+    var pdf = 0.0;
+    if HAS_SPHERE_LIGHTS {
+        if hit.prim_kind == PRIM_SPHERE {
+            let chosen = light_of_sphere(hit.prim_index);
+            pdf = chosen.pmf * light_pdf_li(chosen.light, p, wi, strategy);
+        }
+    }
+    if HAS_TRIANGLE_LIGHTS {
+        if hit.prim_kind == PRIM_TRIANGLE && params.triangle_light != NO_LIGHT {
+            let tri = triangles[hit.prim_index];
+            let mat = materials[tri.material];
+            let total = lights[params.triangle_light].radius;
+            let pick = triangle_light_power(tri.v0, tri.v1, tri.v2, mat.emission, mat.flags) / total;
+            pdf = pick * triangle_light_pdf(tri.v0, tri.v1, tri.v2, mat.flags, p, wi, strategy);
+        }
+    }
+    return pdf;
 }
 
 // The sphere-light strategy (`render.light_sampling`) for the lights.wgsl dispatchers (a constant there

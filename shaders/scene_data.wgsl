@@ -5,6 +5,8 @@
 // binds every buffer by the name it has here (src/render/mod.rs), never by number.
 //
 // requires: bsdf.wgsl, lights.wgsl, accumulate.wgsl
+//
+// (lights.wgsl declares the buffers only lights read: the emissive triangles and the environment map.)
 
 struct Params {
     cam_position: vec3<f32>,
@@ -15,7 +17,9 @@ struct Params {
     focus_distance: f32,
     cam_forward: vec3<f32>,
     filter_sigma: f32,
-    background: vec3<f32>,
+    environment_light: u32, // the environment's index in `lights`, or NO_LIGHT
+    triangle_light: u32, // the LIGHT_TRIANGLES light's index in `lights`, or NO_LIGHT
+    _pad0: u32,
     filter_kind: u32, // 0 none, 1 box, 2 gaussian
     width: u32,
     height: u32,

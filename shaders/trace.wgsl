@@ -62,8 +62,9 @@ fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 
 //
 // With multiple importance sampling (`mis`), a sample of a non-delta light is weighted by the power
 // heuristic against the density bsdf_pdf would have given its direction; trace_path weighs the BSDF's
-// own samples that hit the light the other way round, so the two estimates of that light's contribution
-// add up to one unbiased estimate (Veach 1997, ch. 9), each strategy dominating where it is good.
+// own samples that hit the light the other way round (emission_weight), so the two estimates of that
+// light's contribution add up to one unbiased estimate (Veach 1997, ch. 9), each strategy dominating
+// where it is good.
 fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec3<f32>, mis: bool,
                 rng: ptr<function, Rng>) -> vec3<f32> {
     var l = vec3<f32>(0.0);
@@ -75,7 +76,7 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
         // (Nested tests rather than `continue`: one exit per iteration, as in the dispatchers.)
         if ls.pdf > 0.0 && cos_theta > 0.0 {
             var shadow = spawn_ray_to(sp.p, sp.err, n, ls.p_light);
-            if HAS_DIRECTIONAL_LIGHTS {
+            if HAS_DIRECTIONAL_LIGHTS || HAS_ENVIRONMENT {
                 if ls.dist >= T_MISS {
                     shadow = spawn_ray_towards(sp.p, sp.err, n, ls.wi);
                 }
@@ -83,13 +84,10 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
             if !scene_occluded(shadow.o, shadow.d, shadow.t_max) {
                 let f = bsdf_eval(mat, wo, ls.wi, ns);
                 let pdf = ls.pdf * chosen.pmf;
-                // Only sphere lights are weighed: they are the lights a BSDF-sampled ray is counted for
-                // after a non-delta bounce (suns are found by escaping rays only after delta ones).
+                // Suns are not weighed: a BSDF-sampled ray counts them only after delta bounces.
                 var w = 1.0;
-                if HAS_SPHERE_LIGHTS {
-                    if mis && chosen.light.kind == LIGHT_SPHERE {
-                        w = power_heuristic(pdf, bsdf_pdf(mat, wo, ls.wi, ns));
-                    }
+                if mis && !ls.delta && chosen.light.kind != LIGHT_DIRECTIONAL {
+                    w = power_heuristic(pdf, bsdf_pdf(mat, wo, ls.wi, ns));
                 }
                 l += f * ls.L * (w * cos_theta / pdf);
             }
@@ -140,16 +138,12 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     var d = cam.d;
     var beta = vec3<f32>(1.0);
     var radiance = vec3<f32>(0.0);
-    // Emission found by a ray counts only when no next-event estimate already accounted for it: on camera
-    // rays and after delta bounces (mirror, glass). After a non-delta bounce, the light was sampled,
-    // unless sphere lights are not sampled (light_sampling = "none"): then their emission always counts;
-    // with "mis" it counts with its weight.
+    // Emission found by a ray (a surface's, the environment's) counts in full on camera rays and after
+    // delta bounces (mirror, glass), where no light sample competed; after a non-delta bounce, with
+    // emission_weight against the light's sampling of the same direction from the previous vertex
+    // (prev_p, where the BSDF sampled it with density prev_pdf).
     let strategy = light_sampling_strategy();
-    let nee_spheres = sphere_lights_sampled(strategy);
-    // With mis, emission found by a BSDF-sampled ray always counts, weighted against the light's
-    // sampling of the same direction from the previous vertex (prev_p, with the BSDF's density
-    // prev_pdf; 0 on camera rays and after delta bounces, where no light sample competed).
-    let mis = sphere_lights_mis(strategy);
+    let mis = lights_mis(strategy);
     var prev_p = vec3<f32>(0.0);
     var prev_pdf = 0.0;
     // Whether the ray was spawned by a delta bounce (or is the camera ray): then no light sample at its
@@ -159,8 +153,15 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     loop {
         let hit = scene_intersect(o, d, T_MISS);
         if hit.prim_kind == PRIM_NONE {
-            if HAS_BACKGROUND {
-                radiance += beta * params.background;
+            if HAS_ENVIRONMENT {
+                if params.environment_light != NO_LIGHT {
+                    let env = lights[params.environment_light];
+                    var w = 1.0;
+                    if !last_delta {
+                        w = emission_weight(prev_pdf, light_pdf_li(env, prev_p, d, strategy), strategy);
+                    }
+                    radiance += beta * environment_radiance(env, d) * w;
+                }
             }
             // A sun of nonzero size seen directly, or through a mirror or glass (its caustics included):
             // after a non-delta bounce it was light-sampled instead (suns are not weighed by mis).
@@ -172,19 +173,20 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
             break;
         }
         var mat = materials[hit_material(hit)];
+        if HAS_EMISSION {
+            if any(mat.emission > vec3<f32>(0.0)) {
+                // Front or back: against the geometric normal (outward on spheres).
+                let front = dot(d, surface_at(o, d, hit).n) < 0.0;
+                let le = material_emission(mat, front);
+                var w = 1.0;
+                if !last_delta {
+                    w = emission_weight(prev_pdf, emitter_light_pdf(hit, prev_p, d, strategy), strategy);
+                }
+                radiance += beta * le * w;
+            }
+        }
         if HAS_EMITTERS {
             if mat.kind == MAT_EMITTER {
-                if last_delta || !nee_spheres || mis {
-                    var w = 1.0;
-                    if HAS_SPHERE_LIGHTS {
-                        if mis && prev_pdf > 0.0 {
-                            let chosen = light_of_sphere(hit.prim_index);
-                            let light_pdf = chosen.pmf * light_pdf_li(chosen.light, prev_p, d, strategy);
-                            w = power_heuristic(prev_pdf, light_pdf);
-                        }
-                    }
-                    radiance += beta * mat.emission * w;
-                }
                 break;
             }
         }

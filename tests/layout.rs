@@ -8,7 +8,8 @@
 use naga::{Module, TypeInner};
 use std::mem::{offset_of, size_of};
 use vkpath::kernel::abi::{
-    GpuAccum, GpuLight, GpuMaterial, GpuParams, GpuPassConstants, GpuSphere, GpuTriangle,
+    GpuAccum, GpuLight, GpuLightTriangle, GpuMaterial, GpuParams, GpuPassConstants, GpuSphere,
+    GpuTriangle,
 };
 
 /// The production kernel, parsed (and validated, so the layouts are the ones the SPIR-V gets).
@@ -296,7 +297,7 @@ fn params_matches_wgsl() {
         size_of::<GpuParams>(),
         fields!(GpuParams:
             cam_position, lens_radius, cam_right, view_half_width, cam_up, focus_distance, cam_forward,
-            filter_sigma, background, filter_kind, width, height, max_bounces, seed, sampler,
+            filter_sigma, environment_light, triangle_light, _pad0, filter_kind, width, height, max_bounces, seed, sampler,
             light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, camera_kind),
     );
     // The uniform buffer holds one Params.
@@ -363,7 +364,7 @@ fn material_matches_wgsl() {
         "Material",
         "GpuMaterial",
         size_of::<GpuMaterial>(),
-        fields!(GpuMaterial: albedo, kind, emission, ior),
+        fields!(GpuMaterial: albedo, kind, emission, ior, flags, _pad),
     );
     check_storage_array(
         &module,
@@ -382,7 +383,7 @@ fn light_matches_wgsl() {
         "Light",
         "GpuLight",
         size_of::<GpuLight>(),
-        fields!(GpuLight: position, radius, intensity, kind, sphere_index, _pad),
+        fields!(GpuLight: position, radius, intensity, kind, index, map_width, map_height, _pad0),
     );
     check_storage_array(
         &module,
@@ -390,6 +391,25 @@ fn light_matches_wgsl() {
         "Light",
         "GpuLight",
         size_of::<GpuLight>(),
+    );
+}
+
+#[test]
+fn light_triangle_matches_wgsl() {
+    let module = kernel();
+    check_struct(
+        &module,
+        "LightTriangle",
+        "GpuLightTriangle",
+        size_of::<GpuLightTriangle>(),
+        fields!(GpuLightTriangle: v0, alias_triangle, v1, keep, v2, flags, emission, _pad0),
+    );
+    check_storage_array(
+        &module,
+        "light_triangles",
+        "LightTriangle",
+        "GpuLightTriangle",
+        size_of::<GpuLightTriangle>(),
     );
 }
 
@@ -480,7 +500,8 @@ fn feature_table_matches_wgsl_overrides() {
 )]
 fn check_struct_reports_a_swapped_member() {
     let module = naga::front::wgsl::parse_str(
-        "struct Material { albedo: vec3<f32>, ior: f32, emission: vec3<f32>, kind: u32, }\n\
+        "struct Material { albedo: vec3<f32>, ior: f32, emission: vec3<f32>, kind: u32, flags: u32, \
+         _pad0: u32, _pad1: u32, _pad2: u32, }\n\
          @group(0) @binding(0) var<storage, read> m: array<Material>;\n",
     )
     .expect("test WGSL parses");
@@ -489,7 +510,7 @@ fn check_struct_reports_a_swapped_member() {
         "Material",
         "GpuMaterial",
         size_of::<GpuMaterial>(),
-        fields!(GpuMaterial: albedo, kind, emission, ior),
+        fields!(GpuMaterial: albedo, kind, emission, ior, flags, _pad),
     );
 }
 

@@ -180,7 +180,7 @@ material = "white"
     );
     assert!(
         !f.has(F::Lens)
-            && !f.has(F::Background)
+            && !f.has(F::Environment)
             && !f.has(F::PointLights)
             && !f.has(F::SphereLights)
             && !f.has(F::Emitters)
@@ -194,7 +194,7 @@ material = "white"
     let f = features(&with, 3);
     assert!(
         f.has(F::Lens)
-            && f.has(F::Background)
+            && f.has(F::Environment)
             && f.has(F::SphereLights)
             && f.has(F::Emitters)
             && !f.has(F::PointLights)

@@ -188,7 +188,7 @@ fn a_4096_square_image_renders_in_strips() {
     let mut scene = sized(4096, 4096);
     // Lights and background only (the cheapest path), with a background so that most pixels get light.
     scene.render.max_bounces = 0;
-    scene.render.background = glam::Vec3::new(0.2, 0.3, 0.5);
+    scene.environment.radiance = glam::Vec3::new(0.2, 0.3, 0.5);
     let digest = |options: &RenderOptions| {
         let (state, r) = render_state(&scene, options, &[1]);
         eprintln!(

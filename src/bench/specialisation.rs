@@ -37,9 +37,13 @@ fn trimmed_applies(f: &FeatureSet) -> bool {
             F::Mirror,
             F::Dielectric,
             F::Emitters,
+            F::Emission,
             F::SphereLights,
+            F::DirectionalLights,
+            F::TriangleLights,
+            F::Environment,
             F::Lens,
-            F::Background,
+            F::Orthographic,
         ]
         .iter()
         .any(|&x| f.has(x))

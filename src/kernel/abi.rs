@@ -22,7 +22,13 @@ pub struct GpuParams {
     pub focus_distance: f32,
     pub cam_forward: [f32; 3],
     pub filter_sigma: f32,
-    pub background: [f32; 3],
+    /// The index in `lights` of the environment light ([`NO_LIGHT`]: none), which rays that leave the
+    /// scene see.
+    pub environment_light: u32,
+    /// The index in `lights` of the emissive triangles' light ([`NO_LIGHT`]: none), for the MIS weight
+    /// of a BSDF-sampled ray that hits one.
+    pub triangle_light: u32,
+    pub _pad0: u32,
     pub filter_kind: u32,
     pub width: u32,
     pub height: u32,
@@ -85,6 +91,10 @@ pub const MAT_MIRROR: u32 = 1;
 pub const MAT_DIELECTRIC: u32 = 2;
 pub const MAT_EMITTER: u32 = 3;
 
+/// `GpuMaterial::flags`: the material emits from both faces (else only from the front: the side its
+/// geometric normal faces).
+pub const MATERIAL_TWO_SIDED_EMISSION: u32 = 1;
+
 /// `BsdfSample::flags` (bsdf.wgsl): the lobe a sampled direction came from.
 pub const BSDF_REFLECTION: u32 = 1;
 pub const BSDF_TRANSMISSION: u32 = 2;
@@ -96,16 +106,24 @@ pub const BSDF_DELTA: u32 = 4;
 pub struct GpuMaterial {
     pub albedo: [f32; 3],
     pub kind: u32,
+    /// Emitted radiance (W sr^-1 m^-2), zero for a material that does not emit.
     pub emission: [f32; 3],
     pub ior: f32,
+    /// [`MATERIAL_TWO_SIDED_EMISSION`].
+    pub flags: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Light kinds (`LIGHT_*` in lights.wgsl).
 pub const LIGHT_POINT: u32 = 0;
 pub const LIGHT_SPHERE: u32 = 1;
 pub const LIGHT_DIRECTIONAL: u32 = 2;
+pub const LIGHT_TRIANGLES: u32 = 3;
+pub const LIGHT_ENVIRONMENT: u32 = 4;
+/// No light: `GpuParams::environment_light` of a scene without an environment.
+pub const NO_LIGHT: u32 = u32::MAX;
 
-/// Mirrors `Light` in lights.wgsl.
+/// Mirrors `Light` in lights.wgsl. What each field holds depends on the kind (see lights.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuLight {
@@ -113,8 +131,29 @@ pub struct GpuLight {
     pub radius: f32,
     pub intensity: [f32; 3],
     pub kind: u32,
-    pub sphere_index: u32,
-    pub _pad: [u32; 3],
+    /// Sphere light: its emitter sphere in `spheres`; triangle lights: the number of emissive triangles.
+    pub index: u32,
+    /// Environment light: the map's size in pixels (0 x 0: no map, a uniform radiance).
+    pub map_width: u32,
+    pub map_height: u32,
+    pub _pad0: u32,
+}
+
+/// Mirrors `LightTriangle` in lights.wgsl: one emissive triangle (its vertices as in `triangles`, its
+/// material's emission) and its column of the alias table that picks triangles in proportion to their
+/// power (Walker 1977; Vose 1991): column j keeps triangle j with probability `keep`, else gives `alias_triangle`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLightTriangle {
+    pub v0: [f32; 3],
+    pub alias_triangle: u32,
+    pub v1: [f32; 3],
+    pub keep: f32,
+    pub v2: [f32; 3],
+    /// [`MATERIAL_TWO_SIDED_EMISSION`] when it emits from both faces.
+    pub flags: u32,
+    pub emission: [f32; 3],
+    pub _pad0: u32,
 }
 
 /// Limbs (u32) of one channel's exact sum: a 192-bit fixed-point integer in units of 2^-96.
@@ -215,12 +254,16 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("MAT_MIRROR", MAT_MIRROR),
     ("MAT_DIELECTRIC", MAT_DIELECTRIC),
     ("MAT_EMITTER", MAT_EMITTER),
+    ("MATERIAL_TWO_SIDED_EMISSION", MATERIAL_TWO_SIDED_EMISSION),
     ("BSDF_REFLECTION", BSDF_REFLECTION),
     ("BSDF_TRANSMISSION", BSDF_TRANSMISSION),
     ("BSDF_DELTA", BSDF_DELTA),
     ("LIGHT_POINT", LIGHT_POINT),
     ("LIGHT_SPHERE", LIGHT_SPHERE),
     ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
+    ("LIGHT_TRIANGLES", LIGHT_TRIANGLES),
+    ("LIGHT_ENVIRONMENT", LIGHT_ENVIRONMENT),
+    ("NO_LIGHT", NO_LIGHT),
     ("CAMERA_PERSPECTIVE", CAMERA_PERSPECTIVE),
     ("CAMERA_ORTHOGRAPHIC", CAMERA_ORTHOGRAPHIC),
     ("FILTER_NONE", FILTER_NONE),
@@ -250,6 +293,7 @@ const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);
 const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuLightTriangle>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuAccum>() == 96);

@@ -27,13 +27,16 @@ pub enum Feature {
     Mirror,
     Dielectric,
     Emitters,
+    Emission,
     PointLights,
     SphereLights,
     DirectionalLights,
+    TriangleLights,
+    Environment,
+    EnvironmentMap,
     Lens,
     Orthographic,
     Roulette,
-    Background,
 }
 
 /// What decides whether a scene needs a feature.
@@ -157,6 +160,20 @@ pub const FEATURES: &[FeatureRow] = &[
         reported: true,
     },
     FeatureRow {
+        // Some surface emits (an emitter material, or another with `emission`): rays that hit it see it.
+        feature: Feature::Emission,
+        name: "emission",
+        constant: "HAS_EMISSION",
+        group: Group::Other,
+        needed: |g, _| {
+            let used = g.spheres.iter().map(|s| s.material);
+            let used = used.chain(g.triangles.iter().map(|t| t.material));
+            used.filter_map(|m| g.materials.get(m as usize))
+                .any(|m| m.emission.iter().any(|&c| c > 0.0))
+        },
+        reported: true,
+    },
+    FeatureRow {
         feature: Feature::PointLights,
         name: "point_lights",
         constant: "HAS_POINT_LIGHTS",
@@ -178,6 +195,31 @@ pub const FEATURES: &[FeatureRow] = &[
         constant: "HAS_DIRECTIONAL_LIGHTS",
         group: Group::Light(LIGHT_DIRECTIONAL),
         needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::TriangleLights,
+        name: "triangle_lights",
+        constant: "HAS_TRIANGLE_LIGHTS",
+        group: Group::Light(LIGHT_TRIANGLES),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        // The environment light (uniform, or with a map): what rays that leave the scene see.
+        feature: Feature::Environment,
+        name: "environment",
+        constant: "HAS_ENVIRONMENT",
+        group: Group::Light(LIGHT_ENVIRONMENT),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::EnvironmentMap,
+        name: "environment_map",
+        constant: "HAS_ENVIRONMENT_MAP",
+        group: Group::Other,
+        needed: |g, _| !g.env_texels.is_empty(),
         reported: true,
     },
     FeatureRow {
@@ -203,14 +245,6 @@ pub const FEATURES: &[FeatureRow] = &[
         constant: "HAS_ROULETTE",
         group: Group::Other,
         needed: |_, p| p.roulette_depth <= p.max_bounces,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::Background,
-        name: "background",
-        constant: "HAS_BACKGROUND",
-        group: Group::Other,
-        needed: |_, p| p.background.iter().any(|&c| c != 0.0),
         reported: true,
     },
 ];

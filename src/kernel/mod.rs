@@ -2,12 +2,14 @@
 //!
 //! - [`abi`]: the `#[repr(C)]` Pod structs shared with WGSL and every constant shared with it (each held
 //!   against naga's reflection of the WGSL by `tests/layout.rs`).
+//! - [`alias`]: alias tables, which pick emissive triangles in proportion to their power.
 //! - [`features`]: the feature set of a scene, one table row per specialisation constant.
 //! - [`library`]: the WGSL files and the assembly of a kernel from its `requires` lines.
 //! - [`specialise`]: naga compilation, override folding and pruning, binding reflection.
 //! - [`upload`]: a [`crate::scene::Scene`] flattened into the Pod arrays the kernel reads.
 
 pub mod abi;
+pub mod alias;
 pub mod features;
 pub mod library;
 pub mod specialise;

@@ -1,12 +1,23 @@
 //! A [`Scene`] flattened into the Pod arrays the shader reads.
 //!
-//! Sphere lights are both lights (sampled by next-event estimation) and visible spheres: each gets an
-//! emitter material and a sphere, and the light records that sphere's index so a shadow ray can tell
-//! "hit the light" from "hit something in front of it".
+//! Every emitting surface is also a light that next-event estimation samples:
+//! * a sphere whose material emits (a `[[light]] type = "sphere"` is one: an emitter material and a
+//!   sphere) is a sphere light, which records that sphere's index (a BSDF-sampled ray that hits the sphere
+//!   finds its light for the MIS weight);
+//! * the emitting triangles (of `[[triangle]]`s and meshes) are together one light, `LIGHT_TRIANGLES`,
+//!   with a `light_triangles` record each and an alias table that picks one in proportion to its power
+//!   (area x mean emitted radiance x faces), so that a mesh of 10^5 emissive triangles costs one table
+//!   lookup per light sample;
+//! * the environment, when not black, is one light, `LIGHT_ENVIRONMENT`, with its map's texels and
+//!   sampling distribution (scene::environment).
 
 use super::abi::*;
+use super::alias;
 use crate::scene::bvh::{self, Bvh};
-use crate::scene::{Filter, Light, LightSampling, Material, Projection, Sampler, Scene};
+use crate::scene::environment::channel_mean;
+use crate::scene::{
+    Bsdf, Emission, Filter, Light, LightSampling, Material, Projection, Sampler, Scene,
+};
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -33,7 +44,64 @@ pub struct GpuScene {
     pub meshes: Vec<GpuMeshInfo>,
     /// Every texture's texels, RGBA8 sRGB, one after the other (`GpuMeshInfo::texture_offset`).
     pub texels: Vec<u32>,
+    /// The emitting triangles, with the alias table that picks them (LIGHT_TRIANGLES).
+    pub light_triangles: Vec<GpuLightTriangle>,
+    /// The environment map's RGB radiance, three floats per pixel, rows from the top.
+    pub env_texels: Vec<f32>,
+    /// Its sampling distribution (`EnvironmentMap::distribution`).
+    pub env_cdf: Vec<f32>,
+    /// The environment's index in `lights`, or NO_LIGHT.
+    pub environment_light: u32,
+    /// The emissive triangles' index in `lights`, or NO_LIGHT.
+    pub triangle_light: u32,
     pub stats: SceneStats,
+}
+
+/// A material as the shader has it.
+fn gpu_material(m: &Material) -> GpuMaterial {
+    let (kind, albedo, ior) = match m.bsdf {
+        Bsdf::Diffuse { albedo } => (MAT_DIFFUSE, albedo, 0.0),
+        Bsdf::Mirror { tint } => (MAT_MIRROR, tint, 0.0),
+        Bsdf::Dielectric { ior } => (MAT_DIELECTRIC, Vec3::ZERO, ior),
+        Bsdf::Black => (MAT_EMITTER, Vec3::ZERO, 0.0),
+    };
+    let Emission {
+        radiance,
+        two_sided,
+    } = m.emission.unwrap_or(Emission {
+        radiance: Vec3::ZERO,
+        two_sided: false,
+    });
+    GpuMaterial {
+        albedo: albedo.into(),
+        kind,
+        emission: radiance.into(),
+        ior,
+        flags: if two_sided {
+            MATERIAL_TWO_SIDED_EMISSION
+        } else {
+            0
+        },
+        _pad: [0; 3],
+    }
+}
+
+/// Whether a material emits at all.
+fn emits(m: &GpuMaterial) -> bool {
+    m.emission.iter().any(|&c| c > 0.0)
+}
+
+/// The power of an emitting triangle up to the common factor pi: area x mean radiance x faces. (The
+/// shader's `triangle_light_power` computes the same in f32, for the pmf it reports.)
+fn triangle_power(t: &GpuLightTriangle) -> f64 {
+    let [a, b, c] = [t.v0, t.v1, t.v2].map(|v| Vec3::from(v).as_dvec3());
+    let area = 0.5 * (b - a).cross(c - a).length();
+    let faces = if t.flags & MATERIAL_TWO_SIDED_EMISSION != 0 {
+        2.0
+    } else {
+        1.0
+    };
+    area * channel_mean(t.emission) * faces
 }
 
 /// What building the GPU scene cost and made (reported by `--json`).
@@ -54,27 +122,24 @@ pub struct SceneStats {
 
 impl GpuScene {
     pub fn build(scene: &Scene) -> GpuScene {
-        let mut g = GpuScene::default();
-        for m in &scene.materials {
-            g.materials.push(match *m {
-                Material::Diffuse { albedo } => GpuMaterial {
-                    albedo: albedo.into(),
-                    kind: MAT_DIFFUSE,
-                    ..Default::default()
-                },
-                Material::Mirror { tint } => GpuMaterial {
-                    albedo: tint.into(),
-                    kind: MAT_MIRROR,
-                    ..Default::default()
-                },
-                Material::Dielectric { ior } => GpuMaterial {
-                    kind: MAT_DIELECTRIC,
-                    ior,
-                    ..Default::default()
-                },
-            });
-        }
+        let mut g = GpuScene {
+            environment_light: NO_LIGHT,
+            triangle_light: NO_LIGHT,
+            ..Default::default()
+        };
+        g.materials = scene.materials.iter().map(gpu_material).collect();
         for s in &scene.spheres {
+            let material = &g.materials[s.material as usize];
+            if emits(material) {
+                g.lights.push(GpuLight {
+                    position: s.center.into(),
+                    radius: s.radius,
+                    intensity: material.emission,
+                    kind: LIGHT_SPHERE,
+                    index: g.spheres.len() as u32,
+                    ..Default::default()
+                });
+            }
             g.spheres.push(GpuSphere {
                 center: s.center.into(),
                 radius: s.radius,
@@ -83,6 +148,7 @@ impl GpuScene {
             });
         }
         g.add_triangles(scene);
+        g.add_triangle_lights();
         for l in &scene.lights {
             match *l {
                 Light::Point {
@@ -104,11 +170,13 @@ impl GpuScene {
                 } => {
                     // A sphere of radius r with uniform radiance Le emits P = Le * pi * 4 pi r^2
                     // (pi from the cosine-weighted hemisphere, 4 pi r^2 the area): Le = P / (4 pi^2 r^2).
+                    // Both faces emit, so that it looks the same from inside (where it is not sampled).
                     let le = color * (power / (4.0 * PI * PI * radius * radius));
                     let material = g.materials.len() as u32;
                     g.materials.push(GpuMaterial {
                         kind: MAT_EMITTER,
                         emission: le.into(),
+                        flags: MATERIAL_TWO_SIDED_EMISSION,
                         ..Default::default()
                     });
                     let sphere_index = g.spheres.len() as u32;
@@ -123,7 +191,7 @@ impl GpuScene {
                         radius,
                         intensity: le.into(),
                         kind: LIGHT_SPHERE,
-                        sphere_index,
+                        index: sphere_index,
                         ..Default::default()
                     });
                 }
@@ -155,8 +223,75 @@ impl GpuScene {
                 }
             }
         }
+        g.add_environment(scene);
         g.stats.scene_bytes = g.bytes();
         g
+    }
+
+    /// The emitting triangles as one light, with their alias table.
+    fn add_triangle_lights(&mut self) {
+        let mut lit: Vec<GpuLightTriangle> = self
+            .triangles
+            .iter()
+            .filter(|t| emits(&self.materials[t.material as usize]))
+            .map(|t| {
+                let m = &self.materials[t.material as usize];
+                GpuLightTriangle {
+                    v0: t.v0,
+                    v1: t.v1,
+                    v2: t.v2,
+                    flags: m.flags & MATERIAL_TWO_SIDED_EMISSION,
+                    emission: m.emission,
+                    ..Default::default()
+                }
+            })
+            .collect();
+        // Zero-area triangles emit nothing and cannot be sampled.
+        let power: Vec<f64> = lit.iter().map(triangle_power).collect();
+        let keep: Vec<bool> = power.iter().map(|&p| p > 0.0).collect();
+        let mut k = keep.iter();
+        lit.retain(|_| *k.next().expect("one flag per triangle"));
+        let power: Vec<f64> = power.into_iter().filter(|&p| p > 0.0).collect();
+        if lit.is_empty() {
+            return;
+        }
+        for (t, column) in lit.iter_mut().zip(alias::build(&power)) {
+            t.keep = column.keep;
+            t.alias_triangle = column.alias;
+        }
+        self.triangle_light = self.lights.len() as u32;
+        self.lights.push(GpuLight {
+            // The total power, which turns a triangle's power into its selection probability.
+            radius: power.iter().sum::<f64>() as f32,
+            kind: LIGHT_TRIANGLES,
+            index: lit.len() as u32,
+            ..Default::default()
+        });
+        self.light_triangles = lit;
+    }
+
+    /// The environment as a light, unless it is black.
+    fn add_environment(&mut self, scene: &Scene) {
+        let env = &scene.environment;
+        if env.is_black() {
+            return;
+        }
+        // `position` holds cos and sin of the rotation about +y.
+        let (sin, cos) = (env.rotate_deg as f64).to_radians().sin_cos();
+        let mut light = GpuLight {
+            position: [cos as f32, sin as f32, 0.0],
+            intensity: env.radiance.into(),
+            kind: LIGHT_ENVIRONMENT,
+            ..Default::default()
+        };
+        if let Some(map) = &env.map {
+            light.map_width = map.width;
+            light.map_height = map.height;
+            self.env_texels = map.texels.iter().flatten().copied().collect();
+            self.env_cdf = map.distribution();
+        }
+        self.environment_light = self.lights.len() as u32;
+        self.lights.push(light);
     }
 
     /// All triangles in BVH order, with the BVH and the meshes' shading data.
@@ -299,6 +434,9 @@ impl GpuScene {
             + b(&self.mesh_vertices)
             + b(&self.meshes)
             + b(&self.texels)
+            + b(&self.light_triangles)
+            + b(&self.env_texels)
+            + b(&self.env_cdf)
     }
 }
 
@@ -321,7 +459,9 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         focus_distance: cam.focus_distance,
         cam_forward: forward.into(),
         filter_sigma: scene.render.filter_sigma,
-        background: scene.render.background.into(),
+        environment_light: NO_LIGHT,
+        triangle_light: NO_LIGHT,
+        _pad0: 0,
         filter_kind: match scene.render.filter {
             Filter::None => FILTER_NONE,
             Filter::Box => FILTER_BOX,

@@ -52,7 +52,7 @@ impl fmt::Write for Fnv64 {
 }
 
 /// The hash of everything that decides the value of every sample: the validated scene (geometry,
-/// materials, lights, camera, image size, seed, bounces, filter, background, with the command-line
+/// materials, lights, environment, camera, image size, seed, bounces, filter, with the command-line
 /// overrides applied), the uniform parameters and arrays uploaded to the GPU, and the renderer settings
 /// that change paths (Russian roulette). It leaves out what does not change the sums: the target sample
 /// count, the display transform (exposure, gamma), where the file lives, and the kernel variant
@@ -72,7 +72,14 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
         triangles,
         meshes: _, // geometry, normals, uvs and texels: hashed as uploaded (mesh_* and texels below)
         lights,
+        environment,
     } = scene;
+    // The map's texels are hashed as uploaded (env_texels below), not through Debug.
+    let crate::scene::Environment {
+        radiance: env_radiance,
+        map: _,
+        rotate_deg: env_rotate,
+    } = environment;
     let GpuScene {
         spheres: gpu_spheres,
         triangles: gpu_triangles,
@@ -83,7 +90,12 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
         mesh_vertices,
         meshes,
         texels,
-        stats: _, // build statistics (timings): not content
+        light_triangles,
+        env_texels,
+        env_cdf: _,           // follows from env_texels
+        environment_light: _, // in params
+        triangle_light: _,    // in params
+        stats: _,             // build statistics (timings): not content
     } = gpu;
     let mut render = *render;
     render.samples = 0;
@@ -93,7 +105,8 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
     let _ = fmt::Write::write_fmt(
         &mut h,
         format_args!(
-            "{camera:?}|{}x{}|{render:?}|{materials:?}|{spheres:?}|{triangles:?}|{lights:?}",
+            "{camera:?}|{}x{}|{render:?}|{materials:?}|{spheres:?}|{triangles:?}|{lights:?}|\
+             {env_radiance:?}|{env_rotate:?}",
             image.width, image.height
         ),
     );
@@ -107,6 +120,8 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
     h.field("mesh_vertices", bytemuck::cast_slice(mesh_vertices));
     h.field("meshes", bytemuck::cast_slice(meshes));
     h.field("texels", bytemuck::cast_slice(texels));
+    h.field("light_triangles", bytemuck::cast_slice(light_triangles));
+    h.field("env_texels", bytemuck::cast_slice(env_texels));
     h.0
 }
 

@@ -237,6 +237,8 @@ fn render_params(scene: &Scene, gpu: &GpuScene, options: &RenderOptions) -> GpuP
     params.num_spheres = gpu.spheres.len() as u32;
     params.num_triangles = gpu.triangles.len() as u32;
     params.num_lights = gpu.lights.len() as u32;
+    params.environment_light = gpu.environment_light;
+    params.triangle_light = gpu.triangle_light;
     params
 }
 
@@ -297,12 +299,18 @@ fn upload_scene(
     if kernel.uses("meshes") {
         bound.push(small("meshes", bytemuck::cast_slice(&gpu.meshes))?);
     }
-    let big: [(&'static str, &[u8]); 5] = [
+    let big: [(&'static str, &[u8]); 8] = [
         ("triangles", bytemuck::cast_slice(&gpu.triangles)),
         ("bvh_nodes", bytemuck::cast_slice(&gpu.bvh_nodes)),
         ("mesh_faces", bytemuck::cast_slice(&gpu.mesh_faces)),
         ("mesh_vertices", bytemuck::cast_slice(&gpu.mesh_vertices)),
         ("texels", bytemuck::cast_slice(&gpu.texels)),
+        (
+            "light_triangles",
+            bytemuck::cast_slice(&gpu.light_triangles),
+        ),
+        ("env_texels", bytemuck::cast_slice(&gpu.env_texels)),
+        ("env_cdf", bytemuck::cast_slice(&gpu.env_cdf)),
     ];
     for (name, bytes) in big {
         if kernel.uses(name) {
@@ -855,9 +863,14 @@ fn check_device_memory(
         mesh_vertices,
         meshes,
         texels,
+        light_triangles,
+        env_texels,
+        env_cdf,
+        environment_light: _,
+        triangle_light: _,
         stats: _,
     } = gpu;
-    let arrays: [(&str, u64); 9] = [
+    let arrays: [(&str, u64); 12] = [
         ("spheres", std::mem::size_of_val(spheres.as_slice()) as u64),
         (
             "triangles",
@@ -884,6 +897,18 @@ fn check_device_memory(
         (
             "texture texels",
             std::mem::size_of_val(texels.as_slice()) as u64,
+        ),
+        (
+            "emissive triangles",
+            std::mem::size_of_val(light_triangles.as_slice()) as u64,
+        ),
+        (
+            "environment map texels",
+            std::mem::size_of_val(env_texels.as_slice()) as u64,
+        ),
+        (
+            "environment map distribution",
+            std::mem::size_of_val(env_cdf.as_slice()) as u64,
         ),
     ];
     let mib = |b: u64| b as f64 / f64::from(1 << 20);

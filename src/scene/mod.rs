@@ -5,6 +5,7 @@
 //! [`Scene`] into the Pod buffers the shader reads.
 
 pub mod bvh;
+pub mod environment;
 pub mod mesh;
 mod parse;
 pub mod shapes;
@@ -12,6 +13,7 @@ pub mod shapes;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 
+pub use environment::{Environment, EnvironmentMap};
 pub use mesh::{Mesh, Texture};
 pub use parse::SceneError;
 
@@ -41,6 +43,8 @@ pub struct Scene {
     /// `[[mesh]]` tables, loaded and placed in world space.
     pub meshes: Vec<Mesh>,
     pub lights: Vec<Light>,
+    /// Light from infinitely far (`[environment]`, or `render.background`): black when not given.
+    pub environment: Environment,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -153,16 +157,50 @@ pub struct RenderSettings {
     pub seed: u32,
     pub filter: Filter,
     pub filter_sigma: f32,
-    pub background: Vec3,
     pub sampler: Sampler,
     pub light_sampling: LightSampling,
 }
 
+/// A material: how its surface scatters light, and what it emits.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Material {
-    Diffuse { albedo: Vec3 },
-    Mirror { tint: Vec3 },
-    Dielectric { ior: f32 },
+pub struct Material {
+    pub bsdf: Bsdf,
+    /// `None`: the surface emits nothing.
+    pub emission: Option<Emission>,
+}
+
+impl From<Bsdf> for Material {
+    /// A material that does not emit.
+    fn from(bsdf: Bsdf) -> Material {
+        Material {
+            bsdf,
+            emission: None,
+        }
+    }
+}
+
+/// How a surface scatters light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Bsdf {
+    Diffuse {
+        albedo: Vec3,
+    },
+    Mirror {
+        tint: Vec3,
+    },
+    Dielectric {
+        ior: f32,
+    },
+    /// Reflects and transmits nothing (the `emitter` material: a lamp's surface).
+    Black,
+}
+
+/// Light a surface emits: uniform radiance (W sr^-1 m^-2) from its front face (the side its geometric
+/// normal faces: outward on spheres, (v1 - v0) x (v2 - v0) on triangles), or from both.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Emission {
+    pub radiance: Vec3,
+    pub two_sided: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

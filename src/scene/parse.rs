@@ -16,10 +16,11 @@
 //! compared, never unwrapped, and integer arithmetic on them is done in a type wide enough not to
 //! overflow.
 
+use super::environment::{self, Environment};
 use super::mesh::{self, Mesh, ObjMesh, Placement, Texture};
 use super::{
-    Camera, Filter, Gamma, ImageSettings, Light, LightSampling, Material, Projection,
-    RenderSettings, Sampler, Scene, Sphere, Triangle,
+    Bsdf, Camera, Emission, Filter, Gamma, ImageSettings, Light, LightSampling, Material,
+    Projection, RenderSettings, Sampler, Scene, Sphere, Triangle,
 };
 use glam::Vec3;
 use serde::Deserialize;
@@ -157,6 +158,15 @@ struct RawScene {
     mesh: Vec<Spanned<RawMesh>>,
     #[serde(default)]
     light: Vec<Spanned<RawLight>>,
+    environment: Option<Spanned<RawEnvironment>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEnvironment {
+    radiance: Option<Spanned<RawVec3>>,
+    map: Option<Spanned<String>>,
+    rotate: Option<Spanned<f32>>,
 }
 
 #[derive(Deserialize)]
@@ -208,6 +218,12 @@ struct RawMaterial {
     albedo: Option<Spanned<RawVec3>>,
     tint: Option<Spanned<RawVec3>>,
     ior: Option<Spanned<f32>>,
+    /// `emitter`: its radiance, and whether both faces emit.
+    radiance: Option<Spanned<RawVec3>>,
+    two_sided: Option<Spanned<bool>>,
+    /// Any other type: what it emits besides scattering.
+    emission: Option<Spanned<RawVec3>>,
+    two_sided_emission: Option<Spanned<bool>>,
 }
 
 #[derive(Deserialize)]
@@ -346,7 +362,9 @@ impl Checker<'_> {
     fn scene(&self, raw: &RawScene, path: Option<&Path>) -> Result<Scene, SceneError> {
         let camera = self.camera(&raw.camera)?;
         let image = self.image(raw.image.as_ref())?;
-        let render = self.render(raw.render.as_ref())?;
+        let (render, background) = self.render(raw.render.as_ref())?;
+        let base = path.and_then(Path::parent).unwrap_or(Path::new(""));
+        let environment = self.environment(raw, background, base)?;
 
         // TOML has already rejected duplicate names, so sorting by position is a total order.
         let mut named: Vec<_> = raw.materials.iter().collect();
@@ -368,7 +386,6 @@ impl Checker<'_> {
         }
         // Relative model paths are relative to the scene file (to the working directory for the embedded
         // scene). A file used by several meshes is read once.
-        let base = path.and_then(Path::parent).unwrap_or(Path::new(""));
         let mut files = LoadedFiles::default();
         let mut meshes = Vec::with_capacity(raw.mesh.len());
         let mut total = triangles.len();
@@ -401,6 +418,68 @@ impl Checker<'_> {
             triangles,
             meshes,
             lights,
+            environment,
+        })
+    }
+
+    /// `[environment]`, or the uniform `render.background` it replaces (giving both is an error: which
+    /// one is meant?).
+    fn environment(
+        &self,
+        raw: &RawScene,
+        background: Vec3,
+        base: &Path,
+    ) -> Result<Environment, SceneError> {
+        let Some(env) = &raw.environment else {
+            return Ok(Environment {
+                radiance: background,
+                ..Default::default()
+            });
+        };
+        let background_key = raw.render.as_ref().and_then(|r| r.background.as_ref());
+        if let Some(b) = background_key {
+            return Err(self.error(
+                b.span(),
+                "render.background",
+                "the scene has both render.background and an [environment] table",
+                "[environment] replaces render.background: give its uniform radiance as environment.radiance.",
+            ));
+        }
+        let e = env.get_ref();
+        let map = match &e.map {
+            None => None,
+            Some(m) => {
+                let path = base.join(m.get_ref());
+                let loaded = environment::load_map(&path).map_err(|problem| {
+                    self.error(
+                        m.span(),
+                        "environment.map",
+                        problem,
+                        "The path is relative to the scene file; the map must be an equirectangular .exr or .hdr \
+                         image of linear radiance.",
+                    )
+                })?;
+                Some(Arc::new(loaded))
+            }
+        };
+        let default = if map.is_some() { Vec3::ONE } else { Vec3::ZERO };
+        let radiance = e.radiance.as_ref().map_or(Ok(default), |r| {
+            self.vec3_unless(
+                r,
+                "environment.radiance",
+                |r| r.min_element() < 0.0,
+                "environment radiance cannot be negative",
+                "Give a linear RGB radiance (W sr^-1 m^-2) with components >= 0; with a map it multiplies the map.",
+            )
+        })?;
+        let rotate_deg = e
+            .rotate
+            .as_ref()
+            .map_or(Ok(0.0), |r| self.number(r, "environment.rotate"))?;
+        Ok(Environment {
+            radiance,
+            map,
+            rotate_deg,
         })
     }
 
@@ -645,7 +724,8 @@ impl Checker<'_> {
         })
     }
 
-    fn render(&self, raw: Option<&RawRender>) -> Result<RenderSettings, SceneError> {
+    /// The `[render]` settings, and `render.background` (which `environment` turns into the light).
+    fn render(&self, raw: Option<&RawRender>) -> Result<(RenderSettings, Vec3), SceneError> {
         // A missing [render] table is an empty one: every key takes its default below.
         let empty = RawRender::default();
         let raw = raw.unwrap_or(&empty);
@@ -742,25 +822,35 @@ impl Checker<'_> {
                 }
             },
         };
-        Ok(RenderSettings {
+        let settings = RenderSettings {
             samples,
             max_bounces,
             seed,
             filter,
             filter_sigma,
-            background,
             sampler,
             light_sampling,
-        })
+        };
+        Ok((settings, background))
     }
 
     fn material(&self, name: &str, raw: &Spanned<RawMaterial>) -> Result<Material, SceneError> {
         let m = raw.get_ref();
         let key = |field: &str| format!("materials.{name}.{field}");
         let kind = m.kind.get_ref().as_str();
+        let radiance = |v: &Spanned<RawVec3>, field: &str| {
+            self.vec3_unless(
+                v,
+                &key(field),
+                |r| r.min_element() < 0.0,
+                "emitted radiance cannot be negative",
+                "Give a linear RGB radiance in W sr^-1 m^-2 with components >= 0.",
+            )
+        };
         // Each type allows only some of the optional keys; a key for another type is treated like any
-        // unknown key rather than silently ignored.
-        let (allowed, material): (&[&str], _) = match kind {
+        // unknown key rather than silently ignored. Every type but `emitter` may also emit.
+        const EMISSION: [&str; 2] = ["emission", "two_sided_emission"];
+        let (allowed, bsdf): (&[&str], _) = match kind {
             "diffuse" => {
                 let albedo = self.required(
                     &m.albedo,
@@ -775,7 +865,10 @@ impl Checker<'_> {
                     "every albedo component must be in [0, 1]",
                     "Albedo is the fraction of light reflected per channel; energy conservation needs it in [0, 1].",
                 )?;
-                (&["albedo"], Material::Diffuse { albedo })
+                (
+                    &["albedo", EMISSION[0], EMISSION[1]],
+                    Bsdf::Diffuse { albedo },
+                )
             }
             "mirror" => {
                 let tint = m.tint.as_ref().map_or(Ok(Vec3::ONE), |t| {
@@ -787,7 +880,7 @@ impl Checker<'_> {
                         "The tint scales reflected light per channel; leave it out for a perfect white mirror.",
                     )
                 })?;
-                (&["tint"], Material::Mirror { tint })
+                (&["tint", EMISSION[0], EMISSION[1]], Bsdf::Mirror { tint })
             }
             "dielectric" => {
                 let ior = self.required(
@@ -803,14 +896,16 @@ impl Checker<'_> {
                     "the index of refraction must be > 0",
                     "Glass is about 1.5, water 1.33; the outside medium has ior 1.",
                 )?;
-                (&["ior"], Material::Dielectric { ior })
+                (&["ior", EMISSION[0], EMISSION[1]], Bsdf::Dielectric { ior })
             }
+            "emitter" => (&["radiance", "two_sided"], Bsdf::Black),
             other => {
                 return Err(self.error(
                     m.kind.span(),
                     &key("type"),
                     format!("unknown material type \"{other}\""),
-                    "Use \"diffuse\" (with albedo), \"mirror\" (optional tint) or \"dielectric\" (with ior).",
+                    "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior) or \"emitter\" \
+                     (with radiance).",
                 ));
             }
         };
@@ -818,6 +913,13 @@ impl Checker<'_> {
             ("albedo", m.albedo.as_ref().map(Spanned::span)),
             ("tint", m.tint.as_ref().map(Spanned::span)),
             ("ior", m.ior.as_ref().map(Spanned::span)),
+            ("radiance", m.radiance.as_ref().map(Spanned::span)),
+            ("two_sided", m.two_sided.as_ref().map(Spanned::span)),
+            ("emission", m.emission.as_ref().map(Spanned::span)),
+            (
+                "two_sided_emission",
+                m.two_sided_emission.as_ref().map(Spanned::span),
+            ),
         ];
         self.reject_foreign_keys(
             &present,
@@ -825,7 +927,35 @@ impl Checker<'_> {
             &format!("materials.{name}"),
             &format!("a {kind} material"),
         )?;
-        Ok(material)
+        let emission = if bsdf == Bsdf::Black {
+            let r = self.required(
+                &m.radiance,
+                raw,
+                &key("radiance"),
+                "an emitter material needs a radiance",
+            )?;
+            Some(Emission {
+                radiance: radiance(r, "radiance")?,
+                two_sided: m.two_sided.as_ref().is_some_and(|t| *t.get_ref()),
+            })
+        } else {
+            match (&m.emission, &m.two_sided_emission) {
+                (Some(e), two_sided) => Some(Emission {
+                    radiance: radiance(e, "emission")?,
+                    two_sided: two_sided.as_ref().is_some_and(|t| *t.get_ref()),
+                }),
+                (None, Some(t)) => {
+                    return Err(self.error(
+                        t.span(),
+                        &key("two_sided_emission"),
+                        "two_sided_emission is given but the material has no emission",
+                        "Give `emission = [r, g, b]` (its radiance) as well, or remove two_sided_emission.",
+                    ));
+                }
+                (None, None) => None,
+            }
+        };
+        Ok(Material { bsdf, emission })
     }
 
     fn sphere(&self, i: usize, raw: &RawSphere, names: &[String]) -> Result<Sphere, SceneError> {
@@ -922,15 +1052,17 @@ impl Checker<'_> {
             None => None,
             Some(t) => {
                 let tkey = key("texture");
-                if matches!(
-                    materials.get(material as usize),
-                    Some(Material::Dielectric { .. })
-                ) {
+                let untexturable = match materials.get(material as usize).map(|m| m.bsdf) {
+                    Some(Bsdf::Dielectric { .. }) => Some("a dielectric"),
+                    Some(Bsdf::Black) => Some("an emitter"),
+                    _ => None,
+                };
+                if let Some(what) = untexturable {
                     return Err(self.error(
                         t.span(),
                         &tkey,
                         format!(
-                            "material \"{}\" is a dielectric, which has no albedo for a texture to replace",
+                            "material \"{}\" is {what}, which has no albedo for a texture to replace",
                             m.material.get_ref()
                         ),
                         "Give textured meshes a diffuse material (the texture is the albedo) or a mirror (the texture is the tint).",
@@ -1733,7 +1865,6 @@ fov      = 45
                 seed: 0,
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
-                background: Vec3::ZERO,
                 sampler: Sampler::Independent,
                 light_sampling: LightSampling::Cone,
             }
@@ -1742,11 +1873,12 @@ fov      = 45
         assert_eq!(
             scene.materials,
             [
-                Material::Diffuse {
+                Bsdf::Diffuse {
                     albedo: Vec3::splat(0.8)
-                },
-                Material::Mirror { tint: Vec3::ONE },
-                Material::Dielectric { ior: 1.5 },
+                }
+                .into(),
+                Bsdf::Mirror { tint: Vec3::ONE }.into(),
+                Bsdf::Dielectric { ior: 1.5 }.into(),
             ]
         );
         assert_eq!(
@@ -1810,7 +1942,6 @@ fov      = 45
                 seed: 0,
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
-                background: Vec3::ZERO,
                 sampler: Sampler::Independent,
                 light_sampling: LightSampling::Cone,
             }
@@ -1829,7 +1960,7 @@ fov      = 45
         assert_eq!((scene.image.width, scene.image.height), (320, 512));
         assert_eq!(scene.image.gamma, Gamma::Power(2.2));
         assert_eq!((scene.render.samples, scene.render.max_bounces), (16, 5));
-        assert_eq!(scene.materials, [Material::Mirror { tint: Vec3::ONE }]);
+        assert_eq!(scene.materials, [Bsdf::Mirror { tint: Vec3::ONE }.into()]);
         assert_eq!(
             scene.lights,
             [Light::Point {
@@ -1871,7 +2002,7 @@ material = "amber"
         assert_eq!(name_of(scene.spheres[0].material), "moss");
         assert_eq!(name_of(scene.spheres[1].material), "zinc");
         assert_eq!(name_of(scene.triangles[0].material), "amber");
-        assert_eq!(scene.materials[2], Material::Dielectric { ior: 1.3 });
+        assert_eq!(scene.materials[2], Bsdf::Dielectric { ior: 1.3 }.into());
     }
 
     #[test]
@@ -1921,8 +2052,8 @@ power = 500
         assert_eq!(scene.image.gamma, Gamma::Power(2.0));
         assert_eq!(scene.render.filter, Filter::Box);
         assert_eq!(scene.render.filter_sigma, 1.0);
-        assert_eq!(scene.render.background, Vec3::X);
-        assert_eq!(scene.materials, [Material::Dielectric { ior: 2.0 }]);
+        assert_eq!(scene.environment.radiance, Vec3::X);
+        assert_eq!(scene.materials, [Bsdf::Dielectric { ior: 2.0 }.into()]);
         assert_eq!(
             scene.spheres,
             [Sphere {
