@@ -544,7 +544,7 @@ fn environment_pdf(light: Light, w: vec3<f32>) -> f32 {
     var pdf = 1.0 / (4.0 * PI);
     if has_env_map(light) {
         let m = env_to_map(light, w);
-        let sin_theta = sqrt(max(0.0, 1.0 - m.y * m.y));
+        let sin_theta = length(m.xz); // not sqrt(1 - y^2), which is 0 in f32 within 3e-4 rad of a pole
         let cell = env_cell(light, env_uv(m));
         let cells = f32(light.map_width * (light.map_height - 1u));
         pdf = select(0.0, env_cell_probability(light, cell.k, cell.j) * cells / (2.0 * PI * PI * sin_theta),
@@ -569,7 +569,7 @@ fn environment_sample(light: Light, strategy: u32, u: vec2<f32>) -> LightLiSampl
             let fx = clamp((u.y - col_lo) / (env_cdf[base + k] - col_lo), 0.0, 1.0);
             let uv = vec2<f32>(fract((f32(k) + 0.5 + fx) / f32(w)), (f32(j) + fy) / f32(rows));
             let m = env_direction(uv);
-            let sin_theta = sqrt(max(0.0, 1.0 - m.y * m.y));
+            let sin_theta = sin(PI * uv.y);
             let p = env_cell_probability(light, k, j) * f32(w * rows);
             if sin_theta > 0.0 && p > 0.0 {
                 let l = light.intensity * env_map_radiance(light, EnvCell(k, j, vec2<f32>(fx, fy)));

@@ -191,11 +191,12 @@ fn light_of_sphere(i: u32) -> SelectedLight {
 
 // The density with which next-event estimation from p samples direction wi towards the emitting surface
 // of `hit` (the MIS weight of a BSDF-sampled ray that found it): the light's selection probability times
-// its direction density (for a triangle, its pick by the alias table too).
-fn emitter_light_pdf(hit: Hit, p: vec3<f32>, wi: vec3<f32>, strategy: u32) -> f32 {
+// its direction density (for a triangle, its pick by the alias table too). A sphere light is not sampled
+// from its own surface (`p_sphere`, see direct_light): 0 there.
+fn emitter_light_pdf(hit: Hit, p: vec3<f32>, p_sphere: u32, wi: vec3<f32>, strategy: u32) -> f32 {
     var pdf = 0.0;
     if HAS_SPHERE_LIGHTS {
-        if hit.prim_kind == PRIM_SPHERE {
+        if hit.prim_kind == PRIM_SPHERE && hit.prim_index != p_sphere {
             let chosen = light_of_sphere(hit.prim_index);
             pdf = chosen.pmf * light_pdf_li(chosen.light, p, wi, strategy);
         }

@@ -58,7 +58,11 @@ fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 
 // Next-event estimation at a surface point with material `mat`, seen from direction wo: for each
 // selected light, one light sample (L, wi, pdf) and the estimate f(wo, wi) L cos(theta) / (pdf pmf) if
 // the sampled point on the light is visible. n is the facing geometric normal, ns the facing shading
-// normal (the same vector except on smooth meshes).
+// normal (the same vector except on smooth meshes). `on_sphere` is the sphere the point lies on (or
+// NO_LIGHT): a sphere light is not sampled from its own surface, whose rounding puts the point a hair
+// inside or outside it (outside, its cone would be nearly a hemisphere of directions that the sphere
+// itself blocks); its light reaches the point by BSDF-sampled rays instead, which then count in full
+// (emitter_light_pdf is 0 for them too).
 //
 // With multiple importance sampling (`mis`), a sample of a non-delta light is weighted by the power
 // heuristic against the density bsdf_pdf would have given its direction; trace_path weighs the BSDF's
@@ -66,12 +70,17 @@ fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 
 // light's contribution add up to one unbiased estimate (Veach 1997, ch. 9), each strategy dominating
 // where it is good.
 fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec3<f32>, mis: bool,
-                rng: ptr<function, Rng>) -> vec3<f32> {
+                on_sphere: u32, rng: ptr<function, Rng>) -> vec3<f32> {
     var l = vec3<f32>(0.0);
     let strategy = light_sampling_strategy();
     for (var k = 0u; k < light_selection_count(); k++) {
         let chosen = light_select(k);
-        let ls = light_sample_li(chosen.light, sp.p, strategy, rng);
+        var ls = light_sample_li(chosen.light, sp.p, strategy, rng);
+        if HAS_SPHERE_LIGHTS {
+            if chosen.light.kind == LIGHT_SPHERE && chosen.light.index == on_sphere {
+                ls.pdf = 0.0;
+            }
+        }
         let cos_theta = light_cosine(sp, n, ns, ls.wi);
         // (Nested tests rather than `continue`: one exit per iteration, as in the dispatchers.)
         if ls.pdf > 0.0 && cos_theta > 0.0 {
@@ -146,6 +155,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
     let mis = lights_mis(strategy);
     var prev_p = vec3<f32>(0.0);
     var prev_pdf = 0.0;
+    var prev_sphere = NO_LIGHT; // the sphere prev_p lies on, if any
     // Whether the ray was spawned by a delta bounce (or is the camera ray): then no light sample at its
     // origin could have found what it finds.
     var last_delta = true;
@@ -180,7 +190,8 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
                 let le = material_emission(mat, front);
                 var w = 1.0;
                 if !last_delta {
-                    w = emission_weight(prev_pdf, emitter_light_pdf(hit, prev_p, d, strategy), strategy);
+                    w = emission_weight(prev_pdf, emitter_light_pdf(hit, prev_p, prev_sphere, d, strategy),
+                                        strategy);
                 }
                 radiance += beta * le * w;
             }
@@ -195,6 +206,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         }
         bounces += 1u;
         let sp = surface_at(o, d, hit);
+        let on_sphere = select(NO_LIGHT, hit.prim_index, hit.prim_kind == PRIM_SPHERE);
         // Both faces scatter: shade with the normal on the side the ray came from.
         let entering = dot(d, sp.n) < 0.0;
         let n = select(-sp.n, sp.n, entering);
@@ -214,7 +226,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         }
         let wo = -d;
         if !bsdf_is_delta(mat) {
-            radiance += beta * direct_light(mat, sp, n, ns, wo, mis, &rng);
+            radiance += beta * direct_light(mat, sp, n, ns, wo, mis, on_sphere, &rng);
         }
         let bs = bsdf_sample(mat, wo, ns, entering, &rng);
         if bs.flags == 0u {
@@ -224,6 +236,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         let delta = (bs.flags & BSDF_DELTA) != 0u;
         prev_pdf = select(bs.pdf, 0.0, delta);
         prev_p = sp.p;
+        prev_sphere = on_sphere;
         last_delta = delta;
         if HAS_SMOOTH_NORMALS {
             // wi must leave on the side the ray came from (reflection) or cross (transmission).

@@ -86,6 +86,17 @@ background   = [0.1, 0.2, 0.3]
 white  = { type = "diffuse", albedo = [0.8, 0.8, 0.8] }
 mirror = { type = "mirror", tint = [1.0, 0.9, 0.8] }
 glass  = { type = "dielectric", ior = 1.5 }
+lamp   = { type = "emitter", radiance = [4.0, 3.0, 2.0], two_sided = true }
+panel  = { type = "diffuse", albedo = [0.5, 0.5, 0.5], emission = [1.0, 1.0, 1.0], two_sided_emission = false }
+
+[[sphere]]
+center   = [20.0, 20.0, 0.0]
+radius   = 1.0
+material = "lamp"
+
+[[triangle]]
+vertices = [[-5.0, 15.0, -20.0], [5.0, 15.0, -20.0], [0.0, 20.0, -20.0]]
+material = "panel"
 
 [[sphere]]
 center   = [0.0, 0.0, 0.0]
@@ -478,15 +489,20 @@ fn parse_scene_file(dir: &Path, bytes: Vec<u8>) {
     check_scene_answer(result, &file);
 }
 
-/// A directory for mutated scenes: `cube.obj` for EVERY_KEY, and `models/` pointing at scenes/models so
-/// that the shipped mesh scenes find their OBJ files as they do beside their own file.
+/// A directory for mutated scenes: `cube.obj` for EVERY_KEY, and `models/` and `maps/` pointing at
+/// scenes/models and scenes/maps so that the shipped scenes find their OBJ files and environment maps as
+/// they do beside their own file.
 fn scene_dir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("cube.obj"), CUBE_OBJ).unwrap();
-    let models = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/models");
-    #[cfg(unix)]
-    if models.is_dir() {
-        std::os::unix::fs::symlink(&models, dir.path().join("models")).unwrap();
+    for sub in ["models", "maps"] {
+        let target = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(sub);
+        #[cfg(unix)]
+        if target.is_dir() {
+            std::os::unix::fs::symlink(&target, dir.path().join(sub)).unwrap();
+        }
     }
     dir
 }

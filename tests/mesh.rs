@@ -151,6 +151,7 @@ height = {size}
 max_bounces = 1
 filter = "none"
 background = [1, 1, 1]
+light_sampling = "none"
 [materials]
 paper = {{ type = "diffuse", albedo = [0.5, 0.5, 0.5] }}
 [[mesh]]

@@ -7,6 +7,7 @@ use common::*;
 use glam::DVec3;
 use std::f64::consts::PI;
 use vkpath::render::RenderOptions;
+use vkpath::scene::LightSampling;
 
 /// The CPU twin of the shader's pinhole camera (camera.wgsl), in f64: the ray through film position
 /// (fx, fy) in pixels. Independent code, same documented convention (horizontal fov, y down).
@@ -703,14 +704,14 @@ power = {power}
 
 /// Multiple importance sampling changes the noise, not the image: on the course scene (all its
 /// materials, a radius-5 sphere light, 5 bounces) the image means with `mis` and with `cone` agree
-/// within 4 standard errors (from the pixels' own variance estimates; see assert_cone_and_mis_agree).
+/// within 4 standard errors (from the pixels' own variance estimates; see assert_strategies_agree).
 #[test]
 fn mis_renders_the_same_image_mean_as_cone() {
     let mut base = load_scene_file("course.toml");
     base.image.width = 32;
     base.image.height = 32;
     base.render.samples = 64;
-    assert_cone_and_mis_agree(&base);
+    assert_strategies_agree(&base, &[LightSampling::Cone, LightSampling::Mis]);
 }
 
 /// A sun on a tilted plane: a diffuse plane of albedo a (two triangles, seen from a pinhole camera)
@@ -945,36 +946,5 @@ direction = [-0.3, -1.0, -0.2]
 irradiance = 1.5
 angle = 120.0
 "#;
-    assert_cone_and_mis_agree(&scene(text));
-}
-
-/// Renders `base` with `cone` and with `mis` and asserts that the green channel's image means agree
-/// within 4 standard errors of their difference. The variance of an image mean is the sum of the
-/// pixels' variances of their means over n^2; the two renders share their random numbers, so the sum
-/// of their variances over-states the difference's (conservative).
-fn assert_cone_and_mis_agree(base: &vkpath::Scene) {
-    let mut stats = Vec::new();
-    for strategy in [
-        vkpath::scene::LightSampling::Cone,
-        vkpath::scene::LightSampling::Mis,
-    ] {
-        let mut s = base.clone();
-        s.render.light_sampling = strategy;
-        let film = render(&s);
-        let n = film.mean.len() as f64;
-        let mean = film.mean.iter().map(|p| p[1] as f64).sum::<f64>() / n;
-        let var = film.variance.iter().map(|v| v[1] as f64).sum::<f64>() / (n * n);
-        println!(
-            "{strategy:?}: image mean {mean:.5}, standard error {:.2e}",
-            var.sqrt()
-        );
-        stats.push((mean, var));
-    }
-    let (d, se) = (stats[0].0 - stats[1].0, (stats[0].1 + stats[1].1).sqrt());
-    assert!(
-        d.abs() <= 4.0 * se,
-        "cone {} vs mis {}: {d} > 4 x {se}",
-        stats[0].0,
-        stats[1].0
-    );
+    assert_strategies_agree(&scene(text), &[LightSampling::Cone, LightSampling::Mis]);
 }

@@ -32,7 +32,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let c = input[i];
-    let mat = Material(c.m.xyz, u32(c.m.w), vec3<f32>(0.0), c.k.x);
+    let mat = Material(c.m.xyz, u32(c.m.w), vec3<f32>(0.0), c.k.x, 0u, 0u, 0u, 0u);
     let wo = c.wo.xyz;
     let ns = c.ns.xyz;
     var rng = rng_new(i, 0u, u32(c.k.z));

@@ -85,12 +85,41 @@ impl TestKernel {
         input: &[I],
         output_len: usize,
     ) -> Result<Vec<O>, GpuError> {
+        self.run_with(input, output_len, &[])
+    }
+
+    /// As [`TestKernel::run`], with more read-only storage buffers bound by their WGSL names: the
+    /// library's own buffers that the code under test reads (`light_triangles`, `env_cdf`, ...).
+    pub fn run_with<I: bytemuck::Pod, O: bytemuck::Pod>(
+        &mut self,
+        input: &[I],
+        output_len: usize,
+        extra: &[(&str, &[u8])],
+    ) -> Result<Vec<O>, GpuError> {
         let ctx = &self.ctx;
         let input_buffer = Buffer::storage_from(ctx, "test input", input)?;
         let out_bytes = (output_len * std::mem::size_of::<O>()) as u64;
         let output = Buffer::readable_storage(ctx, "test output", out_bytes)?;
-        self.kernel
-            .bind(&[(&self.input, &input_buffer), (&self.output, &output)])?;
+        let extra_buffers = extra
+            .iter()
+            .map(|(name, bytes)| Ok((*name, Buffer::storage_from(ctx, name, bytes)?)))
+            .collect::<Result<Vec<_>, GpuError>>()?;
+        // The library's buffers the kernel reads but the test gives no data for (the emissive
+        // triangles of a light dispatcher that a test of point lights never reaches) are bound empty.
+        let empty = Buffer::storage_from::<u32>(ctx, "unused", &[0; 4])?;
+        let mut bindings: Vec<(&str, &Buffer)> =
+            vec![(&self.input, &input_buffer), (&self.output, &output)];
+        bindings.extend(extra_buffers.iter().map(|(n, b)| (*n, b)));
+        let given: Vec<String> = bindings.iter().map(|(n, _)| n.to_string()).collect();
+        let unbound: Vec<String> = self
+            .kernel
+            .bindings()
+            .iter()
+            .map(|b| b.name.clone())
+            .filter(|n| !given.contains(n))
+            .collect();
+        bindings.extend(unbound.iter().map(|n| (n.as_str(), &empty)));
+        self.kernel.bind(&bindings)?;
         self.kernel.submit(&[Command::Dispatch {
             invocations: [output_len as u32, 1, 1],
         }])?;

@@ -2,6 +2,7 @@
 //! (Khronos validation on) and check that the validation layer stayed silent.
 #![allow(dead_code)]
 
+pub mod envmap;
 pub mod stats;
 pub mod vec;
 
@@ -38,4 +39,44 @@ pub fn render(scene: &Scene) -> Film {
 pub fn assert_no_validation_errors() {
     let errors = testing::context().validation_errors();
     assert!(errors.is_empty(), "Vulkan validation errors: {errors:#?}");
+}
+
+/// Renders `base` with each light-sampling strategy and asserts that the green channel's image means
+/// agree pairwise within 4 standard errors of their difference. The variance of an image mean is the
+/// sum of the pixels' variances of their means over n^2; the renders share their random numbers, so the
+/// sum of two renders' variances over-states their difference's (conservative). Returns each
+/// strategy's image mean and standard error.
+pub fn assert_strategies_agree(
+    base: &Scene,
+    strategies: &[vkpath::scene::LightSampling],
+) -> Vec<(f64, f64)> {
+    let mut stats = Vec::new();
+    for &strategy in strategies {
+        let mut s = base.clone();
+        s.render.light_sampling = strategy;
+        let film = render(&s);
+        let n = film.mean.len() as f64;
+        let mean = film.mean.iter().map(|p| p[1] as f64).sum::<f64>() / n;
+        let var = film.variance.iter().map(|v| v[1] as f64).sum::<f64>() / (n * n);
+        println!(
+            "{strategy:?}: image mean {mean:.5}, standard error {:.2e}",
+            var.sqrt()
+        );
+        stats.push((mean, var.sqrt()));
+    }
+    for i in 0..stats.len() {
+        for j in i + 1..stats.len() {
+            let d = stats[i].0 - stats[j].0;
+            let se = (stats[i].1.powi(2) + stats[j].1.powi(2)).sqrt();
+            assert!(
+                d.abs() <= 4.0 * se,
+                "{:?} {} vs {:?} {}: {d} > 4 x {se}",
+                strategies[i],
+                stats[i].0,
+                strategies[j],
+                stats[j].0
+            );
+        }
+    }
+    stats
 }
