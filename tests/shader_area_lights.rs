@@ -13,7 +13,7 @@
 
 mod common;
 
-use common::envmap::{bilinear, cell_of, map_uv, rotate_y, test_map, texel};
+use common::envmap::{bilinear, cell_of, integrate, map_uv, rotate_y, test_map, texel};
 use common::stats::{assert_fits, chi2};
 use common::vec::{V3, cross, dot, length, normalize, scale, sub};
 use std::f64::consts::PI;
@@ -453,29 +453,7 @@ fn environment_samples_fit_the_map() {
     assert_fits("environment cells", &chi2(&counts, &expected));
     // The integral of the radiance over the sphere, by a midpoint quadrature in (u, v) fine enough that
     // its error is far below the estimate's noise (checked against half the resolution).
-    let quadrature = |steps: usize| {
-        let mut sum = [0.0; 3];
-        for a in 0..2 * steps {
-            for b in 0..steps {
-                let (u, v) = (
-                    (a as f64 + 0.5) / (2 * steps) as f64,
-                    (b as f64 + 0.5) / steps as f64,
-                );
-                let (theta, phi) = (PI * v, 2.0 * PI * u);
-                let m = [
-                    theta.sin() * phi.sin(),
-                    theta.cos(),
-                    -theta.sin() * phi.cos(),
-                ];
-                let l = bilinear(&map, m);
-                let d_omega = 2.0 * PI * PI * theta.sin() / (2 * steps * steps) as f64;
-                for ch in 0..3 {
-                    sum[ch] += tint[ch] * l[ch] * d_omega;
-                }
-            }
-        }
-        sum
-    };
+    let quadrature = |steps: usize| integrate(&map, rotate, tint, steps, |_| 1.0);
     let (fine, coarse) = (quadrature(1200), quadrature(600));
     for ch in 0..3 {
         assert!(

@@ -72,11 +72,15 @@ pub fn load_map(path: &Path) -> Result<EnvironmentMap, String> {
             ));
         }
     };
-    let file =
-        std::fs::File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-    let mut reader = image::ImageReader::with_format(std::io::BufReader::new(file), format);
-    reader.no_limits();
-    let (w, h) = reader
+    // The file is opened twice: its size is checked from the header before any pixel is decoded.
+    let reader = || -> Result<_, String> {
+        let file = std::fs::File::open(path)
+            .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+        let mut reader = image::ImageReader::with_format(std::io::BufReader::new(file), format);
+        reader.no_limits();
+        Ok(reader)
+    };
+    let (w, h) = reader()?
         .into_dimensions()
         .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     if w < 2 || h < 2 {
@@ -91,11 +95,7 @@ pub fn load_map(path: &Path) -> Result<EnvironmentMap, String> {
             path.display()
         ));
     }
-    let file =
-        std::fs::File::open(path).map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-    let mut reader = image::ImageReader::with_format(std::io::BufReader::new(file), format);
-    reader.no_limits();
-    let img = reader
+    let img = reader()?
         .decode()
         .map_err(|e| format!("cannot decode {}: {e}", path.display()))?
         .into_rgb32f();

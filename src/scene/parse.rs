@@ -806,7 +806,7 @@ impl Checker<'_> {
             },
         };
         let light_sampling = match &raw.light_sampling {
-            None => LightSampling::Cone,
+            None => LightSampling::Mis,
             Some(s) => match LightSampling::from_name(s.get_ref()) {
                 Some(l) => l,
                 None => {
@@ -815,7 +815,7 @@ impl Checker<'_> {
                         "render.light_sampling",
                         format!("unknown light sampling strategy \"{}\"", s.get_ref()),
                         format!(
-                            "Use {} (\"cone\" is the default).",
+                            "Use {} (\"mis\" is the default).",
                             LightSampling::names_listed()
                         ),
                     ));
@@ -1866,7 +1866,7 @@ fov      = 45
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
                 sampler: Sampler::Independent,
-                light_sampling: LightSampling::Cone,
+                light_sampling: LightSampling::Mis,
             }
         );
         assert_eq!(scene.material_names, ["white", "mirror", "glass"]);
@@ -1943,7 +1943,7 @@ fov      = 45
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
                 sampler: Sampler::Independent,
-                light_sampling: LightSampling::Cone,
+                light_sampling: LightSampling::Mis,
             }
         );
         assert!(scene.materials.is_empty() && scene.material_names.is_empty());

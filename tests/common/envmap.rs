@@ -82,15 +82,15 @@ pub fn write_exr(map: &EnvironmentMap, path: &std::path::Path) {
         .expect("write the map");
 }
 
-/// The irradiance-weighted radiance a diffuse surface of albedo 1 with unit normal n reflects under the
-/// map (rotated by `rotate_deg`, times `tint`): (1 / pi) integral of L(w) max(0, n.w) dw, by a midpoint
-/// quadrature with `steps` rows (and 2 steps columns) in (u, v).
-pub fn cosine_convolution(
+/// The integral over the sphere of the map's radiance (rotated by `rotate_deg`, times `tint`) weighted by
+/// `weight(world direction)`, by a midpoint quadrature with `steps` rows (and 2 steps columns) in (u, v)
+/// (solid angle 2 pi^2 sin(theta) du dv).
+pub fn integrate(
     map: &EnvironmentMap,
     rotate_deg: f64,
     tint: V3,
-    n: V3,
     steps: usize,
+    weight: impl Fn(V3) -> f64,
 ) -> V3 {
     let mut sum = [0.0; 3];
     for a in 0..2 * steps {
@@ -105,17 +105,30 @@ pub fn cosine_convolution(
                 theta.cos(),
                 -theta.sin() * phi.cos(),
             ];
-            let w = rotate_y(rotate_deg, m);
-            let cos = super::vec::dot(n, w);
-            if cos <= 0.0 {
+            let w = weight(rotate_y(rotate_deg, m));
+            if w == 0.0 {
                 continue;
             }
             let l = bilinear(map, m);
             let d_omega = 2.0 * PI * PI * theta.sin() / (2 * steps * steps) as f64;
             for ch in 0..3 {
-                sum[ch] += tint[ch] * l[ch] * cos * d_omega / PI;
+                sum[ch] += tint[ch] * l[ch] * w * d_omega;
             }
         }
     }
     sum
+}
+
+/// The radiance a diffuse surface of albedo 1 with unit normal n reflects under the map: (1 / pi) times
+/// the integral of L(w) max(0, n.w).
+pub fn cosine_convolution(
+    map: &EnvironmentMap,
+    rotate_deg: f64,
+    tint: V3,
+    n: V3,
+    steps: usize,
+) -> V3 {
+    integrate(map, rotate_deg, tint, steps, |w| {
+        super::vec::dot(n, w).max(0.0) / PI
+    })
 }
