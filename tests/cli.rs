@@ -672,6 +672,14 @@ fn scene_error_invalid_toml() {
     expect_scene_error(&text, 10, "radius");
 }
 
+/// A missing environment map (relative to the scene file) is a scene error like any other: exit 2,
+/// the key and the map's path named, nothing written.
+#[test]
+fn scene_error_missing_environment_map() {
+    let text = format!("{BASE}{SPHERE}[environment]\nmap = \"maps/none.exr\"  # line 13\n");
+    expect_scene_error(&text, 13, "environment.map");
+}
+
 #[test]
 fn scene_error_unknown_key() {
     expect_scene_error(&format!("{BASE}{SPHERE}colour = 3\n"), 12, "colour");

@@ -789,3 +789,121 @@ fn orthographic_camera_errors() {
     assert_eq!(s.camera.projection, vkpath::scene::Projection::Orthographic);
     assert_eq!(s.camera.extent, 4.0);
 }
+
+/// The emitting materials (scene-format.md, Additions): an emitter needs a radiance >= 0 and takes only
+/// `radiance` and `two_sided`; any other material may have `emission` >= 0, and `two_sided_emission`
+/// only with it; an emitter has no albedo for a texture.
+#[test]
+fn emitter_and_emission_errors() {
+    let m = |def: &str| {
+        format!(
+            "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n\n[materials]\n{def}  # line 7\n"
+        )
+    };
+    expect_error_exact(
+        &m("lamp = { type = \"emitter\" }"),
+        7,
+        "materials.lamp.radiance",
+    );
+    expect_error_exact(
+        &m("lamp = { type = \"emitter\", radiance = [1, -1, 1] }"),
+        7,
+        "materials.lamp.radiance",
+    );
+    expect_error_exact(
+        &m("lamp = { type = \"emitter\", radiance = [1, 1, 1], albedo = [0.5, 0.5, 0.5] }"),
+        7,
+        "materials.lamp.albedo",
+    );
+    expect_error_exact(
+        &m("lamp = { type = \"emitter\", radiance = [1, 1, 1], emission = [1, 1, 1] }"),
+        7,
+        "materials.lamp.emission",
+    );
+    expect_error_exact(
+        &m("w = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], emission = [0, 0, -2] }"),
+        7,
+        "materials.w.emission",
+    );
+    expect_error_exact(
+        &m("w = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], two_sided_emission = true }"),
+        7,
+        "materials.w.two_sided_emission",
+    );
+    expect_error_exact(
+        &m("w = { type = \"mirror\", radiance = [1, 1, 1] }"),
+        7,
+        "materials.w.radiance",
+    );
+    expect_error_exact(
+        &m("w = { type = \"dielectric\", ior = 1.5, two_sided = true }"),
+        7,
+        "materials.w.two_sided",
+    );
+    // Valid ones parse, with their emission.
+    let ok = m(
+        "lamp = { type = \"emitter\", radiance = [1, 2, 3], two_sided = true }\n\
+                w = { type = \"mirror\", emission = [0.5, 0.5, 0.5] }",
+    );
+    let s = Scene::from_toml_str(&ok, Some(Path::new("ok.toml"))).expect("valid emitters");
+    let e = s.materials[0].emission.expect("the emitter emits");
+    assert_eq!(
+        (e.radiance, e.two_sided),
+        (glam::Vec3::new(1.0, 2.0, 3.0), true)
+    );
+    assert_eq!(s.materials[0].bsdf, vkpath::scene::Bsdf::Black);
+    assert!(!s.materials[1].emission.expect("the mirror emits").two_sided);
+}
+
+/// `[environment]` (scene-format.md, Additions): radiance >= 0, rotate finite, no unknown key, not
+/// together with render.background, and a map that is a readable .exr or .hdr of at least 2 x 2 pixels
+/// of finite, non-negative radiance; each error names the key (and the map file).
+#[test]
+fn environment_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, w: u32, h: u32, value: f32| {
+        let path = dir.path().join(name);
+        let img = image::Rgb32FImage::from_pixel(w, h, image::Rgb([value, 0.5, 0.5]));
+        image::DynamicImage::ImageRgb32F(img)
+            .save_with_format(&path, image::ImageFormat::OpenExr)
+            .unwrap();
+        path
+    };
+    let good = write("good.exr", 4, 2, 1.0);
+    let tiny = write("tiny.exr", 1, 1, 1.0);
+    let negative = write("negative.exr", 4, 2, -1.0);
+    let env = |rest: &str| with_base(&format!("[environment]  # line 9\n{rest}"));
+    expect_error_exact(
+        &env("radiance = [1, -1, 1]  # line 10\n"),
+        10,
+        "environment.radiance",
+    );
+    expect_error_exact(&env("rotate = nan  # line 10\n"), 10, "environment.rotate");
+    expect_error(&env("scale = 2  # line 10\n"), 10, "environment.scale");
+    let map = |path: &Path| env(&format!("map = \"{}\"  # line 10\n", path.display()));
+    let e = expect_error_exact(&map(&dir.path().join("missing.exr")), 10, "environment.map");
+    assert!(e.to_string().contains("missing.exr"), "{e}");
+    let e = expect_error_exact(&map(&tiny), 10, "environment.map");
+    assert!(e.to_string().contains("2 x 2"), "{e}");
+    let e = expect_error_exact(&map(&negative), 10, "environment.map");
+    assert!(e.to_string().contains("negative"), "{e}");
+    let png = dir.path().join("sky.png");
+    std::fs::write(&png, b"not read").unwrap();
+    let e = expect_error_exact(&map(&png), 10, "environment.map");
+    assert!(e.to_string().contains(".exr or .hdr"), "{e}");
+    let garbage = dir.path().join("garbage.exr");
+    std::fs::write(&garbage, b"this is not an EXR file").unwrap();
+    expect_error_exact(&map(&garbage), 10, "environment.map");
+    // Both render.background and [environment]: which is meant?
+    let both = with_base(
+        "[render]\nbackground = [1, 1, 1]  # line 10\n[environment]\nradiance = [1, 1, 1]\n",
+    );
+    expect_error_exact(&both, 10, "render.background");
+    // A good map parses: radiance defaults to [1, 1, 1] with a map.
+    let s = Scene::from_toml_str(&map(&good), Some(Path::new("ok.toml"))).expect("valid map");
+    assert_eq!(s.environment.radiance, glam::Vec3::ONE);
+    assert_eq!(
+        s.environment.map.as_ref().map(|m| (m.width, m.height)),
+        Some((4, 2))
+    );
+}
