@@ -500,12 +500,19 @@ fn env_map_radiance(light: Light, cell: EnvCell) -> vec3<f32> {
     return mix(top, bottom, cell.f.y);
 }
 
+// The CDF value before entry i of the CDF that starts at env_cdf[first]: 0 for i = 0. (select evaluates
+// both of its values, and the kernel's buffer accesses are not bounds-checked, so the index must stay in
+// the buffer either way.)
+fn env_cdf_before(first: u32, i: u32) -> f32 {
+    return select(0.0, env_cdf[first + max(i, 1u) - 1u], i > 0u);
+}
+
 // The probability of cell (k, j), from its CDFs.
 fn env_cell_probability(light: Light, k: u32, j: u32) -> f32 {
     let rows = light.map_height - 1u;
-    let p_row = env_cdf[j] - select(0.0, env_cdf[j - 1u], j > 0u);
+    let p_row = env_cdf[j] - env_cdf_before(0u, j);
     let base = rows + j * light.map_width;
-    let p_col = env_cdf[base + k] - select(0.0, env_cdf[base + k - 1u], k > 0u);
+    let p_col = env_cdf[base + k] - env_cdf_before(base, k);
     return p_row * p_col;
 }
 
@@ -561,11 +568,11 @@ fn environment_sample(light: Light, strategy: u32, u: vec2<f32>) -> LightLiSampl
             let rows = light.map_height - 1u;
             let w = light.map_width;
             let j = env_cdf_search(0u, rows, u.x);
-            let row_lo = select(0.0, env_cdf[j - 1u], j > 0u);
+            let row_lo = env_cdf_before(0u, j);
             let fy = clamp((u.x - row_lo) / (env_cdf[j] - row_lo), 0.0, 1.0);
             let base = rows + j * w;
             let k = env_cdf_search(base, w, u.y);
-            let col_lo = select(0.0, env_cdf[base + k - 1u], k > 0u);
+            let col_lo = env_cdf_before(base, k);
             let fx = clamp((u.y - col_lo) / (env_cdf[base + k] - col_lo), 0.0, 1.0);
             let uv = vec2<f32>(fract((f32(k) + 0.5 + fx) / f32(w)), (f32(j) + fy) / f32(rows));
             let m = env_direction(uv);
