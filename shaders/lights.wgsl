@@ -70,10 +70,13 @@ struct LightLiSample {
     p_light: vec3<f32>, // the point on the light the shadow ray aims at
     dist: f32, // |p_light - p|; T_MISS for a light at infinity (the shadow ray goes along wi, unbounded)
     delta: bool,
+    // LIGHT_TRIANGLES: the triangle sampled (its index in `triangles`), whose texture, if any, the
+    // integrator applies to L (trace.wgsl); NO_LIGHT for every other light.
+    triangle: u32,
 }
 
 fn no_light_sample() -> LightLiSample {
-    return LightLiSample(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, vec3<f32>(0.0), 0.0, false);
+    return LightLiSample(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), 0.0, vec3<f32>(0.0), 0.0, false, NO_LIGHT);
 }
 
 // Whether next-event estimation samples the non-delta lights at all with this strategy (with "none",
@@ -129,7 +132,7 @@ fn point_light_sample(light: Light, p: vec3<f32>) -> LightLiSample {
         return no_light_sample();
     }
     let dist = sqrt(d2);
-    return LightLiSample(light.intensity / d2, to_light / dist, 1.0, light.position, dist, true);
+    return LightLiSample(light.intensity / d2, to_light / dist, 1.0, light.position, dist, true, NO_LIGHT);
 }
 
 // --- Directional light (a sun) -------------------------------------------------------------------------
@@ -140,12 +143,12 @@ fn point_light_sample(light: Light, p: vec3<f32>) -> LightLiSample {
 // The two numbers are drawn in both cases (so that later dimensions line up).
 fn directional_light_sample(light: Light, u: vec2<f32>) -> LightLiSample {
     if light.radius == 0.0 {
-        return LightLiSample(light.intensity, light.position, 1.0, vec3<f32>(0.0), T_MISS, true);
+        return LightLiSample(light.intensity, light.position, 1.0, vec3<f32>(0.0), T_MISS, true, NO_LIGHT);
     }
     let cone = sample_cone_local(light.radius, u);
     let wi = frame_to_world(frame_from_normal(light.position), cone.local);
     return LightLiSample(light.intensity, wi, cone_pdf(cone.one_minus_cos, light.radius), vec3<f32>(0.0),
-                         T_MISS, false);
+                         T_MISS, false, NO_LIGHT);
 }
 
 // Whether direction w (unit) lies in a directional light's cone (never, for a delta light).
@@ -188,7 +191,7 @@ fn sphere_light_sample_cone(light: Light, p: vec3<f32>, u: vec2<f32>) -> LightLi
                                                   -cos_alpha));
     let p_light = light.position + r * n_light;
     return LightLiSample(light.intensity, wi, cone_pdf(cone.one_minus_cos, omc_max), p_light,
-                         length(p_light - p), false);
+                         length(p_light - p), false, NO_LIGHT);
 }
 
 // --- Sphere light, area strategy (the course's method) -----------------------------------------------
@@ -219,7 +222,7 @@ fn sphere_light_sample_area(light: Light, p: vec3<f32>, u: vec2<f32>) -> LightLi
         return no_light_sample();
     }
     let pdf = cos_m * d2 / (PI * r * r * cos_l);
-    return LightLiSample(light.intensity, wi, pdf, x_l, d, false);
+    return LightLiSample(light.intensity, wi, pdf, x_l, d, false, NO_LIGHT);
 }
 
 // The density sphere_light_sample_area gives direction wi from p (0 if wi misses the sphere).
@@ -311,7 +314,7 @@ struct LightTriangle {
     v2: vec3<f32>,
     flags: u32, // MATERIAL_TWO_SIDED_EMISSION
     emission: vec3<f32>,
-    _pad0: u32,
+    triangle: u32, // its index in `triangles` (for a textured mesh's texture)
 }
 
 @group(0) @binding(13) var<storage, read> light_triangles: array<LightTriangle>;
@@ -373,7 +376,7 @@ fn triangle_light_sample(t: LightTriangle, p: vec3<f32>, strategy: u32, u: vec2<
         // Where wi meets the triangle's plane: the point the shadow ray aims at.
         let dist = dot(n, t.v0 - p) / dot(n, wi);
         if dist > 0.0 {
-            ls = LightLiSample(t.emission, wi, 1.0 / view.solid_angle, p + dist * wi, dist, false);
+            ls = LightLiSample(t.emission, wi, 1.0 / view.solid_angle, p + dist * wi, dist, false, NO_LIGHT);
         }
     } else {
         let b = sample_uniform_triangle(u);
@@ -386,7 +389,7 @@ fn triangle_light_sample(t: LightTriangle, p: vec3<f32>, strategy: u32, u: vec2<
         let cos_l = abs(dot(n, wi)) / len_n;
         if cos_l > 0.0 && dist > 0.0 {
             // A = |n| / 2.
-            ls = LightLiSample(t.emission, wi, 2.0 * d2 / (len_n * cos_l), x, dist, false);
+            ls = LightLiSample(t.emission, wi, 2.0 * d2 / (len_n * cos_l), x, dist, false, NO_LIGHT);
         }
     }
     return ls;
@@ -426,6 +429,7 @@ fn triangle_lights_sample(light: Light, p: vec3<f32>, strategy: u32,
         let n = cross(t.v1 - t.v0, t.v2 - t.v0);
         if triangle_light_faces(t.v0, n, t.flags, p) {
             ls = triangle_light_sample(t, p, strategy, u);
+            ls.triangle = t.triangle;
             ls.pdf *= triangle_light_power(t.v0, t.v1, t.v2, t.emission, t.flags) / light.radius;
         }
     }
@@ -581,11 +585,11 @@ fn environment_sample(light: Light, strategy: u32, u: vec2<f32>) -> LightLiSampl
             if sin_theta > 0.0 && p > 0.0 {
                 let l = light.intensity * env_map_radiance(light, EnvCell(k, j, vec2<f32>(fx, fy)));
                 ls = LightLiSample(l, env_to_world(light, m), p / (2.0 * PI * PI * sin_theta), vec3<f32>(0.0),
-                                   T_MISS, false);
+                                   T_MISS, false, NO_LIGHT);
             }
         } else {
             let wi = sample_cone(vec3<f32>(0.0, 1.0, 0.0), 2.0, u);
-            ls = LightLiSample(light.intensity, wi, 1.0 / (4.0 * PI), vec3<f32>(0.0), T_MISS, false);
+            ls = LightLiSample(light.intensity, wi, 1.0 / (4.0 * PI), vec3<f32>(0.0), T_MISS, false, NO_LIGHT);
         }
     }
     return ls;

@@ -97,7 +97,11 @@ fn triangle_surface(hit: Hit) -> Surface {
     let n = triangle_normal(tri.v0, tri.v1, tri.v2);
     var s = Surface(sp.p, sp.err, n, tri.material, n, false, vec3<f32>(0.0), false);
     if HAS_MESH_SHADING {
-        let face = mesh_faces[hit.prim_index];
+        // (The generic kernel also runs scenes without shading data, whose mesh_faces is empty.)
+        var face = MeshFace(vec3<u32>(0u), NO_MESH);
+        if hit.prim_index < arrayLength(&mesh_faces) {
+            face = mesh_faces[hit.prim_index];
+        }
         if face.mesh != NO_MESH {
             let mesh = meshes[face.mesh];
             let v0 = mesh_vertices[face.vertices.x];
@@ -130,6 +134,27 @@ fn triangle_surface(hit: Hit) -> Surface {
         }
     }
     return s;
+}
+
+// What a textured mesh's texture makes of the emission at point p of triangle `tri` (p from a light
+// sample, on the triangle up to rounding): the texture's value there (the texture multiplies the
+// emission, as it replaces the albedo), or 1 off textured meshes.
+fn emission_texture(tri: u32, p: vec3<f32>) -> vec3<f32> {
+    var scale = vec3<f32>(1.0);
+    if HAS_TEXTURES {
+        let t = triangles[tri];
+        let e1 = t.v1 - t.v0;
+        let e2 = t.v2 - t.v0;
+        let n = cross(e1, e2);
+        let inv = 1.0 / dot(n, n);
+        let b1 = clamp(dot(cross(p - t.v0, e2), n) * inv, 0.0, 1.0);
+        let b2 = clamp(dot(cross(e1, p - t.v0), n) * inv, 0.0, 1.0 - b1);
+        let s = triangle_surface(Hit(0.0, PRIM_TRIANGLE, tri, vec3<f32>(1.0 - b1 - b2, b1, b2)));
+        if s.textured {
+            scale = s.albedo;
+        }
+    }
+    return scale;
 }
 
 // The material index of a hit, without computing the surface point.

@@ -76,6 +76,13 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
     for (var k = 0u; k < light_selection_count(); k++) {
         let chosen = light_select(k);
         var ls = light_sample_li(chosen.light, sp.p, strategy, rng);
+        if HAS_TRIANGLE_LIGHTS {
+            if HAS_TEXTURES {
+                if ls.triangle != NO_LIGHT && ls.pdf > 0.0 {
+                    ls.L *= emission_texture(ls.triangle, ls.p_light);
+                }
+            }
+        }
         if HAS_SPHERE_LIGHTS {
             if chosen.light.kind == LIGHT_SPHERE && chosen.light.index == on_sphere {
                 ls.pdf = 0.0;
@@ -185,9 +192,15 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         var mat = materials[hit_material(hit)];
         if HAS_EMISSION {
             if any(mat.emission > vec3<f32>(0.0)) {
-                // Front or back: against the geometric normal (outward on spheres).
-                let front = dot(d, surface_at(o, d, hit).n) < 0.0;
-                let le = material_emission(mat, front);
+                // Front or back: against the geometric normal (outward on spheres). A textured mesh's
+                // texture multiplies the emission.
+                let s = surface_at(o, d, hit);
+                var le = material_emission(mat, dot(d, s.n) < 0.0);
+                if HAS_TEXTURES {
+                    if s.textured {
+                        le *= s.albedo;
+                    }
+                }
                 var w = 1.0;
                 if !last_delta {
                     w = emission_weight(prev_pdf, emitter_light_pdf(hit, prev_p, prev_sphere, d, strategy),

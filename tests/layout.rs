@@ -402,7 +402,7 @@ fn light_triangle_matches_wgsl() {
         "LightTriangle",
         "GpuLightTriangle",
         size_of::<GpuLightTriangle>(),
-        fields!(GpuLightTriangle: v0, alias_triangle, v1, keep, v2, flags, emission, _pad0),
+        fields!(GpuLightTriangle: v0, alias_triangle, v1, keep, v2, flags, emission, triangle),
     );
     check_storage_array(
         &module,

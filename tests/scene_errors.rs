@@ -792,7 +792,7 @@ fn orthographic_camera_errors() {
 
 /// The emitting materials (scene-format.md, Additions): an emitter needs a radiance >= 0 and takes only
 /// `radiance` and `two_sided`; any other material may have `emission` >= 0, and `two_sided_emission`
-/// only with it; an emitter has no albedo for a texture.
+/// only with it.
 #[test]
 fn emitter_and_emission_errors() {
     let m = |def: &str| {

@@ -153,7 +153,8 @@ pub struct GpuLightTriangle {
     /// [`MATERIAL_TWO_SIDED_EMISSION`] when it emits from both faces.
     pub flags: u32,
     pub emission: [f32; 3],
-    pub _pad0: u32,
+    /// Its index in `triangles` (whose mesh may texture the emission).
+    pub triangle: u32,
 }
 
 /// Limbs (u32) of one channel's exact sum: a 192-bit fixed-point integer in units of 2^-96.

@@ -233,8 +233,9 @@ impl GpuScene {
         let mut lit: Vec<GpuLightTriangle> = self
             .triangles
             .iter()
-            .filter(|t| emits(&self.materials[t.material as usize]))
-            .map(|t| {
+            .enumerate()
+            .filter(|(_, t)| emits(&self.materials[t.material as usize]))
+            .map(|(i, t)| {
                 let m = &self.materials[t.material as usize];
                 GpuLightTriangle {
                     v0: t.v0,
@@ -242,6 +243,7 @@ impl GpuScene {
                     v2: t.v2,
                     flags: m.flags & MATERIAL_TWO_SIDED_EMISSION,
                     emission: m.emission,
+                    triangle: i as u32,
                     ..Default::default()
                 }
             })

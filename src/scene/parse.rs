@@ -1052,9 +1052,13 @@ impl Checker<'_> {
             None => None,
             Some(t) => {
                 let tkey = key("texture");
-                let untexturable = match materials.get(material as usize).map(|m| m.bsdf) {
-                    Some(Bsdf::Dielectric { .. }) => Some("a dielectric"),
-                    Some(Bsdf::Black) => Some("an emitter"),
+                // The texture replaces the albedo (or tint) and multiplies the emission: a material with
+                // neither has nothing for it to change.
+                let untexturable = match materials.get(material as usize) {
+                    Some(Material {
+                        bsdf: Bsdf::Dielectric { .. },
+                        emission: None,
+                    }) => Some("a dielectric that does not emit"),
                     _ => None,
                 };
                 if let Some(what) = untexturable {
@@ -1062,10 +1066,10 @@ impl Checker<'_> {
                         t.span(),
                         &tkey,
                         format!(
-                            "material \"{}\" is {what}, which has no albedo for a texture to replace",
+                            "material \"{}\" is {what}: it has no albedo for a texture to replace and no emission for it to multiply",
                             m.material.get_ref()
                         ),
-                        "Give textured meshes a diffuse material (the texture is the albedo) or a mirror (the texture is the tint).",
+                        "Give textured meshes a diffuse material (the texture is the albedo), a mirror (the tint) or an emitting material (the texture multiplies the emission).",
                     ));
                 }
                 if obj.uvs.is_none() {
