@@ -815,6 +815,47 @@ fn flag_error_negative_time_with_equals() {
     );
 }
 
+/// Issue 18, failure 4: `--time 1e20` panicked converting to a Duration (exit 101); now every time is
+/// bounded and a usage error names the flag. Durations with units are accepted.
+#[test]
+fn flag_error_huge_time_and_units() {
+    for t in ["1e20", "1e400", "inf", "2000000000", "0s", "soon"] {
+        expect_usage_error(
+            &[&["render", "tiny.toml", "--time", t][..], &OUTS].concat(),
+            &["--time"],
+        );
+    }
+    let dir = dir_with("tiny.toml", TINY);
+    for t in ["1h30m", "90s", "0.5"] {
+        let run = vkpath(
+            dir.path(),
+            &[
+                "render",
+                "tiny.toml",
+                "--time",
+                t,
+                "--spp",
+                "1",
+                "--quiet",
+                "-o",
+                "t.exr",
+            ],
+        );
+        run.assert_success();
+    }
+}
+
+/// `vkpath bench mesh 99999999999999` allocated until the machine ran out of memory; now sizes are
+/// bounded before anything is built.
+#[test]
+fn bench_mesh_sizes_are_bounded() {
+    expect_usage_error(
+        &["bench", "mesh", "99999999999999"],
+        &["bench mesh", "99999999999999"],
+    );
+    expect_usage_error(&["bench", "mesh", "0"], &["bench mesh"]);
+}
+
 #[test]
 fn flag_error_target_error_not_positive() {
     expect_usage_error(

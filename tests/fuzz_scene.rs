@@ -669,7 +669,6 @@ fn checkpoint_bytes() -> Vec<u8> {
                 exposure: 1.0,
                 gamma: None,
             },
-            payload_crc32: 0,
         },
         accum: vec![vkpath::kernel::abi::GpuAccum::default(); 6],
     };

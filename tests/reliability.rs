@@ -470,6 +470,21 @@ fn resume_refuses_foreign_and_damaged_checkpoints() {
     let last = flipped.len() - 7;
     flipped[last] ^= 0x10;
     damaged("flipped.ckpt", &flipped, &["checksum"]);
+    // Issue 18, failure 1: the sample range in the header edited (still valid JSON, one digit more) was
+    // resumed as if it held more samples, an image too dark. The checksum covers the header now.
+    let mut edited = before.clone();
+    let ranges = edited
+        .windows(11)
+        .position(|w| w == b"\"ranges\":[[")
+        .expect("the ranges in the header");
+    let end = ranges + edited[ranges..].iter().position(|&b| b == b']').unwrap() - 1;
+    assert!(edited[end].is_ascii_digit());
+    edited[end] = if edited[end] == b'9' {
+        b'8'
+    } else {
+        edited[end] + 1
+    };
+    damaged("edited.ckpt", &edited, &["checksum", "edited.ckpt"]);
     damaged(
         "image.ckpt",
         &std::fs::read(d.join("a.exr")).unwrap(),

@@ -34,6 +34,9 @@ pub struct MeshScalingRow {
     pub direct_brute_force_samples_per_second: Option<f64>,
 }
 
+/// The largest mesh `vkpath bench mesh` builds: ten times its largest default size.
+pub const MAX_BENCH_TRIANGLES: usize = 10_000_000;
+
 /// A closed, wavy blob of about `target` triangles and radius about 10: a latitude–longitude grid whose
 /// radius is modulated, r = 10 (1 + 0.12 sin(5 theta) sin(4 phi)), so that rays meet it at every angle.
 pub fn blob(target: usize) -> shapes::Shape {

@@ -115,7 +115,6 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
             device: devices.join(" + "),
             ranges: all_ranges,
             display: first.header.display,
-            payload_crc32: 0,
         },
         accum,
     })

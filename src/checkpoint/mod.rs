@@ -21,9 +21,11 @@
 //! | 4 | header length H (u32, at most [`MAX_HEADER_BYTES`]) |
 //! | H | header, UTF-8 JSON ([`Header`]) |
 //! | 96 × width × height | the pixels' `GpuAccum`, row-major from the top-left: 18 u32 limbs (3 channels × 6, little-endian limb order), then 3 f32 sums of squares and their 3 f32 compensations |
+//! | 4 | CRC-32 (IEEE) of every byte before it: magic, version, header and pixels |
 //!
-//! The header's `payload_crc32` is the CRC-32 of the pixel bytes. Files are written atomically
-//! (temporary file, fsync, rename): a crash leaves the previous checkpoint or the new one, never a mix.
+//! The checksum covers the header too: an edited sample range or identity is refused like a damaged
+//! pixel, before anything in the file is used. Files are written atomically (temporary file, fsync,
+//! rename): a crash leaves the previous checkpoint or the new one, never a mix.
 
 pub mod merge;
 
@@ -43,8 +45,9 @@ pub use crate::render::identity::{Identity, VKPATH_VERSION};
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"VKPATHCP";
 /// The layout version; a file of another version is refused.
-/// Version 2: the exact (long-accumulator) sums; version 1 held Kahan pairs.
-pub const FORMAT_VERSION: u32 = 2;
+/// Version 3: the checksum covers the whole file (version 2 checked only the pixels; version 1 held
+/// Kahan pairs instead of exact sums).
+pub const FORMAT_VERSION: u32 = 3;
 /// A header longer than this is refused before it is read (it is a few hundred bytes).
 pub const MAX_HEADER_BYTES: u32 = 1 << 20;
 
@@ -101,8 +104,6 @@ pub struct Header {
     /// is one unbroken chain of passes (a render, resumed or not); several come from a merge.
     pub ranges: Vec<[u32; 2]>,
     pub display: Display,
-    /// CRC-32 (IEEE) of the pixel bytes.
-    pub payload_crc32: u32,
 }
 
 /// The ranges' total sample count, or why the ranges are invalid.
@@ -162,7 +163,6 @@ impl Checkpoint {
                 device: renderer.context().device_info().name.clone(),
                 ranges: renderer.ranges().to_vec(),
                 display: Display::of(&scene.image),
-                payload_crc32: 0,
             },
             accum,
         })
@@ -198,19 +198,27 @@ impl Checkpoint {
     /// Writes the state to `path` atomically (temporary file, fsync, rename).
     pub fn write(&self, path: &Path) -> Result<(), Error> {
         let payload = accum_bytes(&self.accum);
-        let mut header = self.header.clone();
-        header.payload_crc32 = crc32fast::hash(&payload);
-        let json = serde_json::to_vec(&header).map_err(|e| Error::Io {
+        let json = serde_json::to_vec(&self.header).map_err(|e| Error::Io {
             path: path.to_path_buf(),
             message: format!("cannot encode the checkpoint header: {e}"),
         })?;
         let header_len = u32::try_from(json.len()).unwrap_or(u32::MAX);
+        let mut crc = crc32fast::Hasher::new();
+        let head = [
+            &MAGIC[..],
+            &FORMAT_VERSION.to_le_bytes(),
+            &header_len.to_le_bytes(),
+        ]
+        .concat();
+        for part in [&head[..], &json, &payload] {
+            crc.update(part);
+        }
+        let crc = crc.finalize();
         write_atomically_with(path, |f| {
-            f.write_all(&MAGIC)?;
-            f.write_all(&FORMAT_VERSION.to_le_bytes())?;
-            f.write_all(&header_len.to_le_bytes())?;
+            f.write_all(&head)?;
             f.write_all(&json)?;
-            f.write_all(&payload)
+            f.write_all(&payload)?;
+            f.write_all(&crc.to_le_bytes())
         })
     }
 
@@ -278,9 +286,9 @@ impl Checkpoint {
         }
         let mut json = vec![0u8; header_len as usize];
         r.read_exact(&mut json).map_err(Decode::Io)?;
+        // The header is parsed for the sizes only; nothing in it is trusted before the checksum.
         let header: Header = serde_json::from_slice(&json)
             .map_err(|e| invalid(format!("its header is not valid: {e}")))?;
-        count_samples(&header.ranges).map_err(invalid)?;
         let id = &header.identity;
         let pixels = u64::from(id.width) * u64::from(id.height);
         if pixels == 0 || pixels > 1 << 28 {
@@ -291,21 +299,30 @@ impl Checkpoint {
         }
         let expected = pixels * ACCUM_BYTES as u64;
         let held = len - 16 - u64::from(header_len);
-        if held != expected {
+        if held != expected + 4 {
             return Err(invalid(format!(
-                "it should hold {expected} bytes of pixel data for {}x{} pixels but holds {held} (a truncated or damaged file)",
-                id.width, id.height
+                "it should hold {} bytes of pixel data and checksum for {}x{} pixels but holds {held} (a truncated or damaged file)",
+                expected + 4,
+                id.width,
+                id.height
             )));
         }
         let mut payload = vec![0u8; expected as usize];
         r.read_exact(&mut payload).map_err(Decode::Io)?;
-        let crc = crc32fast::hash(&payload);
-        if crc != header.payload_crc32 {
+        let mut stored = [0u8; 4];
+        r.read_exact(&mut stored).map_err(Decode::Io)?;
+        let mut crc = crc32fast::Hasher::new();
+        for part in [&head[..], &json, &payload] {
+            crc.update(part);
+        }
+        let (crc, stored) = (crc.finalize(), u32::from_le_bytes(stored));
+        if crc != stored {
             return Err(invalid(format!(
-                "its pixel data fails the checksum (CRC-32 {crc:08x}, header says {:08x}): the file is damaged",
-                header.payload_crc32
+                "it fails its checksum (CRC-32 {crc:08x} of its header and pixels, {stored:08x} stored): \
+                 the file is damaged or was edited"
             )));
         }
+        count_samples(&header.ranges).map_err(invalid)?;
         Ok(Checkpoint {
             header,
             accum: accum_from_bytes(&payload),
@@ -390,7 +407,6 @@ mod tests {
                     exposure: 1.0,
                     gamma: Some(2.2),
                 },
-                payload_crc32: 0,
             },
             accum: vec![
                 {
@@ -434,6 +450,34 @@ mod tests {
         // Every prefix is refused without a panic.
         for n in 0..bytes.len() {
             assert!(Checkpoint::from_bytes(&bytes[..n]).is_err());
+        }
+    }
+
+    /// Issue 18, failure 1: the checksum covers the header. A checkpoint whose stored sample range is
+    /// edited from 0..4 to 0..5 (the same length, valid JSON, a consistent file otherwise) was resumed as
+    /// if it held 5 samples per pixel: an image 20 % too dark. Now it is refused.
+    #[test]
+    fn an_edited_header_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.ckpt");
+        state(vec![[0, 4]], 3.0).write(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let at = bytes
+            .windows(7)
+            .position(|w| w == b"[[0,4]]")
+            .expect("the ranges in the header");
+        let mut edited = bytes.clone();
+        edited[at + 4] = b'5';
+        let e = Checkpoint::from_bytes(&edited).unwrap_err();
+        assert!(e.contains("checksum"), "{e}");
+        // And every single-bit flip anywhere in the file is refused.
+        for i in 0..bytes.len() {
+            let mut flipped = bytes.clone();
+            flipped[i] ^= 0x04;
+            assert!(
+                Checkpoint::from_bytes(&flipped).is_err(),
+                "bit flip at byte {i} accepted"
+            );
         }
     }
 

@@ -229,6 +229,16 @@ fn run_mesh(
     } else {
         sizes
     };
+    // Checked before anything is built: an unbounded size allocated until the machine ran out of memory.
+    if let Some(&n) = sizes
+        .iter()
+        .find(|&&n| n == 0 || n > mesh::MAX_BENCH_TRIANGLES)
+    {
+        return Err(usage(format!(
+            "vkpath bench mesh takes triangle counts from 1 to {}, not {n}.",
+            mesh::MAX_BENCH_TRIANGLES
+        )));
+    }
     let ctx = GpuContext::new(&ContextOptions::default())?;
     let rows = mesh::mesh_scaling(&ctx, &sizes, settings, brute_force_up_to)?;
     print!(

@@ -106,13 +106,8 @@ fn check_flags(a: &RenderArgs) -> Result<Flags, Error> {
             "--target-error must be a positive relative error (e.g. 0.02 for 2%), not {e}."
         )));
     }
-    let time = match a.time {
-        Some(t) if !(t.is_finite() && t > 0.0) => {
-            return Err(usage(format!(
-                "--time must be a positive number of seconds, not {t}."
-            )));
-        }
-        Some(t) => Some(Duration::from_secs_f64(t)),
+    let time = match &a.time {
+        Some(t) => Some(parse_duration("--time", t)?),
         None => None,
     };
     if a.progress_every == Some(0) {
@@ -449,9 +444,10 @@ pub struct RenderArgs {
     /// Samples per pixel (overrides the scene); with --time, the upper bound.
     #[arg(long)]
     spp: Option<u32>,
-    /// Stop after the first pass that ends past this many seconds.
+    /// Stop after the first pass that ends past this time: seconds (`90`, `2.5`) or a duration with
+    /// units (`90s`, `10m`, `1h30m`).
     #[arg(long, allow_negative_numbers = true)]
-    time: Option<f64>,
+    time: Option<String>,
     /// Stop when the estimated relative error of the image falls below E (checked after each pass from
     /// 16 spp on; the scene's samples, or --spp, stays the upper bound).
     #[arg(long = "target-error", allow_negative_numbers = true)]
@@ -638,32 +634,48 @@ impl Saved {
     }
 }
 
-/// `--checkpoint-every`: `N` samples per pixel, or a duration `Ns`, `Nm`, `Nh`.
-fn parse_save_every(text: &str) -> Result<SaveEvery, Error> {
-    let bad = || {
+/// The longest duration a flag takes (about 31 years): longer is surely a mistake, and any f64 of
+/// seconds beyond u64 would not even convert to a `Duration`.
+const MAX_DURATION_SECONDS: f64 = 1e9;
+
+/// A positive duration for `flag`: a number of seconds (`90`, `2.5`) or a duration with units parsed by
+/// humantime (`90s`, `10m`, `1h30m`, `1.5h` is not: write `1h30m`), at most [`MAX_DURATION_SECONDS`].
+fn parse_duration(flag: &str, text: &str) -> Result<Duration, Error> {
+    let bad = |why: &str| {
         usage(format!(
-            "--checkpoint-every takes a number of samples per pixel (e.g. 64) or a duration (e.g. 30s, 10m, 1h), not \"{text}\"."
+            "{flag} takes a positive duration: seconds (e.g. 90) or with units (e.g. 90s, 10m, 1h30m), \
+             at most {MAX_DURATION_SECONDS:e} seconds; \"{text}\" {why}."
         ))
     };
     let t = text.trim();
-    let (number, unit) = match t.char_indices().last() {
-        Some((i, 's')) => (&t[..i], 1.0),
-        Some((i, 'm')) => (&t[..i], 60.0),
-        Some((i, 'h')) => (&t[..i], 3600.0),
-        _ => {
-            let n: u32 = t.parse().map_err(|_| bad())?;
-            if n == 0 {
-                return Err(bad());
-            }
-            return Ok(SaveEvery::Samples(n));
-        }
+    let seconds = match t.parse::<f64>() {
+        Ok(v) => v,
+        Err(_) => humantime::parse_duration(t)
+            .map_err(|e| bad(&format!("is not one ({e})")))?
+            .as_secs_f64(),
     };
-    let v: f64 = number.trim().parse().map_err(|_| bad())?;
-    let seconds = v * unit;
-    if !(seconds.is_finite() && seconds > 0.0 && seconds < 1e9) {
-        return Err(bad());
+    if !(seconds.is_finite() && seconds > 0.0) {
+        return Err(bad("is not positive"));
     }
-    Ok(SaveEvery::Time(Duration::from_secs_f64(seconds)))
+    if seconds > MAX_DURATION_SECONDS {
+        return Err(bad("is longer"));
+    }
+    Ok(Duration::from_secs_f64(seconds))
+}
+
+/// `--checkpoint-every`: `N` samples per pixel, or a duration (`30s`, `10m`, `1h`; see parse_duration).
+fn parse_save_every(text: &str) -> Result<SaveEvery, Error> {
+    let t = text.trim();
+    if let Ok(n) = t.parse::<u64>() {
+        if n == 0 || n > u64::from(u32::MAX) {
+            return Err(usage(format!(
+                "--checkpoint-every takes a number of samples per pixel from 1 to {} or a duration (e.g. 30s, 10m, 1h), not \"{text}\".",
+                u32::MAX
+            )));
+        }
+        return Ok(SaveEvery::Samples(n as u32));
+    }
+    Ok(SaveEvery::Time(parse_duration("--checkpoint-every", t)?))
 }
 
 /// `--sample-range A..B`: the half-open range of sample indices [A, B), A < B.
@@ -691,4 +703,22 @@ fn parse_sample_range(text: &str) -> Result<[u32; 2], Error> {
 /// `--light-sampling`'s values: the names of `LightSampling::ALL` (render.light_sampling in the scene).
 fn light_sampling_names() -> clap::builder::PossibleValuesParser {
     clap::builder::PossibleValuesParser::new(vkpath::scene::LightSampling::ALL.map(|(_, n)| n))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_with_and_without_units() {
+        let secs = |t: &str| parse_duration("--time", t).map(|d| d.as_secs_f64());
+        assert_eq!(secs("90").unwrap(), 90.0);
+        assert_eq!(secs("2.5").unwrap(), 2.5);
+        assert_eq!(secs("90s").unwrap(), 90.0);
+        assert_eq!(secs("10m").unwrap(), 600.0);
+        assert_eq!(secs("1h30m").unwrap(), 5400.0);
+        for bad in ["0", "-1", "0s", "nan", "inf", "1e20", "soon", ""] {
+            assert!(secs(bad).is_err(), "{bad:?} accepted");
+        }
+    }
 }
