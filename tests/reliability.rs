@@ -722,3 +722,109 @@ fn out_of_memory_shader_failure_and_device_limits_leave_files_untouched() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// Issue 18, failures 2 and 3: every output and the checkpoint are checked before the render starts.
+/// `-o x.png --checkpoint x.png` left a checkpoint in x.png, `--checkpoint scene.toml` overwrote the
+/// user's scene, and `-o missing-dir/x.png --checkpoint side.ckpt` rendered everything, failed on the
+/// PNG and never wrote the checkpoint. Each is now refused up front (exit 2, the paths named), with
+/// nothing written and the scene untouched; resuming into the checkpoint resumed from stays allowed.
+#[test]
+fn outputs_are_checked_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = vkpath::scene::DEFAULT_SCENE_TOML;
+    std::fs::write(d.join("scene.toml"), scene).unwrap();
+    let listing = || {
+        let mut v: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    fn with<'a>(args: &[&'a str]) -> Vec<&'a str> {
+        [
+            &["render", "scene.toml", "--quiet", "--spp", "1"][..],
+            args,
+            &SIZE,
+        ]
+        .concat()
+    }
+    run_fails(
+        d,
+        &with(&["-o", "x.png", "--checkpoint", "x.png"]),
+        2,
+        &["x.png", "same file"],
+    );
+    run_fails(
+        d,
+        &with(&["-o", "x.png", "-o", "./x.png"]),
+        2,
+        &["x.png", "same file"],
+    );
+    run_fails(
+        d,
+        &with(&["-o", "x.png", "--checkpoint", "scene.toml"]),
+        2,
+        &["scene.toml", "the scene file"],
+    );
+    run_fails(
+        d,
+        &with(&["-o", "missing-dir/x.png", "--checkpoint", "side.ckpt"]),
+        2,
+        &["missing-dir", "does not exist"],
+    );
+    assert_eq!(listing(), vec!["scene.toml".to_string()], "nothing written");
+    assert_eq!(
+        std::fs::read_to_string(d.join("scene.toml")).unwrap(),
+        scene
+    );
+    // Resuming into the file resumed from, or naming it as --checkpoint too, is fine.
+    run_ok(d, &with(&["-o", "a.exr", "--checkpoint", "c.ckpt"]));
+    let more = [
+        &[
+            "render",
+            "scene.toml",
+            "--quiet",
+            "--spp",
+            "2",
+            "-o",
+            "b.exr",
+        ][..],
+        &SIZE,
+    ]
+    .concat();
+    run_ok(d, &[&more[..], &["--resume", "c.ckpt"]].concat());
+    run_ok(
+        d,
+        &[&more[..], &["--resume", "c.ckpt", "--checkpoint", "c.ckpt"]].concat(),
+    );
+    // vkpath merge never writes over a part it merges.
+    run_fails(
+        d,
+        &["merge", "c.ckpt", "-o", "m.exr", "--checkpoint", "c.ckpt"],
+        2,
+        &["c.ckpt", "a part merged"],
+    );
+    assert!(!d.join("m.exr").exists());
+    // An output and the checkpoint may not be the same file, with --resume as without.
+    run_fails(
+        d,
+        &[
+            &[
+                "render",
+                "scene.toml",
+                "--quiet",
+                "--spp",
+                "3",
+                "-o",
+                "c.ckpt.exr",
+            ][..],
+            &SIZE,
+            &["--resume", "c.ckpt", "--checkpoint", "c.ckpt.exr"],
+        ]
+        .concat(),
+        2,
+        &["same file"],
+    );
+}

@@ -34,6 +34,12 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
         ));
     }
     check_output_formats(&m.outputs)?;
+    let inputs = m
+        .parts
+        .iter()
+        .map(|p| (p.clone(), "a part merged"))
+        .collect();
+    super::paths::check_outputs(&m.outputs, m.checkpoint.as_deref(), inputs, None)?;
     let mut parts = Vec::with_capacity(m.parts.len());
     for p in &m.parts {
         parts.push((p.clone(), Checkpoint::read(p)?));

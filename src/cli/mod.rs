@@ -5,6 +5,7 @@
 mod bench;
 mod info;
 mod merge;
+mod paths;
 mod preview;
 mod render;
 mod report;

@@ -78,7 +78,10 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
         eprintln!("vkpath: interrupted before the first pass ended; no image was written.");
         return Ok(1);
     }
-    write_outputs(&film, &mut renderer, &mut disk)?;
+    if let Err(e) = write_outputs(&film, &mut renderer, &mut disk) {
+        // Say what is still on disk (the checkpoint, written first).
+        return Ok(fail(None, &disk, e));
+    }
     Ok(report(&a, &renderer, &disk, &plan, &film, ended))
 }
 
@@ -166,6 +169,9 @@ fn prepare(a: &RenderArgs) -> Result<Job, Error> {
         a.outputs.clone()
     };
     check_output_formats(&outputs)?;
+    let checkpoint = a.checkpoint.as_deref().or(a.resume.as_deref());
+    let inputs = super::paths::scene_inputs(&scene);
+    super::paths::check_outputs(&outputs, checkpoint, inputs, a.resume.as_deref())?;
     let resumed = a
         .resume
         .as_deref()
@@ -333,8 +339,9 @@ fn fail(bar: Option<&ProgressBar>, disk: &Disk, e: Error) -> i32 {
 /// The final image to every output, and the final state to the checkpoint file: also after an
 /// interrupt, so that the render can go on from there.
 fn write_outputs(film: &Film, renderer: &mut Renderer, disk: &mut Disk) -> Result<(), Error> {
-    disk.write_images(film)?;
-    disk.save_checkpoint(renderer)
+    // The checkpoint first: if an image cannot be written after all, the samples are kept.
+    disk.save_checkpoint(renderer)?;
+    disk.write_images(film)
 }
 
 /// Says how an interrupted render can go on (unless `--quiet`), prints the `--json` report, and reports
