@@ -14,6 +14,9 @@ use std::sync::Arc;
 /// The most triangles one scene may hold: the BVH's leaf references keep a triangle index in 29 bits
 /// (see `bvh.rs`), and a triangle buffer this large is already 25 GB.
 pub const MAX_TRIANGLES: usize = 1 << 29;
+/// The most texels one texture may have (2^28: 1 GiB of RGBA8 on the device), checked from the file's
+/// header before it is decoded.
+pub const MAX_TEXTURE_TEXELS: u64 = 1 << 28;
 
 /// A mesh in world space, ready for the BVH. Vertices are "corners": a position with the normal and uv it
 /// has in the faces that use it (the OBJ may give one position several normals or uvs, e.g. along a uv
@@ -446,21 +449,27 @@ pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
 
 /// Reads an image as an sRGB RGBA8 texture. Any format the `image` crate was built with (PNG here).
 pub fn load_texture(path: &Path) -> Result<Texture, String> {
-    let reader = image::ImageReader::open(path)
-        .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?
-        .with_guessed_format()
+    let reader = || {
+        image::ImageReader::open(path)
+            .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?
+            .with_guessed_format()
+            .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))
+    };
+    // The size comes from the header, before any texel is decoded: a small file declaring a huge image
+    // (a decompression bomb) is refused without the memory it would take.
+    let (width, height) = reader()?
+        .into_dimensions()
         .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?;
-    let decoded = reader
-        .decode()
-        .map_err(|e| format!("cannot decode the texture {}: {e}", path.display()))?;
-    let rgba = decoded.to_rgba8();
-    let (width, height) = rgba.dimensions();
-    if width == 0 || height == 0 || u64::from(width) * u64::from(height) > 1 << 28 {
+    if width == 0 || height == 0 || u64::from(width) * u64::from(height) > MAX_TEXTURE_TEXELS {
         return Err(format!(
             "the texture {} is {width} x {height} texels; it must have between 1 and 2^28 texels",
             path.display()
         ));
     }
+    let decoded = reader()?
+        .decode()
+        .map_err(|e| format!("cannot decode the texture {}: {e}", path.display()))?;
+    let rgba = decoded.to_rgba8();
     let texels = rgba.pixels().map(|p| u32::from_le_bytes(p.0)).collect();
     Ok(Texture {
         path: path.to_path_buf(),
@@ -473,6 +482,42 @@ pub fn load_texture(path: &Path) -> Result<Texture, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 18, failure 5: a 62 kB PNG declaring 23000 x 23000 was refused only after it was decoded
+    /// (7.9 s, 2.5 GB). The size now comes from the header: a PNG whose header declares that size and
+    /// which holds almost no image data is refused for its size (decoding it would fail otherwise).
+    #[test]
+    fn a_huge_texture_is_refused_from_its_header() {
+        fn chunk(kind: &[u8; 4], data: &[u8]) -> Vec<u8> {
+            let mut crc = crc32fast::Hasher::new();
+            crc.update(kind);
+            crc.update(data);
+            [
+                &(data.len() as u32).to_be_bytes()[..],
+                kind,
+                data,
+                &crc.finalize().to_be_bytes(),
+            ]
+            .concat()
+        }
+        let mut ihdr = Vec::new();
+        ihdr.extend_from_slice(&23000u32.to_be_bytes());
+        ihdr.extend_from_slice(&23000u32.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 6, 0, 0, 0]); // 8-bit RGBA, no interlace
+        let png = [
+            &b"\x89PNG\r\n\x1a\n"[..],
+            &chunk(b"IHDR", &ihdr),
+            // A zlib stream of nothing: the 2 GB of texels it declares are not there.
+            &chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]),
+            &chunk(b"IEND", &[]),
+        ]
+        .concat();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bomb.png");
+        std::fs::write(&path, png).unwrap();
+        let e = load_texture(&path).unwrap_err();
+        assert!(e.contains("23000 x 23000") && e.contains("2^28"), "{e}");
+    }
 
     #[test]
     fn quads_and_polygons_are_triangulated_and_crlf_is_accepted() {
