@@ -964,3 +964,41 @@ fn light_sampling_flag_takes_every_strategy() {
     );
     assert!(!dir.path().join("x.png").exists());
 }
+
+/// A render ends with one summary line on stderr (issue 18): the outputs written, spp, seconds,
+/// Msamples/s and the estimated error; `--quiet` silences it.
+#[test]
+fn a_render_ends_with_a_summary_line() {
+    let dir = dir_with("tiny.toml", TINY);
+    let run = vkpath(
+        dir.path(),
+        &["render", "tiny.toml", "--spp", "16", "-o", "s.png"],
+    );
+    run.assert_success();
+    let line = run.stderr.trim();
+    assert_eq!(line.lines().count(), 1, "{line}");
+    for w in [
+        "wrote s.png",
+        "16 spp",
+        " s, ",
+        "Msamples/s",
+        "estimated error",
+        "%",
+    ] {
+        assert!(line.contains(w), "{w:?} not in {line:?}");
+    }
+    let quiet = vkpath(
+        dir.path(),
+        &[
+            "render",
+            "tiny.toml",
+            "--spp",
+            "1",
+            "--quiet",
+            "-o",
+            "q.png",
+        ],
+    );
+    quiet.assert_success();
+    assert!(quiet.stderr.trim().is_empty(), "{:?}", quiet.stderr);
+}

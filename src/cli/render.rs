@@ -262,8 +262,17 @@ fn progress_bar(quiet: bool, plan: &Plan) -> Option<ProgressBar> {
     let bar = ProgressBar::new(plan.target_spp as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
-            "{elapsed_precise} [{bar:40}] {pos}/{len} spp ({per_sec}, eta {eta})",
+            "{elapsed_precise} [{bar:40}] {pos}/{len} spp ({rate}, eta {eta})",
         )
+        .map(|s| {
+            // indicatif's own {per_sec} prints "17.7599/s", without the unit.
+            s.with_key(
+                "rate",
+                |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                    let _ = write!(w, "{:.1} spp/s", state.per_sec());
+                },
+            )
+        })
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     bar.set_position(plan.resumed_samples as u64);
@@ -377,6 +386,9 @@ fn report(
     let traced = film.spp - plan.resumed_samples;
     let scene = disk.scene;
     let samples = scene.image.width as f64 * scene.image.height as f64 * traced as f64;
+    if !a.quiet {
+        eprintln!("{}", summary_line(disk, film, seconds, samples));
+    }
     if a.json {
         let rel = film.estimated_rel_error();
         let stats = renderer.scene_stats();
@@ -639,6 +651,31 @@ impl Saved {
         }
         s
     }
+}
+
+/// The line `vkpath render` ends with on stderr (unless `--quiet`): what it wrote, how many samples per
+/// pixel in how long, at what rate, and the image's estimated relative error.
+fn summary_line(disk: &Disk, film: &Film, seconds: f64, samples: f64) -> String {
+    let mut wrote: Vec<String> = disk
+        .outputs
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    if let Some(c) = disk.checkpoint {
+        wrote.push(format!("checkpoint {}", c.display()));
+    }
+    let rel = film.estimated_rel_error();
+    let error = if rel.is_finite() {
+        format!("{:.2}%", 100.0 * rel)
+    } else {
+        "unknown".into()
+    };
+    format!(
+        "vkpath: wrote {}: {} spp in {seconds:.2} s, {:.3} Msamples/s, estimated error {error}",
+        wrote.join(", "),
+        film.spp,
+        samples / seconds.max(1e-12) / 1e6
+    )
 }
 
 /// The longest duration a flag takes (about 31 years): longer is surely a mistake, and any f64 of
