@@ -57,6 +57,18 @@ pub enum Error {
 }
 
 impl Error {
+    /// A checkpoint error with what to do in this context appended (resuming and merging want
+    /// different advice); any other error unchanged.
+    pub fn with_checkpoint_hint(self, hint: &str) -> Error {
+        match self {
+            Error::Checkpoint { path, message } => Error::Checkpoint {
+                path,
+                message: format!("{message} {hint}"),
+            },
+            e => e,
+        }
+    }
+
     /// The CLI's exit status: 2 for bad input (scene, flags), 1 for everything else.
     pub fn exit_code(&self) -> i32 {
         match self {

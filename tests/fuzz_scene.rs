@@ -661,6 +661,8 @@ fn checkpoint_bytes() -> Vec<u8> {
                 seed: 1,
                 max_bounces: 5,
                 roulette_depth: 3,
+                sampler: "independent".into(),
+                light_sampling: "mis".into(),
             },
             scene: "fuzz".into(),
             device: "none".into(),

@@ -799,6 +799,25 @@ fn outputs_are_checked_before_rendering() {
         d,
         &[&more[..], &["--resume", "c.ckpt", "--checkpoint", "c.ckpt"]].concat(),
     );
+    // Issue 18: merge with a missing part suggested "render without --resume"; resuming another light
+    // sampling said only "the scene's content differs".
+    let e = run_fails(
+        d,
+        &["merge", "gone.ckpt", "-o", "m.exr"],
+        2,
+        &["gone.ckpt", "Render that part again"],
+    );
+    assert!(!e.contains("--resume"), "{e}");
+    run_fails(
+        d,
+        &[
+            &more[..],
+            &["--resume", "c.ckpt", "--light-sampling", "cone"],
+        ]
+        .concat(),
+        2,
+        &["light sampling is mis, this one cone (--light-sampling)"],
+    );
     // vkpath merge never writes over a part it merges.
     run_fails(
         d,

@@ -907,3 +907,21 @@ fn environment_errors() {
         Some((4, 2))
     );
 }
+
+/// Issue 18: a byte that is not UTF-8 gave "cannot read the scene file" with no line, blaming the path.
+/// Now the error names the line, the column and the byte.
+#[test]
+fn a_byte_that_is_not_utf8_is_located() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("latin1.toml");
+    let mut bytes = BASE.as_bytes().to_vec();
+    bytes.extend_from_slice(b"# caf\xe9 au lait   (line 9)\n");
+    std::fs::write(&path, &bytes).unwrap();
+    let e = Scene::load(&path).unwrap_err();
+    assert_eq!(e.line(), Some(9), "{e}");
+    let m = e.to_string();
+    assert!(
+        m.contains("0xe9") && m.contains("column 6") && m.contains("UTF-8"),
+        "{m}"
+    );
+}

@@ -64,9 +64,13 @@ pub fn pass_times(
 
 /// The scene files of a directory, sorted by name.
 pub fn scene_files(dir: &Path) -> Result<Vec<PathBuf>, Error> {
-    let entries = std::fs::read_dir(dir).map_err(|e| Error::Io {
-        path: dir.to_path_buf(),
-        message: e.to_string(),
+    // Reading, not writing: the scene directory is the user's input (a usage error, exit 2).
+    let entries = std::fs::read_dir(dir).map_err(|e| {
+        Error::Usage(format!(
+            "cannot read the scene directory {}: {e}. Run from the directory that holds scenes/, or \
+             name the scene files on the command line.",
+            dir.display()
+        ))
     })?;
     let mut files: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))

@@ -227,9 +227,7 @@ impl Checkpoint {
     pub fn read(path: &Path) -> Result<Checkpoint, Error> {
         let cannot = |e: std::io::Error| Error::Checkpoint {
             path: path.to_path_buf(),
-            message: format!(
-                "cannot read the checkpoint: {e}. Check the path, or render without --resume."
-            ),
+            message: format!("cannot read the checkpoint: {e}. Check the path."),
         };
         let file = std::fs::File::open(path).map_err(cannot)?;
         let len = file.metadata().map_err(cannot)?.len();
@@ -239,9 +237,7 @@ impl Checkpoint {
             Decode::Io(e) => cannot(e),
             Decode::Invalid(message) => Error::Checkpoint {
                 path: path.to_path_buf(),
-                message: format!(
-                    "{message}. The file is not a usable vkpath checkpoint; render afresh without it."
-                ),
+                message: format!("{message}. The file is not a usable vkpath checkpoint."),
             },
         })
     }
@@ -399,6 +395,8 @@ mod tests {
                     seed: 0,
                     max_bounces: 5,
                     roulette_depth: 3,
+                    sampler: "independent".into(),
+                    light_sampling: "mis".into(),
                 },
                 scene: "test".into(),
                 device: "dev".into(),

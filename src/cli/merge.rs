@@ -42,7 +42,15 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
     super::paths::check_outputs(&m.outputs, m.checkpoint.as_deref(), inputs, None)?;
     let mut parts = Vec::with_capacity(m.parts.len());
     for p in &m.parts {
-        parts.push((p.clone(), Checkpoint::read(p)?));
+        parts.push((
+            p.clone(),
+            Checkpoint::read(p).map_err(|e| {
+                e.with_checkpoint_hint(
+                    "Render that part again (vkpath render --sample-range A..B --checkpoint FILE) or \
+                     leave it out.",
+                )
+            })?,
+        ));
     }
     let merged = vkpath::checkpoint::merge::merge(&parts)?;
     // The parts can be as large as the merged state each: free them before writing.

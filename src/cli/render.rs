@@ -176,7 +176,8 @@ fn prepare(a: &RenderArgs) -> Result<Job, Error> {
         .resume
         .as_deref()
         .map(|p| Checkpoint::read(p).map(|c| (p.to_path_buf(), c)))
-        .transpose()?;
+        .transpose()
+        .map_err(|e| e.with_checkpoint_hint("Render without --resume to start afresh."))?;
     Ok(Job {
         scene,
         options,

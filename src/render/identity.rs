@@ -143,6 +143,34 @@ pub struct Identity {
     pub max_bounces: u32,
     /// `u32::MAX` when Russian roulette is off.
     pub roulette_depth: u32,
+    /// `render.sampler` and `render.light_sampling` by name (also in the content hash; here so that a
+    /// refusal can say which differs).
+    pub sampler: String,
+    pub light_sampling: String,
+}
+
+/// The name of a `GpuParams::sampler` value.
+fn sampler_name(v: u32) -> String {
+    match v {
+        crate::kernel::abi::SAMPLER_SOBOL => "sobol".into(),
+        _ => "independent".into(),
+    }
+}
+
+/// The name of a `GpuParams::light_sampling` value (scene::LightSampling::ALL has the names).
+fn light_sampling_name(v: u32) -> String {
+    use crate::kernel::abi::*;
+    let strategy = match v {
+        LIGHT_SAMPLING_AREA => crate::scene::LightSampling::Area,
+        LIGHT_SAMPLING_NONE => crate::scene::LightSampling::None,
+        LIGHT_SAMPLING_MIS => crate::scene::LightSampling::Mis,
+        _ => crate::scene::LightSampling::Cone,
+    };
+    crate::scene::LightSampling::ALL
+        .iter()
+        .find(|(s, _)| *s == strategy)
+        .map_or("cone", |(_, n)| *n)
+        .into()
 }
 
 impl Identity {
@@ -156,6 +184,8 @@ impl Identity {
             seed: params.seed,
             max_bounces: params.max_bounces,
             roulette_depth: params.roulette_depth,
+            sampler: sampler_name(params.sampler),
+            light_sampling: light_sampling_name(params.light_sampling),
         }
     }
 
@@ -201,6 +231,18 @@ impl Identity {
                 show(other.roulette_depth)
             ));
         }
+        if self.sampler != other.sampler {
+            d.push(format!(
+                "its sampler is {}, this one {} (--sampler)",
+                self.sampler, other.sampler
+            ));
+        }
+        if self.light_sampling != other.light_sampling {
+            d.push(format!(
+                "its light sampling is {}, this one {} (--light-sampling)",
+                self.light_sampling, other.light_sampling
+            ));
+        }
         if d.is_empty() && self.scene_hash != other.scene_hash {
             d.push(format!(
                 "the scene's content differs (geometry, materials, lights, camera or render settings: \
@@ -226,6 +268,8 @@ mod tests {
             seed: 0,
             max_bounces: 5,
             roulette_depth: 3,
+            sampler: "independent".into(),
+            light_sampling: "mis".into(),
         };
         let mut b = a.clone();
         b.seed = 9;
@@ -233,6 +277,19 @@ mod tests {
         let d = a.differences(&b).join("; ");
         assert!(d.contains("seed is 0, this one 9"), "{d}");
         assert!(d.contains("roulette depth is 3, this one off"), "{d}");
+        // Issue 18: a refusal for another sampler or light sampling said only "the scene's content
+        // differs".
+        let mut e = a.clone();
+        (e.sampler, e.light_sampling) = ("sobol".into(), "cone".into());
+        let d = a.differences(&e).join("; ");
+        assert!(
+            d.contains("sampler is independent, this one sobol (--sampler)"),
+            "{d}"
+        );
+        assert!(
+            d.contains("light sampling is mis, this one cone (--light-sampling)"),
+            "{d}"
+        );
         let mut c = a.clone();
         c.scene_hash = "ffffffffffffffff".into();
         assert!(a.differences(&c)[0].contains("content differs"));

@@ -258,13 +258,18 @@ impl Scene {
         // and parsing costs ~50 bytes of memory per byte of TOML) or an endless one (/dev/zero, a pipe)
         // is refused without being read into memory.
         let file = std::fs::File::open(path).map_err(|e| SceneError::io(path, &e))?;
-        let mut text = String::new();
+        let mut bytes = Vec::new();
         file.take(MAX_SCENE_FILE_BYTES + 1)
-            .read_to_string(&mut text)
+            .read_to_end(&mut bytes)
             .map_err(|e| SceneError::io(path, &e))?;
-        if text.len() as u64 > MAX_SCENE_FILE_BYTES {
+        if bytes.len() as u64 > MAX_SCENE_FILE_BYTES {
             return Err(SceneError::too_large(path, MAX_SCENE_FILE_BYTES));
         }
+        // Not read_to_string: its error for a byte that is not UTF-8 names neither line nor byte.
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let valid = e.utf8_error().valid_up_to();
+            SceneError::not_utf8(path, e.as_bytes(), valid)
+        })?;
         Scene::from_toml_str(&text, Some(path))
     }
 

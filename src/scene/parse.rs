@@ -69,6 +69,30 @@ impl SceneError {
         )
     }
 
+    /// The scene file is not UTF-8 text: the line and column of the first byte that is not.
+    pub fn not_utf8(path: &Path, bytes: &[u8], valid_up_to: usize) -> SceneError {
+        let before = &bytes[..valid_up_to];
+        let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+        let line_start = before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1);
+        let column = String::from_utf8_lossy(&before[line_start..])
+            .chars()
+            .count()
+            + 1;
+        SceneError::new(
+            path.display().to_string(),
+            Some(line),
+            None,
+            format!(
+                "the file is not UTF-8 text: the byte 0x{:02x} at column {column} is not valid UTF-8",
+                bytes[valid_up_to]
+            ),
+            "TOML files are UTF-8: save the scene file in that encoding.",
+        )
+    }
+
     /// The scene file is larger than `limit` bytes (refused before it is read).
     pub fn too_large(path: &Path, limit: u64) -> SceneError {
         SceneError::new(
