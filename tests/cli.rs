@@ -1002,3 +1002,29 @@ fn a_render_ends_with_a_summary_line() {
     quiet.assert_success();
     assert!(quiet.stderr.trim().is_empty(), "{:?}", quiet.stderr);
 }
+
+/// Issue 18: a negative value (`--spp -1`) said "unexpected argument '-1' found", naming no flag, with a
+/// wrong tip. Every numeric flag now takes it as its value and names itself with its range.
+#[test]
+fn negative_numbers_name_their_flag() {
+    for flag in [
+        "--spp",
+        "--seed",
+        "--width",
+        "--height",
+        "--max-bounces",
+        "--progress-every",
+        "--samples-per-pass",
+    ] {
+        expect_usage_error(
+            &[&["render", "tiny.toml", flag, "-1"][..], &OUTS].concat(),
+            &[flag, "-1 is not in"],
+        );
+    }
+    for flag in ["--width", "--height", "--spp", "--runs"] {
+        expect_usage_error(
+            &["bench", "throughput", flag, "-3"],
+            &[flag, "-3 is not in"],
+        );
+    }
+}

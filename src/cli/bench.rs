@@ -18,15 +18,15 @@ pub enum BenchCommand {
     Throughput {
         /// Scene files (default: every .toml in ./scenes).
         scenes: Vec<PathBuf>,
-        #[arg(long, default_value_t = 128)]
+        #[arg(long, default_value_t = 128, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         width: u32,
-        #[arg(long, default_value_t = 128)]
+        #[arg(long, default_value_t = 128, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         height: u32,
         /// Samples per pixel of each timed pass.
-        #[arg(long, default_value_t = 16)]
+        #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         spp: u32,
         /// Timed passes per scene.
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         runs: u32,
         /// Print the rows as JSON instead of a table.
         #[arg(long)]
@@ -37,15 +37,15 @@ pub enum BenchCommand {
     Mesh {
         /// Triangle counts (default 1000 10000 100000 1000000).
         sizes: Vec<usize>,
-        #[arg(long, default_value_t = 128)]
+        #[arg(long, default_value_t = 128, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         width: u32,
-        #[arg(long, default_value_t = 128)]
+        #[arg(long, default_value_t = 128, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         height: u32,
         /// Samples per pixel of each timed pass.
-        #[arg(long, default_value_t = 8)]
+        #[arg(long, default_value_t = 8, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         spp: u32,
         /// Timed passes per mesh (the median is reported).
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         runs: u32,
         /// Also time brute force (no BVH) for meshes up to this many triangles.
         #[arg(long = "brute-force-up-to", default_value_t = 10_000)]
@@ -56,15 +56,15 @@ pub enum BenchCommand {
     Specialisation {
         /// Scene files (default: every .toml in ./scenes).
         scenes: Vec<PathBuf>,
-        #[arg(long, default_value_t = 128)]
+        #[arg(long, default_value_t = 128, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         width: u32,
-        #[arg(long, default_value_t = 128)]
+        #[arg(long, default_value_t = 128, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         height: u32,
         /// Samples per pixel of each timed pass.
-        #[arg(long, default_value_t = 16)]
+        #[arg(long, default_value_t = 16, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         spp: u32,
         /// Timed passes per kernel (the median is reported).
-        #[arg(long, default_value_t = 5)]
+        #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         runs: u32,
         /// Print the rows as JSON instead of a table.
         #[arg(long)]
@@ -83,14 +83,14 @@ pub struct ConvergenceArgs {
     #[arg(long, conflicts_with = "reference_spp")]
     reference: Option<PathBuf>,
     /// Samples per pixel of the reference rendered when --reference is not given.
-    #[arg(long = "reference-spp", default_value_t = 4096)]
+    #[arg(long = "reference-spp", default_value_t = 4096, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     reference_spp: u32,
     /// Largest samples per pixel measured (the curve has 1, 2, 4, ... up to it).
-    #[arg(long = "max-spp", default_value_t = 256)]
+    #[arg(long = "max-spp", default_value_t = 256, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     max_spp: u32,
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 128, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     width: u32,
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 128, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     height: u32,
     /// Settings to measure, comma-separated: default, or knob=value joined by + (knobs: max_bounces,
     /// roulette, samples_per_pass, sampler, light_sampling).

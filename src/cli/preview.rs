@@ -13,19 +13,19 @@ pub struct PreviewArgs {
     /// Scene file (TOML). Default: the embedded course scene.
     scene: Option<PathBuf>,
     /// Stop accumulating at N samples per pixel (the window stays open). Default: never stop.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     spp: Option<u32>,
     /// Image width in pixels (overrides the scene); the window shows the image scaled to fit.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     width: Option<u32>,
     /// Image height in pixels (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     height: Option<u32>,
     /// Random seed (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..))]
     seed: Option<u32>,
     /// Scattering events per path (overrides the scene).
-    #[arg(long = "max-bounces")]
+    #[arg(long = "max-bounces", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..))]
     max_bounces: Option<u32>,
     /// Exit after N presents of a rendered image (scripted use; see --json for the spp shown).
     #[arg(long)]

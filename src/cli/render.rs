@@ -462,7 +462,7 @@ pub struct RenderArgs {
     #[arg(short = 'o', long = "output")]
     outputs: Vec<PathBuf>,
     /// Samples per pixel (overrides the scene); with --time, the upper bound.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     spp: Option<u32>,
     /// Stop after the first pass that ends past this time: seconds (`90`, `2.5`) or a duration with
     /// units (`90s`, `10m`, `1h30m`).
@@ -473,16 +473,16 @@ pub struct RenderArgs {
     #[arg(long = "target-error", allow_negative_numbers = true)]
     target_error: Option<f64>,
     /// Random seed (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..))]
     seed: Option<u32>,
     /// Image width in pixels (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     width: Option<u32>,
     /// Image height in pixels (overrides the scene).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     height: Option<u32>,
     /// Scattering events per path (overrides the scene).
-    #[arg(long = "max-bounces")]
+    #[arg(long = "max-bounces", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..))]
     max_bounces: Option<u32>,
     /// Where random numbers come from (overrides the scene's render.sampler).
     #[arg(long, value_enum)]
@@ -491,7 +491,7 @@ pub struct RenderArgs {
     #[arg(long = "light-sampling", value_parser = light_sampling_names())]
     light_sampling: Option<String>,
     /// Rewrite the outputs after every N samples per pixel.
-    #[arg(long = "progress-every")]
+    #[arg(long = "progress-every", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     progress_every: Option<u32>,
     /// Print one JSON object on stdout when the render ends.
     #[arg(long)]
@@ -500,7 +500,7 @@ pub struct RenderArgs {
     #[arg(long)]
     quiet: bool,
     /// Samples per pixel in each pass (default: adapted to about a quarter second per pass).
-    #[arg(long = "samples-per-pass")]
+    #[arg(long = "samples-per-pass", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     samples_per_pass: Option<u32>,
     /// Start Russian roulette after this many bounces ("off" disables it). Default 3.
     #[arg(long = "roulette-depth")]
