@@ -459,7 +459,7 @@ pub fn load_texture(path: &Path) -> Result<Texture, String> {
     // (a decompression bomb) is refused without the memory it would take.
     let (width, height) = reader()?
         .into_dimensions()
-        .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?;
+        .map_err(|e| format!("cannot decode the texture {}: {e}", path.display()))?;
     if width == 0 || height == 0 || u64::from(width) * u64::from(height) > MAX_TEXTURE_TEXELS {
         return Err(format!(
             "the texture {} is {width} x {height} texels; it must have between 1 and 2^28 texels",
