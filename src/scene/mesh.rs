@@ -268,8 +268,9 @@ fn obj_lines(bytes: &[u8]) -> impl Iterator<Item = (usize, &str, std::str::Split
         })
 }
 
-/// Finds the first face corner whose position, uv or normal index is out of range. OBJ indices are
-/// 1-based; a negative index counts back from the last element defined before the face.
+/// Finds the first face with fewer than 3 corners, or corner whose position, uv or normal index is out
+/// of range. OBJ indices are 1-based; a negative index counts back from the last element defined before
+/// the face.
 fn locate_bad_index(bytes: &[u8]) -> Option<ObjError> {
     let mut totals = [0usize; 3];
     for (_, first, _) in obj_lines(bytes) {
@@ -289,7 +290,19 @@ fn locate_bad_index(bytes: &[u8]) -> Option<ObjError> {
             "vt" => so_far[1] += 1,
             "vn" => so_far[2] += 1,
             "f" => {
-                for corner in words {
+                // A face of fewer than 3 corners was dropped without a word (tobj skips it), and a
+                // file of only such faces said "no faces" without a line.
+                let corners: Vec<&str> = words.into_iter().collect();
+                if corners.len() < 3 {
+                    return Some(ObjError::at(
+                        line,
+                        format!(
+                            "a face (`f`) needs at least 3 vertex references, this one has {}",
+                            corners.len()
+                        ),
+                    ));
+                }
+                for corner in corners {
                     for (k, part) in corner.split('/').enumerate().take(3) {
                         if part.is_empty() {
                             continue;
@@ -566,6 +579,13 @@ mod tests {
         let e = error("# nothing\nv 0 0 0\n");
         assert_eq!(e.line, None);
         assert!(e.message.contains("no faces"));
+        // Issue 18: a face of two corners was dropped silently (and alone gave "no faces", no line).
+        let e = error("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n");
+        assert_eq!(e.line, Some(5), "{e:?}");
+        assert!(
+            e.message.contains("at least 3") && e.message.contains("has 2"),
+            "{e:?}"
+        );
     }
 
     #[test]
