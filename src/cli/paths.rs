@@ -123,6 +123,8 @@ fn check_writable(path: &Path, what: &str) -> Result<(), Error> {
             let _ = std::fs::remove_file(&probe);
             Ok(())
         }
+        // A probe left by a killed run of the same process id: the directory took a file then.
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
         Err(e) => Err(usage(format!(
             "cannot write {what} in {}: {e}. Choose a writable directory (nothing was rendered).",
             dir.display()
