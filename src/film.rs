@@ -162,6 +162,14 @@ impl Film {
     }
 }
 
+/// The directory a file `path` is (or would be) in: its parent, or `.` for a bare file name.
+pub fn directory_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    }
+}
+
 fn temp_path_for(path: &Path) -> PathBuf {
     let name = path
         .file_name()
@@ -206,11 +214,7 @@ pub fn write_atomically_with(
 
 /// Best effort: make a rename in `path`'s directory durable (a no-op where directories cannot be opened).
 fn sync_parent_dir(path: &Path) {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    if let Ok(d) = std::fs::File::open(dir) {
+    if let Ok(d) = std::fs::File::open(directory_of(path)) {
         let _ = d.sync_all();
     }
 }

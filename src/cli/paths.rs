@@ -8,6 +8,7 @@
 //! the path, before the device is even opened.
 
 use std::path::{Path, PathBuf};
+use vkpath::film::directory_of;
 use vkpath::{Error, Scene};
 
 /// A path made comparable: its directory resolved (symbolic links, `..`) when it exists, then its file
@@ -16,11 +17,7 @@ fn comparable(path: &Path) -> PathBuf {
     if let Ok(p) = path.canonicalize() {
         return p;
     }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    match (dir.canonicalize(), path.file_name()) {
+    match (directory_of(path).canonicalize(), path.file_name()) {
         (Ok(d), Some(name)) => d.join(name),
         _ => path.to_path_buf(),
     }
@@ -43,6 +40,9 @@ pub fn scene_inputs(scene: &Scene) -> Vec<(PathBuf, &'static str)> {
     }
     v
 }
+
+/// What the resumed checkpoint is called among the inputs (the one input the checkpoint may overwrite).
+const RESUMED: &str = "the checkpoint resumed";
 
 fn usage(message: String) -> Error {
     Error::Usage(message)
@@ -75,12 +75,11 @@ pub fn check_outputs(
         }
     }
     if let Some(r) = resumed {
-        inputs.push((r.to_path_buf(), "the checkpoint resumed"));
+        inputs.push((r.to_path_buf(), RESUMED));
     }
     for (path, what) in &written {
         for (input, kind) in &inputs {
-            let resumed_into_itself =
-                *kind == "the checkpoint resumed" && Some(*path) == checkpoint;
+            let resumed_into_itself = *kind == RESUMED && Some(*path) == checkpoint;
             if !resumed_into_itself && comparable(path) == comparable(input) {
                 return Err(usage(format!(
                     "{what} is {kind} ({}): vkpath never overwrites what it reads. Write to another path.",
@@ -97,10 +96,7 @@ pub fn check_outputs(
 
 /// The file's directory exists and takes a new file: a uniquely named probe is created and removed.
 fn check_writable(path: &Path, what: &str) -> Result<(), Error> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
+    let dir = directory_of(path);
     if !dir.is_dir() {
         return Err(usage(format!(
             "cannot write {what}: its directory {} does not exist. Create it, or choose another path \
