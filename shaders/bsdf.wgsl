@@ -1,26 +1,33 @@
 // bsdf.wgsl: the materials, behind one interface the integrator calls (after pbrt-v4's BSDF::Sample_f,
 // f and PDF; Pharr, Jakob & Humphreys, "Physically Based Rendering", 4th ed., §9.1).
 //
-// requires: features.wgsl, sampling.wgsl, rng.wgsl
+// requires: features.wgsl, sampling.wgsl, rng.wgsl, microfacet.wgsl
 //
 // Conventions. Directions point away from the surface: wo towards where the light goes (the previous
 // path vertex), wi towards where it comes from. `ns` is the unit shading normal on wo's side (the caller
-// flips it; a smooth mesh's interpolated normal, else the geometric normal), and `entering` says whether
-// wo is on the outside of the surface (for a dielectric: which index is on which side). Every material
-// has three functions, dispatched on `Material::kind` by bsdf_sample / bsdf_eval / bsdf_pdf below:
-//  * <kind>_sample(mat, wo, ns, entering, rng): an incident direction wi drawn with density pdf(wi), and
+// flips it; a smooth mesh's interpolated normal, else the geometric normal), `tangent` the direction the
+// anisotropic roughness alpha_x runs along (any vector not parallel to ns; zero when no material of the
+// scene is anisotropic: the frame is then arbitrary about ns), and `entering` says whether wo is on the
+// outside of the surface (for a dielectric: which index is on which side). Every material has three
+// functions, dispatched on `Material::kind` by bsdf_sample / bsdf_eval / bsdf_pdf below:
+//  * <kind>_sample(mat, wo, frame, entering, rng): an incident direction wi drawn with density pdf(wi), and
 //    the weight f(wo, wi) |cos theta_i| / pdf(wi) that the path throughput is multiplied by. A material
-//    draws from the generator only the numbers it needs (diffuse two, dielectric one, mirror none), so
-//    that every later dimension of the path is drawn at the same index whichever materials it met.
-//  * <kind>_eval(mat, wo, wi, ns): f(wo, wi) in sr^-1 (0 for a delta lobe: a given direction has zero
-//    probability of being the mirror direction).
-//  * <kind>_pdf(mat, wo, wi, ns): the solid-angle density bsdf_sample draws wi with (0 for delta lobes).
+//    draws from the generator a fixed count of numbers per kind (diffuse and conductor two, smooth
+//    dielectric one, rough dielectric and the two-lobe materials three, mirror none), whatever it
+//    samples, so that every later dimension of the path is drawn at the same index whichever lobes it met.
+//  * <kind>_eval(mat, wo, wi, frame, entering): f(wo, wi) in sr^-1 (0 for a delta lobe: a given direction
+//    has zero probability of being the mirror direction).
+//  * <kind>_pdf(mat, wo, wi, frame, entering): the solid-angle density bsdf_sample draws wi with (0 for
+//    delta lobes).
 // A delta (specular) sample has BSDF_DELTA set: its `pdf` is then the discrete probability of the lobe
 // chosen (1 for a mirror, F or 1 - F for glass) rather than a density, and next-event estimation skips
 // the vertex (bsdf_is_delta).
 //
 // Adding a material: a MAT_* constant (mirrored in src/kernel/abi.rs), its three functions here, one line
 // in each dispatcher under its feature constant (features.wgsl), and a row in src/kernel/features.rs.
+//
+// The glossy materials work in the local frame of ns (z up), where the microfacet functions of
+// microfacet.wgsl are written; `frame` is built once per call by shading_frame.
 
 const MAT_DIFFUSE: u32 = 0u;
 const MAT_MIRROR: u32 = 1u;
@@ -28,20 +35,37 @@ const MAT_DIELECTRIC: u32 = 2u;
 // The `emitter` material (a lamp's surface, and a sphere light's): emits `emission`, scatters nothing
 // (a path ends there).
 const MAT_EMITTER: u32 = 3u;
+// Glossy materials: GGX microfacet lobes (microfacet.wgsl).
+const MAT_CONDUCTOR: u32 = 4u; // a metal: rough (or smooth) reflection with a conductor's Fresnel
+const MAT_ROUGH_DIELECTRIC: u32 = 5u; // rough glass (smooth glass is MAT_DIELECTRIC)
+const MAT_PLASTIC: u32 = 6u; // a diffuse base under a dielectric coat
+const MAT_METALLIC_ROUGHNESS: u32 = 7u; // glTF 2.0's material
 
 // Material::flags: emission leaves both faces, not only the front.
 const MATERIAL_TWO_SIDED_EMISSION: u32 = 1u;
+// Material::flags: a conductor's Fresnel is Schlick's from `albedo` (the reflectance at normal
+// incidence, a base colour) rather than the exact one from eta + i k.
+const MATERIAL_SCHLICK: u32 = 2u;
 
-// One material's parameters, as uploaded (`materials` in scene_data.wgsl; GpuMaterial in Rust).
+// One material's parameters, as uploaded (`materials` in scene_data.wgsl; GpuMaterial in Rust). What a
+// field means depends on the kind; unused fields are zero.
 struct Material {
-    albedo: vec3<f32>, // diffuse albedo or mirror tint (a texture replaces it per hit)
+    albedo: vec3<f32>, // diffuse albedo, mirror tint, plastic base, glTF base colour, Schlick f0
     kind: u32,
     emission: vec3<f32>, // emitted radiance, W sr^-1 m^-2 (any kind may emit; zero: it does not)
-    ior: f32, // dielectric: index of refraction inside over outside
-    flags: u32, // MATERIAL_TWO_SIDED_EMISSION
+    ior: f32, // dielectrics and plastic: index of refraction inside over outside
+    eta: vec3<f32>, // conductor: real part of the complex index of refraction, per channel
+    alpha_x: f32, // GGX roughness alpha (= roughness^2) along the tangent
+    k: vec3<f32>, // conductor: imaginary part (extinction coefficient), per channel
+    alpha_y: f32, // GGX alpha along the bitangent (= alpha_x when isotropic)
+    flags: u32, // MATERIAL_TWO_SIDED_EMISSION | MATERIAL_SCHLICK
+    metallic: f32, // metallic_roughness: the metal's weight in [0, 1]
+    fdr_int: f32, // plastic: the coat's internal diffuse reflectance (see plastic_eval)
     _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+}
+
+fn material_alpha(mat: Material) -> vec2<f32> {
+    return vec2<f32>(mat.alpha_x, mat.alpha_y);
 }
 
 // The radiance the material emits towards a viewer on its front side (`front`: the side the geometric
@@ -155,6 +179,346 @@ fn dielectric_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, entering: bool
     return s;
 }
 
+// --- The shading frame -----------------------------------------------------------------------------
+
+// The local frame of the glossy lobes: z = ns, x = the tangent's component perpendicular to ns (the
+// direction alpha_x runs along). A zero or parallel tangent (isotropic scenes pass zero) gives Duff et
+// al.'s frame about ns, which an isotropic lobe does not depend on.
+fn shading_frame(ns: vec3<f32>, tangent: vec3<f32>) -> Frame {
+    let t = tangent - dot(tangent, ns) * ns;
+    let len2 = dot(t, t);
+    if len2 < 1e-12 {
+        return frame_from_normal(ns);
+    }
+    let tx = t * inverseSqrt(len2);
+    return Frame(tx, cross(ns, tx), ns);
+}
+
+fn to_local(f: Frame, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(v, f.t), dot(v, f.b), dot(v, f.n));
+}
+
+// --- The GGX reflection lobe (shared by conductor, plastic and metallic_roughness) -----------------
+// f_r(wo, wi) = F(wo.h) D(h) G2(wo, wi) / (4 cos_o cos_i), h = (wo + wi) / |wo + wi| (Cook & Torrance
+// 1982; Walter et al. 2007, eq. 20). Sampled through the visible normals: h ~ D_wo, wi = reflect(wo, h),
+// so pdf(wi) = D_wo(h) / (4 wo.h) (the Jacobian of the reflection, Walter eq. 14), and
+// f cos_i / pdf = F G2 / G1(wo): nearly F, which is why VNDF sampling has so little variance.
+
+struct GgxReflection {
+    f: f32, // D G2 / (4 cos_o cos_i), without the Fresnel factor
+    pdf: f32, // D_wo(h) / (4 wo.h)
+    cos_oh: f32, // wo.h, where the Fresnel factor is evaluated
+}
+
+// The lobe at (wo, wi) in the local frame; all zero unless both are above the surface.
+fn ggx_reflection(wo: vec3<f32>, wi: vec3<f32>, alpha: vec2<f32>) -> GgxReflection {
+    var r = GgxReflection(0.0, 0.0, 0.0);
+    let sum = wo + wi;
+    if wo.z > 0.0 && wi.z > 0.0 && dot(sum, sum) > 0.0 {
+        let h = normalize(sum);
+        let d = ggx_d(h, alpha);
+        r.cos_oh = max(0.0, dot(wo, h));
+        r.f = d * ggx_g2(wo, wi, alpha) / (4.0 * wo.z * wi.z);
+        r.pdf = ggx_g1(wo, alpha) * d / (4.0 * wo.z);
+    }
+    return r;
+}
+
+// --- Conductor ------------------------------------------------------------------------------------
+// A metal: the GGX lobe with the Fresnel reflectance of a conductor, from its complex index of
+// refraction eta + i k per channel (fresnel_conductor) or, with MATERIAL_SCHLICK, Schlick's form from a
+// base colour f0. alpha below SMOOTH_ALPHA: a perfect mirror whose tint is F(cos_o).
+
+fn conductor_fresnel(mat: Material, cos_theta: f32) -> vec3<f32> {
+    if (mat.flags & MATERIAL_SCHLICK) != 0u {
+        return fresnel_schlick(cos_theta, mat.albedo);
+    }
+    return fresnel_conductor(cos_theta, mat.eta, mat.k);
+}
+
+fn conductor_sample(mat: Material, wo_w: vec3<f32>, fr: Frame, rng: ptr<function, Rng>) -> BsdfSample {
+    let u = rng_next2(rng);
+    let alpha = material_alpha(mat);
+    let wo = to_local(fr, wo_w);
+    var s = bsdf_absorbed();
+    if wo.z > 0.0 {
+        if microfacet_smooth(alpha) {
+            s = BsdfSample(reflect_dir(-wo_w, fr.n), conductor_fresnel(mat, wo.z), 1.0,
+                           BSDF_REFLECTION | BSDF_DELTA);
+        } else {
+            let h = ggx_sample_visible(wo, alpha, u);
+            let wi = reflect_dir(-wo, h);
+            let r = ggx_reflection(wo, wi, alpha);
+            if r.pdf > 0.0 {
+                let weight = conductor_fresnel(mat, r.cos_oh) * (r.f * wi.z / r.pdf);
+                s = BsdfSample(frame_to_world(fr, wi), weight, r.pdf, BSDF_REFLECTION);
+            }
+        }
+    }
+    return s;
+}
+
+fn conductor_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, fr: Frame) -> vec3<f32> {
+    let alpha = material_alpha(mat);
+    if microfacet_smooth(alpha) {
+        return vec3<f32>(0.0);
+    }
+    let r = ggx_reflection(to_local(fr, wo), to_local(fr, wi), alpha);
+    return conductor_fresnel(mat, r.cos_oh) * r.f;
+}
+
+fn conductor_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, fr: Frame) -> f32 {
+    let alpha = material_alpha(mat);
+    if microfacet_smooth(alpha) {
+        return 0.0;
+    }
+    return ggx_reflection(to_local(fr, wo), to_local(fr, wi), alpha).pdf;
+}
+
+// --- Rough dielectric -----------------------------------------------------------------------------
+// Walter et al. 2007: microfacets of the GGX distribution, each a smooth dielectric interface. Sampling
+// draws h ~ D_wo, then reflects with probability F(wo.h) and refracts otherwise, so that F cancels:
+//   reflection:   f = F D G2 / (4 cos_o cos_i),            pdf = D_wo(h) F / (4 wo.h)
+//   transmission: f = (1 - F) D G2 |wi.h| |wo.h| / (cos_o |cos_i| (wi.h + wo.h / eta)^2),
+//                 pdf = D_wo(h) (1 - F) |wi.h| / (wi.h + wo.h / eta)^2
+// with eta = n_t / n_i (wi's side over wo's) and, for transmission, the generalised half vector
+// h = -(wo + eta wi) / |wo + eta wi| (Walter eqs. 16, 17, 21; the last fraction is the Jacobian
+// d omega_h / d omega_i). Both weights are G2 / G1(wo). As for smooth glass, transmission is not scaled
+// by 1 / eta^2 (pbrt-v4's radiance mode does): the factor cancels on every path that leaves the medium it
+// entered, so f_t(wo, wi) = eta^2 f_t(wi, wo) here rather than the symmetric form.
+// An index-matched surface (eta = 1) has no interface and a roughness below SMOOTH_ALPHA none to speak
+// of: both are the smooth dielectric (the host uploads those as MAT_DIELECTRIC; this is a second guard).
+
+fn rough_dielectric_eta(mat: Material, entering: bool) -> f32 {
+    return select(1.0 / mat.ior, mat.ior, entering);
+}
+
+fn rough_dielectric_is_smooth(mat: Material) -> bool {
+    return microfacet_smooth(material_alpha(mat)) || mat.ior == 1.0;
+}
+
+fn rough_dielectric_sample(mat: Material, wo_w: vec3<f32>, fr: Frame, entering: bool,
+                           rng: ptr<function, Rng>) -> BsdfSample {
+    var s = bsdf_absorbed();
+    if rough_dielectric_is_smooth(mat) {
+        s = dielectric_sample(mat, wo_w, fr.n, entering, rng);
+        (*rng).dim += 2u; // three numbers, as the rough branch draws
+    } else {
+        let u = rng_next2(rng);
+        let uc = rng_next(rng);
+        let alpha = material_alpha(mat);
+        let eta = rough_dielectric_eta(mat, entering);
+        let wo = to_local(fr, wo_w);
+        if wo.z > 0.0 {
+            let h = ggx_sample_visible(wo, alpha, u);
+            let cos_oh = dot(wo, h);
+            let f = fresnel_dielectric(cos_oh, eta);
+            var wi = vec3<f32>(0.0);
+            var flags = 0u;
+            var pdf = 0.0;
+            if uc < f {
+                wi = reflect_dir(-wo, h);
+                if wi.z > 0.0 {
+                    flags = BSDF_REFLECTION;
+                    pdf = ggx_visible_pdf(wo, h, alpha) * f / (4.0 * cos_oh);
+                }
+            } else {
+                wi = refract_dir(-wo, h, eta);
+                let cos_ih = dot(wi, h);
+                let denom = cos_ih + cos_oh / eta;
+                if wi.z < 0.0 && cos_ih < 0.0 && denom != 0.0 {
+                    flags = BSDF_TRANSMISSION;
+                    pdf = ggx_visible_pdf(wo, h, alpha) * (1.0 - f) * abs(cos_ih) / (denom * denom);
+                }
+            }
+            if flags != 0u && pdf > 0.0 {
+                let weight = ggx_g2(wo, wi, alpha) / ggx_g1(wo, alpha);
+                s = BsdfSample(frame_to_world(fr, wi), vec3<f32>(weight), pdf, flags);
+            }
+        }
+    }
+    return s;
+}
+
+// f and pdf of the rough dielectric at (wo, wi), local frame, wo above the surface.
+struct RoughDielectricEval {
+    f: f32,
+    pdf: f32,
+}
+
+fn rough_dielectric_at(mat: Material, wo: vec3<f32>, wi: vec3<f32>, entering: bool) -> RoughDielectricEval {
+    var r = RoughDielectricEval(0.0, 0.0);
+    let alpha = material_alpha(mat);
+    let eta = rough_dielectric_eta(mat, entering);
+    if wo.z > 0.0 && wi.z > 0.0 {
+        let g = ggx_reflection(wo, wi, alpha);
+        let f = fresnel_dielectric(g.cos_oh, eta);
+        r = RoughDielectricEval(f * g.f, f * g.pdf);
+    } else if wo.z > 0.0 && wi.z < 0.0 {
+        let sum = wo + eta * wi;
+        if dot(sum, sum) > 0.0 {
+            var h = normalize(sum);
+            h = select(h, -h, h.z < 0.0);
+            let cos_oh = dot(wo, h);
+            let cos_ih = dot(wi, h);
+            let denom = cos_ih + cos_oh / eta;
+            // Only microfacets that face wo and that wi crosses from below.
+            if cos_oh > 0.0 && cos_ih < 0.0 && denom != 0.0 {
+                let t = 1.0 - fresnel_dielectric(cos_oh, eta);
+                let d = ggx_d(h, alpha);
+                let jac = abs(cos_ih) / (denom * denom);
+                r.f = t * d * ggx_g2(wo, wi, alpha) * jac * cos_oh / (wo.z * abs(wi.z));
+                r.pdf = t * ggx_visible_pdf(wo, h, alpha) * jac;
+            }
+        }
+    }
+    return r;
+}
+
+fn rough_dielectric_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, fr: Frame, entering: bool) -> vec3<f32> {
+    if rough_dielectric_is_smooth(mat) {
+        return vec3<f32>(0.0);
+    }
+    return vec3<f32>(rough_dielectric_at(mat, to_local(fr, wo), to_local(fr, wi), entering).f);
+}
+
+fn rough_dielectric_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, fr: Frame, entering: bool) -> f32 {
+    if rough_dielectric_is_smooth(mat) {
+        return 0.0;
+    }
+    return rough_dielectric_at(mat, to_local(fr, wo), to_local(fr, wi), entering).pdf;
+}
+
+// --- Two-lobe materials: plastic and glTF's metallic-roughness ---------------------------------------
+// Both are a GGX reflection lobe (a delta below SMOOTH_ALPHA) over a diffuse lobe; they differ in the
+// specular lobe's Fresnel factor Fs and the diffuse lobe's value fd:
+//
+// Plastic (a diffuse base of albedo a under a smooth-interfaced dielectric coat of index eta; the model of
+// Mitsuba 3's `plastic` with `nonlinear = true`, and of Weidlich & Wilkie 2007's layer without
+// absorption): Fs = F(wo.h, eta), and light that enters the coat (1 - F(cos_i)), reflects diffusely off
+// the base, and leaves it (1 - F(cos_o)), with the internal reflections at the coat summed as a geometric
+// series, gives
+//   fd = (1 - F(cos_i)) (1 - F(cos_o)) a / (pi eta^2 (1 - a Fdr_int)),
+// where Fdr_int = the cosine-weighted hemispherical average of the coat's reflectance seen from inside
+// (computed once on the host, `fdr_int`) and 1 / eta^2 the compression of solid angle on leaving.
+// Energy: with a = 1 and a smooth coat the diffuse albedo is exactly 1 - F(cos_o) (since
+// eta^2 (1 - Fdr_int) = 1 - Fdr_ext), so the material reflects all the light at every angle; a rough coat
+// gives E(cos_o) = E_ggx(cos_o) + 1 - F(cos_o), slightly less than 1 at grazing angles (where
+// single-scattering GGX loses energy) and slightly more near normal incidence for a very rough coat (the
+// coat's diffuse transmission uses the smooth interface's 1 - F). tests/shader_glossy.rs measures both.
+//
+// metallic_roughness (glTF 2.0, Appendix B): metal_brdf = specular_brdf * Schlick(base, VdotH);
+// dielectric_brdf = mix(diffuse(base), specular_brdf, F_d(VdotH)) with F_d = 0.04 + 0.96 (1 - VdotH)^5
+// (an ior of 1.5); material = mix(dielectric_brdf, metal_brdf, metallic). So
+//   Fs = mix(F_d(VdotH), Schlick(base, VdotH), metallic),  fd = (1 - metallic) (1 - F_d(VdotH)) base / pi,
+// with H the half vector of wo and wi (for the diffuse lobe as well, as the specification writes it).
+//
+// Sampling: the specular lobe with probability p_s (of wo only: an estimate of its share of the
+// reflected light, Fs(cos_o) against the diffuse lobe's weight), else cosine-weighted; the pdf is the
+// mixture p_s pdf_spec + (1 - p_s) cos_i / pi, and the weight f cos_i / pdf evaluates both lobes (one-
+// sample MIS with the balance heuristic). With a smooth coat the specular sample is a delta of
+// probability p_s and weight Fs(cos_o) / p_s, and eval and pdf hold only the diffuse lobe.
+
+fn gltf_dielectric_fresnel(c: f32) -> f32 {
+    let m = 1.0 - clamp(c, 0.0, 1.0);
+    let m2 = m * m;
+    return 0.04 + 0.96 * m2 * m2 * m;
+}
+
+// Fs at cosine c between wo and the microfacet normal.
+fn coated_specular_fresnel(mat: Material, c: f32) -> vec3<f32> {
+    if mat.kind == MAT_PLASTIC {
+        return vec3<f32>(fresnel_dielectric(c, mat.ior));
+    }
+    return mix(vec3<f32>(gltf_dielectric_fresnel(c)), fresnel_schlick(c, mat.albedo), mat.metallic);
+}
+
+// fd at (wo, wi), local frame, both above the surface.
+fn coated_diffuse(mat: Material, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    if mat.kind == MAT_PLASTIC {
+        let t = (1.0 - fresnel_dielectric(wi.z, mat.ior)) * (1.0 - fresnel_dielectric(wo.z, mat.ior));
+        let a = mat.albedo;
+        return a * (t * INV_PI / (mat.ior * mat.ior)) / (vec3<f32>(1.0) - a * mat.fdr_int);
+    }
+    let h = normalize(wo + wi);
+    return mat.albedo * ((1.0 - mat.metallic) * (1.0 - gltf_dielectric_fresnel(dot(wo, h))) * INV_PI);
+}
+
+// The probability of sampling the specular lobe, seen from wo (cos_o > 0).
+fn coated_specular_probability(mat: Material, cos_o: f32) -> f32 {
+    let fs = coated_specular_fresnel(mat, cos_o);
+    var diffuse = 0.0;
+    if mat.kind == MAT_PLASTIC {
+        diffuse = (1.0 - fs.x) * (mat.albedo.x + mat.albedo.y + mat.albedo.z) / 3.0;
+    } else {
+        diffuse = (1.0 - mat.metallic) * (1.0 - gltf_dielectric_fresnel(cos_o))
+                * (mat.albedo.x + mat.albedo.y + mat.albedo.z) / 3.0;
+    }
+    let spec = (fs.x + fs.y + fs.z) / 3.0;
+    return select(1.0, spec / (spec + diffuse), spec + diffuse > 0.0);
+}
+
+struct CoatedEval {
+    f: vec3<f32>,
+    pdf: f32,
+}
+
+// f and pdf of the non-delta part at (wo, wi), local frame.
+fn coated_at(mat: Material, wo: vec3<f32>, wi: vec3<f32>) -> CoatedEval {
+    var r = CoatedEval(vec3<f32>(0.0), 0.0);
+    if wo.z > 0.0 && wi.z > 0.0 {
+        let p_s = coated_specular_probability(mat, wo.z);
+        let alpha = material_alpha(mat);
+        r.f = coated_diffuse(mat, wo, wi);
+        r.pdf = (1.0 - p_s) * wi.z * INV_PI;
+        if !microfacet_smooth(alpha) {
+            let g = ggx_reflection(wo, wi, alpha);
+            r.f += coated_specular_fresnel(mat, g.cos_oh) * g.f;
+            r.pdf += p_s * g.pdf;
+        }
+    }
+    return r;
+}
+
+fn coated_sample(mat: Material, wo_w: vec3<f32>, fr: Frame, rng: ptr<function, Rng>) -> BsdfSample {
+    let uc = rng_next(rng);
+    let u = rng_next2(rng);
+    let alpha = material_alpha(mat);
+    let wo = to_local(fr, wo_w);
+    var s = bsdf_absorbed();
+    if wo.z > 0.0 {
+        let p_s = coated_specular_probability(mat, wo.z);
+        var wi = vec3<f32>(0.0);
+        if uc < p_s {
+            if microfacet_smooth(alpha) {
+                let weight = coated_specular_fresnel(mat, wo.z) / p_s;
+                s = BsdfSample(reflect_dir(-wo_w, fr.n), weight, p_s, BSDF_REFLECTION | BSDF_DELTA);
+            } else {
+                wi = reflect_dir(-wo, ggx_sample_visible(wo, alpha, u));
+            }
+        } else {
+            let r = sqrt(u.x);
+            let phi = TWO_PI * u.y;
+            wi = vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u.x)));
+        }
+        if wi.z > 0.0 {
+            let e = coated_at(mat, wo, wi);
+            if e.pdf > 0.0 {
+                s = BsdfSample(frame_to_world(fr, wi), e.f * (wi.z / e.pdf), e.pdf, BSDF_REFLECTION);
+            }
+        }
+    }
+    return s;
+}
+
+fn coated_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, fr: Frame) -> vec3<f32> {
+    return coated_at(mat, to_local(fr, wo), to_local(fr, wi)).f;
+}
+
+fn coated_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, fr: Frame) -> f32 {
+    return coated_at(mat, to_local(fr, wo), to_local(fr, wi)).pdf;
+}
+
 // --- The dispatchers -------------------------------------------------------------------------------
 // Each material's branch sits under its feature constant, so a kernel specialised for a scene keeps only
 // the materials the scene uses; with one material kind (SINGLE_MATERIAL_KIND) the kind test goes too.
@@ -162,9 +526,10 @@ fn dielectric_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, entering: bool
 // lavapipe, whose invocations run as SIMD lanes, a return inside a branch costs mask bookkeeping at every
 // later statement.
 
-fn bsdf_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, entering: bool,
+fn bsdf_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>, entering: bool,
                rng: ptr<function, Rng>) -> BsdfSample {
     var s = bsdf_absorbed();
+    let fr = shading_frame(ns, tangent);
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
             s = diffuse_sample(mat, wo, ns, rng);
@@ -180,24 +545,73 @@ fn bsdf_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, entering: bool,
             s = dielectric_sample(mat, wo, ns, entering, rng);
         }
     }
+    if HAS_CONDUCTOR {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_CONDUCTOR {
+            s = conductor_sample(mat, wo, fr, rng);
+        }
+    }
+    if HAS_ROUGH_DIELECTRIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_ROUGH_DIELECTRIC {
+            s = rough_dielectric_sample(mat, wo, fr, entering, rng);
+        }
+    }
+    if HAS_PLASTIC || HAS_METALLIC_ROUGHNESS {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC || mat.kind == MAT_METALLIC_ROUGHNESS {
+            s = coated_sample(mat, wo, fr, rng);
+        }
+    }
     return s;
 }
 
-fn bsdf_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>) -> vec3<f32> {
+fn bsdf_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,
+             entering: bool) -> vec3<f32> {
     var f = vec3<f32>(0.0); // delta lobes and emitters
+    let fr = shading_frame(ns, tangent);
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
             f = diffuse_eval(mat, wo, wi, ns);
         }
     }
+    if HAS_CONDUCTOR {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_CONDUCTOR {
+            f = conductor_eval(mat, wo, wi, fr);
+        }
+    }
+    if HAS_ROUGH_DIELECTRIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_ROUGH_DIELECTRIC {
+            f = rough_dielectric_eval(mat, wo, wi, fr, entering);
+        }
+    }
+    if HAS_PLASTIC || HAS_METALLIC_ROUGHNESS {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC || mat.kind == MAT_METALLIC_ROUGHNESS {
+            f = coated_eval(mat, wo, wi, fr);
+        }
+    }
     return f;
 }
 
-fn bsdf_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>) -> f32 {
+fn bsdf_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,
+            entering: bool) -> f32 {
     var pdf = 0.0; // delta lobes and emitters
+    let fr = shading_frame(ns, tangent);
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
             pdf = diffuse_pdf(wo, wi, ns);
+        }
+    }
+    if HAS_CONDUCTOR {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_CONDUCTOR {
+            pdf = conductor_pdf(mat, wo, wi, fr);
+        }
+    }
+    if HAS_ROUGH_DIELECTRIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_ROUGH_DIELECTRIC {
+            pdf = rough_dielectric_pdf(mat, wo, wi, fr, entering);
+        }
+    }
+    if HAS_PLASTIC || HAS_METALLIC_ROUGHNESS {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC || mat.kind == MAT_METALLIC_ROUGHNESS {
+            pdf = coated_pdf(mat, wo, wi, fr);
         }
     }
     return pdf;
@@ -212,5 +626,32 @@ fn bsdf_is_delta(mat: Material) -> bool {
             delta = false;
         }
     }
+    if HAS_CONDUCTOR {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_CONDUCTOR {
+            delta = microfacet_smooth(material_alpha(mat));
+        }
+    }
+    if HAS_ROUGH_DIELECTRIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_ROUGH_DIELECTRIC {
+            delta = rough_dielectric_is_smooth(mat);
+        }
+    }
+    if HAS_PLASTIC || HAS_METALLIC_ROUGHNESS {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC || mat.kind == MAT_METALLIC_ROUGHNESS {
+            delta = false;
+        }
+    }
     return delta;
+}
+
+// Whether light from below the surface (the side opposite wo) can reach wo through it: next-event
+// estimation then samples lights on both sides.
+fn bsdf_transmits(mat: Material) -> bool {
+    var transmits = false;
+    if HAS_ROUGH_DIELECTRIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_ROUGH_DIELECTRIC {
+            transmits = !rough_dielectric_is_smooth(mat);
+        }
+    }
+    return transmits;
 }

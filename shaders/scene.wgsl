@@ -157,6 +157,51 @@ fn emission_texture(tri: u32, p: vec3<f32>) -> vec3<f32> {
     return scale;
 }
 
+// The direction an anisotropic material's roughness alpha_x runs along at a hit (the BSDF keeps its
+// component perpendicular to the shading normal): on a sphere of centre c, the direction of increasing
+// longitude about +y, (0, 1, 0) x n (at the poles, +x); on a mesh with texture coordinates, dp/du, the
+// direction in which u increases (pbrt-v4 §6.5.1, from the triangle's positions and uvs); on other
+// triangles, the first edge v1 - v0. n is the geometric normal.
+fn surface_tangent(hit: Hit, n: vec3<f32>) -> vec3<f32> {
+    var t = vec3<f32>(1.0, 0.0, 0.0);
+    if HAS_SPHERES {
+        if hit.prim_kind == PRIM_SPHERE {
+            let c = vec3<f32>(n.z, 0.0, -n.x); // (0, 1, 0) x n
+            if dot(c, c) > 1e-12 {
+                t = c;
+            }
+        }
+    }
+    if HAS_TRIANGLES {
+        if hit.prim_kind == PRIM_TRIANGLE {
+            let tri = triangles[hit.prim_index];
+            t = tri.v1 - tri.v0;
+            if HAS_TEXTURES {
+                var face = MeshFace(vec3<u32>(0u), NO_MESH);
+                if hit.prim_index < arrayLength(&mesh_faces) {
+                    face = mesh_faces[hit.prim_index];
+                }
+                if face.mesh != NO_MESH {
+                    if (meshes[face.mesh].flags & MESH_TEXTURED) != 0u {
+                        let a = mesh_vertices[face.vertices.x];
+                        let b = mesh_vertices[face.vertices.y];
+                        let c = mesh_vertices[face.vertices.z];
+                        // p - p2 = (u - u2) dp/du + (v - v2) dp/dv at the vertices 0 and 1, solved for dp/du.
+                        let duv02 = vec2<f32>(a.u - c.u, a.v - c.v);
+                        let duv12 = vec2<f32>(b.u - c.u, b.v - c.v);
+                        let det = duv02.x * duv12.y - duv02.y * duv12.x;
+                        let dpdu = (duv12.y * (tri.v0 - tri.v2) - duv02.y * (tri.v1 - tri.v2)) / det;
+                        if abs(det) > 1e-12 && dot(dpdu, dpdu) > 0.0 {
+                            t = dpdu;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    return t;
+}
+
 // The material index of a hit, without computing the surface point.
 fn hit_material(hit: Hit) -> u32 {
     if HAS_TRIANGLES {

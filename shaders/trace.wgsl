@@ -56,9 +56,11 @@ fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 
 }
 
 // Next-event estimation at a surface point with material `mat`, seen from direction wo: for each
-// selected light, one light sample (L, wi, pdf) and the estimate f(wo, wi) L cos(theta) / (pdf pmf) if
+// selected light, one light sample (L, wi, pdf) and the estimate f(wo, wi) L |cos(theta)| / (pdf pmf) if
 // the sampled point on the light is visible. n is the facing geometric normal, ns the facing shading
-// normal (the same vector except on smooth meshes). `on_sphere` is the sphere the point lies on (or
+// normal (the same vector except on smooth meshes), tangent and entering as bsdf_eval takes them. Lights
+// behind the surface count only for a material that transmits (rough glass); the shadow ray then
+// leaves from the far side. `on_sphere` is the sphere the point lies on (or
 // NO_LIGHT): a sphere light is not sampled from its own surface, whose rounding puts the point a hair
 // inside or outside it (outside, its cone would be nearly a hemisphere of directions that the sphere
 // itself blocks); its light reaches the point by BSDF-sampled rays instead, which then count in full
@@ -69,10 +71,12 @@ fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 
 // own samples that hit the light the other way round (emission_weight), so the two estimates of that
 // light's contribution add up to one unbiased estimate (Veach 1997, ch. 9), each strategy dominating
 // where it is good.
-fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec3<f32>, mis: bool,
-                on_sphere: u32, rng: ptr<function, Rng>) -> vec3<f32> {
+fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,
+                entering: bool, wo: vec3<f32>, mis: bool, on_sphere: u32,
+                rng: ptr<function, Rng>) -> vec3<f32> {
     var l = vec3<f32>(0.0);
     let strategy = light_sampling_strategy();
+    let transmits = bsdf_transmits(mat);
     for (var k = 0u; k < light_selection_count(); k++) {
         let chosen = light_select(k);
         var ls = light_sample_li(chosen.light, sp.p, strategy, rng);
@@ -88,7 +92,10 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
                 ls.pdf = 0.0;
             }
         }
-        let cos_theta = light_cosine(sp, n, ns, ls.wi);
+        var cos_theta = light_cosine(sp, n, ns, ls.wi);
+        if transmits && dot(n, ls.wi) < 0.0 {
+            cos_theta = light_cosine(sp, -n, -ns, ls.wi);
+        }
         // (Nested tests rather than `continue`: one exit per iteration, as in the dispatchers.)
         if ls.pdf > 0.0 && cos_theta > 0.0 {
             var shadow = spawn_ray_to(sp.p, sp.err, n, ls.p_light);
@@ -98,12 +105,12 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, wo: vec
                 }
             }
             if !scene_occluded(shadow.o, shadow.d, shadow.t_max) {
-                let f = bsdf_eval(mat, wo, ls.wi, ns);
+                let f = bsdf_eval(mat, wo, ls.wi, ns, tangent, entering);
                 let pdf = ls.pdf * chosen.pmf;
                 // Suns are not weighed: a BSDF-sampled ray counts them only after delta bounces.
                 var w = 1.0;
                 if mis && !ls.delta && chosen.light.kind != LIGHT_DIRECTIONAL {
-                    w = power_heuristic(pdf, bsdf_pdf(mat, wo, ls.wi, ns));
+                    w = power_heuristic(pdf, bsdf_pdf(mat, wo, ls.wi, ns, tangent, entering));
                 }
                 l += f * ls.L * (w * cos_theta / pdf);
             }
@@ -237,11 +244,16 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
                 mat.albedo = sp.albedo;
             }
         }
+        // The direction anisotropic roughness runs along (zero, and not computed, without anisotropy).
+        var tangent = vec3<f32>(0.0);
+        if HAS_ANISOTROPY {
+            tangent = surface_tangent(hit, sp.n);
+        }
         let wo = -d;
         if !bsdf_is_delta(mat) {
-            radiance += beta * direct_light(mat, sp, n, ns, wo, mis, on_sphere, &rng);
+            radiance += beta * direct_light(mat, sp, n, ns, tangent, entering, wo, mis, on_sphere, &rng);
         }
-        let bs = bsdf_sample(mat, wo, ns, entering, &rng);
+        let bs = bsdf_sample(mat, wo, ns, tangent, entering, &rng);
         if bs.flags == 0u {
             break; // absorbed
         }

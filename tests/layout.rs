@@ -364,7 +364,7 @@ fn material_matches_wgsl() {
         "Material",
         "GpuMaterial",
         size_of::<GpuMaterial>(),
-        fields!(GpuMaterial: albedo, kind, emission, ior, flags, _pad),
+        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, _pad0),
     );
     check_storage_array(
         &module,
@@ -470,6 +470,24 @@ fn shared_constants_match_wgsl() {
     }
 }
 
+/// The one shared f32 constant: the roughness below which glossy lobes are deltas (the host picks the
+/// smooth material kinds by it, the shader its delta branches).
+#[test]
+fn smooth_alpha_matches_wgsl() {
+    let module = parsed_kernel();
+    let (_, c) = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some("SMOOTH_ALPHA"))
+        .expect("the production kernel has SMOOTH_ALPHA");
+    match module.global_expressions[c.init] {
+        naga::Expression::Literal(naga::Literal::F32(v)) => {
+            assert_eq!(v, vkpath::kernel::abi::SMOOTH_ALPHA)
+        }
+        ref other => panic!("SMOOTH_ALPHA is not an f32 literal: {other:?}"),
+    }
+}
+
 /// The feature and knob tables (src/kernel/features.rs) set exactly the overrides the WGSL declares:
 /// none missing (it would keep its default in every kernel) and none unknown (naga would refuse it).
 #[test]
@@ -500,8 +518,8 @@ fn feature_table_matches_wgsl_overrides() {
 )]
 fn check_struct_reports_a_swapped_member() {
     let module = naga::front::wgsl::parse_str(
-        "struct Material { albedo: vec3<f32>, ior: f32, emission: vec3<f32>, kind: u32, flags: u32, \
-         _pad0: u32, _pad1: u32, _pad2: u32, }\n\
+        "struct Material { albedo: vec3<f32>, ior: f32, emission: vec3<f32>, kind: u32, eta: vec3<f32>, \
+         alpha_x: f32, k: vec3<f32>, alpha_y: f32, flags: u32, metallic: f32, fdr_int: f32, _pad0: u32, }\n\
          @group(0) @binding(0) var<storage, read> m: array<Material>;\n",
     )
     .expect("test WGSL parses");
@@ -510,7 +528,7 @@ fn check_struct_reports_a_swapped_member() {
         "Material",
         "GpuMaterial",
         size_of::<GpuMaterial>(),
-        fields!(GpuMaterial: albedo, kind, emission, ior, flags, _pad),
+        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, _pad0),
     );
 }
 

@@ -32,16 +32,21 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let c = input[i];
-    let mat = Material(c.m.xyz, u32(c.m.w), vec3<f32>(0.0), c.k.x, 0u, 0u, 0u, 0u);
+    var mat: Material; // zero: the fields these kinds do not use
+    mat.albedo = c.m.xyz;
+    mat.kind = u32(c.m.w);
+    mat.ior = c.k.x;
     let wo = c.wo.xyz;
     let ns = c.ns.xyz;
+    let t = vec3<f32>(0.0); // isotropic materials only
+    let entering = c.k.y != 0.0;
     var rng = rng_new(i, 0u, u32(c.k.z));
-    let bs = bsdf_sample(mat, wo, ns, c.k.y != 0.0, &rng);
+    let bs = bsdf_sample(mat, wo, ns, t, entering, &rng);
     var o: Out;
     o.s = vec4<f32>(bs.wi, bs.pdf);
     o.w = vec4<f32>(bs.weight, f32(bs.flags));
-    o.at = vec4<f32>(bsdf_eval(mat, wo, bs.wi, ns), bsdf_pdf(mat, wo, bs.wi, ns));
-    o.aq = vec4<f32>(bsdf_eval(mat, wo, c.q.xyz, ns), bsdf_pdf(mat, wo, c.q.xyz, ns));
-    o.r = vec4<f32>(bsdf_eval(mat, c.q.xyz, wo, ns), select(0.0, 1.0, bsdf_is_delta(mat)));
+    o.at = vec4<f32>(bsdf_eval(mat, wo, bs.wi, ns, t, entering), bsdf_pdf(mat, wo, bs.wi, ns, t, entering));
+    o.aq = vec4<f32>(bsdf_eval(mat, wo, c.q.xyz, ns, t, entering), bsdf_pdf(mat, wo, c.q.xyz, ns, t, entering));
+    o.r = vec4<f32>(bsdf_eval(mat, c.q.xyz, wo, ns, t, entering), select(0.0, 1.0, bsdf_is_delta(mat)));
     output[i] = o;
 }

@@ -90,10 +90,21 @@ pub const MAT_DIFFUSE: u32 = 0;
 pub const MAT_MIRROR: u32 = 1;
 pub const MAT_DIELECTRIC: u32 = 2;
 pub const MAT_EMITTER: u32 = 3;
+pub const MAT_CONDUCTOR: u32 = 4;
+pub const MAT_ROUGH_DIELECTRIC: u32 = 5;
+pub const MAT_PLASTIC: u32 = 6;
+pub const MAT_METALLIC_ROUGHNESS: u32 = 7;
 
 /// `GpuMaterial::flags`: the material emits from both faces (else only from the front: the side its
 /// geometric normal faces).
 pub const MATERIAL_TWO_SIDED_EMISSION: u32 = 1;
+/// `GpuMaterial::flags`: a conductor's Fresnel is Schlick's, from `albedo` as the reflectance at normal
+/// incidence.
+pub const MATERIAL_SCHLICK: u32 = 2;
+
+/// GGX alpha below which a glossy surface is uploaded (and shaded) as smooth: a delta lobe
+/// (`SMOOTH_ALPHA` in microfacet.wgsl, which says why).
+pub const SMOOTH_ALPHA: f32 = 1e-3;
 
 /// `BsdfSample::flags` (bsdf.wgsl): the lobe a sampled direction came from.
 pub const BSDF_REFLECTION: u32 = 1;
@@ -104,14 +115,27 @@ pub const BSDF_DELTA: u32 = 4;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
+    /// Diffuse albedo, mirror tint, plastic base, glTF base colour or a Schlick conductor's f0.
     pub albedo: [f32; 3],
     pub kind: u32,
     /// Emitted radiance (W sr^-1 m^-2), zero for a material that does not emit.
     pub emission: [f32; 3],
+    /// Dielectrics and plastic: index of refraction inside over outside.
     pub ior: f32,
-    /// [`MATERIAL_TWO_SIDED_EMISSION`].
+    /// Conductors: the complex index of refraction eta + i k, per channel.
+    pub eta: [f32; 3],
+    /// GGX alpha (= roughness^2) along the tangent.
+    pub alpha_x: f32,
+    pub k: [f32; 3],
+    /// GGX alpha along the bitangent.
+    pub alpha_y: f32,
+    /// [`MATERIAL_TWO_SIDED_EMISSION`] | [`MATERIAL_SCHLICK`].
     pub flags: u32,
-    pub _pad: [u32; 3],
+    /// metallic_roughness: the metal's weight.
+    pub metallic: f32,
+    /// Plastic: the coat's internal diffuse reflectance, 2 \int_0^1 F(c, 1/ior) c dc.
+    pub fdr_int: f32,
+    pub _pad0: u32,
 }
 
 /// Light kinds (`LIGHT_*` in lights.wgsl).
@@ -255,7 +279,12 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("MAT_MIRROR", MAT_MIRROR),
     ("MAT_DIELECTRIC", MAT_DIELECTRIC),
     ("MAT_EMITTER", MAT_EMITTER),
+    ("MAT_CONDUCTOR", MAT_CONDUCTOR),
+    ("MAT_ROUGH_DIELECTRIC", MAT_ROUGH_DIELECTRIC),
+    ("MAT_PLASTIC", MAT_PLASTIC),
+    ("MAT_METALLIC_ROUGHNESS", MAT_METALLIC_ROUGHNESS),
     ("MATERIAL_TWO_SIDED_EMISSION", MATERIAL_TWO_SIDED_EMISSION),
+    ("MATERIAL_SCHLICK", MATERIAL_SCHLICK),
     ("BSDF_REFLECTION", BSDF_REFLECTION),
     ("BSDF_TRANSMISSION", BSDF_TRANSMISSION),
     ("BSDF_DELTA", BSDF_DELTA),
@@ -294,7 +323,7 @@ const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);
 const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuLightTriangle>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuAccum>() == 96);

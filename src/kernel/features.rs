@@ -26,6 +26,11 @@ pub enum Feature {
     Diffuse,
     Mirror,
     Dielectric,
+    Conductor,
+    RoughDielectric,
+    Plastic,
+    MetallicRoughness,
+    Anisotropy,
     Emitters,
     Emission,
     PointLights,
@@ -72,6 +77,13 @@ fn by_group(_: &GpuScene, _: &GpuParams) -> bool {
 
 fn mesh_flag(g: &GpuScene, flag: u32) -> bool {
     g.meshes.iter().any(|m| m.flags & flag != 0)
+}
+
+/// The materials some sphere or triangle uses.
+fn used_materials(g: &GpuScene) -> impl Iterator<Item = &GpuMaterial> {
+    let used = g.spheres.iter().map(|s| s.material);
+    let used = used.chain(g.triangles.iter().map(|t| t.material));
+    used.filter_map(|m| g.materials.get(m as usize))
 }
 
 /// The feature table.
@@ -152,6 +164,47 @@ pub const FEATURES: &[FeatureRow] = &[
         reported: true,
     },
     FeatureRow {
+        feature: Feature::Conductor,
+        name: "conductor",
+        constant: "HAS_CONDUCTOR",
+        group: Group::Material(MAT_CONDUCTOR),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::RoughDielectric,
+        name: "rough_dielectric",
+        constant: "HAS_ROUGH_DIELECTRIC",
+        group: Group::Material(MAT_ROUGH_DIELECTRIC),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::Plastic,
+        name: "plastic",
+        constant: "HAS_PLASTIC",
+        group: Group::Material(MAT_PLASTIC),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::MetallicRoughness,
+        name: "metallic_roughness",
+        constant: "HAS_METALLIC_ROUGHNESS",
+        group: Group::Material(MAT_METALLIC_ROUGHNESS),
+        needed: by_group,
+        reported: true,
+    },
+    FeatureRow {
+        // A material some object uses has a different roughness along the tangent and the bitangent.
+        feature: Feature::Anisotropy,
+        name: "anisotropy",
+        constant: "HAS_ANISOTROPY",
+        group: Group::Other,
+        needed: |g, _| used_materials(g).any(|m| m.alpha_x != m.alpha_y),
+        reported: true,
+    },
+    FeatureRow {
         feature: Feature::Emitters,
         name: "emitters",
         constant: "HAS_EMITTERS",
@@ -165,12 +218,7 @@ pub const FEATURES: &[FeatureRow] = &[
         name: "emission",
         constant: "HAS_EMISSION",
         group: Group::Other,
-        needed: |g, _| {
-            let used = g.spheres.iter().map(|s| s.material);
-            let used = used.chain(g.triangles.iter().map(|t| t.material));
-            used.filter_map(|m| g.materials.get(m as usize))
-                .any(|m| m.emission.iter().any(|&c| c > 0.0))
-        },
+        needed: |g, _| used_materials(g).any(|m| m.emission.iter().any(|&c| c > 0.0)),
         reported: true,
     },
     FeatureRow {

@@ -19,6 +19,10 @@ pub const MODULES: &[(&str, &str)] = &[
         "intersect.wgsl",
         include_str!("../../shaders/intersect.wgsl"),
     ),
+    (
+        "microfacet.wgsl",
+        include_str!("../../shaders/microfacet.wgsl"),
+    ),
     ("bsdf.wgsl", include_str!("../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../shaders/lights.wgsl")),
     ("camera.wgsl", include_str!("../../shaders/camera.wgsl")),

@@ -194,12 +194,88 @@ pub enum Bsdf {
     Mirror {
         tint: Vec3,
     },
+    /// Glass: smooth at roughness 0, else the Walter et al. 2007 rough dielectric.
     Dielectric {
         ior: f32,
+        roughness: Roughness,
+    },
+    /// A metal: GGX reflection (a mirror at roughness 0) with a conductor's Fresnel reflectance.
+    Conductor {
+        fresnel: ConductorFresnel,
+        roughness: Roughness,
+    },
+    /// A diffuse base of `albedo` under a dielectric coat of index `ior` (shaders/bsdf.wgsl).
+    Plastic {
+        albedo: Vec3,
+        ior: f32,
+        roughness: Roughness,
+    },
+    /// glTF 2.0's metallic-roughness material (the specification's Appendix B).
+    MetallicRoughness {
+        base_color: Vec3,
+        metallic: f32,
+        roughness: f32,
     },
     /// Reflects and transmits nothing (the `emitter` material: a lamp's surface).
     Black,
 }
+
+/// A microfacet roughness as scenes give it: perceptual, in [0, 1], along the surface's tangent (`u`)
+/// and bitangent (`v`); the GGX alpha is its square on each axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Roughness {
+    pub u: f32,
+    pub v: f32,
+}
+
+impl Roughness {
+    pub const SMOOTH: Roughness = Roughness { u: 0.0, v: 0.0 };
+
+    pub fn isotropic(r: f32) -> Roughness {
+        Roughness { u: r, v: r }
+    }
+
+    /// The GGX alpha along the tangent and the bitangent: roughness^2.
+    pub fn alpha(self) -> (f32, f32) {
+        (self.u * self.u, self.v * self.v)
+    }
+}
+
+/// Where a conductor's Fresnel reflectance comes from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ConductorFresnel {
+    /// The exact Fresnel equations of a complex index of refraction eta + i k, per channel.
+    Complex { eta: Vec3, k: Vec3 },
+    /// Schlick's approximation from the reflectance at normal incidence (a base colour).
+    Schlick { f0: Vec3 },
+}
+
+/// The named conductors of `preset = "..."`: (name, eta, k), linear sRGB. The values are Mitsuba 3.6.4's
+/// for `material = "Au"`, `"Ag"`, `"Cu"` and `"Al"`: its spectral tables (from the luxpop.com database,
+/// shipped as mitsuba/data/ior/*.spd) reduced to RGB by its `scalar_rgb` variant, as printed by
+/// benches/peers/conductor_presets.py; so a preset is the same metal in both renderers.
+pub const CONDUCTOR_PRESETS: &[(&str, [f32; 3], [f32; 3])] = &[
+    (
+        "gold",
+        [0.143_036, 0.375_307, 1.442_045],
+        [3.982_997, 2.385_556, 1.603_359],
+    ),
+    (
+        "silver",
+        [0.155_276, 0.116_728, 0.138_388],
+        [4.828_354, 3.122_222, 2.146_901],
+    ),
+    (
+        "copper",
+        [0.201_005, 0.923_750, 1.102_215],
+        [3.913_262, 2.453_045, 2.142_090],
+    ),
+    (
+        "aluminium",
+        [1.657_501, 0.880_405, 0.521_244],
+        [9.223_811, 6.269_502, 4.837_004],
+    ),
+];
 
 /// Light a surface emits: uniform radiance (W sr^-1 m^-2) from its front face (the side its geometric
 /// normal faces: outward on spheres, (v1 - v0) x (v2 - v0) on triangles), or from both.

@@ -19,8 +19,9 @@
 use super::environment::{self, Environment};
 use super::mesh::{self, Mesh, ObjMesh, Placement, Texture};
 use super::{
-    Bsdf, Camera, Emission, Filter, Gamma, ImageSettings, Light, LightSampling, Material,
-    Projection, RenderSettings, Sampler, Scene, Sphere, Triangle,
+    Bsdf, CONDUCTOR_PRESETS, Camera, ConductorFresnel, Emission, Filter, Gamma, ImageSettings,
+    Light, LightSampling, Material, Projection, RenderSettings, Roughness, Sampler, Scene, Sphere,
+    Triangle,
 };
 use glam::Vec3;
 use serde::Deserialize;
@@ -231,6 +232,10 @@ struct RawRender {
     light_sampling: Option<Spanned<String>>,
 }
 
+/// A plastic's coat when `ior` is not given: near polypropylene's 1.49 (Mitsuba's `plastic` default) and
+/// the 1.5 of glTF's dielectrics.
+const PLASTIC_DEFAULT_IOR: f32 = 1.5;
+
 /// One flat struct for every material type rather than a serde-tagged enum: a tagged enum buffers its
 /// content, which loses the spans, and its "unknown variant" error would point at the whole material
 /// rather than at `type`. Which keys a type allows is checked by hand in `Checker::material`.
@@ -242,6 +247,15 @@ struct RawMaterial {
     albedo: Option<Spanned<RawVec3>>,
     tint: Option<Spanned<RawVec3>>,
     ior: Option<Spanned<f32>>,
+    /// `conductor`: a named metal, or its complex index of refraction, or a base colour (Schlick).
+    preset: Option<Spanned<String>>,
+    eta: Option<Spanned<RawVec3>>,
+    k: Option<Spanned<RawVec3>>,
+    base_color: Option<Spanned<RawVec3>>,
+    /// The glossy types: perceptual roughness, one number or [along u, along v].
+    roughness: Option<Spanned<RawRoughness>>,
+    /// `metallic_roughness`.
+    metallic: Option<Spanned<f32>>,
     /// `emitter`: its radiance, and whether both faces emit.
     radiance: Option<Spanned<RawVec3>>,
     two_sided: Option<Spanned<bool>>,
@@ -308,6 +322,58 @@ impl<'de> Deserialize<'de> for RawVec3 {
                 &"an array of 3 numbers",
             )),
         }
+    }
+}
+
+/// `roughness` is one number (isotropic) or two, [along the tangent, along the bitangent].
+#[derive(Clone, Copy)]
+enum RawRoughness {
+    Isotropic(f32),
+    Anisotropic(f32, f32),
+}
+
+impl<'de> Deserialize<'de> for RawRoughness {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct RoughnessVisitor;
+
+        impl<'de> Visitor<'de> for RoughnessVisitor {
+            type Value = RawRoughness;
+
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a number in [0, 1] or an array of 2 (along u, along v)")
+            }
+
+            fn visit_f64<E>(self, v: f64) -> Result<RawRoughness, E> {
+                Ok(RawRoughness::Isotropic(v as f32))
+            }
+
+            fn visit_i64<E>(self, v: i64) -> Result<RawRoughness, E> {
+                Ok(RawRoughness::Isotropic(v as f32))
+            }
+
+            fn visit_u64<E>(self, v: u64) -> Result<RawRoughness, E> {
+                Ok(RawRoughness::Isotropic(v as f32))
+            }
+
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<RawRoughness, A::Error> {
+                let mut numbers = Vec::new();
+                while let Some(x) = seq.next_element::<f32>()? {
+                    numbers.push(x);
+                }
+                match numbers[..] {
+                    [u, v] => Ok(RawRoughness::Anisotropic(u, v)),
+                    _ => Err(serde::de::Error::invalid_length(
+                        numbers.len(),
+                        &"an array of 2 numbers (along u, along v)",
+                    )),
+                }
+            }
+        }
+
+        deserializer.deserialize_any(RoughnessVisitor)
     }
 }
 
@@ -913,14 +979,94 @@ impl Checker<'_> {
                     &key("ior"),
                     "a dielectric material needs an ior",
                 )?;
-                let ior = self.number_unless(
-                    ior,
-                    &key("ior"),
-                    |ior| ior <= 0.0,
-                    "the index of refraction must be > 0",
-                    "Glass is about 1.5, water 1.33; the outside medium has ior 1.",
+                let ior = self.ior(ior, &key("ior"))?;
+                let roughness = self.roughness(&m.roughness, &key("roughness"))?;
+                (
+                    &["ior", "roughness", EMISSION[0], EMISSION[1]],
+                    Bsdf::Dielectric { ior, roughness },
+                )
+            }
+            "conductor" => (
+                &[
+                    "preset",
+                    "eta",
+                    "k",
+                    "base_color",
+                    "roughness",
+                    EMISSION[0],
+                    EMISSION[1],
+                ],
+                Bsdf::Conductor {
+                    fresnel: self.conductor_fresnel(name, raw)?,
+                    roughness: self.roughness(&m.roughness, &key("roughness"))?,
+                },
+            ),
+            "plastic" => {
+                let albedo = self.required(
+                    &m.albedo,
+                    raw,
+                    &key("albedo"),
+                    "a plastic material needs an albedo (the colour of its diffuse base)",
                 )?;
-                (&["ior", EMISSION[0], EMISSION[1]], Bsdf::Dielectric { ior })
+                let albedo = self.unit_color(albedo, &key("albedo"))?;
+                let ior = match &m.ior {
+                    Some(ior) => self.ior(ior, &key("ior"))?,
+                    None => PLASTIC_DEFAULT_IOR,
+                };
+                let roughness = self.roughness(&m.roughness, &key("roughness"))?;
+                (
+                    &["albedo", "ior", "roughness", EMISSION[0], EMISSION[1]],
+                    Bsdf::Plastic {
+                        albedo,
+                        ior,
+                        roughness,
+                    },
+                )
+            }
+            "metallic_roughness" => {
+                let base_color = match &m.base_color {
+                    Some(c) => self.unit_color(c, &key("base_color"))?,
+                    None => Vec3::ONE,
+                };
+                let metallic = match &m.metallic {
+                    Some(v) => self.number_unless(
+                        v,
+                        &key("metallic"),
+                        |x| !(0.0..=1.0).contains(&x),
+                        "metallic must be in [0, 1]",
+                        "0 is a dielectric (plastic-like), 1 a metal; glTF's default is 1.",
+                    )?,
+                    None => 1.0,
+                };
+                // glTF's default roughness is 1.
+                let roughness = match &m.roughness {
+                    None => 1.0,
+                    Some(r) => match self.roughness(&m.roughness, &key("roughness"))? {
+                        Roughness { u, v } if u == v => u,
+                        _ => {
+                            return Err(self.error(
+                                r.span(),
+                                &key("roughness"),
+                                "a metallic_roughness material's roughness is one number",
+                                "glTF 2.0's metallic-roughness model is isotropic; give one number in [0, 1].",
+                            ));
+                        }
+                    },
+                };
+                (
+                    &[
+                        "base_color",
+                        "metallic",
+                        "roughness",
+                        EMISSION[0],
+                        EMISSION[1],
+                    ],
+                    Bsdf::MetallicRoughness {
+                        base_color,
+                        metallic,
+                        roughness,
+                    },
+                )
             }
             "emitter" => (&["radiance", "two_sided"], Bsdf::Black),
             other => {
@@ -928,8 +1074,9 @@ impl Checker<'_> {
                     m.kind.span(),
                     &key("type"),
                     format!("unknown material type \"{other}\""),
-                    "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior) or \"emitter\" \
-                     (with radiance).",
+                    "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior), \
+                     \"conductor\" (with preset, eta and k, or base_color), \"plastic\" (with albedo), \
+                     \"metallic_roughness\" or \"emitter\" (with radiance).",
                 ));
             }
         };
@@ -937,6 +1084,12 @@ impl Checker<'_> {
             ("albedo", m.albedo.as_ref().map(Spanned::span)),
             ("tint", m.tint.as_ref().map(Spanned::span)),
             ("ior", m.ior.as_ref().map(Spanned::span)),
+            ("preset", m.preset.as_ref().map(Spanned::span)),
+            ("eta", m.eta.as_ref().map(Spanned::span)),
+            ("k", m.k.as_ref().map(Spanned::span)),
+            ("base_color", m.base_color.as_ref().map(Spanned::span)),
+            ("roughness", m.roughness.as_ref().map(Spanned::span)),
+            ("metallic", m.metallic.as_ref().map(Spanned::span)),
             ("radiance", m.radiance.as_ref().map(Spanned::span)),
             ("two_sided", m.two_sided.as_ref().map(Spanned::span)),
             ("emission", m.emission.as_ref().map(Spanned::span)),
@@ -980,6 +1133,149 @@ impl Checker<'_> {
             }
         };
         Ok(Material { bsdf, emission })
+    }
+
+    /// An index of refraction: finite and > 0.
+    fn ior(&self, ior: &Spanned<f32>, key: &str) -> Result<f32, SceneError> {
+        self.number_unless(
+            ior,
+            key,
+            |ior| ior <= 0.0,
+            "the index of refraction must be > 0",
+            "Glass is about 1.5, water 1.33; the outside medium has ior 1.",
+        )
+    }
+
+    /// A colour whose components are reflectances, in [0, 1].
+    fn unit_color(&self, c: &Spanned<RawVec3>, key: &str) -> Result<Vec3, SceneError> {
+        self.vec3_unless(
+            c,
+            key,
+            |a| !in_unit_range(a),
+            "every component must be in [0, 1]",
+            "A reflectance is the fraction of light reflected per channel; energy conservation needs it in [0, 1].",
+        )
+    }
+
+    /// `roughness`: absent (smooth), one number or two, each in [0, 1].
+    fn roughness(
+        &self,
+        raw: &Option<Spanned<RawRoughness>>,
+        key: &str,
+    ) -> Result<Roughness, SceneError> {
+        let Some(r) = raw else {
+            return Ok(Roughness::SMOOTH);
+        };
+        let (u, v) = match *r.get_ref() {
+            RawRoughness::Isotropic(x) => (x, x),
+            RawRoughness::Anisotropic(u, v) => (u, v),
+        };
+        for x in [u, v] {
+            if !x.is_finite() {
+                return Err(self.not_finite(r.span(), key, &x.to_string()));
+            }
+            self.reject_if(
+                r,
+                key,
+                x,
+                |x| !(0.0..=1.0).contains(&x),
+                "roughness must be in [0, 1]",
+                "0 is a perfectly smooth surface, 1 the roughest (GGX alpha = roughness^2); \
+                 [u, v] gives a different roughness along the tangent and the bitangent.",
+            )?;
+        }
+        Ok(Roughness { u, v })
+    }
+
+    /// A conductor's Fresnel: exactly one of `preset`, `eta` with `k`, or `base_color`.
+    fn conductor_fresnel(
+        &self,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+    ) -> Result<ConductorFresnel, SceneError> {
+        let m = raw.get_ref();
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let names: Vec<String> = CONDUCTOR_PRESETS
+            .iter()
+            .map(|(n, _, _)| format!("\"{n}\""))
+            .collect();
+        let how = format!(
+            "Give `preset` ({}), or `eta = [r, g, b]` with `k = [r, g, b]` (the complex index of \
+             refraction), or `base_color = [r, g, b]` (Schlick's reflectance at normal incidence).",
+            names.join(", ")
+        );
+        match (&m.preset, &m.eta, &m.k, &m.base_color) {
+            (Some(p), None, None, None) => {
+                let wanted = p.get_ref().as_str();
+                match CONDUCTOR_PRESETS.iter().find(|(n, _, _)| *n == wanted) {
+                    Some((_, eta, k)) => Ok(ConductorFresnel::Complex {
+                        eta: Vec3::from_array(*eta),
+                        k: Vec3::from_array(*k),
+                    }),
+                    None => Err(self.error(
+                        p.span(),
+                        &key("preset"),
+                        format!("unknown conductor preset \"{wanted}\""),
+                        format!("The presets are {}.", names.join(", ")),
+                    )),
+                }
+            }
+            (None, Some(eta), Some(k), None) => {
+                let eta = self.vec3_unless(
+                    eta,
+                    &key("eta"),
+                    |e| e.min_element() <= 0.0,
+                    "every eta component must be > 0",
+                    "eta is the real part of the metal's complex index of refraction (gold: about [0.14, 0.37, 1.44]).",
+                )?;
+                let k = self.vec3_unless(
+                    k,
+                    &key("k"),
+                    |k| k.min_element() < 0.0,
+                    "every k component must be >= 0",
+                    "k is the extinction coefficient, the imaginary part of the complex index of refraction (gold: about [3.98, 2.39, 1.60]).",
+                )?;
+                Ok(ConductorFresnel::Complex { eta, k })
+            }
+            (None, None, None, Some(c)) => Ok(ConductorFresnel::Schlick {
+                f0: self.unit_color(c, &key("base_color"))?,
+            }),
+            (None, Some(_), None, None) => Err(self.error(
+                m.eta.as_ref().map_or(0..0, Spanned::span),
+                &key("eta"),
+                "eta is given without k",
+                how,
+            )),
+            (None, None, Some(_), None) => Err(self.error(
+                m.k.as_ref().map_or(0..0, Spanned::span),
+                &key("k"),
+                "k is given without eta",
+                how,
+            )),
+            (None, None, None, None) => Err(self.error(
+                raw.span(),
+                &format!("materials.{name}"),
+                "a conductor material needs a preset, eta and k, or a base_color",
+                how,
+            )),
+            _ => {
+                // Two ways at once: point at the second one given.
+                let spans = [
+                    ("preset", m.preset.as_ref().map(Spanned::span)),
+                    ("eta", m.eta.as_ref().map(Spanned::span)),
+                    ("base_color", m.base_color.as_ref().map(Spanned::span)),
+                ];
+                let mut given = spans.iter().filter_map(|(n, s)| s.clone().map(|s| (*n, s)));
+                let first = given.next().map_or("preset", |(n, _)| n);
+                let (second, span) = given.next().unwrap_or(("k", raw.span()));
+                Err(self.error(
+                    span,
+                    &key(second),
+                    format!("a conductor takes one of preset, eta and k, or base_color, but {first} and {second} are both given"),
+                    how,
+                ))
+            }
+        }
     }
 
     fn sphere(&self, i: usize, raw: &RawSphere, names: &[String]) -> Result<Sphere, SceneError> {
@@ -1083,6 +1379,14 @@ impl Checker<'_> {
                         bsdf: Bsdf::Dielectric { .. },
                         emission: None,
                     }) => Some("a dielectric that does not emit"),
+                    Some(Material {
+                        bsdf:
+                            Bsdf::Conductor {
+                                fresnel: ConductorFresnel::Complex { .. },
+                                ..
+                            },
+                        emission: None,
+                    }) => Some("a conductor given by its index of refraction that does not emit"),
                     _ => None,
                 };
                 if let Some(what) = untexturable {
@@ -1093,7 +1397,7 @@ impl Checker<'_> {
                             "material \"{}\" is {what}: it has no albedo for a texture to replace and no emission for it to multiply",
                             m.material.get_ref()
                         ),
-                        "Give textured meshes a diffuse material (the texture is the albedo), a mirror (the tint) or an emitting material (the texture multiplies the emission).",
+                        "Give textured meshes a diffuse or plastic material (the texture is the albedo), a mirror (the tint), a metallic_roughness material or a conductor with base_color (the texture is the base colour) or an emitting material (the texture multiplies the emission).",
                     ));
                 }
                 if obj.uvs.is_none() {
@@ -1906,7 +2210,11 @@ fov      = 45
                 }
                 .into(),
                 Bsdf::Mirror { tint: Vec3::ONE }.into(),
-                Bsdf::Dielectric { ior: 1.5 }.into(),
+                Bsdf::Dielectric {
+                    ior: 1.5,
+                    roughness: Roughness::SMOOTH
+                }
+                .into(),
             ]
         );
         assert_eq!(
@@ -2030,7 +2338,14 @@ material = "amber"
         assert_eq!(name_of(scene.spheres[0].material), "moss");
         assert_eq!(name_of(scene.spheres[1].material), "zinc");
         assert_eq!(name_of(scene.triangles[0].material), "amber");
-        assert_eq!(scene.materials[2], Bsdf::Dielectric { ior: 1.3 }.into());
+        assert_eq!(
+            scene.materials[2],
+            Bsdf::Dielectric {
+                ior: 1.3,
+                roughness: Roughness::SMOOTH
+            }
+            .into()
+        );
     }
 
     #[test]
@@ -2081,7 +2396,14 @@ power = 500
         assert_eq!(scene.render.filter, Filter::Box);
         assert_eq!(scene.render.filter_sigma, 1.0);
         assert_eq!(scene.environment.radiance, Vec3::X);
-        assert_eq!(scene.materials, [Bsdf::Dielectric { ior: 2.0 }.into()]);
+        assert_eq!(
+            scene.materials,
+            [Bsdf::Dielectric {
+                ior: 2.0,
+                roughness: Roughness::SMOOTH
+            }
+            .into()]
+        );
         assert_eq!(
             scene.spheres,
             [Sphere {
