@@ -64,8 +64,11 @@ struct Material {
     _pad0: u32,
 }
 
+// The GGX alpha on both axes, at least 1e-4 each: an anisotropic lobe may be smooth along one axis only
+// (roughness [0, 0.5]), and D divides by each alpha. (Both below SMOOTH_ALPHA is the delta lobe, which
+// the clamp does not change.)
 fn material_alpha(mat: Material) -> vec2<f32> {
-    return vec2<f32>(mat.alpha_x, mat.alpha_y);
+    return max(vec2<f32>(mat.alpha_x, mat.alpha_y), vec2<f32>(1e-4));
 }
 
 // The radiance the material emits towards a viewer on its front side (`front`: the side the geometric

@@ -925,3 +925,141 @@ fn a_byte_that_is_not_utf8_is_located() {
         "{m}"
     );
 }
+
+// ----- glossy materials (issue 14) -----
+
+/// A material table on line 6, after a valid camera.
+fn one_material(material: &str) -> String {
+    format!(
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\n{material}  # line 6\n"
+    )
+}
+
+#[test]
+fn roughness_above_one() {
+    let err = expect_error_exact(
+        &one_material("m = { type = \"conductor\", preset = \"gold\", roughness = 1.5 }"),
+        6,
+        "materials.m.roughness",
+    );
+    assert!(err.to_string().contains("[0, 1]"), "{err}");
+}
+
+#[test]
+fn roughness_negative_in_a_pair() {
+    expect_error_exact(
+        &one_material("m = { type = \"dielectric\", ior = 1.5, roughness = [0.2, -0.1] }"),
+        6,
+        "materials.m.roughness",
+    );
+}
+
+#[test]
+fn roughness_list_of_three() {
+    expect_error_exact(
+        &one_material(
+            "m = { type = \"plastic\", albedo = [0.5, 0.5, 0.5], roughness = [0.1, 0.2, 0.3] }",
+        ),
+        6,
+        "materials.m.roughness",
+    );
+}
+
+#[test]
+fn conductor_k_negative() {
+    let err = expect_error_exact(
+        &one_material("m = { type = \"conductor\", eta = [0.2, 0.4, 1.4], k = [3.9, -2.4, 1.6] }"),
+        6,
+        "materials.m.k",
+    );
+    assert!(err.to_string().contains(">= 0"), "{err}");
+}
+
+#[test]
+fn conductor_eta_zero() {
+    expect_error_exact(
+        &one_material("m = { type = \"conductor\", eta = [0.0, 0.4, 1.4], k = [3.9, 2.4, 1.6] }"),
+        6,
+        "materials.m.eta",
+    );
+}
+
+#[test]
+fn conductor_eta_without_k() {
+    let err = expect_error_exact(
+        &one_material("m = { type = \"conductor\", eta = [0.2, 0.4, 1.4] }"),
+        6,
+        "materials.m.eta",
+    );
+    assert!(err.to_string().contains("without k"), "{err}");
+}
+
+#[test]
+fn conductor_unknown_preset_lists_the_presets() {
+    let err = expect_error_exact(
+        &one_material("m = { type = \"conductor\", preset = \"brass\" }"),
+        6,
+        "materials.m.preset",
+    );
+    let message = err.to_string();
+    assert!(
+        message.contains("\"brass\"") && message.contains("\"aluminium\""),
+        "{err}"
+    );
+}
+
+#[test]
+fn conductor_preset_and_base_color_together() {
+    expect_error_exact(
+        &one_material(
+            "m = { type = \"conductor\", preset = \"gold\", base_color = [1.0, 0.8, 0.3] }",
+        ),
+        6,
+        "materials.m.base_color",
+    );
+}
+
+#[test]
+fn conductor_without_fresnel() {
+    expect_error_exact(
+        &one_material("m = { type = \"conductor\", roughness = 0.2 }"),
+        6,
+        "materials.m",
+    );
+}
+
+#[test]
+fn plastic_without_albedo() {
+    expect_error_exact(
+        &one_material("m = { type = \"plastic\", ior = 1.5 }"),
+        6,
+        "materials.m.albedo",
+    );
+}
+
+#[test]
+fn metallic_outside_unit_range() {
+    expect_error_exact(
+        &one_material("m = { type = \"metallic_roughness\", metallic = 1.2 }"),
+        6,
+        "materials.m.metallic",
+    );
+}
+
+#[test]
+fn metallic_roughness_is_isotropic() {
+    expect_error_exact(
+        &one_material("m = { type = \"metallic_roughness\", roughness = [0.2, 0.4] }"),
+        6,
+        "materials.m.roughness",
+    );
+}
+
+#[test]
+fn roughness_on_a_diffuse_material_is_unknown() {
+    expect_error_exact(
+        &one_material("m = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], roughness = 0.2 }"),
+        6,
+        "materials.m.roughness",
+    );
+}

@@ -63,6 +63,15 @@ impl Chi2 {
     pub fn passes(&self) -> bool {
         self.stat <= self.critical
     }
+
+    /// P(X >= stat) for X ~ chi-square(dof), by the same Wilson–Hilferty approximation as the critical
+    /// value (so `passes` is `p_value >= ALPHA` up to rounding).
+    pub fn p_value(&self) -> f64 {
+        let k = self.dof as f64;
+        let v = 2.0 / (9.0 * k);
+        let z = ((self.stat / k).cbrt() - (1.0 - v)) / v.sqrt();
+        0.5 * erfc(z / std::f64::consts::SQRT_2)
+    }
 }
 
 /// Pearson's chi-square of observed counts against expected counts. Cells expected to hold fewer than 5
@@ -122,8 +131,11 @@ pub fn chi2(observed: &[f64], expected: &[f64]) -> Chi2 {
 /// Asserts that a chi-square test passes and says so.
 pub fn assert_fits(what: &str, t: &Chi2) {
     eprintln!(
-        "{what}: chi2 = {:.1} (critical {:.1}, dof {})",
-        t.stat, t.critical, t.dof
+        "{what}: chi2 = {:.1} (critical {:.1}, dof {}, p = {:.3})",
+        t.stat,
+        t.critical,
+        t.dof,
+        t.p_value()
     );
     assert!(
         t.passes(),
