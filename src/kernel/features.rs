@@ -555,6 +555,49 @@ mod tests {
         assert!(consts.contains(&("SINGLE_MATERIAL_KIND", 0.0)));
     }
 
+    /// A glossy material switches on its own row only, and anisotropy only when its roughness differs
+    /// between the axes; a scene without glossy materials keeps none of their code.
+    #[test]
+    fn glossy_rows_follow_the_materials_used() {
+        use super::super::upload::{GpuScene, params_for};
+        let scene_with = |material: &str| {
+            let text = format!(
+                "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[materials]\nm = {material}\n\
+                 [[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n[[light]]\ntype = \"point\"\n\
+                 position = [0, 5, 5]\npower = 100\n"
+            );
+            let scene = crate::scene::Scene::from_toml_str(&text, None).expect("scene");
+            FeatureSet::of(&GpuScene::build(&scene), &params_for(&scene, 3))
+        };
+        let glossy = [
+            Feature::Conductor,
+            Feature::RoughDielectric,
+            Feature::Plastic,
+            Feature::MetallicRoughness,
+            Feature::Anisotropy,
+        ];
+        let on =
+            |f: &FeatureSet| -> Vec<Feature> { glossy.into_iter().filter(|&g| f.has(g)).collect() };
+        let diffuse = scene_with("{ type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }");
+        assert_eq!(on(&diffuse), vec![]);
+        let gold = scene_with("{ type = \"conductor\", preset = \"gold\", roughness = 0.3 }");
+        assert_eq!(on(&gold), vec![Feature::Conductor]);
+        assert!(gold.single_material_kind());
+        let brushed =
+            scene_with("{ type = \"conductor\", preset = \"gold\", roughness = [0.1, 0.4] }");
+        assert_eq!(on(&brushed), vec![Feature::Conductor, Feature::Anisotropy]);
+        let smooth_glass = scene_with("{ type = \"dielectric\", ior = 1.5, roughness = 0 }");
+        assert_eq!(on(&smooth_glass), vec![]);
+        assert!(smooth_glass.has(Feature::Dielectric));
+        let frosted = scene_with("{ type = \"dielectric\", ior = 1.5, roughness = 0.5 }");
+        assert_eq!(on(&frosted), vec![Feature::RoughDielectric]);
+        assert!(!frosted.has(Feature::Dielectric));
+        let plastic = scene_with("{ type = \"plastic\", albedo = [0.5, 0.5, 0.5] }");
+        assert_eq!(on(&plastic), vec![Feature::Plastic]);
+        let pbr = scene_with("{ type = \"metallic_roughness\" }");
+        assert_eq!(on(&pbr), vec![Feature::MetallicRoughness]);
+    }
+
     #[test]
     fn enable_and_set() {
         let mut f = FeatureSet::generic();

@@ -581,3 +581,59 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         },
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Reciprocity of hemispherical reflectance across an interface: 1 - Fdr(eta) = eta^2 (1 - Fdr(1/eta))
+    /// (what makes a smooth white plastic reflect all the light), for the integral computed here.
+    /// Normal incidence alone bounds Fdr from below for eta > 1: Fdr(eta) >= ((eta - 1) / (eta + 1))^2.
+    #[test]
+    fn fresnel_diffuse_reflectance_obeys_reciprocity() {
+        for eta in [1.01, 1.33, 1.5, 2.0, 2.42, 4.0] {
+            let outside = fresnel_diffuse_reflectance(eta);
+            let inside = fresnel_diffuse_reflectance(1.0 / eta);
+            let lhs = 1.0 - outside;
+            let rhs = eta * eta * (1.0 - inside);
+            assert!((lhs - rhs).abs() < 1e-9, "eta {eta}: {lhs} vs {rhs}");
+            assert!(outside >= ((eta - 1.0) / (eta + 1.0)).powi(2));
+            assert!(inside > outside && inside < 1.0);
+        }
+        assert!(fresnel_diffuse_reflectance(1.0) < 1e-15); // no interface (up to f64 rounding)
+    }
+
+    /// Roughness 0 (and ior 1) uploads the course's smooth glass; a rough one the rough kind, alpha =
+    /// roughness^2; an anisotropic conductor keeps both alphas, an effectively smooth one none.
+    #[test]
+    fn glossy_materials_upload_their_smooth_forms_below_the_threshold() {
+        let glass = |ior, r| {
+            gpu_material(&Material::from(Bsdf::Dielectric {
+                ior,
+                roughness: Roughness::isotropic(r),
+            }))
+        };
+        assert_eq!(glass(1.5, 0.0).kind, MAT_DIELECTRIC);
+        assert_eq!(glass(1.5, 0.03).kind, MAT_DIELECTRIC); // alpha 9e-4 < SMOOTH_ALPHA
+        assert_eq!(glass(1.0, 0.5).kind, MAT_DIELECTRIC);
+        let rough = glass(1.5, 0.5);
+        assert_eq!(
+            (rough.kind, rough.alpha_x, rough.alpha_y),
+            (MAT_ROUGH_DIELECTRIC, 0.25, 0.25)
+        );
+        let metal = gpu_material(&Material::from(Bsdf::Conductor {
+            fresnel: ConductorFresnel::Schlick { f0: Vec3::ONE },
+            roughness: Roughness { u: 0.1, v: 0.5 },
+        }));
+        assert_eq!(metal.kind, MAT_CONDUCTOR);
+        assert_eq!(metal.flags & MATERIAL_SCHLICK, MATERIAL_SCHLICK);
+        assert!((metal.alpha_x - 0.01).abs() < 1e-7 && metal.alpha_y == 0.25);
+        let plastic = gpu_material(&Material::from(Bsdf::Plastic {
+            albedo: Vec3::splat(0.5),
+            ior: 1.5,
+            roughness: Roughness::SMOOTH,
+        }));
+        assert_eq!((plastic.kind, plastic.alpha_x), (MAT_PLASTIC, 0.0));
+        assert!((plastic.fdr_int as f64 - fresnel_diffuse_reflectance(1.0 / 1.5)).abs() < 1e-7);
+    }
+}
