@@ -53,6 +53,38 @@ Mapping (vkpath -> Mitsuba 3):
   by 1/eta^2 on each crossing, vkpath does not; on every path that contributes (light leaves the glass
   before it reaches the camera: no light, camera or diffuse surface is inside glass in these scenes) the
   factors cancel, so the expectations agree.
+* roughness (conductor, dielectric, plastic): perceptual, one number r or [u, v]; GGX alpha = r^2 in vkpath
+  (src/scene/mod.rs Roughness::alpha), and an alpha below SMOOTH_ALPHA = 1e-3 on both axes
+  (shaders/microfacet.wgsl; roughness below ~0.032) is a smooth, delta interface there -> the smooth
+  Mitsuba BSDF then, else its rough one with `distribution = "ggx"`, `alpha` = r^2 and
+  `sample_visible = true` (vkpath samples by visible normals too, Heitz 2018; noise only anyway).
+  Anisotropic [u, v] with u != v is not translated (below).
+* conductor -> `twosided` (vkpath shades both faces) `conductor` (smooth: a mirror whose reflectance is
+  the conductor's Fresnel) or `roughconductor`. `preset` gold, silver, copper, aluminium -> `material` =
+  "Au", "Ag", "Cu", "Al": vkpath's presets (src/scene/mod.rs CONDUCTOR_PRESETS) are Mitsuba 3.6.4's RGB
+  reduction of those spectral tables (conductor_presets.py prints them), so the metal is the same.
+  `eta` and `k` -> `eta`, `k` as `srgb` spectra with `unbounded = true` (Mitsuba's `rgb` shorthand is a
+  reflectance and refuses values above 1); checked with 3.6.4: `conductor` and `roughconductor` with gold's
+  eta/k given so evaluate and sample exactly as with `material = "Au"`. Both use the exact unpolarised
+  Fresnel equations of a complex index per channel, `specular_reflectance` 1.
+* rough dielectric -> `roughdielectric`, `int_ior = ior`, `ext_ior = 1` (one-sided as glass is in vkpath):
+  Walter et al. 2007, reflection or refraction off the sampled microfacet chosen with probability F, as
+  vkpath. The 1/eta^2 radiance scaling cancels as for smooth glass.
+* plastic (a diffuse base of albedo a under a dielectric coat of index `ior`, default 1.5) -> `twosided`
+  `plastic` (smooth coat) or `roughplastic`, `diffuse_reflectance` = albedo, `int_ior = ior`,
+  `ext_ior = 1`, `specular_reflectance` 1, `nonlinear = true`. With a smooth coat vkpath's model is
+  exactly Mitsuba's (shaders/bsdf.wgsl): specular F(cos_o), diffuse
+  (1 - F(cos_i)) (1 - F(cos_o)) a / (pi eta^2 (1 - a Fdr_int)), nonlinear being the a in the denominator.
+  With a rough coat the models differ: vkpath keeps the smooth interface's 1 - F for the light
+  crossing the coat to and from the base, Mitsuba's `roughplastic` uses its precomputed rough-coat
+  transmittance tables (and their hemispherical average for Fdr_int), which lose much more energy. So for
+  roughness > 0 the two renderers do not compute the same image, and compare.py's unbiasedness check
+  fails on purpose. Measured with 3.6.4 (a plastic ball of albedo 0.8, ior 1.5, under a uniform white
+  environment, 64x64, 2048 spp each; the ball's mean radiance, vkpath / Mitsuba): roughness 0:
+  0.6653 / 0.6656 (the same); 0.1: 0.6651 / 0.6578 (+1.1%); 0.3: 0.6534 / 0.6285 (+4.0%); 0.5:
+  0.633 / 0.537 (+18%); 0.7: 0.615 / 0.416 (+48%). Mitsuba's roughplastic of white albedo reflects
+  0.98, 0.92, 0.74 and 0.55 of the light at normal incidence for roughness 0.1, 0.3, 0.5, 0.7 (mitsuba3
+  issue #1155 reports its furnace test too); its smooth plastic 1.00.
 * render.background, and `[environment] radiance` without a map -> `constant` emitter of that radiance
   (Mitsuba samples it as a light too; vkpath's strategies differ in noise, not in mean). Omitted when black.
   The contract says [environment] replaces render.background; a scene that sets both (background not
@@ -113,8 +145,18 @@ Not matched (these scenes are excluded, with the reason, by `unsupported_reasons
 * A directional light with angle > 0 (a sun disc of uniform radiance): Mitsuba's `directional` is a delta
   light only, and no other Mitsuba emitter is a uniform cone of directions (a map would pixelate the disc,
   a distant sphere shows parallax).
-* Material types other than diffuse, mirror, dielectric and emitter, light types other than point, sphere
-  and directional, camera types other than perspective and orthographic.
+* `metallic_roughness` (glTF 2.0's model): no Mitsuba 3 BSDF is that model (`principled` is Disney's,
+  with other lobes and Fresnel).
+* A conductor with `base_color` (Schlick's Fresnel from the reflectance at normal incidence): Mitsuba 3's
+  `conductor` and `roughconductor` take a complex index of refraction only.
+* Anisotropic roughness ([u, v], u != v, not both below the smooth threshold): `alpha_u` / `alpha_v`
+  (= u^2, v^2) would lie along Mitsuba's tangent frame, which is not vkpath's (shaders/scene.wgsl
+  surface_tangent: (0, 1, 0) x n on a sphere, v1 - v0 on a triangle; Mitsuba: a sphere's dp/du runs around
+  its local z axis, an OBJ without texture coordinates gets an arbitrary frame), so the highlights would
+  stretch along other directions. (For spheres, a Mitsuba sphere turned so that its local z is world +y
+  would have vkpath's tangent up to sign, which anisotropy does not see: a possible extension, not done.)
+* Material types other than diffuse, mirror, dielectric, conductor, plastic and emitter, light types other
+  than point, sphere and directional, camera types other than perspective and orthographic.
 """
 
 from __future__ import annotations
@@ -158,12 +200,38 @@ def _material(m: dict) -> dict:
     if kind == "emitter":
         out["radiance"] = _v3(out.get("radiance", BLACK))
         out["two_sided"] = bool(out.get("two_sided", False))
-    elif kind in ("diffuse", "mirror", "dielectric"):
+    elif kind in ("diffuse", "mirror", "dielectric", "conductor", "plastic"):
         if kind == "mirror":
             out["tint"] = _v3(out.get("tint", WHITE))
+        if kind in ("dielectric", "conductor", "plastic"):
+            out["roughness"] = _roughness(out.get("roughness", 0.0))
+        if kind == "plastic":
+            out["ior"] = float(out.get("ior", PLASTIC_DEFAULT_IOR))
         out["emission"] = _v3(out.get("emission", BLACK))
         out["two_sided_emission"] = bool(out.get("two_sided_emission", False))
     return out
+
+
+PLASTIC_DEFAULT_IOR = 1.5  # scene-format.md: a plastic's coat, when `ior` is not given
+
+# vkpath's conductor presets (src/scene/mod.rs CONDUCTOR_PRESETS) are Mitsuba 3.6.4's RGB values of these
+# `material` names (benches/peers/conductor_presets.py prints them).
+CONDUCTOR_PRESETS = {"gold": "Au", "silver": "Ag", "copper": "Cu", "aluminium": "Al"}
+
+
+# shaders/microfacet.wgsl: a GGX alpha below this on both axes is a smooth (delta) interface in vkpath.
+SMOOTH_ALPHA = 1e-3
+
+
+def _smooth(u: float, v: float) -> bool:
+    return max(u * u, v * v) < SMOOTH_ALPHA
+
+
+def _roughness(r) -> list[float]:
+    """`roughness` as [along u, along v]: one number is isotropic."""
+    if isinstance(r, (int, float)):
+        return [float(r), float(r)]
+    return [float(c) for c in r]
 
 
 def _light(light: dict) -> dict:
@@ -248,8 +316,27 @@ def unsupported_reasons(raw: dict) -> list[str]:
     if kind not in ("perspective", "orthographic"):
         reasons.append(f"camera of unknown type {kind!r}")
     for name, m in raw.get("materials", {}).items():
-        if m.get("type") not in ("diffuse", "mirror", "dielectric", "emitter"):
-            reasons.append(f"material {name!r} of type {m.get('type')!r} (not translated)")
+        kind = m.get("type")
+        if kind == "metallic_roughness":
+            reasons.append(
+                f"material {name!r} is glTF's metallic_roughness: Mitsuba 3 has no such BSDF (its "
+                "`principled` is Disney's model, another one)"
+            )
+        elif kind not in ("diffuse", "mirror", "dielectric", "conductor", "plastic", "emitter"):
+            reasons.append(f"material {name!r} of type {kind!r} (not translated)")
+        if kind == "conductor" and "base_color" in m:
+            reasons.append(
+                f"material {name!r} is a conductor with base_color (Schlick's Fresnel): Mitsuba 3's "
+                "conductors take a complex index of refraction only"
+            )
+        if kind in ("dielectric", "conductor", "plastic"):
+            u, v = _roughness(m.get("roughness", 0.0))
+            if u != v and not _smooth(u, v):
+                reasons.append(
+                    f"material {name!r} has anisotropic roughness [{u}, {v}]: vkpath's tangent frame "
+                    "(spheres: (0, 1, 0) x n; triangles: v1 - v0) is not Mitsuba's, so alpha_u and "
+                    "alpha_v would lie along other directions"
+                )
         if m.get("two_sided") or m.get("two_sided_emission"):
             reasons.append(
                 f"material {name!r} emits from both sides: Mitsuba 3's area emitter is one-sided only "
@@ -393,8 +480,54 @@ def _bsdf(material: dict) -> dict:
             },
         }
     if kind == "dielectric":
-        return {"type": "dielectric", "int_ior": float(material["ior"]), "ext_ior": 1.0}
+        alpha = _alpha(material)
+        if alpha == 0.0 or float(material["ior"]) == 1.0:  # vkpath: an index-matched surface is smooth
+            return {"type": "dielectric", "int_ior": float(material["ior"]), "ext_ior": 1.0}
+        # Walter et al. 2007 with GGX, alpha = roughness^2, sampled by visible normals (as vkpath).
+        return {"type": "roughdielectric", "distribution": "ggx", "alpha": alpha,
+                "int_ior": float(material["ior"]), "ext_ior": 1.0, "sample_visible": True}
+    if kind == "conductor":
+        alpha = _alpha(material)
+        if "preset" in material:
+            fresnel = {"material": CONDUCTOR_PRESETS[material["preset"]]}
+        elif "eta" in material and "k" in material:
+            # `srgb` with unbounded = true: the `rgb` shorthand is a reflectance and refuses values > 1.
+            fresnel = {"eta": {"type": "srgb", "color": _v3(material["eta"]), "unbounded": True},
+                       "k": {"type": "srgb", "color": _v3(material["k"]), "unbounded": True}}
+        else:
+            raise ValueError("a conductor with base_color (Schlick's Fresnel) has no Mitsuba counterpart")
+        if alpha == 0.0:
+            inner = {"type": "conductor", **fresnel}  # a mirror with the conductor's Fresnel
+        else:
+            inner = {"type": "roughconductor", "distribution": "ggx", "alpha": alpha,
+                     "sample_visible": True, **fresnel}
+        return {"type": "twosided", "bsdf": inner}
+    if kind == "plastic":
+        alpha = _alpha(material)
+        inner = {
+            "type": "plastic" if alpha == 0.0 else "roughplastic",
+            "diffuse_reflectance": _rgb(material["albedo"]),
+            "int_ior": float(material["ior"]),
+            "ext_ior": 1.0,
+            "nonlinear": True,  # a / (1 - a Fdr_int): the internal reflections tinted by the base, as vkpath
+        }
+        if alpha > 0.0:
+            # Mitsuba's diffuse transmission is its rough-coat table; vkpath's the smooth coat's 1 - F
+            # (the docstring: the two differ slightly there).
+            inner.update(distribution="ggx", alpha=alpha, sample_visible=True)
+        return {"type": "twosided", "bsdf": inner}
     raise ValueError(f"unsupported material type {kind!r}")
+
+
+def _alpha(material: dict) -> float:
+    """The GGX alpha of an isotropic roughness (unsupported_reasons refuses anisotropic ones); 0 where
+    vkpath treats the surface as smooth (alpha below SMOOTH_ALPHA on both axes)."""
+    u, v = _roughness(material.get("roughness", 0.0))
+    if _smooth(u, v):
+        return 0.0
+    if u != v:
+        raise ValueError(f"anisotropic roughness [{u}, {v}] is not translated")
+    return u * u
 
 
 def _black_bsdf() -> dict:
