@@ -405,10 +405,13 @@ fn rough_dielectric_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, fr: Frame, 
 // where Fdr_int = the cosine-weighted hemispherical average of the coat's reflectance seen from inside
 // (computed once on the host, `fdr_int`) and 1 / eta^2 the compression of solid angle on leaving.
 // Energy: with a = 1 and a smooth coat the diffuse albedo is exactly 1 - F(cos_o) (since
-// eta^2 (1 - Fdr_int) = 1 - Fdr_ext), so the material reflects all the light at every angle; a rough coat
-// gives E(cos_o) = E_ggx(cos_o) + 1 - F(cos_o), slightly less than 1 at grazing angles (where
-// single-scattering GGX loses energy) and slightly more near normal incidence for a very rough coat (the
-// coat's diffuse transmission uses the smooth interface's 1 - F). tests/shader_glossy.rs measures both.
+// eta^2 (1 - Fdr_int) = 1 - Fdr_ext), so the material reflects all the light at every angle. A rough coat
+// gives E(cos_o) = E_ggx(cos_o) + 1 - F(cos_o), E_ggx the albedo of the coat's GGX lobe (Fresnel-weighted):
+// within a fraction of a percent of 1 (above or below) near normal incidence, where the coat reflects
+// little, but well below 1 at grazing angles, where F(cos_o) is large and single-scattering GGX loses much
+// of it to masking; the diffuse transmission uses the smooth interface's 1 - F (Mitsuba's `roughplastic`
+// uses the rough coat's own transmittance instead, and loses energy differently). tests/shader_glossy.rs
+// measures E against an f64 quadrature of this model.
 //
 // metallic_roughness (glTF 2.0, Appendix B): metal_brdf = specular_brdf * Schlick(base, VdotH);
 // dielectric_brdf = mix(diffuse(base), specular_brdf, F_d(VdotH)) with F_d = 0.04 + 0.96 (1 - VdotH)^5
