@@ -27,7 +27,8 @@
 // in each dispatcher under its feature constant (features.wgsl), and a row in src/kernel/features.rs.
 //
 // The glossy materials work in the local frame of ns (z up), where the microfacet functions of
-// microfacet.wgsl are written; `frame` is built once per call by shading_frame.
+// microfacet.wgsl are written; the dispatchers build their `frame` with material_frame, inside each
+// glossy branch (so that a kernel without glossy materials keeps none of it).
 
 const MAT_DIFFUSE: u32 = 0u;
 const MAT_MIRROR: u32 = 1u;
@@ -195,6 +196,14 @@ fn shading_frame(ns: vec3<f32>, tangent: vec3<f32>) -> Frame {
     }
     let tx = t * inverseSqrt(len2);
     return Frame(tx, cross(ns, tx), ns);
+}
+
+// The frame a material is shaded in: about the tangent only when the material is anisotropic. An
+// isotropic lobe does not depend on the frame's rotation about ns, but the direction it samples from given
+// random numbers does; ignoring the tangent for isotropic materials keeps the generic kernel (which computes
+// a tangent at every hit) drawing exactly the directions of a kernel specialised without anisotropy.
+fn material_frame(mat: Material, ns: vec3<f32>, tangent: vec3<f32>) -> Frame {
+    return shading_frame(ns, select(vec3<f32>(0.0), tangent, mat.alpha_x != mat.alpha_y));
 }
 
 fn to_local(f: Frame, v: vec3<f32>) -> vec3<f32> {
@@ -535,7 +544,6 @@ fn coated_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, fr: Frame) -> f32 {
 fn bsdf_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>, entering: bool,
                rng: ptr<function, Rng>) -> BsdfSample {
     var s = bsdf_absorbed();
-    let fr = shading_frame(ns, tangent);
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
             s = diffuse_sample(mat, wo, ns, rng);
@@ -553,17 +561,23 @@ fn bsdf_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>, 
     }
     if HAS_CONDUCTOR {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_CONDUCTOR {
-            s = conductor_sample(mat, wo, fr, rng);
+            s = conductor_sample(mat, wo, material_frame(mat, ns, tangent), rng);
         }
     }
     if HAS_ROUGH_DIELECTRIC {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_ROUGH_DIELECTRIC {
-            s = rough_dielectric_sample(mat, wo, fr, entering, rng);
+            s = rough_dielectric_sample(mat, wo, material_frame(mat, ns, tangent), entering, rng);
         }
     }
-    if HAS_PLASTIC || HAS_METALLIC_ROUGHNESS {
-        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC || mat.kind == MAT_METALLIC_ROUGHNESS {
-            s = coated_sample(mat, wo, fr, rng);
+    // (Two guards for the one two-lobe implementation: the specialiser prunes `if CONSTANT` only.)
+    if HAS_PLASTIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC {
+            s = coated_sample(mat, wo, material_frame(mat, ns, tangent), rng);
+        }
+    }
+    if HAS_METALLIC_ROUGHNESS {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_METALLIC_ROUGHNESS {
+            s = coated_sample(mat, wo, material_frame(mat, ns, tangent), rng);
         }
     }
     return s;
@@ -572,7 +586,6 @@ fn bsdf_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>, 
 fn bsdf_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,
              entering: bool) -> vec3<f32> {
     var f = vec3<f32>(0.0); // delta lobes and emitters
-    let fr = shading_frame(ns, tangent);
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
             f = diffuse_eval(mat, wo, wi, ns);
@@ -580,17 +593,22 @@ fn bsdf_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent
     }
     if HAS_CONDUCTOR {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_CONDUCTOR {
-            f = conductor_eval(mat, wo, wi, fr);
+            f = conductor_eval(mat, wo, wi, material_frame(mat, ns, tangent));
         }
     }
     if HAS_ROUGH_DIELECTRIC {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_ROUGH_DIELECTRIC {
-            f = rough_dielectric_eval(mat, wo, wi, fr, entering);
+            f = rough_dielectric_eval(mat, wo, wi, material_frame(mat, ns, tangent), entering);
         }
     }
-    if HAS_PLASTIC || HAS_METALLIC_ROUGHNESS {
-        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC || mat.kind == MAT_METALLIC_ROUGHNESS {
-            f = coated_eval(mat, wo, wi, fr);
+    if HAS_PLASTIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC {
+            f = coated_eval(mat, wo, wi, material_frame(mat, ns, tangent));
+        }
+    }
+    if HAS_METALLIC_ROUGHNESS {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_METALLIC_ROUGHNESS {
+            f = coated_eval(mat, wo, wi, material_frame(mat, ns, tangent));
         }
     }
     return f;
@@ -599,7 +617,6 @@ fn bsdf_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent
 fn bsdf_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,
             entering: bool) -> f32 {
     var pdf = 0.0; // delta lobes and emitters
-    let fr = shading_frame(ns, tangent);
     if HAS_DIFFUSE {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIFFUSE {
             pdf = diffuse_pdf(wo, wi, ns);
@@ -607,17 +624,22 @@ fn bsdf_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent:
     }
     if HAS_CONDUCTOR {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_CONDUCTOR {
-            pdf = conductor_pdf(mat, wo, wi, fr);
+            pdf = conductor_pdf(mat, wo, wi, material_frame(mat, ns, tangent));
         }
     }
     if HAS_ROUGH_DIELECTRIC {
         if SINGLE_MATERIAL_KIND || mat.kind == MAT_ROUGH_DIELECTRIC {
-            pdf = rough_dielectric_pdf(mat, wo, wi, fr, entering);
+            pdf = rough_dielectric_pdf(mat, wo, wi, material_frame(mat, ns, tangent), entering);
         }
     }
-    if HAS_PLASTIC || HAS_METALLIC_ROUGHNESS {
-        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC || mat.kind == MAT_METALLIC_ROUGHNESS {
-            pdf = coated_pdf(mat, wo, wi, fr);
+    if HAS_PLASTIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC {
+            pdf = coated_pdf(mat, wo, wi, material_frame(mat, ns, tangent));
+        }
+    }
+    if HAS_METALLIC_ROUGHNESS {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_METALLIC_ROUGHNESS {
+            pdf = coated_pdf(mat, wo, wi, material_frame(mat, ns, tangent));
         }
     }
     return pdf;
@@ -642,8 +664,13 @@ fn bsdf_is_delta(mat: Material) -> bool {
             delta = rough_dielectric_is_smooth(mat);
         }
     }
-    if HAS_PLASTIC || HAS_METALLIC_ROUGHNESS {
-        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC || mat.kind == MAT_METALLIC_ROUGHNESS {
+    if HAS_PLASTIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_PLASTIC {
+            delta = false;
+        }
+    }
+    if HAS_METALLIC_ROUGHNESS {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_METALLIC_ROUGHNESS {
             delta = false;
         }
     }

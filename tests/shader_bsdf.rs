@@ -26,7 +26,7 @@
 
 mod common;
 
-use common::vec::{V3, cross, dot, length, normalize};
+use common::vec::{V3, basis, cross, dot, from_angles, length, normalize, xyz};
 use vkpath::gpu::testing;
 
 const EVAL: &str = include_str!("../shaders/tests/fresnel_eval.wgsl");
@@ -464,10 +464,6 @@ fn v4(v: V3) -> [f32; 4] {
     [v[0] as f32, v[1] as f32, v[2] as f32, 0.0]
 }
 
-fn v3(v: [f32; 4]) -> V3 {
-    [v[0] as f64, v[1] as f64, v[2] as f64]
-}
-
 /// A material and a shading configuration; `q` per case.
 #[derive(Clone, Copy)]
 struct Setup {
@@ -506,23 +502,6 @@ fn bsdf_gpu(cases: &[BsdfCase]) -> Vec<BsdfOut> {
 /// `n` samples of one setup, invocation i drawing from rng_new(i, 0, seed).
 fn samples(setup: &Setup, seed: u32, n: usize) -> Vec<BsdfOut> {
     bsdf_gpu(&vec![setup.case(seed, setup.ns); n])
-}
-
-/// A CPU basis (t, b) around the unit n: the tests only rely on symmetry about n.
-fn basis(n: V3) -> (V3, V3) {
-    let a = if n[0].abs() < 0.9 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let t = normalize(cross(a, n));
-    (t, cross(n, t))
-}
-
-fn from_angles(n: V3, cos: f64, phi: f64) -> V3 {
-    let (t, b) = basis(n);
-    let sin = (1.0 - cos * cos).max(0.0).sqrt();
-    std::array::from_fn(|k| sin * phi.cos() * t[k] + sin * phi.sin() * b[k] + cos * n[k])
 }
 
 fn reflect64(wo: V3, n: V3) -> V3 {
@@ -564,7 +543,7 @@ fn diffuse_sampler_matches_its_own_pdf() {
         let step = 2.0 * std::f64::consts::PI / K as f64;
         let mut observed = vec![0.0; K * K + 1];
         for o in &out {
-            let w = v3(o.s);
+            let w = xyz(o.s);
             let c = dot(w, ns);
             let phi = dot(w, b)
                 .atan2(dot(w, t))
@@ -658,7 +637,7 @@ fn diffuse_sample_eval_pdf_agree() {
             assert_eq!(o.r[3], 0.0, "diffuse is not delta");
             assert_eq!(&o.w[..3], &setup.albedo, "weight = albedo");
             assert_eq!(o.s[3], o.at[3], "pdf reported = bsdf_pdf(wi)");
-            let cos = dot(v3(o.s), ns);
+            let cos = dot(xyz(o.s), ns);
             assert!(cos >= 0.0, "sampled below the surface: {o:?}");
             for c in 0..3 {
                 let f_cos_over_pdf = o.at[c] as f64 * cos / o.s[3] as f64;
@@ -709,7 +688,7 @@ fn mirror_is_a_delta_reflection() {
             };
             let q = reflect64(setup.wo, ns);
             let o = bsdf_gpu(&[setup.case(0, q)])[0];
-            let err = length(std::array::from_fn::<f64, 3, _>(|k| v3(o.s)[k] - q[k]));
+            let err = length(std::array::from_fn::<f64, 3, _>(|k| xyz(o.s)[k] - q[k]));
             assert!(err < 1e-6, "mirror direction off by {err}");
             assert_eq!(o.w[3] as u32, BSDF_REFLECTION | BSDF_DELTA);
             assert_eq!((o.s[3], &o.w[..3]), (1.0, &setup.albedo[..]));
@@ -761,7 +740,7 @@ fn dielectric_chooses_reflection_with_probability_fresnel() {
             for o in &out {
                 let flags = o.w[3] as u32;
                 assert_eq!(&o.w[..3], &[1.0, 1.0, 1.0], "glass weight");
-                let wi = v3(o.s);
+                let wi = xyz(o.s);
                 if flags == BSDF_REFLECTION | BSDF_DELTA {
                     assert!(
                         (o.s[3] as f64 - f).abs() < 1e-5,

@@ -20,7 +20,7 @@
 mod common;
 
 use common::stats::{GAUSS_LEGENDRE_4, assert_fits, chi2};
-use common::vec::{V3, cross, dot, normalize};
+use common::vec::{V3, basis, dot, from_angles, normalize, xyz};
 use glam::Vec3;
 use vkpath::gpu::testing;
 use vkpath::kernel::abi::{
@@ -56,29 +56,15 @@ fn v4(v: V3, w: f32) -> [f32; 4] {
     [v[0] as f32, v[1] as f32, v[2] as f32, w]
 }
 
-fn v3(v: [f32; 4]) -> V3 {
-    [v[0] as f64, v[1] as f64, v[2] as f64]
-}
-
-/// A CPU basis (t, b) around the unit n.
-fn basis(n: V3) -> (V3, V3) {
-    let a = if n[0].abs() < 0.9 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let t = normalize(cross(a, n));
-    (t, cross(n, t))
-}
-
-fn from_angles(n: V3, cos: f64, phi: f64) -> V3 {
-    let (t, b) = basis(n);
-    let sin = (1.0 - cos * cos).max(0.0).sqrt();
-    std::array::from_fn(|k| sin * phi.cos() * t[k] + sin * phi.sin() * b[k] + cos * n[k])
-}
-
+/// Runs the kernel on `cases`, in batches of 2^18 (a case is 144 bytes; a storage buffer may be limited to
+/// 128 MiB).
 fn gpu(cases: &[Case]) -> Vec<Out> {
-    let out = testing::run_kernel(&testing::context(), KERNEL, cases, cases.len()).expect("kernel");
+    let mut out = Vec::with_capacity(cases.len());
+    for batch in cases.chunks(1 << 18) {
+        let o: Vec<Out> =
+            testing::run_kernel(&testing::context(), KERNEL, batch, batch.len()).expect("kernel");
+        out.extend(o);
+    }
     let errors = testing::context().validation_errors();
     assert!(errors.is_empty(), "validation errors: {errors:?}");
     out
@@ -326,7 +312,7 @@ fn chi2_sampler(what: &str, setup: &Setup, bins: &Bins, seed: u32) -> f64 {
             p_delta = o.s[3] as f64; // the lobe's probability (it depends on wo only)
             delta
         } else {
-            bins.cell(v3(o.s))
+            bins.cell(xyz(o.s))
         };
         observed[cell] += 1.0;
     }
@@ -389,8 +375,9 @@ fn chi2_sampler(what: &str, setup: &Setup, bins: &Bins, seed: u32) -> f64 {
 /// (grazing incidence, or a wide lobe), polar bins about ns.
 fn reflection_bins(setup: &Setup, alpha: f64, cos_o: f64) -> Bins {
     if cos_o < 0.2 {
-        // Near the horizon the lobe is a few degrees wide in both theta and phi: 1.4-degree bins.
-        return Bins::horizon(setup.ns, 128, 256);
+        // Near the horizon the lobe is a few degrees wide in both theta and phi: rings finest at the
+        // horizon, 0.7-degree sectors.
+        return Bins::horizon(setup.ns, 128, 512);
     }
     if alpha > 0.15 {
         // A wide lobe reaches the horizon from any angle.
@@ -533,7 +520,7 @@ fn sample_eval_pdf_agree_and_reciprocity() {
             for (q, o) in qs.iter().zip(&out) {
                 let flags = o.w[3] as u32;
                 if flags != 0 && flags & BSDF_DELTA == 0 {
-                    let wi = v3(o.s);
+                    let wi = xyz(o.s);
                     let cos = dot(wi, setup.ns).abs();
                     let pdf = o.s[3] as f64;
                     let rel = |a: f64, b: f64| (a - b).abs() / a.abs().max(b.abs()).max(1e-30);
@@ -633,8 +620,7 @@ fn fresnel_dielectric(c: f64, eta: f64) -> f64 {
 /// The mean weight of n samples (absorbed samples weigh 0): the material's directional albedo for the
 /// first channel, with its standard error.
 fn albedo_gpu(setup: &Setup, seed: u32, n: usize) -> (f64, f64) {
-    // In batches of 2^18 (a case is 144 bytes; storage buffers may be limited to 128 MiB), each batch
-    // with its own seed.
+    // In batches of 2^18, each with its own seed (one seed draws the same numbers in every batch).
     const BATCH: usize = 1 << 18;
     let w: Vec<f64> = (0..n.div_ceil(BATCH))
         .flat_map(|b| setup.samples(seed * 64 + b as u32, BATCH.min(n - b * BATCH)))
