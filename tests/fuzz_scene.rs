@@ -13,6 +13,7 @@ use std::sync::mpsc;
 use std::time::Duration;
 use vkpath::Scene;
 use vkpath::scene::mesh::{ObjMesh, parse_obj};
+use vkpath::scene::ply::parse_ply;
 
 /// Longer than any parse here takes (they take microseconds to milliseconds), short enough to call a
 /// case that exceeds it a hang.
@@ -516,6 +517,8 @@ fn the_seeds_are_valid() {
         Scene::load(&path).unwrap_or_else(|e| panic!("seed scene {i} is invalid: {e}"));
     }
     parse_obj(CUBE_OBJ.as_bytes()).expect("the cube is valid");
+    let square = parse_ply(SQUARE_PLY.as_bytes()).expect("the PLY square is valid");
+    assert_eq!(square.triangles.len(), 3);
 }
 
 proptest! {
@@ -617,6 +620,81 @@ proptest! {
             apply(&mut bytes, m, OBJ_TOKENS, EXTREMES);
         }
         let result = within_watchdog("parse_obj", move || parse_obj(&bytes));
+        check_obj_answer(result);
+    }
+}
+
+/// A valid ASCII PLY (a quad and a triangle, normals, uvs, a skipped property) for the PLY fuzzers.
+const SQUARE_PLY: &str = "ply\nformat ascii 1.0\ncomment fuzz seed\nelement vertex 5\nproperty float x\n\
+    property float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+    property uchar red\nproperty float u\nproperty float v\nelement face 2\n\
+    property list uchar int vertex_indices\nend_header\n0 0 0 0 0 1 9 0 0\n1 0 0 0 0 1 9 1 0\n\
+    1 1 0 0 0 1 9 1 1\n0 1 0 0 0 1 9 0 1\n2 2 0 0 0 1 9 1 1\n4 0 1 2 3\n3 1 4 2\n";
+
+const PLY_TOKENS: &[&str] = &[
+    "ply",
+    "format",
+    "ascii",
+    "binary_little_endian",
+    "binary_big_endian",
+    "1.0",
+    "element",
+    "vertex",
+    "face",
+    "property",
+    "list",
+    "uchar",
+    "int",
+    "float",
+    "double",
+    "x",
+    "y",
+    "z",
+    "nx",
+    "u",
+    "v",
+    "vertex_indices",
+    "end_header",
+    "\n",
+    " ",
+    "0",
+    "1",
+    "-1",
+    "3",
+    "4",
+    "255",
+    "65536",
+    "4294967295",
+];
+
+proptest! {
+    #![proptest_config(config(1500))]
+
+    /// Arbitrary bytes after a PLY magic line (binary bodies see every byte pattern).
+    #[test]
+    fn ply_loader_survives_arbitrary_bytes(
+        binary in any::<bool>(),
+        bytes in proptest::collection::vec(any::<u8>(), 0..600),
+    ) {
+        let head = if binary {
+            "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+             property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+        } else {
+            "ply\n"
+        };
+        let input = [head.as_bytes(), &bytes].concat();
+        let result = within_watchdog("parse_ply", move || parse_ply(&input));
+        check_obj_answer(result);
+    }
+
+    /// The valid PLY, mutated 1 to 6 times.
+    #[test]
+    fn ply_loader_survives_mutated_plys(mutations in proptest::collection::vec(mutation(), 1..7)) {
+        let mut bytes = SQUARE_PLY.as_bytes().to_vec();
+        for m in &mutations {
+            apply(&mut bytes, m, PLY_TOKENS, EXTREMES);
+        }
+        let result = within_watchdog("parse_ply", move || parse_ply(&bytes));
         check_obj_answer(result);
     }
 }

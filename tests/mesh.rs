@@ -664,3 +664,113 @@ translate = [0, 1.2, 0]
     use vkpath::scene::LightSampling as L;
     common::assert_strategies_agree(&scene, &[L::Mis, L::Cone, L::Area, L::None]);
 }
+
+// ----- PLY -----
+
+/// `shape` as a binary little-endian PLY with normals (and uvs when it has them), plus a per-vertex
+/// colour that the reader must read past.
+fn to_ply(shape: &shapes::Shape) -> Vec<u8> {
+    let uv = !shape.uvs.is_empty();
+    let mut out = format!(
+        "ply\nformat binary_little_endian 1.0\ncomment written by tests/mesh.rs\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
+         property float nx\nproperty float ny\nproperty float nz\nproperty uchar red\n{}\
+         element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+        shape.positions.len(),
+        if uv {
+            "property float u\nproperty float v\n"
+        } else {
+            ""
+        },
+        shape.triangles.len()
+    )
+    .into_bytes();
+    for (i, (p, n)) in shape.positions.iter().zip(&shape.normals).enumerate() {
+        for c in p.to_array().into_iter().chain(n.to_array()) {
+            out.extend(c.to_le_bytes());
+        }
+        out.push(7);
+        if uv {
+            out.extend(shape.uvs[i][0].to_le_bytes());
+            out.extend(shape.uvs[i][1].to_le_bytes());
+        }
+    }
+    for t in &shape.triangles {
+        out.push(3);
+        for i in t {
+            out.extend((*i as i32).to_le_bytes());
+        }
+    }
+    out
+}
+
+/// A mesh read from PLY is the mesh read from the equivalent OBJ: the same triangles with the same
+/// corners and normals, so the same image, bit for bit (binary PLY, with a property the reader skips).
+#[test]
+fn a_ply_mesh_renders_the_same_bits_as_its_obj() {
+    let dir = tempfile::tempdir().unwrap();
+    let ball = shapes::icosphere(3);
+    write(dir.path(), "ball.obj", &ball.to_obj());
+    std::fs::write(dir.path().join("ball.PLY"), to_ply(&ball)).unwrap();
+    let scene = |file: &str| {
+        format!(
+            r#"
+[camera]
+position = [0, 0, 6]
+look_at = [0, 0, 0]
+fov = 40
+[image]
+width = 48
+height = 48
+[render]
+max_bounces = 2
+[materials]
+white = {{ type = "diffuse", albedo = [0.8, 0.8, 0.8] }}
+[[light]]
+type = "point"
+position = [-4, 5, 6]
+power = 2000.0
+[[mesh]]
+obj = "{file}"
+material = "white"
+"#
+        )
+    };
+    let from_obj = load(dir.path(), &scene("ball.obj"));
+    let from_ply = load(dir.path(), &scene("ball.PLY"));
+    // (tobj numbers the OBJ's vertices its own way: compare the triangles' corners, not their indices.)
+    let corners = |m: &vkpath::scene::Mesh| -> Vec<[glam::Vec3; 3]> {
+        m.triangles
+            .iter()
+            .map(|t| t.map(|i| m.positions[i as usize]))
+            .collect()
+    };
+    assert_eq!(corners(&from_obj.meshes[0]), corners(&from_ply.meshes[0]));
+    let (a, b) = (render(&from_obj, 4), render(&from_ply, 4));
+    assert!(a.average() > 0.0);
+    assert_eq!(a.mean, b.mean, "PLY and OBJ images differ");
+}
+
+/// A broken PLY is a scene error at the mesh's `obj` key that names the PLY file and its header line.
+#[test]
+fn a_bad_ply_names_the_file_and_the_header_line() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "bad.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0\n0 1\n3 0 1 2\n",
+    );
+    let text = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[materials]\n\
+                white = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }\n[[mesh]]\n\
+                obj = \"bad.ply\"  # line 8\nmaterial = \"white\"\n";
+    let path = write(dir.path(), "scene.toml", text);
+    let err = Scene::load(&path).expect_err("z is missing");
+    let message = err.to_string();
+    assert_eq!(err.line(), Some(8), "{message}");
+    assert_eq!(err.key(), Some("mesh[0].obj"), "{message}");
+    assert!(
+        message.contains("bad.ply, line 3") && message.contains("x, y and z"),
+        "{message}"
+    );
+}

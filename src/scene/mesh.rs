@@ -70,14 +70,14 @@ pub struct ObjError {
 }
 
 impl ObjError {
-    fn at(line: usize, message: impl Into<String>) -> ObjError {
+    pub(crate) fn at(line: usize, message: impl Into<String>) -> ObjError {
         ObjError {
             line: Some(line),
             message: message.into(),
         }
     }
 
-    fn whole_file(message: impl Into<String>) -> ObjError {
+    pub(crate) fn whole_file(message: impl Into<String>) -> ObjError {
         ObjError {
             line: None,
             message: message.into(),
@@ -90,6 +90,22 @@ pub fn load_obj(path: &Path) -> Result<ObjMesh, ObjError> {
     let bytes = std::fs::read(path)
         .map_err(|e| ObjError::whole_file(format!("cannot read the OBJ file: {e}")))?;
     parse_obj(&bytes)
+}
+
+/// Whether a mesh file is read as PLY (its extension is `.ply`, any case); anything else is read as OBJ.
+pub fn is_ply(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
+}
+
+/// Reads the mesh file of a `[[mesh]]`: PLY by its extension (super::ply), OBJ otherwise.
+pub fn load_mesh_file(path: &Path) -> Result<ObjMesh, ObjError> {
+    if !is_ply(path) {
+        return load_obj(path);
+    }
+    let bytes = std::fs::read(path)
+        .map_err(|e| ObjError::whole_file(format!("cannot read the PLY file: {e}")))?;
+    super::ply::parse_ply(&bytes)
 }
 
 /// A byte slice as a `BufRead` that remembers how far `tobj` has read: `tobj` reads line by line

@@ -8,6 +8,7 @@ pub mod bvh;
 pub mod environment;
 pub mod mesh;
 mod parse;
+pub mod ply;
 pub mod shapes;
 
 use glam::Vec3;

@@ -1352,14 +1352,21 @@ impl Checker<'_> {
         let obj = match files.objs.get(&obj_path) {
             Some(obj) => obj.clone(),
             None => {
-                let loaded = mesh::load_obj(&obj_path).map_err(|e| {
+                let loaded = mesh::load_mesh_file(&obj_path).map_err(|e| {
                     let at = e.line.map_or(String::new(), |l| format!(", line {l}"));
+                    let hint = if mesh::is_ply(&obj_path) {
+                        "The path is relative to the scene file. A PLY mesh (ascii or binary, version 1.0) needs \
+                         `element vertex` with x, y, z (nx, ny, nz and u, v optional) and `element face` with a \
+                         `vertex_indices` list, all numbers finite."
+                    } else {
+                        "The path is relative to the scene file. The OBJ must have `v x y z` vertices and `f` faces \
+                         with 1-based indices (`vt u v` and `vn x y z` optional), all numbers finite."
+                    };
                     self.error(
                         m.obj.span(),
                         &key("obj"),
                         format!("{}{at}: {}", obj_path.display(), e.message),
-                        "The path is relative to the scene file. The OBJ must have `v x y z` vertices and `f` faces \
-                         with 1-based indices (`vt u v` and `vn x y z` optional), all numbers finite.",
+                        hint,
                     )
                 })?;
                 let loaded = Arc::new(loaded);
