@@ -19,6 +19,16 @@ pub struct Film {
     pub variance: Vec<[f32; 3]>,
 }
 
+/// The sRGB transfer curve (IEC 61966-2-1) of a linear value in [0, 1]: 12.92 v up to 0.0031308, then
+/// 1.055 v^(1/2.4) - 0.055.
+pub fn srgb_encode(v: f32) -> f32 {
+    if v <= 0.0031308 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
 /// An output format, from the file extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OutputFormat {
@@ -115,13 +125,7 @@ impl Film {
             let v = if v.is_nan() { 0.0 } else { v };
             let encoded = match settings.gamma {
                 Gamma::Power(g) => v.powf(1.0 / g),
-                Gamma::Srgb => {
-                    if v <= 0.0031308 {
-                        12.92 * v
-                    } else {
-                        1.055 * v.powf(1.0 / 2.4) - 0.055
-                    }
-                }
+                Gamma::Srgb => srgb_encode(v),
             };
             (encoded * 255.0).round().clamp(0.0, 255.0) as u8
         };

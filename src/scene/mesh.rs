@@ -498,7 +498,32 @@ pub fn load_texture(path: &Path) -> Result<Texture, String> {
     let decoded = reader()?
         .decode()
         .map_err(|e| format!("cannot decode the texture {}: {e}", path.display()))?;
-    let rgba = decoded.to_rgba8();
+    // PNG and JPEG hold sRGB-encoded values, as the shader expects. EXR and HDR decode to floats of
+    // linear radiance or reflectance: they are encoded to 8-bit sRGB here (clipped to [0, 1], where an
+    // albedo lies), so that the shader's decoding gives the linear values back (to 8-bit sRGB precision).
+    let rgba = match decoded {
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_) => {
+            let linear = decoded.to_rgba32f();
+            let encode = |v: f32| {
+                let v = if v.is_finite() {
+                    v.clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                (crate::film::srgb_encode(v) * 255.0).round() as u8
+            };
+            image::RgbaImage::from_fn(width, height, |x, y| {
+                let p = linear.get_pixel(x, y).0;
+                image::Rgba([
+                    encode(p[0]),
+                    encode(p[1]),
+                    encode(p[2]),
+                    (p[3].clamp(0.0, 1.0) * 255.0).round() as u8,
+                ])
+            })
+        }
+        other => other.to_rgba8(),
+    };
     let texels = rgba.pixels().map(|p| u32::from_le_bytes(p.0)).collect();
     Ok(Texture {
         path: path.to_path_buf(),
@@ -511,6 +536,38 @@ pub fn load_texture(path: &Path) -> Result<Texture, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// JPEG textures are read as sRGB like PNG; EXR and HDR ones hold linear values, which are encoded to
+    /// 8-bit sRGB on loading (so the shader's decoding returns them), clipped to [0, 1].
+    #[test]
+    fn jpeg_exr_and_hdr_textures_load_as_srgb_texels() {
+        let dir = tempfile::tempdir().unwrap();
+        // (Values HDR's shared-exponent RGBE holds exactly: multiples of 2^-7 below 2.)
+        let linear = [0.5f32, 0.0625, 1.5];
+        let float = image::Rgb32FImage::from_fn(4, 2, |_, _| image::Rgb(linear));
+        for ext in ["exr", "hdr"] {
+            let path = dir.path().join(format!("t.{ext}"));
+            float.save(&path).unwrap();
+            let t = load_texture(&path).unwrap_or_else(|e| panic!("{ext}: {e}"));
+            assert_eq!((t.width, t.height), (4, 2));
+            let [r, g, b, a] = t.texels[5].to_le_bytes();
+            let want = |v: f32| (crate::film::srgb_encode(v.min(1.0)) * 255.0).round() as u8;
+            for (got, v) in [(r, linear[0]), (g, linear[1]), (b, linear[2])] {
+                assert!(got.abs_diff(want(v)) <= 1, "{ext}: {got} vs {}", want(v));
+            }
+            assert_eq!(a, 255);
+        }
+        let srgb = image::RgbImage::from_fn(8, 8, |_, _| image::Rgb([200, 100, 50]));
+        let path = dir.path().join("t.jpg");
+        srgb.save(&path).unwrap();
+        let t = load_texture(&path).expect("jpeg");
+        let [r, g, b, _] = t.texels[27].to_le_bytes();
+        // (JPEG is lossy: a flat colour comes back within a few levels.)
+        assert!(
+            r.abs_diff(200) <= 3 && g.abs_diff(100) <= 3 && b.abs_diff(50) <= 3,
+            "{r} {g} {b}"
+        );
+    }
 
     /// Issue 18, failure 5: a 62 kB PNG declaring 23000 x 23000 was refused only after it was decoded
     /// (7.9 s, 2.5 GB). The size now comes from the header: a PNG whose header declares that size and
