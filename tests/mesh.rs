@@ -774,3 +774,173 @@ fn a_bad_ply_names_the_file_and_the_header_line() {
         "{message}"
     );
 }
+
+// ----- OBJ materials (MTL) -----
+
+/// Two quads side by side in one OBJ, each with its own `usemtl`, and a triangle with none.
+const TWO_MATERIALS_OBJ: &str = "mtllib quads.mtl\n\
+    v -2 -1 0\nv 0 -1 0\nv 0 1 0\nv -2 1 0\nv 0 -1 0\nv 2 -1 0\nv 2 1 0\nv 0 1 0\n\
+    v 0 -3 0\nv 1 -3 0\nv 0 -2 0\n\
+    vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+    f 11/1 9/2 10/3\n\
+    usemtl red\nf 1/1 2/2 3/3 4/4\n\
+    usemtl lamp\nf 5/1 6/2 7/3 8/4\n";
+
+const QUADS_MTL: &str = "# two materials\nnewmtl red\nKd 0.8 0.1 0.05\nillum 2\n\
+    newmtl lamp\nKd 0 0 0\nKe 4 3 2\n\
+    newmtl glass\nillum 7\nNi 1.33\n\
+    newmtl pbr\nKd 0.2 0.4 0.6\nPm 0.7\nPr 0.25\n";
+
+fn mtl_scene(dir: &Path, obj: &str, mtl: Option<&str>, mesh_keys: &str) -> Scene {
+    write(dir, "quads.obj", obj);
+    if let Some(mtl) = mtl {
+        write(dir, "quads.mtl", mtl);
+    }
+    let text = format!(
+        "[camera]\nposition = [0, 0, 6]\nlook_at = [0, 0, 0]\nfov = 60\n[image]\nwidth = 32\nheight = 32\n\
+         [render]\nmax_bounces = 1\n[environment]\nradiance = [1.0, 1.0, 1.0]\n\
+         [[mesh]]\nobj = \"quads.obj\"\n{mesh_keys}\n"
+    );
+    load(dir, &text)
+}
+
+/// Without a `material`, each `usemtl` group becomes a mesh of its own material (Kd diffuse, Ke
+/// emission), faces without one are MTL's default grey, and they render as such: the red quad reflects
+/// the white environment's light as red, the lamp shows its Ke.
+#[test]
+fn mtl_materials_are_used_when_the_mesh_has_none() {
+    use vkpath::scene::{Bsdf, Emission};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = mtl_scene(dir.path(), TWO_MATERIALS_OBJ, Some(QUADS_MTL), "");
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(
+        scene.material_names,
+        ["mesh[0]/default", "mesh[0]/red", "mesh[0]/lamp"]
+    );
+    assert_eq!(scene.meshes.len(), 3);
+    assert_eq!(
+        scene.materials[0].bsdf,
+        Bsdf::Diffuse {
+            albedo: glam::Vec3::splat(0.8)
+        }
+    );
+    assert_eq!(
+        scene.materials[1].bsdf,
+        Bsdf::Diffuse {
+            albedo: glam::Vec3::new(0.8, 0.1, 0.05)
+        }
+    );
+    assert_eq!(scene.materials[1].emission, None);
+    assert_eq!(
+        scene.materials[2].emission,
+        Some(Emission {
+            radiance: glam::Vec3::new(4.0, 3.0, 2.0),
+            two_sided: false
+        })
+    );
+    for (m, tris) in scene.meshes.iter().zip([1, 2, 2]) {
+        assert_eq!(m.triangles.len(), tris);
+    }
+    // Pixel columns at x = -1 (the red quad) and x = +1 (the lamp), on the middle row.
+    let film = render(&scene, 16);
+    let px = |x: u32| film.mean[(16 * 32 + x) as usize];
+    let red = px(11);
+    let lamp = px(21);
+    assert!(red[0] > 3.0 * red[1] && red[0] > 0.3, "red quad: {red:?}");
+    for (got, want) in lamp.iter().zip([4.0, 3.0, 2.0]) {
+        assert!((got - want).abs() < 1e-4, "lamp: {lamp:?}");
+    }
+}
+
+/// The other illumination models: illum 7 is glass (Ni its index), Pm/Pr the metallic-roughness material;
+/// a `material` on the mesh overrides the MTL for every face.
+#[test]
+fn mtl_illumination_models_and_overrides() {
+    use vkpath::scene::{Bsdf, Roughness};
+    let dir = tempfile::tempdir().unwrap();
+    let obj = TWO_MATERIALS_OBJ
+        .replace("usemtl red", "usemtl glass")
+        .replace("usemtl lamp", "usemtl pbr");
+    let scene = mtl_scene(dir.path(), &obj, Some(QUADS_MTL), "");
+    assert_eq!(
+        scene.materials[1].bsdf,
+        Bsdf::Dielectric {
+            ior: 1.33,
+            roughness: Roughness::SMOOTH
+        }
+    );
+    assert_eq!(
+        scene.materials[2].bsdf,
+        Bsdf::MetallicRoughness {
+            base_color: glam::Vec3::new(0.2, 0.4, 0.6),
+            metallic: 0.7,
+            roughness: 0.25
+        }
+    );
+    let text = "[materials]\nwhite = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }\n";
+    let overridden = {
+        write(dir.path(), "quads.obj", TWO_MATERIALS_OBJ);
+        load(
+            dir.path(),
+            &format!(
+                "[camera]\nposition = [0, 0, 6]\nlook_at = [0, 0, 0]\nfov = 60\n{text}\
+                 [[mesh]]\nobj = \"quads.obj\"\nmaterial = \"white\"\n"
+            ),
+        )
+    };
+    assert_eq!(overridden.material_names, ["white"]);
+    assert_eq!(overridden.meshes.len(), 1);
+    assert_eq!(overridden.meshes[0].triangles.len(), 5);
+}
+
+/// A missing MTL file is a warning, not an error: the faces are MTL's default grey, and the warning says
+/// which file could not be read. Without any MTL and without a `material`, the mesh is an error.
+#[test]
+fn a_missing_mtl_is_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = mtl_scene(dir.path(), TWO_MATERIALS_OBJ, None, "");
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    assert!(
+        scene.warnings[0].contains("quads.mtl") && scene.warnings[0].contains("0.8"),
+        "{:?}",
+        scene.warnings
+    );
+    assert_eq!(scene.material_names, ["mesh[0]/default"]);
+    assert_eq!(scene.meshes[0].triangles.len(), 5);
+
+    write(
+        dir.path(),
+        "plain.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    let path = write(
+        dir.path(),
+        "scene.toml",
+        "[camera]\nposition = [0, 0, 6]\nlook_at = [0, 0, 0]\nfov = 60\n[[mesh]]  # line 5\nobj = \"plain.obj\"\n",
+    );
+    let err = Scene::load(&path).expect_err("no material at all");
+    assert_eq!(err.line(), Some(5), "{err}");
+    assert!(err.to_string().contains("needs a material"), "{err}");
+}
+
+/// map_Kd gives the group its texture (relative to the OBJ): the quad shows the texel's colour.
+#[test]
+fn mtl_map_kd_textures_the_group() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbImage::from_fn(2, 2, |_, _| image::Rgb([20, 200, 60]))
+        .save(dir.path().join("green.png"))
+        .unwrap();
+    let mtl = QUADS_MTL.replace("illum 2\n", "illum 2\nmap_Kd green.png\n");
+    let scene = mtl_scene(dir.path(), TWO_MATERIALS_OBJ, Some(&mtl), "");
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let red = &scene.meshes[1];
+    let texture = red.texture.as_ref().expect("the red group is textured");
+    assert_eq!(texture.texels[0].to_le_bytes()[..3], [20, 200, 60]);
+    assert!(scene.meshes[0].texture.is_none() && scene.meshes[2].texture.is_none());
+    let film = render(&scene, 16);
+    let p = film.mean[(16 * 32 + 11) as usize];
+    assert!(
+        p[1] > 2.0 * p[0] && p[1] > 2.0 * p[2],
+        "textured quad: {p:?}"
+    );
+}

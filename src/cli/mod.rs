@@ -62,12 +62,17 @@ fn usage(msg: impl Into<String>) -> Error {
     Error::Usage(msg.into())
 }
 
-/// The scene file given, or the embedded course scene when none is.
+/// The scene file given, or the embedded course scene when none is. What the reader noticed and worked
+/// around (Scene::warnings) is printed on stderr, one line each.
 fn load_scene(path: Option<&Path>) -> Result<Scene, Error> {
-    match path {
-        Some(path) => Ok(Scene::load(path)?),
-        None => Ok(Scene::default_scene()),
+    let scene = match path {
+        Some(path) => Scene::load(path)?,
+        None => Scene::default_scene(),
+    };
+    for w in &scene.warnings {
+        eprintln!("vkpath: warning: {w}");
     }
+    Ok(scene)
 }
 
 /// The image size rule of the scene file, checked again after the command line has overridden it.

@@ -73,6 +73,7 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
         meshes: _, // geometry, normals, uvs and texels: hashed as uploaded (mesh_* and texels below)
         lights,
         environment,
+        warnings: _, // what the reader said about the input, not what the image is
     } = scene;
     // The map's texels are hashed as uploaded (env_texels below), not through Debug.
     let crate::scene::Environment {

@@ -59,6 +59,87 @@ pub struct ObjMesh {
     /// Per vertex, when every vertex of every face has a `vt`.
     pub uvs: Option<Vec<[f32; 2]>>,
     pub triangles: Vec<[u32; 3]>,
+    /// The materials of the OBJ's MTL files (`mtllib`), in the order read; empty when it names none or
+    /// none could be read.
+    pub materials: Vec<MtlMaterial>,
+    /// Per triangle, its `usemtl` material (an index into `materials`), or `None`: empty when
+    /// `materials` is.
+    pub face_materials: Vec<Option<u32>>,
+    /// An MTL file the OBJ names that could not be read, and why (a warning: the mesh is still usable).
+    pub mtl_problem: Option<String>,
+}
+
+impl ObjMesh {
+    /// The triangles whose `usemtl` material is `material`, with only the vertices they use (renumbered
+    /// in order of first use), and no materials.
+    pub fn subset(&self, material: Option<u32>) -> ObjMesh {
+        let mut remap = vec![u32::MAX; self.positions.len()];
+        let mut out = ObjMesh::default();
+        let mut normals = Vec::new();
+        let mut uvs = Vec::new();
+        for (t, tri) in self.triangles.iter().enumerate() {
+            if self.face_materials.get(t).copied().flatten() != material {
+                continue;
+            }
+            out.triangles.push(tri.map(|v| {
+                let v = v as usize;
+                if remap[v] == u32::MAX {
+                    remap[v] = out.positions.len() as u32;
+                    out.positions.push(self.positions[v]);
+                    if let Some(n) = &self.normals {
+                        normals.push(n[v]);
+                    }
+                    if let Some(uv) = &self.uvs {
+                        uvs.push(uv[v]);
+                    }
+                }
+                remap[v]
+            }));
+        }
+        out.normals = self.normals.as_ref().map(|_| normals);
+        out.uvs = self.uvs.as_ref().map(|_| uvs);
+        out
+    }
+}
+
+/// One material of an MTL file, with what vkpath maps (docs/scene-format.md, "OBJ materials").
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MtlMaterial {
+    pub name: String,
+    /// Kd, Ks, Ke (linear RGB).
+    pub diffuse: Option<[f32; 3]>,
+    pub specular: Option<[f32; 3]>,
+    pub emission: Option<[f32; 3]>,
+    /// Ni.
+    pub ior: Option<f32>,
+    /// illum.
+    pub illum: Option<u8>,
+    /// map_Kd, as written (relative to the MTL file's directory).
+    pub diffuse_texture: Option<String>,
+    /// Pr and Pm, the PBR extension's roughness and metallic.
+    pub roughness: Option<f32>,
+    pub metallic: Option<f32>,
+}
+
+impl MtlMaterial {
+    fn from_tobj(m: &tobj::Material) -> MtlMaterial {
+        let number = |key: &str| {
+            m.unknown_param
+                .get(key)
+                .and_then(|v| v.trim().parse::<f32>().ok())
+        };
+        MtlMaterial {
+            name: m.name.clone(),
+            diffuse: m.diffuse,
+            specular: m.specular,
+            emission: m.emissive,
+            ior: m.optical_density,
+            illum: m.illumination_model,
+            diffuse_texture: m.diffuse_texture.clone(),
+            roughness: number("Pr"),
+            metallic: number("Pm"),
+        }
+    }
 }
 
 /// What is wrong with an OBJ file, and on which of its lines (1-based) when that is known.
@@ -85,11 +166,11 @@ impl ObjError {
     }
 }
 
-/// Reads an OBJ file (see [`parse_obj`]).
+/// Reads an OBJ file and the MTL files it names, beside it (see [`parse_obj_in`]).
 pub fn load_obj(path: &Path) -> Result<ObjMesh, ObjError> {
     let bytes = std::fs::read(path)
         .map_err(|e| ObjError::whole_file(format!("cannot read the OBJ file: {e}")))?;
-    parse_obj(&bytes)
+    parse_obj_in(&bytes, Some(path.parent().unwrap_or(Path::new("."))))
 }
 
 /// Whether a mesh file is read as PLY (its extension is `.ply`, any case); anything else is read as OBJ.
@@ -141,10 +222,17 @@ fn line_ending_at(bytes: &[u8], pos: usize) -> usize {
     1 + bytes[..end].iter().filter(|&&b| b == b'\n').count()
 }
 
-/// Parses OBJ text: `v`, `vt`, `vn` and `f` (polygons are triangulated as fans, points and lines
-/// ignored, `\r\n` line ends accepted, materials ignored: the scene gives the material). Errors name
-/// the line: a malformed number or face, an index out of range, a non-finite coordinate, no faces.
+/// Parses OBJ text without its MTL files (see [`parse_obj_in`]).
 pub fn parse_obj(bytes: &[u8]) -> Result<ObjMesh, ObjError> {
+    parse_obj_in(bytes, None)
+}
+
+/// Parses OBJ text: `v`, `vt`, `vn` and `f` (polygons are triangulated as fans, points and lines
+/// ignored, `\r\n` line ends accepted), and `mtllib` / `usemtl`: the MTL files are read from `dir`
+/// (none when `dir` is `None`), and each triangle keeps its material. Errors name the line: a malformed
+/// number or face, an index out of range, a non-finite coordinate, no faces. An MTL file that cannot be
+/// read is not an error (`mtl_problem`).
+pub fn parse_obj_in(bytes: &[u8], dir: Option<&Path>) -> Result<ObjMesh, ObjError> {
     let options = tobj::LoadOptions {
         // One index per corner: a position used with two normals or uvs becomes two vertices.
         single_index: true,
@@ -159,16 +247,36 @@ pub fn parse_obj(bytes: &[u8]) -> Result<ObjMesh, ObjError> {
         return Err(e);
     }
     let mut cursor = Cursor { bytes, pos: 0 };
-    // `mtllib` is ignored: materials come from the scene file.
-    let loaded = tobj::load_obj_buf(&mut cursor, &options, |_| {
-        Ok((Vec::new(), Default::default()))
+    let mtl_problem = std::cell::RefCell::new(None);
+    let loaded = tobj::load_obj_buf(&mut cursor, &options, |name| {
+        let Some(dir) = dir else {
+            return Ok((Vec::new(), Default::default()));
+        };
+        let path = dir.join(name);
+        let read = std::fs::read(&path)
+            .map_err(|e| e.to_string())
+            .and_then(|b| {
+                tobj::load_mtl_buf(&mut std::io::BufReader::new(&b[..]))
+                    .map_err(|e| format!("not a valid MTL file ({e})"))
+            });
+        read.map_err(|why| {
+            *mtl_problem.borrow_mut() = Some(format!(
+                "the OBJ's material library {} cannot be read: {why}",
+                path.display()
+            ));
+            tobj::LoadError::OpenFileFailed
+        })
     });
-    let models = match loaded {
-        Ok((models, _materials)) => models,
+    let (models, materials) = match loaded {
+        Ok((models, materials)) => (models, materials.unwrap_or_default()),
         Err(e) => return Err(explain_tobj_error(bytes, e, cursor.pos)),
     };
 
-    let mut mesh = ObjMesh::default();
+    let mut mesh = ObjMesh {
+        materials: materials.iter().map(MtlMaterial::from_tobj).collect(),
+        mtl_problem: mtl_problem.into_inner(),
+        ..ObjMesh::default()
+    };
     let mut all_normals = true;
     let mut all_uvs = true;
     let mut normals = Vec::new();
@@ -209,6 +317,13 @@ pub fn parse_obj(bytes: &[u8]) -> Result<ObjMesh, ObjError> {
                 .chunks_exact(3)
                 .map(|t| [t[0] + base as u32, t[1] + base as u32, t[2] + base as u32]),
         );
+        if !mesh.materials.is_empty() {
+            let id = m
+                .material_id
+                .filter(|&id| id < mesh.materials.len())
+                .map(|id| id as u32);
+            mesh.face_materials.resize(mesh.triangles.len(), id);
+        }
     }
     if mesh.triangles.is_empty() {
         return Err(ObjError::whole_file(
@@ -686,6 +801,7 @@ mod tests {
             normals: Some(vec![Vec3::X]),
             uvs: None,
             triangles: vec![[0, 0, 0]],
+            ..ObjMesh::default()
         };
         let p = Placement {
             scale: 2.0,

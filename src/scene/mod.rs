@@ -46,6 +46,9 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// Light from infinitely far (`[environment]`, or `render.background`): black when not given.
     pub environment: Environment,
+    /// What the reader noticed and worked around (an OBJ's MTL file that cannot be read, an MTL value
+    /// clipped): one sentence each, for the command line to print. Never silently dropped.
+    pub warnings: Vec<String>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -236,6 +236,66 @@ struct RawRender {
 /// the 1.5 of glTF's dielectrics.
 const PLASTIC_DEFAULT_IOR: f32 = 1.5;
 
+/// What one `[[mesh]]` table becomes: its meshes (one per MTL material when the OBJ's materials are used),
+/// the materials it adds to the scene (named `mesh[i]/<MTL name>`), and what the reader noticed.
+#[derive(Default)]
+struct MeshTable {
+    meshes: Vec<Mesh>,
+    materials: Vec<(String, Material)>,
+    warnings: Vec<String>,
+}
+
+/// The scene material for an MTL material, and whether a value had to be clipped (colours to [0, 1],
+/// non-finite numbers to their defaults). The mapping (docs/scene-format.md, "OBJ materials"):
+/// Pr or Pm given (the PBR extension): metallic_roughness (base colour Kd, metallic Pm, roughness Pr);
+/// otherwise by `illum`: 3 or 5 (reflection) a mirror tinted Ks; 4, 6, 7 or 9 (refraction) a smooth
+/// dielectric of index Ni (1.5 without one); anything else, or none, diffuse Kd (MTL's default 0.8). Ke
+/// above 0 is the front side's emission.
+fn mtl_material(m: &mesh::MtlMaterial) -> (Material, bool) {
+    let mut clipped = false;
+    let mut color = |c: Option<[f32; 3]>, default: f32| {
+        let c = c.unwrap_or([default; 3]);
+        let v = Vec3::from_array(c.map(|x| if x.is_finite() { x } else { default }));
+        let out = v.clamp(Vec3::ZERO, Vec3::ONE);
+        clipped |= out != Vec3::from_array(c);
+        out
+    };
+    let unit = |x: Option<f32>, default: f32| {
+        x.filter(|x| x.is_finite())
+            .unwrap_or(default)
+            .clamp(0.0, 1.0)
+    };
+    let bsdf = if m.roughness.is_some() || m.metallic.is_some() {
+        Bsdf::MetallicRoughness {
+            base_color: color(m.diffuse, 0.8),
+            metallic: unit(m.metallic, 0.0),
+            roughness: unit(m.roughness, 1.0),
+        }
+    } else {
+        match m.illum {
+            Some(3 | 5) => Bsdf::Mirror {
+                tint: color(m.specular, 1.0),
+            },
+            Some(4 | 6 | 7 | 9) => Bsdf::Dielectric {
+                ior: m.ior.filter(|n| n.is_finite() && *n > 0.0).unwrap_or(1.5),
+                roughness: Roughness::SMOOTH,
+            },
+            _ => Bsdf::Diffuse {
+                albedo: color(m.diffuse, 0.8),
+            },
+        }
+    };
+    let emission = m
+        .emission
+        .map(|e| Vec3::from_array(e.map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 })))
+        .filter(|e| e.max_element() > 0.0)
+        .map(|radiance| Emission {
+            radiance,
+            two_sided: false,
+        });
+    (Material { bsdf, emission }, clipped)
+}
+
 /// One flat struct for every material type rather than a serde-tagged enum: a tagged enum buffers its
 /// content, which loses the spans, and its "unknown variant" error would point at the whole material
 /// rather than at `type`. Which keys a type allows is checked by hand in `Checker::material`.
@@ -283,7 +343,8 @@ struct RawTriangle {
 #[serde(deny_unknown_fields)]
 struct RawMesh {
     obj: Spanned<String>,
-    material: Spanned<String>,
+    /// Optional when the OBJ has MTL materials (they are used then).
+    material: Option<Spanned<String>>,
     scale: Option<Spanned<f32>>,
     rotate: Option<Spanned<RawVec3>>,
     translate: Option<Spanned<RawVec3>>,
@@ -479,9 +540,14 @@ impl Checker<'_> {
         let mut files = LoadedFiles::default();
         let mut meshes = Vec::with_capacity(raw.mesh.len());
         let mut total = triangles.len();
+        let mut warnings = Vec::new();
         for (i, mesh) in raw.mesh.iter().enumerate() {
-            let m = self.mesh(i, mesh, &material_names, &materials, base, &mut files)?;
-            total += m.triangles.len();
+            let table = self.mesh(i, mesh, &material_names, &materials, base, &mut files)?;
+            total += table
+                .meshes
+                .iter()
+                .map(|m| m.triangles.len())
+                .sum::<usize>();
             if total > mesh::MAX_TRIANGLES {
                 return Err(self.error(
                     mesh.span(),
@@ -490,7 +556,12 @@ impl Checker<'_> {
                     "Use fewer or simpler meshes.",
                 ));
             }
-            meshes.push(m);
+            meshes.extend(table.meshes);
+            for (name, material) in table.materials {
+                material_names.push(name);
+                materials.push(material);
+            }
+            warnings.extend(table.warnings);
         }
         let mut lights = Vec::with_capacity(raw.light.len());
         for (i, light) in raw.light.iter().enumerate() {
@@ -509,6 +580,7 @@ impl Checker<'_> {
             meshes,
             lights,
             environment,
+            warnings,
         })
     }
 
@@ -1325,10 +1397,13 @@ impl Checker<'_> {
         materials: &[Material],
         base: &Path,
         files: &mut LoadedFiles,
-    ) -> Result<Mesh, SceneError> {
+    ) -> Result<MeshTable, SceneError> {
         let m = raw.get_ref();
         let key = |field: &str| format!("mesh[{i}].{field}");
-        let material = self.material_index(&m.material, &key("material"), names)?;
+        let material = match &m.material {
+            Some(name) => Some(self.material_index(name, &key("material"), names)?),
+            None => None,
+        };
         let scale = m.scale.as_ref().map_or(Ok(1.0), |s| {
             self.number_unless(
                 s,
@@ -1375,9 +1450,18 @@ impl Checker<'_> {
             }
         };
 
-        let texture = match &m.texture {
-            None => None,
-            Some(t) => {
+        let texture = match (&m.texture, material) {
+            (None, _) => None,
+            (Some(t), None) => {
+                return Err(self.error(
+                    t.span(),
+                    &key("texture"),
+                    "a texture is given but no material for it to apply to",
+                    "Give the mesh a `material` as well; without one, the OBJ's MTL materials are used, with \
+                     their own map_Kd textures.",
+                ));
+            }
+            (Some(t), Some(material)) => {
                 let tkey = key("texture");
                 // The texture replaces the albedo (or tint) and multiplies the emission: a material with
                 // neither has nothing for it to change.
@@ -1402,7 +1486,7 @@ impl Checker<'_> {
                         &tkey,
                         format!(
                             "material \"{}\" is {what}: it has no albedo for a texture to replace and no emission for it to multiply",
-                            m.material.get_ref()
+                            names[material as usize]
                         ),
                         "Give textured meshes a diffuse or plastic material (the texture is the albedo), a mirror (the tint), a metallic_roughness material or a conductor with base_color (the texture is the base colour) or an emitting material (the texture multiplies the emission).",
                     ));
@@ -1443,27 +1527,124 @@ impl Checker<'_> {
             rotate_deg,
             translate,
         };
-        let (positions, normals, uvs) = mesh::place(&obj, &placement, smooth, texture.is_some());
-        if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
-            return Err(self.error(
-                raw.span(),
-                &format!("mesh[{i}]"),
-                format!(
-                    "placing {} overflows 32-bit floats (a vertex lands at {p})",
-                    obj_path.display()
-                ),
-                "Use a smaller scale or translation.",
+        let place = |obj: &ObjMesh, material: u32, texture: Option<Arc<Texture>>| {
+            let (positions, normals, uvs) = mesh::place(obj, &placement, smooth, texture.is_some());
+            if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
+                return Err(self.error(
+                    raw.span(),
+                    &format!("mesh[{i}]"),
+                    format!(
+                        "placing {} overflows 32-bit floats (a vertex lands at {p})",
+                        obj_path.display()
+                    ),
+                    "Use a smaller scale or translation.",
+                ));
+            }
+            Ok(Mesh {
+                obj: obj_path.clone(),
+                positions,
+                normals,
+                uvs,
+                triangles: obj.triangles.clone(),
+                material,
+                texture,
+            })
+        };
+        let mut table = MeshTable::default();
+        if let Some(material) = material {
+            // The scene's material applies to every face, whatever the OBJ's MTL says.
+            table.meshes.push(place(&obj, material, texture)?);
+            return Ok(table);
+        }
+        if obj.materials.is_empty() {
+            let Some(problem) = &obj.mtl_problem else {
+                return Err(self.error(
+                    raw.span(),
+                    &format!("mesh[{i}]"),
+                    format!(
+                        "mesh[{i}] needs a material: {} has no MTL materials",
+                        obj_path.display()
+                    ),
+                    "Give the mesh `material = \"name\"`, one of the names in [materials].",
+                ));
+            };
+            table.warnings.push(format!(
+                "mesh[{i}]: {problem}; its faces are diffuse grey (albedo 0.8, MTL's default Kd). Give the mesh a `material` to choose one."
             ));
         }
-        Ok(Mesh {
-            obj: obj_path,
-            positions,
-            normals,
-            uvs,
-            triangles: obj.triangles.clone(),
-            material,
-            texture,
-        })
+        // One mesh per MTL material, in the order the faces first use them (faces with none, or when no
+        // MTL file could be read, get MTL's default: diffuse, Kd 0.8).
+        let mut groups: Vec<Option<u32>> = Vec::new();
+        for t in 0..obj.triangles.len() {
+            let id = obj.face_materials.get(t).copied().flatten();
+            if !groups.contains(&id) {
+                groups.push(id);
+            }
+        }
+        let obj_dir = obj_path.parent().unwrap_or(Path::new("."));
+        for id in groups {
+            let index = (names.len() + table.materials.len()) as u32;
+            let (name, material, texture) = match id.map(|k| &obj.materials[k as usize]) {
+                None => (
+                    format!("mesh[{i}]/default"),
+                    Material::from(Bsdf::Diffuse {
+                        albedo: Vec3::splat(0.8),
+                    }),
+                    None,
+                ),
+                Some(mtl) => {
+                    let (material, clipped) = mtl_material(mtl);
+                    if clipped {
+                        table.warnings.push(format!(
+                            "mesh[{i}]: {}: MTL material \"{}\" has colours outside [0, 1] or non-finite values; they were clipped",
+                            obj_path.display(),
+                            mtl.name
+                        ));
+                    }
+                    let texture = match &mtl.diffuse_texture {
+                        None => None,
+                        Some(_) if obj.uvs.is_none() => {
+                            table.warnings.push(format!(
+                                "mesh[{i}]: {}: MTL material \"{}\" has a map_Kd but the OBJ has no texture coordinates; the texture is not used",
+                                obj_path.display(),
+                                mtl.name
+                            ));
+                            None
+                        }
+                        Some(file) => {
+                            let texture_path = obj_dir.join(file.trim());
+                            match files.textures.get(&texture_path) {
+                                Some(tex) => Some(tex.clone()),
+                                None => match mesh::load_texture(&texture_path) {
+                                    Ok(tex) => {
+                                        let tex = Arc::new(tex);
+                                        files.textures.insert(texture_path, tex.clone());
+                                        Some(tex)
+                                    }
+                                    Err(e) => {
+                                        table.warnings.push(format!(
+                                            "mesh[{i}]: MTL material \"{}\": {e}; the texture is not used",
+                                            mtl.name
+                                        ));
+                                        None
+                                    }
+                                },
+                            }
+                        }
+                    };
+                    (format!("mesh[{i}]/{}", mtl.name), material, texture)
+                }
+            };
+            // A texture replaces the albedo; a glass has none: the map is not used.
+            let texture = match (&material.bsdf, texture) {
+                (Bsdf::Dielectric { .. }, Some(_)) if material.emission.is_none() => None,
+                (_, t) => t,
+            };
+            let sub = obj.subset(id);
+            table.meshes.push(place(&sub, index, texture)?);
+            table.materials.push((name, material));
+        }
+        Ok(table)
     }
 
     fn light(&self, i: usize, raw: &Spanned<RawLight>) -> Result<Light, SceneError> {
