@@ -61,12 +61,14 @@ pub struct ObjMesh {
     pub triangles: Vec<[u32; 3]>,
     /// The materials of the OBJ's MTL files (`mtllib`), in the order read; empty when it names none or
     /// none could be read.
-    pub materials: Vec<MtlMaterial>,
+    pub materials: Vec<FileMaterial>,
     /// Per triangle, its `usemtl` material (an index into `materials`), or `None`: empty when
     /// `materials` is.
     pub face_materials: Vec<Option<u32>>,
     /// An MTL file the OBJ names that could not be read, and why (a warning: the mesh is still usable).
     pub mtl_problem: Option<String>,
+    /// What else the reader could not use (glTF: unsupported textures, primitives): warnings.
+    pub notes: Vec<String>,
 }
 
 impl ObjMesh {
@@ -102,9 +104,10 @@ impl ObjMesh {
     }
 }
 
-/// One material of an MTL file, with what vkpath maps (docs/scene-format.md, "OBJ materials").
+/// One material a mesh file brings (an MTL file's, or a glTF material), with what vkpath maps
+/// (docs/scene-format.md, "OBJ materials" and "glTF meshes").
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct MtlMaterial {
+pub struct FileMaterial {
     pub name: String,
     /// Kd, Ks, Ke (linear RGB).
     pub diffuse: Option<[f32; 3]>,
@@ -119,16 +122,18 @@ pub struct MtlMaterial {
     /// Pr and Pm, the PBR extension's roughness and metallic.
     pub roughness: Option<f32>,
     pub metallic: Option<f32>,
+    /// A texture already decoded (a glTF image); it takes the place of `diffuse_texture`.
+    pub texture: Option<Arc<Texture>>,
 }
 
-impl MtlMaterial {
-    fn from_tobj(m: &tobj::Material) -> MtlMaterial {
+impl FileMaterial {
+    fn from_tobj(m: &tobj::Material) -> FileMaterial {
         let number = |key: &str| {
             m.unknown_param
                 .get(key)
                 .and_then(|v| v.trim().parse::<f32>().ok())
         };
-        MtlMaterial {
+        FileMaterial {
             name: m.name.clone(),
             diffuse: m.diffuse,
             specular: m.specular,
@@ -138,6 +143,7 @@ impl MtlMaterial {
             diffuse_texture: m.diffuse_texture.clone(),
             roughness: number("Pr"),
             metallic: number("Pm"),
+            texture: None,
         }
     }
 }
@@ -179,8 +185,18 @@ pub fn is_ply(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
 }
 
-/// Reads the mesh file of a `[[mesh]]`: PLY by its extension (super::ply), OBJ otherwise.
+/// Whether a mesh file is read as glTF 2.0 (its extension is `.gltf` or `.glb`, any case).
+pub fn is_gltf(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
+/// Reads the mesh file of a `[[mesh]]` by its extension: PLY (super::ply), glTF (super::gltf), OBJ
+/// otherwise.
 pub fn load_mesh_file(path: &Path) -> Result<ObjMesh, ObjError> {
+    if is_gltf(path) {
+        return super::gltf::load_gltf(path);
+    }
     if !is_ply(path) {
         return load_obj(path);
     }
@@ -273,7 +289,7 @@ pub fn parse_obj_in(bytes: &[u8], dir: Option<&Path>) -> Result<ObjMesh, ObjErro
     };
 
     let mut mesh = ObjMesh {
-        materials: materials.iter().map(MtlMaterial::from_tobj).collect(),
+        materials: materials.iter().map(FileMaterial::from_tobj).collect(),
         mtl_problem: mtl_problem.into_inner(),
         ..ObjMesh::default()
     };
@@ -591,11 +607,21 @@ pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
     welded.iter().map(|&w| unit_or_zero(sums[w])).collect()
 }
 
-/// Reads an image as an sRGB RGBA8 texture. Any format the `image` crate was built with (PNG here).
+/// Reads an image file as an sRGB RGBA8 texture (PNG, JPEG, EXR, HDR).
 pub fn load_texture(path: &Path) -> Result<Texture, String> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?;
+    decode_texture(&bytes, path)
+}
+
+/// Decodes an image held in memory (a glTF buffer's), `what` naming it in messages.
+pub fn load_texture_bytes(bytes: &[u8], what: &str) -> Result<Texture, String> {
+    decode_texture(bytes, Path::new(what))
+}
+
+fn decode_texture(bytes: &[u8], path: &Path) -> Result<Texture, String> {
     let reader = || {
-        image::ImageReader::open(path)
-            .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?
+        image::ImageReader::new(std::io::Cursor::new(bytes))
             .with_guessed_format()
             .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))
     };

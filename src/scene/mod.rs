@@ -6,6 +6,7 @@
 
 pub mod bvh;
 pub mod environment;
+pub mod gltf;
 pub mod mesh;
 mod parse;
 pub mod ply;

@@ -251,7 +251,7 @@ struct MeshTable {
 /// otherwise by `illum`: 3 or 5 (reflection) a mirror tinted Ks; 4, 6, 7 or 9 (refraction) a smooth
 /// dielectric of index Ni (1.5 without one); anything else, or none, diffuse Kd (MTL's default 0.8). Ke
 /// above 0 is the front side's emission.
-fn mtl_material(m: &mesh::MtlMaterial) -> (Material, bool) {
+fn mtl_material(m: &mesh::FileMaterial) -> (Material, bool) {
     let mut clipped = false;
     let mut color = |c: Option<[f32; 3]>, default: f32| {
         let c = c.unwrap_or([default; 3]);
@@ -1429,7 +1429,10 @@ impl Checker<'_> {
             None => {
                 let loaded = mesh::load_mesh_file(&obj_path).map_err(|e| {
                     let at = e.line.map_or(String::new(), |l| format!(", line {l}"));
-                    let hint = if mesh::is_ply(&obj_path) {
+                    let hint = if mesh::is_gltf(&obj_path) {
+                        "The path is relative to the scene file. A glTF 2.0 file (.gltf with its buffers, or .glb) \
+                         needs a scene with at least one mesh of TRIANGLES primitives."
+                    } else if mesh::is_ply(&obj_path) {
                         "The path is relative to the scene file. A PLY mesh (ascii or binary, version 1.0) needs \
                          `element vertex` with x, y, z (nx, ny, nz and u, v optional) and `element face` with a \
                          `vertex_indices` list, all numbers finite."
@@ -1551,6 +1554,11 @@ impl Checker<'_> {
             })
         };
         let mut table = MeshTable::default();
+        table.warnings.extend(
+            obj.notes
+                .iter()
+                .map(|n| format!("mesh[{i}]: {}: {n}", obj_path.display())),
+        );
         if let Some(material) = material {
             // The scene's material applies to every face, whatever the OBJ's MTL says.
             table.meshes.push(place(&obj, material, texture)?);
@@ -1562,7 +1570,7 @@ impl Checker<'_> {
                     raw.span(),
                     &format!("mesh[{i}]"),
                     format!(
-                        "mesh[{i}] needs a material: {} has no MTL materials",
+                        "mesh[{i}] needs a material: {} has no materials of its own (MTL or glTF)",
                         obj_path.display()
                     ),
                     "Give the mesh `material = \"name\"`, one of the names in [materials].",
@@ -1602,6 +1610,15 @@ impl Checker<'_> {
                         ));
                     }
                     let texture = match &mtl.diffuse_texture {
+                        _ if mtl.texture.is_some() && obj.uvs.is_some() => mtl.texture.clone(),
+                        None if mtl.texture.is_some() => {
+                            table.warnings.push(format!(
+                                "mesh[{i}]: {}: material \"{}\" has a texture but the file has no texture coordinates for every vertex; the texture is not used",
+                                obj_path.display(),
+                                mtl.name
+                            ));
+                            None
+                        }
                         None => None,
                         Some(_) if obj.uvs.is_none() => {
                             table.warnings.push(format!(

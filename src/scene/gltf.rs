@@ -1,0 +1,286 @@
+//! glTF 2.0 geometry and materials for `[[mesh]] obj = "*.gltf" | "*.glb"`, read with the `gltf` crate
+//! (Khronos, "glTF 2.0 Specification", 2021).
+//!
+//! What is read: the default scene (else the first), its node hierarchy with each node's transform
+//! (matrix or translation-rotation-scale, composed from the root: world = parent x local, glTF's
+//! column-vector convention), and every triangle primitive of every mesh a node instances: positions,
+//! normals (transformed by the inverse transpose), TEXCOORD_0, indices. Materials are glTF's
+//! metallic-roughness ones (Appendix B), which vkpath's `metallic_roughness` implements: baseColorFactor
+//! (its alpha ignored), metallicFactor, roughnessFactor, emissiveFactor x KHR_materials_emissive_strength,
+//! and the baseColorTexture when it is a file beside the glTF or an image in a buffer (PNG, JPEG).
+//!
+//! What is not, each said in a note (a warning of the scene, never silent): non-triangle primitives
+//! (points, lines, strips and fans are skipped), metallicRoughnessTexture, normalTexture, occlusionTexture,
+//! emissiveTexture, alpha modes other than OPAQUE, a baseColorFactor other than 1 together with a texture
+//! (the texture replaces the base colour; glTF multiplies them), images given as data URIs, cameras and
+//! lights (a mesh file brings geometry and materials only).
+
+use super::mesh::{
+    FileMaterial, MAX_TRIANGLES, ObjError, ObjMesh, load_texture, load_texture_bytes,
+};
+use glam::{Mat3, Mat4, Vec3};
+use std::path::Path;
+use std::sync::Arc;
+
+/// Reads a `.gltf` (with its buffers, beside it or in data URIs) or a `.glb`.
+pub fn load_gltf(path: &Path) -> Result<ObjMesh, ObjError> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| ObjError::whole_file(format!("cannot read the glTF file: {e}")))?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    parse_gltf(&bytes, dir)
+}
+
+/// Parses glTF (JSON or binary) whose external files live in `dir`.
+pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
+    let gltf = gltf::Gltf::from_slice(bytes)
+        .map_err(|e| ObjError::whole_file(format!("not a valid glTF 2.0 file: {e}")))?;
+    let buffers = gltf::import_buffers(&gltf.document, Some(dir), gltf.blob.clone())
+        .map_err(|e| ObjError::whole_file(format!("cannot read a buffer of the glTF file: {e}")))?;
+    let doc = &gltf.document;
+    let mut mesh = ObjMesh::default();
+    let mut notes = Notes::default();
+    mesh.materials = doc
+        .materials()
+        .map(|m| material(m, &buffers, dir, &mut notes))
+        .collect();
+
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| ObjError::whole_file("the glTF file has no scene"))?;
+    // (node, world transform) pairs, depth first. glTF forbids cycles; the depth bound keeps a file
+    // that has one from looping.
+    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
+        scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    let mut all_normals = true;
+    let mut all_uvs = true;
+    let mut normals = Vec::new();
+    let mut uvs = Vec::new();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > 1024 {
+            return Err(ObjError::whole_file(
+                "the glTF node hierarchy is deeper than 1024 levels (a cycle?)",
+            ));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        for child in node.children() {
+            stack.push((child, world, depth + 1));
+        }
+        let Some(m) = node.mesh() else { continue };
+        // Normals go by the inverse transpose of the upper 3x3 (a non-uniform scale bends them).
+        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+        for p in m.primitives() {
+            if p.mode() != gltf::mesh::Mode::Triangles {
+                notes.add(format!(
+                    "a primitive of mesh {} is {:?}, not triangles: it is skipped",
+                    m.index(),
+                    p.mode()
+                ));
+                continue;
+            }
+            let reader = p.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+            let Some(positions) = reader.read_positions() else {
+                notes.add(format!(
+                    "a primitive of mesh {} has no POSITION: it is skipped",
+                    m.index()
+                ));
+                continue;
+            };
+            let base = mesh.positions.len();
+            let positions: Vec<Vec3> = positions
+                .map(|p| world.transform_point3(Vec3::from_array(p)))
+                .collect();
+            let count = positions.len();
+            let indices: Vec<u32> = match reader.read_indices() {
+                Some(i) => i.into_u32().collect(),
+                None => (0..count as u32).collect(),
+            };
+            if let Some(bad) = indices.iter().find(|&&i| i as usize >= count) {
+                return Err(ObjError::whole_file(format!(
+                    "a primitive of mesh {} refers to vertex {bad} of {count}",
+                    m.index()
+                )));
+            }
+            if base + count > MAX_TRIANGLES
+                || mesh.triangles.len() + indices.len() / 3 > MAX_TRIANGLES
+            {
+                return Err(ObjError::whole_file(format!(
+                    "the mesh is too large: more than {MAX_TRIANGLES} vertices or triangles"
+                )));
+            }
+            mesh.positions.extend(positions);
+            match reader.read_normals() {
+                Some(n) if all_normals => normals
+                    .extend(n.map(|n| (normal_matrix * Vec3::from_array(n)).normalize_or_zero())),
+                _ => all_normals = false,
+            }
+            match reader.read_tex_coords(0) {
+                Some(t) if all_uvs => uvs.extend(t.into_f32()),
+                _ => all_uvs = false,
+            }
+            let material = p.material().index().map(|k| k as u32);
+            let before = mesh.triangles.len();
+            mesh.triangles.extend(
+                indices
+                    .chunks_exact(3)
+                    .map(|t| [t[0] + base as u32, t[1] + base as u32, t[2] + base as u32]),
+            );
+            mesh.face_materials
+                .extend(std::iter::repeat_n(material, mesh.triangles.len() - before));
+        }
+    }
+    if mesh.triangles.is_empty() {
+        return Err(ObjError::whole_file(
+            "the glTF scene has no triangles (no mesh with a TRIANGLES primitive)",
+        ));
+    }
+    mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
+    // glTF's texture v runs down from the top of the image; the OBJ convention (and vkpath's sampling)
+    // has v up from the bottom.
+    mesh.uvs = (all_uvs && uvs.len() == mesh.positions.len())
+        .then(|| uvs.into_iter().map(|[u, v]| [u, 1.0 - v]).collect());
+    if mesh.materials.is_empty() {
+        mesh.face_materials.clear();
+    }
+    let finite = mesh.positions.iter().all(|p| p.is_finite())
+        && mesh.normals.iter().flatten().all(|n| n.is_finite())
+        && mesh
+            .uvs
+            .iter()
+            .flatten()
+            .all(|t| t[0].is_finite() && t[1].is_finite());
+    if !finite {
+        return Err(ObjError::whole_file(
+            "a vertex position, normal or texture coordinate is not a finite number (after the node transforms)",
+        ));
+    }
+    mesh.notes = notes.0;
+    Ok(mesh)
+}
+
+/// What the reader could not use, each said once.
+#[derive(Default)]
+struct Notes(Vec<String>);
+
+impl Notes {
+    fn add(&mut self, note: String) {
+        if !self.0.contains(&note) {
+            self.0.push(note);
+        }
+    }
+}
+
+/// A glTF material as vkpath maps it (the PBR fields of [`FileMaterial`]).
+fn material(
+    m: gltf::Material,
+    buffers: &[gltf::buffer::Data],
+    dir: &Path,
+    notes: &mut Notes,
+) -> FileMaterial {
+    let name = m.name().map_or_else(
+        || format!("material{}", m.index().unwrap_or(0)),
+        str::to_owned,
+    );
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, _] = pbr.base_color_factor();
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    let mut out = FileMaterial {
+        name: name.clone(),
+        diffuse: Some([r, g, b]),
+        emission: Some(m.emissive_factor().map(|e| e * strength)),
+        roughness: Some(pbr.roughness_factor()),
+        metallic: Some(pbr.metallic_factor()),
+        ..FileMaterial::default()
+    };
+    let unused = [
+        (
+            "metallicRoughnessTexture",
+            pbr.metallic_roughness_texture().is_some(),
+        ),
+        ("normalTexture", m.normal_texture().is_some()),
+        ("occlusionTexture", m.occlusion_texture().is_some()),
+        ("emissiveTexture", m.emissive_texture().is_some()),
+        (
+            "an alpha mode other than OPAQUE",
+            m.alpha_mode() != gltf::material::AlphaMode::Opaque,
+        ),
+    ];
+    for (what, present) in unused {
+        if present {
+            notes.add(format!("material \"{name}\": {what} is not used"));
+        }
+    }
+    if let Some(info) = pbr.base_color_texture() {
+        if info.tex_coord() != 0 {
+            notes.add(format!(
+                "material \"{name}\": its base colour texture uses TEXCOORD_{}; only TEXCOORD_0 is read",
+                info.tex_coord()
+            ));
+        }
+        if [r, g, b] != [1.0; 3] {
+            notes.add(format!(
+                "material \"{name}\": baseColorFactor [{r}, {g}, {b}] is not applied over its texture (the texture replaces the base colour)"
+            ));
+        }
+        match info.texture().source().source() {
+            gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => notes.add(format!(
+                "material \"{name}\": its base colour texture is a data URI, which is not read"
+            )),
+            gltf::image::Source::Uri { uri, .. } => {
+                match load_texture(&dir.join(percent_decode(uri))) {
+                    Ok(t) => out.texture = Some(Arc::new(t)),
+                    Err(e) => {
+                        notes.add(format!("material \"{name}\": {e}; the texture is not used"))
+                    }
+                }
+            }
+            gltf::image::Source::View { view, .. } => {
+                let data = buffers.get(view.buffer().index()).map(|d| &d.0[..]);
+                let bytes = data.and_then(|d| d.get(view.offset()..view.offset() + view.length()));
+                match bytes.map(|b| load_texture_bytes(b, &format!("image {}", view.index()))) {
+                    Some(Ok(t)) => out.texture = Some(Arc::new(t)),
+                    Some(Err(e)) => {
+                        notes.add(format!("material \"{name}\": {e}; the texture is not used"))
+                    }
+                    None => notes.add(format!(
+                        "material \"{name}\": its image's buffer view is out of range; the texture is not used"
+                    )),
+                }
+            }
+        }
+    }
+    out
+}
+
+/// A URI's %XX escapes decoded (glTF URIs are RFC 3986 references: a space in a file name is `%20`).
+fn percent_decode(uri: &str) -> String {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        if b[i] == b'%'
+            && i + 2 < b.len()
+            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+            continue;
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::percent_decode;
+
+    #[test]
+    fn uris_are_percent_decoded() {
+        assert_eq!(percent_decode("my%20texture.png"), "my texture.png");
+        assert_eq!(percent_decode("a%2Fb%zz%4"), "a/b%zz%4");
+        assert_eq!(percent_decode("%E2%82%AC.png"), "\u{20ac}.png");
+    }
+}
