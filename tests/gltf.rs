@@ -66,12 +66,26 @@ fn write_gltf(dir: &Path) {
     let json = format!(
         r#"{{
   "asset": {{"version": "2.0"}},
-  "extensionsUsed": ["KHR_materials_emissive_strength"],
+  "extensionsUsed": ["KHR_materials_emissive_strength", "KHR_lights_punctual"],
+  "extensions": {{"KHR_lights_punctual": {{"lights": [
+    {{"type": "point", "color": [1, 0.5, 0.25], "intensity": 10}},
+    {{"type": "directional", "intensity": 2}},
+    {{"type": "spot", "spot": {{}}}}
+  ]}}}},
   "scene": 0,
-  "scenes": [{{"nodes": [0]}}],
+  "scenes": [{{"nodes": [0, 2, 3, 4, 5, 6]}}],
   "nodes": [
     {{"name": "parent", "translation": [1, 0, 0], "children": [1]}},
-    {{"name": "child", "rotation": [0, 0, {s45}, {s45}], "scale": [2, 1, 1], "mesh": 0}}
+    {{"name": "child", "rotation": [0, 0, {s45}, {s45}], "scale": [2, 1, 1], "mesh": 0}},
+    {{"name": "camera", "translation": [0.5, 1, 6], "camera": 0}},
+    {{"name": "lamp", "translation": [0.5, 1, 3], "extensions": {{"KHR_lights_punctual": {{"light": 0}}}}}},
+    {{"name": "sun", "rotation": [{s45}, 0, 0, {s45}], "extensions": {{"KHR_lights_punctual": {{"light": 1}}}}}},
+    {{"name": "spot", "extensions": {{"KHR_lights_punctual": {{"light": 2}}}}}},
+    {{"name": "side camera", "translation": [10, 0, 0], "rotation": [0, {s45}, 0, {s45}], "camera": 1}}
+  ],
+  "cameras": [
+    {{"type": "perspective", "perspective": {{"yfov": 0.5, "aspectRatio": 2.0, "znear": 0.01}}}},
+    {{"type": "orthographic", "orthographic": {{"xmag": 3, "ymag": 1.5, "znear": 0.01, "zfar": 100}}}}
   ],
   "meshes": [{{"primitives": [
     {{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}, "indices": 3, "material": 0}},
@@ -281,4 +295,111 @@ fn gltf_notes_and_errors() {
     assert_eq!(err.line(), Some(15), "{message}");
     assert_eq!(err.key(), Some("mesh[0].obj"), "{message}");
     assert!(message.contains("scene.gltf"), "{message}");
+}
+
+/// `vkpath render scene.gltf`: the file as a scene of its own, its first camera (or `--camera N`), its
+/// point and directional lights (a candela as a W/sr, a lux as a W/m^2), spot lights a warning.
+#[test]
+fn a_gltf_file_is_a_scene_with_its_camera_and_lights() {
+    use vkpath::scene::{Light, Projection};
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(dir.path());
+    let path = dir.path().join("scene.gltf");
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("spot light 2")),
+        "{:?}",
+        scene.warnings
+    );
+    let c = scene.camera;
+    assert!((c.position - Vec3::new(0.5, 1.0, 6.0)).length() < 1e-6);
+    assert!((c.look_at - Vec3::new(0.5, 1.0, 5.0)).length() < 1e-6);
+    assert!((c.up - Vec3::Y).length() < 1e-6);
+    // fov_x = 2 atan(aspect tan(yfov / 2)) = 2 atan(2 tan 0.25) in degrees; 640 x 320.
+    let want = (2.0 * (2.0 * 0.25f32.tan()).atan()).to_degrees();
+    assert!((c.fov_deg - want).abs() < 1e-4, "{} vs {want}", c.fov_deg);
+    assert_eq!((scene.image.width, scene.image.height), (640, 320));
+    assert_eq!(scene.meshes.len(), 2);
+    let [
+        Light::Point {
+            position,
+            power,
+            color,
+        },
+        Light::Directional {
+            direction,
+            irradiance,
+            ..
+        },
+    ] = &scene.lights[..]
+    else {
+        panic!("a point and a directional light: {:?}", scene.lights)
+    };
+    assert!((*position - Vec3::new(0.5, 1.0, 3.0)).length() < 1e-6);
+    assert!((power - 40.0 * std::f32::consts::PI).abs() < 1e-3);
+    assert_eq!(*color, Vec3::new(1.0, 0.5, 0.25));
+    // The sun node is turned 90 degrees about x: its -z, the way the light goes, turns into +y.
+    assert!(
+        (*direction - Vec3::new(0.0, 1.0, 0.0)).length() < 1e-6,
+        "{direction}"
+    );
+    assert_eq!(*irradiance, 2.0);
+
+    let side = Scene::load_with_camera(&path, Some(1)).unwrap();
+    assert_eq!(side.camera.projection, Projection::Orthographic);
+    assert!((side.camera.extent - 6.0).abs() < 1e-6);
+    assert!((side.camera.position - Vec3::new(10.0, 0.0, 0.0)).length() < 1e-5);
+    // Turned 90 degrees about y: it looks along -x.
+    assert!((side.camera.look_at - Vec3::new(9.0, 0.0, 0.0)).length() < 1e-5);
+    assert_eq!((side.image.width, side.image.height), (640, 320));
+    let err = Scene::load_with_camera(&path, Some(2)).expect_err("two cameras");
+    assert_eq!(err.key(), Some("--camera"), "{err}");
+    assert!(err.to_string().contains("0 to 1"), "{err}");
+}
+
+/// The command line: `render` renders a glTF scene (its warnings on stderr), `--camera` out of range
+/// exits with status 2 and names the flag, `convert` writes TOML that reads back as the same scene, the
+/// mesh path made relative to where the TOML goes.
+#[test]
+fn render_and_convert_a_gltf_scene_from_the_command_line() {
+    use std::process::Command;
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(dir.path());
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_vkpath"))
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .unwrap()
+    };
+    let out = run(&["render", "scene.gltf", "--spp", "1", "-o", "out.png"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("warning: glTF spot light 2"), "{stderr}");
+    let png = image::open(dir.path().join("out.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (640, 320));
+
+    let out = run(&["render", "scene.gltf", "--camera", "5", "-o", "bad.png"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--camera"));
+    assert!(!dir.path().join("bad.png").exists());
+
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    let out = run(&["convert", "scene.gltf", "-o", "sub/converted.toml"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(dir.path().join("sub/converted.toml")).unwrap();
+    assert!(text.contains("obj = \"../scene.gltf\""), "{text}");
+    let converted = Scene::load(&dir.path().join("sub/converted.toml")).unwrap();
+    let direct = Scene::load(&dir.path().join("scene.gltf")).unwrap();
+    assert_eq!(converted.camera, direct.camera);
+    assert_eq!(converted.lights, direct.lights);
+    assert_eq!(converted.materials, direct.materials);
+    assert_eq!(converted.meshes.len(), direct.meshes.len());
+
+    let out = run(&["convert", "scene.gltf", "-o", "scene.gltf"]);
+    assert_eq!(out.status.code(), Some(2));
 }

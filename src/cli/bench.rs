@@ -150,7 +150,7 @@ fn run_convergence(a: ConvergenceArgs) -> Result<i32, Error> {
             "--width, --height, --max-spp and --reference-spp must be at least 1.",
         ));
     }
-    let mut scene = load_scene(a.scene.as_deref())?;
+    let mut scene = load_scene(a.scene.as_deref(), None)?;
     scene.image.width = a.width;
     scene.image.height = a.height;
     let settings = convergence::parse_settings(&a.knobs, &scene)?;

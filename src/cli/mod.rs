@@ -3,6 +3,7 @@
 //! way. Each `run` returns the exit status to end with, or an error that `main` maps to one.
 
 mod bench;
+mod convert;
 mod info;
 mod merge;
 mod paths;
@@ -39,6 +40,8 @@ pub enum Command {
     /// Benchmarks that report measured ratios.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Write any scene vkpath can read (TOML, glTF) as vkpath TOML: what was understood, to see and edit.
+    Convert(convert::ConvertArgs),
     /// List the Vulkan devices, the one chosen and why, and its limits.
     Info {
         /// Print one JSON object instead of text.
@@ -54,6 +57,7 @@ pub fn run(command: Command) -> Result<i32, Error> {
         Command::Preview(p) => preview::run_preview(*p),
         Command::Info { json } => info::run_info(json),
         Command::Merge(m) => merge::run_merge(m),
+        Command::Convert(c) => convert::run_convert(c),
         Command::Bench(b) => bench::run_bench(b),
     }
 }
@@ -62,12 +66,18 @@ fn usage(msg: impl Into<String>) -> Error {
     Error::Usage(msg.into())
 }
 
-/// The scene file given, or the embedded course scene when none is. What the reader noticed and worked
-/// around (Scene::warnings) is printed on stderr, one line each.
-fn load_scene(path: Option<&Path>) -> Result<Scene, Error> {
-    let scene = match path {
-        Some(path) => Scene::load(path)?,
-        None => Scene::default_scene(),
+/// The scene file given (TOML or glTF; `camera` picks a glTF scene's camera), or the embedded course
+/// scene when none is. What the reader noticed and worked around (Scene::warnings) is printed on stderr,
+/// one line each.
+fn load_scene(path: Option<&Path>, camera: Option<usize>) -> Result<Scene, Error> {
+    let scene = match (path, camera) {
+        (Some(path), camera) => Scene::load_with_camera(path, camera)?,
+        (None, None) => Scene::default_scene(),
+        (None, Some(_)) => {
+            return Err(usage(
+                "--camera picks a camera of a glTF scene file; give the scene file as well.",
+            ));
+        }
     };
     for w in &scene.warnings {
         eprintln!("vkpath: warning: {w}");

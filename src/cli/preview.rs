@@ -72,7 +72,7 @@ pub fn run_preview(a: PreviewArgs) -> Result<i32, Error> {
             a.fps
         )));
     }
-    let mut scene = load_scene(a.scene.as_deref())?;
+    let mut scene = load_scene(a.scene.as_deref(), None)?;
     // The same overrides and size rule as `vkpath render` (apply_overrides).
     scene.image.width = a.width.unwrap_or(scene.image.width);
     scene.image.height = a.height.unwrap_or(scene.image.height);

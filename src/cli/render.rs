@@ -160,7 +160,7 @@ struct Job {
 /// an output of unknown format), and reads the checkpoint to resume: a damaged or foreign file is
 /// refused here, before any device work.
 fn prepare(a: &RenderArgs) -> Result<Job, Error> {
-    let mut scene = load_scene(a.scene.as_deref())?;
+    let mut scene = load_scene(a.scene.as_deref(), a.camera.map(|c| c as usize))?;
     apply_overrides(&mut scene, a)?;
     let options = render_options(a)?;
     let outputs = if a.outputs.is_empty() {
@@ -456,8 +456,11 @@ enum SamplerArg {
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// Scene file (TOML). Default: the embedded course scene.
+    /// Scene file: TOML, or glTF 2.0 (.gltf, .glb). Default: the embedded course scene.
     scene: Option<PathBuf>,
+    /// A glTF scene's camera to render from: N counts its camera nodes, depth first (default: the first).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
+    camera: Option<u32>,
     /// Output file; repeatable; the format follows the extension (.png, .exr). Default: <scene-stem>.png.
     #[arg(short = 'o', long = "output")]
     outputs: Vec<PathBuf>,

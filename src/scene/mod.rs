@@ -7,6 +7,7 @@
 pub mod bvh;
 pub mod environment;
 pub mod gltf;
+pub mod import;
 pub mod mesh;
 mod parse;
 pub mod ply;
@@ -334,6 +335,34 @@ pub enum Light {
 impl Scene {
     /// Reads and validates a scene file. Errors name the file, the line and the key.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        Scene::load_with_camera(path, None)
+    }
+
+    /// Reads a scene file: TOML, or a glTF 2.0 file (`.gltf`, `.glb`) read as the scene
+    /// super::import makes of it, from its first camera or camera `camera` (which only glTF files
+    /// take).
+    pub fn load_with_camera(path: &Path, camera: Option<usize>) -> Result<Scene, SceneError> {
+        if mesh::is_gltf(path) {
+            let imported = import::gltf_scene(path, camera)?;
+            let mut scene = Scene::from_toml_str(&imported.toml, Some(path))?;
+            let mut warnings = imported.warnings;
+            warnings.append(&mut scene.warnings);
+            scene.warnings = warnings;
+            return Ok(scene);
+        }
+        if camera.is_some() {
+            return Err(SceneError::import(
+                path,
+                Some("--camera".into()),
+                "--camera picks a camera of a glTF scene, but this scene is a TOML file with one [camera]",
+                "Leave --camera out, or render the glTF file itself.",
+            ));
+        }
+        Scene::load_toml(path)
+    }
+
+    /// Reads a TOML scene file.
+    fn load_toml(path: &Path) -> Result<Scene, SceneError> {
         use std::io::Read;
         // Read at most one byte past the limit: a huge file (10^8 inline spheres would be several GB,
         // and parsing costs ~50 bytes of memory per byte of TOML) or an endless one (/dev/zero, a pipe)

@@ -59,6 +59,17 @@ pub struct SceneError {
 }
 
 impl SceneError {
+    /// A scene from another tool (super::import) that cannot be read as one: no line, the element or
+    /// flag in `key` when there is one.
+    pub(crate) fn import(
+        path: &Path,
+        key: Option<String>,
+        problem: impl Into<String>,
+        hint: &str,
+    ) -> SceneError {
+        SceneError::new(path.display().to_string(), None, key, problem, hint)
+    }
+
     /// The scene file could not be read at all.
     pub fn io(path: &Path, e: &std::io::Error) -> SceneError {
         SceneError::new(

@@ -1,0 +1,96 @@
+//! `vkpath convert SCENE -o OUT.toml`: any scene vkpath can read, written as the vkpath TOML it
+//! understood, so that a user can see and edit it. A glTF file becomes the scene src/scene/import.rs
+//! makes of it (the file as a mesh, its camera and lights), its mesh path written relative to OUT's
+//! directory when it can be (else absolute); a TOML scene is checked and written as it is.
+
+use super::{load_scene, usage};
+use clap::Args;
+use std::path::{Component, Path, PathBuf};
+use vkpath::Error;
+use vkpath::scene::{import, mesh};
+
+#[derive(Args)]
+pub struct ConvertArgs {
+    /// Scene to read: TOML, or glTF 2.0 (.gltf, .glb).
+    scene: PathBuf,
+    /// The TOML file to write.
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+    /// A glTF scene's camera (as `render --camera`).
+    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
+    camera: Option<u32>,
+}
+
+pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
+    let is_toml = a
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if !is_toml {
+        return Err(usage(format!(
+            "-o {}: convert writes vkpath TOML; give an output ending in .toml.",
+            a.output.display()
+        )));
+    }
+    let same = |p: &Path, q: &Path| match (p.canonicalize(), q.canonicalize()) {
+        (Ok(p), Ok(q)) => p == q,
+        _ => false,
+    };
+    if same(&a.scene, &a.output) {
+        return Err(usage(format!(
+            "-o {} is the scene being read; convert never overwrites its input.",
+            a.output.display()
+        )));
+    }
+    // Read (and check) the scene as render would, warnings included.
+    let camera = a.camera.map(|c| c as usize);
+    load_scene(Some(&a.scene), camera)?;
+    let text = if mesh::is_gltf(&a.scene) {
+        let out_dir = absolute(a.output.parent().unwrap_or(Path::new("")));
+        let input = absolute(&a.scene);
+        let mesh_ref = relative_to(&input, &out_dir).unwrap_or_else(|| input.clone());
+        import::gltf_scene_referring(&a.scene, camera, &mesh_ref.to_string_lossy())?.toml
+    } else {
+        std::fs::read_to_string(&a.scene).map_err(|e| Error::Io {
+            path: a.scene.clone(),
+            message: e.to_string(),
+        })?
+    };
+    vkpath::film::write_atomically(&a.output, text.as_bytes())?;
+    eprintln!("vkpath: wrote {}", a.output.display());
+    Ok(0)
+}
+
+/// `p` made absolute against the working directory, `.` and `..` resolved lexically.
+fn absolute(p: &Path) -> PathBuf {
+    let joined = std::env::current_dir().unwrap_or_default().join(p);
+    let mut out = PathBuf::new();
+    for c in joined.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// The path of `target` relative to the directory `dir` (both absolute), with `..` as needed.
+fn relative_to(target: &Path, dir: &Path) -> Option<PathBuf> {
+    let t: Vec<_> = target.components().collect();
+    let d: Vec<_> = dir.components().collect();
+    let common = t.iter().zip(&d).take_while(|(a, b)| a == b).count();
+    if common == 0 {
+        return None;
+    }
+    let mut out = PathBuf::new();
+    for _ in common..d.len() {
+        out.push("..");
+    }
+    for c in &t[common..] {
+        out.push(c);
+    }
+    Some(out)
+}
