@@ -403,3 +403,37 @@ fn render_and_convert_a_gltf_scene_from_the_command_line() {
     let out = run(&["convert", "scene.gltf", "-o", "scene.gltf"]);
     assert_eq!(out.status.code(), Some(2));
 }
+
+/// The gallery's glTF scene (scenes/gltf/materials.gltf, written by make_gltf.py) reads as a scene: its
+/// camera, a sun and a point light, the floor, five balls and the emissive one; and its specialised kernel
+/// renders the same bits as the generic one (metallic_roughness is a feature like the others).
+#[test]
+fn the_gallery_gltf_scene_loads_and_specialises() {
+    use vkpath::render::RenderOptions;
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gltf/materials.gltf");
+    let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(scene.lights.len(), 2);
+    assert_eq!(scene.meshes.len(), 7);
+    assert_eq!(scene.material_names.len(), 7);
+    assert!(
+        scene
+            .materials
+            .iter()
+            .all(|m| matches!(m.bsdf, Bsdf::MetallicRoughness { .. }))
+    );
+    scene.image.width = 24;
+    scene.image.height = 14;
+    let specialised = common::render_passes(&scene, &RenderOptions::default(), 1, 4);
+    let generic = common::render_passes(
+        &scene,
+        &RenderOptions {
+            generic: true,
+            ..Default::default()
+        },
+        1,
+        4,
+    );
+    assert!(specialised.average() > 0.0);
+    assert_eq!(specialised.mean, generic.mean);
+}
