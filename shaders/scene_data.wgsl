@@ -19,7 +19,7 @@ struct Params {
     filter_sigma: f32,
     environment_light: u32, // the environment's index in `lights`, or NO_LIGHT
     triangle_light: u32, // the LIGHT_TRIANGLES light's index in `lights`, or NO_LIGHT
-    _pad0: u32,
+    sample_clamp: f32, // render.clamp: a sample's largest channel is scaled down to it; 0 = no clamp
     filter_kind: u32, // 0 none, 1 box, 2 gaussian
     width: u32,
     height: u32,

@@ -296,7 +296,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let slot = px.y * params.width + px.x - pc.accum_base;
-    let radiance = trace_path(px, pass_constants.sample_index);
+    var radiance = trace_path(px, pass_constants.sample_index);
+    // The firefly clamp (render.clamp, off by default): biased by design, so a scene opts in. The sample
+    // is scaled, not clipped per channel, so that a clamped sample keeps its hue. (A NaN passes through to
+    // the accumulator, which counts it.)
+    let peak = max(radiance.x, max(radiance.y, radiance.z));
+    if params.sample_clamp > 0.0 && peak > params.sample_clamp {
+        radiance *= params.sample_clamp / peak;
+    }
     let fault = accumulate_sample(slot, radiance, params.guard_one);
     if fault != 0u {
         count_sample_fault(fault);

@@ -118,10 +118,11 @@ impl Film {
         }
     }
 
-    /// The 8-bit display image: v = clamp(exposure L, 0, 1), then v^(1/gamma) or the sRGB curve.
+    /// The 8-bit display image: v = tonemap(exposure L) (the course's: clamp to [0, 1]), then v^(1/gamma)
+    /// or the sRGB curve.
     pub fn to_rgb8(&self, settings: &ImageSettings) -> image::RgbImage {
         let transfer = |v: f32| -> u8 {
-            let v = (v * settings.exposure).clamp(0.0, 1.0);
+            let v = settings.tonemap.apply(v * settings.exposure);
             let v = if v.is_nan() { 0.0 } else { v };
             let encoded = match settings.gamma {
                 Gamma::Power(g) => v.powf(1.0 / g),
@@ -220,5 +221,71 @@ pub fn write_atomically_with(
 fn sync_parent_dir(path: &Path) {
     if let Ok(d) = std::fs::File::open(directory_of(path)) {
         let _ = d.sync_all();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Tonemap;
+
+    /// Narkowicz's ACES fit at known points: f(0) = 0, f(1) = 2.54 / 3.16, f(0.18) (middle grey), the value
+    /// where it reaches 1 (the root of 0.08 x^2 - 0.56 x - 0.14), monotonic in between, clamped beyond;
+    /// "none" is the course's clamp.
+    #[test]
+    fn aces_tonemap_known_values() {
+        let f = |x: f32| Tonemap::Aces.apply(x) as f64;
+        assert_eq!(f(0.0), 0.0);
+        assert!((f(1.0) - 2.54 / 3.16).abs() < 1e-6, "{}", f(1.0));
+        let g = 0.18f64;
+        let want = g * (2.51 * g + 0.03) / (g * (2.43 * g + 0.59) + 0.14);
+        assert!((f(0.18) - want).abs() < 1e-6, "{} vs {want}", f(0.18));
+        let one = (0.56 + (0.56f64 * 0.56 + 4.0 * 0.08 * 0.14).sqrt()) / 0.16;
+        assert!(
+            (f(one as f32) - 1.0).abs() < 1e-5,
+            "f({one}) = {}",
+            f(one as f32)
+        );
+        assert_eq!(f(100.0), 1.0);
+        assert_eq!(f(-1.0), 0.0);
+        let mut last = 0.0;
+        for k in 1..=1000 {
+            let v = f(k as f32 * 0.01);
+            assert!(v >= last, "not monotonic at {}", k as f32 * 0.01);
+            last = v;
+        }
+        assert_eq!(Tonemap::None.apply(0.5), 0.5);
+        assert_eq!(Tonemap::None.apply(3.0), 1.0);
+    }
+
+    /// The PNG byte of radiance 1 with ACES and the sRGB curve is srgb(f(1)), not white as with the clamp.
+    #[test]
+    fn the_png_goes_through_the_tonemap() {
+        let film = Film {
+            width: 1,
+            height: 1,
+            spp: 1,
+            mean: vec![[1.0, 4.0, 0.0]],
+            variance: vec![[0.0; 3]],
+        };
+        let mut settings = ImageSettings {
+            width: 1,
+            height: 1,
+            exposure: 1.0,
+            gamma: crate::scene::Gamma::Srgb,
+            tonemap: Tonemap::Aces,
+        };
+        let byte = |v: f32| (srgb_encode(v) * 255.0).round() as u8;
+        let p = film.to_rgb8(&settings).get_pixel(0, 0).0;
+        assert_eq!(
+            p,
+            [
+                byte(Tonemap::Aces.apply(1.0)),
+                byte(Tonemap::Aces.apply(4.0)),
+                0
+            ]
+        );
+        settings.tonemap = Tonemap::None;
+        assert_eq!(film.to_rgb8(&settings).get_pixel(0, 0).0, [255, 255, 0]);
     }
 }

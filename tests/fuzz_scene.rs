@@ -748,6 +748,7 @@ fn checkpoint_bytes() -> Vec<u8> {
             display: Display {
                 exposure: 1.0,
                 gamma: None,
+                tonemap: vkpath::scene::Tonemap::Aces,
             },
         },
         accum: vec![vkpath::kernel::abi::GpuAccum::default(); 6],

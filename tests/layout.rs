@@ -297,7 +297,7 @@ fn params_matches_wgsl() {
         size_of::<GpuParams>(),
         fields!(GpuParams:
             cam_position, lens_radius, cam_right, view_half_width, cam_up, focus_distance, cam_forward,
-            filter_sigma, environment_light, triangle_light, _pad0, filter_kind, width, height, max_bounces, seed, sampler,
+            filter_sigma, environment_light, triangle_light, sample_clamp, filter_kind, width, height, max_bounces, seed, sampler,
             light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, camera_kind),
     );
     // The uniform buffer holds one Params.

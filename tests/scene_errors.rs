@@ -1063,3 +1063,24 @@ fn roughness_on_a_diffuse_material_is_unknown() {
         "materials.m.roughness",
     );
 }
+
+// ----- display and clamp (issue 18) -----
+
+#[test]
+fn unknown_tonemap() {
+    let err = expect_error_exact(
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[render]\ntonemap = \"agx\"  # line 6\n",
+        6,
+        "render.tonemap",
+    );
+    assert!(err.to_string().contains("\"aces\""), "{err}");
+}
+
+#[test]
+fn clamp_not_positive() {
+    expect_error_exact(
+        "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[render]\nclamp = 0  # line 6\n",
+        6,
+        "render.clamp",
+    );
+}

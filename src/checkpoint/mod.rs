@@ -64,6 +64,9 @@ pub struct Display {
     pub exposure: f32,
     /// A power (`2.2`) or `null` for the sRGB curve.
     pub gamma: Option<f32>,
+    /// `render.tonemap` ("none" when absent: checkpoints written before it existed).
+    #[serde(default)]
+    pub tonemap: crate::scene::Tonemap,
 }
 
 impl Display {
@@ -74,6 +77,7 @@ impl Display {
                 Gamma::Power(g) => Some(g),
                 Gamma::Srgb => None,
             },
+            tonemap: image.tonemap,
         }
     }
 
@@ -87,6 +91,7 @@ impl Display {
                 Some(g) => Gamma::Power(g),
                 None => Gamma::Srgb,
             },
+            tonemap: self.tonemap,
         }
     }
 }
@@ -404,6 +409,7 @@ mod tests {
                 display: Display {
                     exposure: 1.0,
                     gamma: Some(2.2),
+                    tonemap: crate::scene::Tonemap::None,
                 },
             },
             accum: vec![

@@ -28,7 +28,8 @@ pub struct GpuParams {
     /// The index in `lights` of the emissive triangles' light ([`NO_LIGHT`]: none), for the MIS weight
     /// of a BSDF-sampled ray that hits one.
     pub triangle_light: u32,
-    pub _pad0: u32,
+    /// `render.clamp`: the largest channel a sample may have (it is scaled down to it); 0: no clamp.
+    pub sample_clamp: f32,
     pub filter_kind: u32,
     pub width: u32,
     pub height: u32,

@@ -550,7 +550,7 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         filter_sigma: scene.render.filter_sigma,
         environment_light: NO_LIGHT,
         triangle_light: NO_LIGHT,
-        _pad0: 0,
+        sample_clamp: scene.render.clamp.unwrap_or(0.0),
         filter_kind: match scene.render.filter {
             Filter::None => FILTER_NONE,
             Filter::Box => FILTER_BOX,

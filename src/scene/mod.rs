@@ -94,6 +94,35 @@ pub struct ImageSettings {
     pub height: u32,
     pub exposure: f32,
     pub gamma: Gamma,
+    /// The tone curve between exposure and gamma in the 8-bit image (`render.tonemap`); EXR stays linear.
+    pub tonemap: Tonemap,
+}
+
+/// A display tone curve, applied to exposure x radiance per channel before the gamma or sRGB encoding.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Tonemap {
+    /// The course's display: clamp to [0, 1].
+    #[default]
+    None,
+    /// Narkowicz's fit of the ACES filmic reference rendering transform (K. Narkowicz, "ACES Filmic Tone
+    /// Mapping Curve", 2016): f(x) = x (2.51 x + 0.03) / (x (2.43 x + 0.59) + 0.14), then clamped to [0, 1].
+    /// It compresses highlights smoothly instead of clipping them: f(1) = 2.54 / 3.16 = 0.804, and f reaches
+    /// 1 at x = (0.56 + sqrt(0.3584)) / 0.16 = 7.24 (the root of 0.08 x^2 - 0.56 x - 0.14), tending to
+    /// 2.51 / 2.43 beyond.
+    Aces,
+}
+
+impl Tonemap {
+    pub fn apply(self, x: f32) -> f32 {
+        match self {
+            Tonemap::None => x.clamp(0.0, 1.0),
+            Tonemap::Aces => {
+                let x = x.max(0.0);
+                (x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0.0, 1.0)
+            }
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -171,6 +200,10 @@ pub struct RenderSettings {
     pub filter_sigma: f32,
     pub sampler: Sampler,
     pub light_sampling: LightSampling,
+    /// `render.clamp`: each sample's radiance is scaled down so that its largest channel is at most this
+    /// (a firefly clamp: biased, darkening exactly what is clamped; `None`, the default, leaves the
+    /// estimator unbiased).
+    pub clamp: Option<f32>,
 }
 
 /// A material: how its surface scatters light, and what it emits.

@@ -21,7 +21,7 @@ use super::mesh::{self, Mesh, ObjMesh, Placement, Texture};
 use super::{
     Bsdf, CONDUCTOR_PRESETS, Camera, ConductorFresnel, Emission, Filter, Gamma, ImageSettings,
     Light, LightSampling, Material, Projection, RenderSettings, Roughness, Sampler, Scene, Sphere,
-    Triangle,
+    Tonemap, Triangle,
 };
 use glam::Vec3;
 use serde::Deserialize;
@@ -241,6 +241,8 @@ struct RawRender {
     background: Option<Spanned<RawVec3>>,
     sampler: Option<Spanned<String>>,
     light_sampling: Option<Spanned<String>>,
+    tonemap: Option<Spanned<String>>,
+    clamp: Option<Spanned<f32>>,
 }
 
 /// A plastic's coat when `ior` is not given: near polypropylene's 1.49 (Mitsuba's `plastic` default) and
@@ -523,8 +525,9 @@ struct Checker<'a> {
 impl Checker<'_> {
     fn scene(&self, raw: &RawScene, path: Option<&Path>) -> Result<Scene, SceneError> {
         let camera = self.camera(&raw.camera)?;
-        let image = self.image(raw.image.as_ref())?;
+        let mut image = self.image(raw.image.as_ref())?;
         let (render, background) = self.render(raw.render.as_ref())?;
+        image.tonemap = self.tonemap(raw.render.as_ref())?;
         let base = path.and_then(Path::parent).unwrap_or(Path::new(""));
         let environment = self.environment(raw, background, base)?;
 
@@ -894,7 +897,25 @@ impl Checker<'_> {
             height,
             exposure,
             gamma,
+            tonemap: Tonemap::None, // render.tonemap, set by `scene`
         })
+    }
+
+    /// `render.tonemap`: "none" (default) or "aces".
+    fn tonemap(&self, raw: Option<&RawRender>) -> Result<Tonemap, SceneError> {
+        match raw.and_then(|r| r.tonemap.as_ref()) {
+            None => Ok(Tonemap::None),
+            Some(t) => match t.get_ref().as_str() {
+                "none" => Ok(Tonemap::None),
+                "aces" => Ok(Tonemap::Aces),
+                other => Err(self.error(
+                    t.span(),
+                    "render.tonemap",
+                    format!("unknown tonemap \"{other}\""),
+                    "Use \"none\" (the course's clamp, the default) or \"aces\" (Narkowicz's ACES filmic fit).",
+                )),
+            },
+        }
     }
 
     /// The `[render]` settings, and `render.background` (which `environment` turns into the light).
@@ -995,6 +1016,16 @@ impl Checker<'_> {
                 }
             },
         };
+        let clamp = match &raw.clamp {
+            None => None,
+            Some(c) => Some(self.number_unless(
+                c,
+                "render.clamp",
+                |c| c <= 0.0,
+                "the firefly clamp must be > 0",
+                "clamp is the largest radiance a sample may carry in any channel (biased: leave it out for an unbiased image).",
+            )?),
+        };
         let settings = RenderSettings {
             samples,
             max_bounces,
@@ -1003,6 +1034,7 @@ impl Checker<'_> {
             filter_sigma,
             sampler,
             light_sampling,
+            clamp,
         };
         Ok((settings, background))
     }
@@ -2402,7 +2434,8 @@ fov      = 45
                 width: 512,
                 height: 512,
                 exposure: 1.0,
-                gamma: Gamma::Power(2.2)
+                gamma: Gamma::Power(2.2),
+                tonemap: Tonemap::None,
             }
         );
         assert_eq!(
@@ -2415,6 +2448,7 @@ fov      = 45
                 filter_sigma: 0.5,
                 sampler: Sampler::Independent,
                 light_sampling: LightSampling::Mis,
+                clamp: None,
             }
         );
         assert_eq!(scene.material_names, ["white", "mirror", "glass"]);
@@ -2483,7 +2517,8 @@ fov      = 45
                 width: 512,
                 height: 512,
                 exposure: 1.0,
-                gamma: Gamma::Power(2.2)
+                gamma: Gamma::Power(2.2),
+                tonemap: Tonemap::None,
             }
         );
         assert_eq!(
@@ -2496,6 +2531,7 @@ fov      = 45
                 filter_sigma: 0.5,
                 sampler: Sampler::Independent,
                 light_sampling: LightSampling::Mis,
+                clamp: None,
             }
         );
         assert!(scene.materials.is_empty() && scene.material_names.is_empty());
