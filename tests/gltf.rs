@@ -244,13 +244,7 @@ fn a_gltf_mesh_renders_like_its_hand_written_equivalent() {
         dir.path(),
         &format!("{HEAD}[[mesh]]\nobj = \"scene.gltf\"\n"),
     );
-    let stats = |s: &Scene| {
-        let film = common::render(s);
-        let n = film.mean.len() as f64;
-        let mean: f64 = film.mean.iter().map(|p| p[1] as f64).sum::<f64>() / n;
-        let var: f64 = film.variance.iter().map(|v| v[1] as f64).sum::<f64>() / (n * n);
-        (mean, var.sqrt())
-    };
+    let stats = |s: &Scene| common::mean_and_se(&common::render(s));
     let (a, sa) = stats(&by_hand);
     let (b, sb) = stats(&from_gltf);
     println!("by hand {a:.5} +- {sa:.1e}, glTF {b:.5} +- {sb:.1e}");

@@ -7,16 +7,7 @@
 
 mod common;
 
-use common::scene;
-
-/// The image mean of the green channel and its standard error (the pixels' variances of their means,
-/// summed, over n^2).
-fn mean_and_se(film: &vkpath::Film) -> (f64, f64) {
-    let n = film.mean.len() as f64;
-    let mean = film.mean.iter().map(|p| p[1] as f64).sum::<f64>() / n;
-    let var = film.variance.iter().map(|v| v[1] as f64).sum::<f64>() / (n * n);
-    (mean, var.sqrt())
-}
+use common::{mean_and_se, scene};
 
 const FURNACE: &str = r#"
 [camera]

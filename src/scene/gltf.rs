@@ -142,14 +142,7 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     if mesh.materials.is_empty() {
         mesh.face_materials.clear();
     }
-    let finite = mesh.positions.iter().all(|p| p.is_finite())
-        && mesh.normals.iter().flatten().all(|n| n.is_finite())
-        && mesh
-            .uvs
-            .iter()
-            .flatten()
-            .all(|t| t[0].is_finite() && t[1].is_finite());
-    if !finite {
+    if !mesh.is_finite() {
         return Err(ObjError::whole_file(
             "a vertex position, normal or texture coordinate is not a finite number (after the node transforms)",
         ));

@@ -72,6 +72,18 @@ pub struct ObjMesh {
 }
 
 impl ObjMesh {
+    /// Whether every position, normal and texture coordinate is finite (`f32::from_str` and binary
+    /// files give NaN and infinities as readily as numbers).
+    pub fn is_finite(&self) -> bool {
+        self.positions.iter().all(|p| p.is_finite())
+            && self.normals.iter().flatten().all(|n| n.is_finite())
+            && self
+                .uvs
+                .iter()
+                .flatten()
+                .all(|t| t[0].is_finite() && t[1].is_finite())
+    }
+
     /// The triangles whose `usemtl` material is `material`, with only the vertices they use (renumbered
     /// in order of first use), and no materials.
     pub fn subset(&self, material: Option<u32>) -> ObjMesh {
@@ -350,14 +362,7 @@ pub fn parse_obj_in(bytes: &[u8], dir: Option<&Path>) -> Result<ObjMesh, ObjErro
     mesh.uvs = all_uvs.then_some(uvs);
 
     // `f32::from_str` accepts "nan" and "inf": a coordinate must be finite to be placed in the scene.
-    let finite = mesh.positions.iter().all(|p| p.is_finite())
-        && mesh.normals.iter().flatten().all(|n| n.is_finite())
-        && mesh
-            .uvs
-            .iter()
-            .flatten()
-            .all(|t| t[0].is_finite() && t[1].is_finite());
-    if !finite {
+    if !mesh.is_finite() {
         return Err(locate_non_finite(bytes));
     }
     Ok(mesh)

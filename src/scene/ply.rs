@@ -293,14 +293,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<ObjMesh, ObjError> {
     }
     mesh.normals = normal.map(|_| normals);
     mesh.uvs = uv.map(|_| uvs);
-    let finite = mesh.positions.iter().all(|p| p.is_finite())
-        && mesh.normals.iter().flatten().all(|n| n.is_finite())
-        && mesh
-            .uvs
-            .iter()
-            .flatten()
-            .all(|t| t[0].is_finite() && t[1].is_finite());
-    if !finite {
+    if !mesh.is_finite() {
         return Err(ObjError::whole_file(
             "a vertex position, normal or texture coordinate is not a finite number",
         ));

@@ -36,6 +36,15 @@ pub fn render(scene: &Scene) -> Film {
     render_passes(scene, &RenderOptions::default(), 1, scene.render.samples)
 }
 
+/// The image mean of the green channel and its standard error: the pixels' variances of their means,
+/// summed, over n^2 (the pixels are independent).
+pub fn mean_and_se(film: &Film) -> (f64, f64) {
+    let n = film.mean.len() as f64;
+    let mean = film.mean.iter().map(|p| p[1] as f64).sum::<f64>() / n;
+    let var = film.variance.iter().map(|v| v[1] as f64).sum::<f64>() / (n * n);
+    (mean, var.sqrt())
+}
+
 pub fn assert_no_validation_errors() {
     let errors = testing::context().validation_errors();
     assert!(errors.is_empty(), "Vulkan validation errors: {errors:#?}");
@@ -54,15 +63,9 @@ pub fn assert_strategies_agree(
     for &strategy in strategies {
         let mut s = base.clone();
         s.render.light_sampling = strategy;
-        let film = render(&s);
-        let n = film.mean.len() as f64;
-        let mean = film.mean.iter().map(|p| p[1] as f64).sum::<f64>() / n;
-        let var = film.variance.iter().map(|v| v[1] as f64).sum::<f64>() / (n * n);
-        println!(
-            "{strategy:?}: image mean {mean:.5}, standard error {:.2e}",
-            var.sqrt()
-        );
-        stats.push((mean, var.sqrt()));
+        let (mean, se) = mean_and_se(&render(&s));
+        println!("{strategy:?}: image mean {mean:.5}, standard error {se:.2e}");
+        stats.push((mean, se));
     }
     for i in 0..stats.len() {
         for j in i + 1..stats.len() {
