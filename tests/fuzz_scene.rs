@@ -750,6 +750,7 @@ fn checkpoint_bytes() -> Vec<u8> {
                 gamma: None,
                 tonemap: vkpath::scene::Tonemap::Aces,
             },
+            part: None,
         },
         accum: vec![vkpath::kernel::abi::GpuAccum::default(); 6],
     };

@@ -15,6 +15,16 @@ const SIZE: [&str; 4] = ["--width", "32", "--height", "24"];
 fn vkpath(dir: &Path) -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_vkpath"));
     c.env("VKPATH_VALIDATION", "1").current_dir(dir);
+    // `--part env` reads these: a test run inside a Slurm or Kubernetes job must not see its own.
+    for v in [
+        "SLURM_ARRAY_TASK_ID",
+        "SLURM_ARRAY_TASK_COUNT",
+        "SLURM_ARRAY_TASK_MIN",
+        "SLURM_ARRAY_TASK_MAX",
+        "JOB_COMPLETION_INDEX",
+    ] {
+        c.env_remove(v);
+    }
     c
 }
 
@@ -350,6 +360,176 @@ fn merge_of_four_ranges_equals_one_render() {
     assert!(!d.join("x.exr").exists());
 }
 
+/// Renders `--part I/4` of the course scene at 32x24, 16 spp, into `parts/part-I.ckpt`.
+fn render_part(dir: &Path, i: u32) {
+    std::fs::create_dir_all(dir.join("parts")).unwrap();
+    let ckpt = format!("parts/part-{i}.ckpt");
+    let part = format!("{i}/4");
+    run_ok(
+        dir,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "--spp",
+                "16",
+                "--part",
+                &part,
+                "--checkpoint",
+                &ckpt,
+            ][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+}
+
+/// Render farms (issue 17): four `--part I/4` renders, run in any order and writing no image, merge from
+/// their directory (or a quoted glob) into the bits of one render. A missing or duplicated part is refused
+/// by name with nothing written; a part from another device merges with a warning.
+#[test]
+fn parts_merge_from_a_directory_into_the_single_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for i in [2, 0, 3, 1] {
+        render_part(d, i);
+    }
+    assert_eq!(
+        std::fs::read_dir(d).unwrap().count(),
+        1,
+        "a part writes its checkpoint only"
+    );
+    let single = straight(d, 16, "single.exr");
+    let j = json(&run_ok(d, &["merge", "--json", "parts", "-o", "dir.exr"]));
+    assert_eq!(
+        (j["spp"].as_u64(), j["parts"].as_u64()),
+        (Some(16), Some(4))
+    );
+    assert!(
+        exr_bits(&d.join("dir.exr")) == single,
+        "merged from the directory"
+    );
+    run_ok(d, &["merge", "parts/*.ckpt", "-o", "glob.exr"]);
+    assert!(
+        exr_bits(&d.join("glob.exr")) == single,
+        "merged from the glob"
+    );
+    assert!(
+        single.iter().any(|&b| b != 0),
+        "a black image proves nothing"
+    );
+
+    // Another device's part: merged, with a warning naming the devices and the file.
+    let p3 = d.join("parts/part-3.ckpt");
+    let mut other = Checkpoint::read(&p3).unwrap();
+    let original = other.header.device.clone();
+    other.header.device = "Another GPU".into();
+    other.write(&p3).unwrap();
+    let out = run_ok(d, &["merge", "parts", "-o", "mixed.exr"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("different devices")
+            && stderr.contains("Another GPU (parts/part-3.ckpt)")
+            && stderr.contains(&original)
+            && stderr.contains("not bit-identical"),
+        "{stderr}"
+    );
+    let quiet = run_ok(d, &["merge", "--quiet", "parts", "-o", "quiet.exr"]);
+    assert!(quiet.stderr.is_empty());
+
+    // A copy of a part under another name, then a missing part: refused, nothing written.
+    std::fs::copy(d.join("parts/part-0.ckpt"), d.join("parts/copy.ckpt")).unwrap();
+    run_fails(
+        d,
+        &["merge", "parts", "-o", "x.exr"],
+        2,
+        &["part 0/4 again", "copy.ckpt", "part-0.ckpt"],
+    );
+    std::fs::remove_file(d.join("parts/copy.ckpt")).unwrap();
+    std::fs::remove_file(d.join("parts/part-1.ckpt")).unwrap();
+    run_fails(
+        d,
+        &["merge", "parts", "-o", "x.exr"],
+        2,
+        &["1 of the 4 parts", "1/4 (samples 4..8)", "missing"],
+    );
+    run_fails(
+        d,
+        &["merge", "nowhere/*.ckpt", "-o", "x.exr"],
+        2,
+        &["matches no part"],
+    );
+    assert!(!d.join("x.exr").exists());
+}
+
+/// A part stopped by SIGTERM (a cancelled farm task) saves what it did but exits 1, so that the
+/// scheduler does not count it as done; merging it is refused by name; resumed, it finishes to the very
+/// bytes of a part that was never interrupted.
+#[test]
+fn an_interrupted_part_exits_1_and_resumes_to_the_same_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let part = ["--part", "1/2", "--spp", "4000"];
+    let mut child = spawn(
+        d,
+        &[
+            &[
+                "render",
+                "--quiet",
+                "--samples-per-pass",
+                "1",
+                "--checkpoint",
+                "p.ckpt",
+                "--checkpoint-every",
+                "3",
+            ][..],
+            &part,
+            &SIZE,
+        ]
+        .concat(),
+    );
+    wait_for_writes(&d.join("p.ckpt"), 2, &mut child);
+    signal(&child, "TERM");
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("part 1/2 was interrupted") && stderr.contains("--resume p.ckpt"),
+        "{stderr}"
+    );
+    let saved = Checkpoint::read(&d.join("p.ckpt")).unwrap();
+    let [start, end] = saved.header.ranges[0];
+    assert!(start == 2000 && end > 2000 && end < 4000, "{start}..{end}");
+    run_fails(
+        d,
+        &["merge", "p.ckpt", "-o", "x.exr"],
+        2,
+        &["p.ckpt", "stopped before the end", "--resume p.ckpt"],
+    );
+    run_ok(
+        d,
+        &[
+            &["render", "--quiet", "--resume", "p.ckpt"][..],
+            &part,
+            &SIZE,
+        ]
+        .concat(),
+    );
+    run_ok(
+        d,
+        &[
+            &["render", "--quiet", "--checkpoint", "fresh.ckpt"][..],
+            &part,
+            &SIZE,
+        ]
+        .concat(),
+    );
+    assert!(
+        std::fs::read(d.join("p.ckpt")).unwrap() == std::fs::read(d.join("fresh.ckpt")).unwrap(),
+        "the resumed part's file differs from the uninterrupted part's"
+    );
+}
+
 /// A checkpoint of another render, a damaged one, or not a checkpoint at all: exit 2, one paragraph
 /// saying what is wrong, and nothing written (the checkpoint itself untouched).
 #[test]
@@ -526,6 +706,25 @@ fn checkpoint_and_range_flag_errors() {
         (
             vec!["--checkpoint", "c.ckpt", "--checkpoint-every", "soon"],
             "--checkpoint-every",
+        ),
+        (
+            vec!["--part", "1/4", "--sample-range", "0..4"],
+            "--sample-range",
+        ),
+        (vec!["--part", "1/4"], "--checkpoint FILE"),
+        (
+            vec!["--part", "1/4", "--checkpoint", "c.ckpt", "--time", "10"],
+            "--time",
+        ),
+        (vec!["--part", "4/4", "--checkpoint", "c.ckpt"], "0 to 3"),
+        (vec!["--part", "-1/4", "--checkpoint", "c.ckpt"], "--part"),
+        (
+            vec!["--part", "env/4", "--checkpoint", "c.ckpt"],
+            "SLURM_ARRAY_TASK_ID",
+        ),
+        (
+            vec!["--part", "3/4", "--checkpoint", "c.ckpt", "--spp", "2"],
+            "cannot be cut into 4 parts",
         ),
     ] {
         let all = [&["render", "-o", "x.png"][..], &args, &SIZE].concat();

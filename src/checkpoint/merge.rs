@@ -1,7 +1,7 @@
 //! Merging partial renders: the parts of disjoint `--sample-range`s of one render added into the state
 //! of their union (`vkpath merge`).
 
-use super::{Checkpoint, Header, count_samples};
+use super::{Checkpoint, Header, Part, count_samples, show_ranges};
 use crate::Error;
 use crate::kernel::abi::GpuAccum;
 use std::path::PathBuf;
@@ -50,6 +50,7 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
             });
         }
     }
+    check_split(parts)?;
     // Every range, with the part it comes from, sorted by start: overlaps would count samples twice.
     let mut ranges: Vec<([u32; 2], usize)> = parts
         .iter()
@@ -115,9 +116,111 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
             device: devices.join(" + "),
             ranges: all_ranges,
             display: first.header.display,
+            part: None,
         },
         accum,
     })
+}
+
+/// The parts of a farm render (`--part I/N`, [`Part`] in each header) must be all of one split: each
+/// part of it once, and each whole. Refuses, naming the files, a mix of parts and other states, parts of
+/// different splits, a part given twice (two files of the same part), a part that stopped before its end
+/// (a cancelled task's checkpoint), and missing parts (with their sample ranges). States without a part
+/// (`--sample-range` renders, merged states) are left to the range checks.
+fn check_split(parts: &[(PathBuf, Checkpoint)]) -> Result<(), Error> {
+    let Some((first_path, first)) = parts.iter().find_map(|(p, c)| Some((p, c.header.part?)))
+    else {
+        return Ok(());
+    };
+    // Parts seen, by index (a map: the count comes from a file and may be large).
+    let mut seen: std::collections::BTreeMap<u32, &PathBuf> = std::collections::BTreeMap::new();
+    for (path, c) in parts {
+        let refuse = |message: String| {
+            Err(Error::Checkpoint {
+                path: path.clone(),
+                message,
+            })
+        };
+        let Some(part) = c.header.part else {
+            return refuse(format!(
+                "it is not a part of a --part split, and {} is (part {}): merge the parts of one split \
+                 (vkpath merge DIR), then merge that with other renders if needed.",
+                first_path.display(),
+                first.show()
+            ));
+        };
+        if (part.count, part.samples) != (first.count, first.samples) {
+            return refuse(format!(
+                "it is part {} of a {}-sample render, and {} is part {} of a {}-sample render: merge the \
+                 parts of one split only.",
+                part.show(),
+                part.samples,
+                first_path.display(),
+                first.show(),
+                first.samples
+            ));
+        }
+        if let Some(other) = seen.get(&part.index) {
+            return refuse(if other == &path {
+                "it is given twice (a directory or pattern and the file itself?): each part must be \
+                 given once."
+                    .into()
+            } else {
+                format!(
+                    "it is part {} again, as {} is: each part must be given once. Keep one of the two \
+                     files.",
+                    part.show(),
+                    other.display()
+                )
+            });
+        }
+        seen.insert(part.index, path);
+        let range = part.range();
+        if c.header.ranges != [range] {
+            return refuse(format!(
+                "it holds the samples {} of part {}'s {}..{}: its task stopped before the end (cancelled or \
+                 failed). Finish it with `vkpath render SCENE --part {} --resume {}` (the same scene and \
+                 flags), then merge again.",
+                show_ranges(&c.header.ranges),
+                part.show(),
+                range[0],
+                range[1],
+                part.show(),
+                path.display()
+            ));
+        }
+    }
+    let missing_count = first.count as usize - seen.len();
+    if missing_count > 0 {
+        // The first few missing parts, found within seen.len() + SHOWN steps.
+        const SHOWN: usize = 8;
+        let missing = (0..first.count)
+            .filter(|i| !seen.contains_key(i))
+            .take(SHOWN)
+            .map(|index| Part { index, ..first });
+        let mut shown: Vec<String> = missing
+            .map(|p| {
+                let [a, b] = p.range();
+                format!("{} (samples {a}..{b})", p.show())
+            })
+            .collect();
+        if missing_count > SHOWN {
+            shown.push(format!("and {} more", missing_count - SHOWN));
+        }
+        return Err(Error::Usage(format!(
+            "{missing_count} of the {} parts of this render {} missing: {}. Render {} (vkpath render SCENE \
+             --part I/{} --checkpoint FILE, with the scene and flags of the others: {} is part {}), then \
+             merge again.",
+            first.count,
+            if missing_count == 1 { "is" } else { "are" },
+            shown.join(", "),
+            if missing_count == 1 { "it" } else { "them" },
+            first.count,
+            first_path.display(),
+            first.show()
+        )));
+    }
+    Ok(())
 }
 
 /// A total as a Kahan pair (s, c) with s - c ≈ total: s the nearest f32, c the f32 nearest s - total.
@@ -153,5 +256,52 @@ mod tests {
         );
         let sq = (9.0f64 - f64::from(1e-9f32)) + (1.0 - f64::from(1e-9f32));
         assert_eq!(p.sum_sq[0] as f64 - p.sum_sq_c[0] as f64, sq);
+    }
+    /// A part of a 4-part split of 16 samples, whole.
+    fn part(index: u32) -> (PathBuf, Checkpoint) {
+        let p = Part::new(index, 4, 16).unwrap();
+        let mut c = state(vec![p.range()], 1.0);
+        c.header.part = Some(p);
+        (PathBuf::from(format!("part-{index}.ckpt")), c)
+    }
+
+    /// The parts of a split merge when all are there once and whole; a missing, duplicated or unfinished
+    /// part, a part of another split and a state that is not a part are refused, naming the files.
+    #[test]
+    fn a_split_is_merged_only_whole() {
+        let all: Vec<_> = (0..4).map(part).collect();
+        let m = merge(&all).unwrap();
+        assert_eq!(m.samples(), 16);
+        assert_eq!(m.header.part, None);
+        let err = |parts: &[(PathBuf, Checkpoint)]| merge(parts).unwrap_err().to_string();
+
+        let e = err(&[part(0), part(2)]);
+        assert!(
+            e.contains("2 of the 4 parts")
+                && e.contains("1/4 (samples 4..8)")
+                && e.contains("3/4 (samples 12..16)"),
+            "{e}"
+        );
+        let mut copy = part(1);
+        copy.0 = PathBuf::from("copy-of-1.ckpt");
+        let e = err(&[part(0), part(1), copy, part(2), part(3)]);
+        assert!(
+            e.contains("copy-of-1.ckpt") && e.contains("part-1.ckpt") && e.contains("again"),
+            "{e}"
+        );
+        let mut cut = part(2);
+        cut.1.header.ranges = vec![[8, 10]];
+        let e = err(&[part(0), part(1), cut, part(3)]);
+        assert!(
+            e.contains("part-2.ckpt") && e.contains("8..10") && e.contains("--resume"),
+            "{e}"
+        );
+        let mut other = part(3);
+        other.1.header.part = Some(Part::new(3, 4, 32).unwrap());
+        other.1.header.ranges = vec![other.1.header.part.unwrap().range()];
+        assert!(err(&[part(0), part(1), part(2), other]).contains("32-sample"));
+        let plain = (PathBuf::from("range.ckpt"), state(vec![[16, 20]], 1.0));
+        let e = err(&[part(0), part(1), part(2), part(3), plain]);
+        assert!(e.contains("range.ckpt") && e.contains("not a part"), "{e}");
     }
 }

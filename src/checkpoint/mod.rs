@@ -20,12 +20,27 @@
 //! | 4 | format version (u32, [`FORMAT_VERSION`]) |
 //! | 4 | header length H (u32, at most [`MAX_HEADER_BYTES`]) |
 //! | H | header, UTF-8 JSON ([`Header`]) |
-//! | 96 × width × height | the pixels' `GpuAccum`, row-major from the top-left: 18 u32 limbs (3 channels × 6, little-endian limb order), then 3 f32 sums of squares and their 3 f32 compensations |
-//! | 4 | CRC-32 (IEEE) of every byte before it: magic, version, header and pixels |
+//! | 8 | payload length P (u64) |
+//! | P | the pixels' `GpuAccum`s, byte-planar in blocks, compressed by Zstandard (below) |
+//! | 4 | CRC-32 (IEEE) of every byte before it: magic, version, header, length and payload |
+//!
+//! The pixels are row-major from the top-left; each is 96 bytes: 18 u32 limbs (3 channels × 6,
+//! little-endian limb order), then 3 f32 sums of squares and their 3 f32 compensations. They are cut into
+//! blocks of [`PLANAR_BLOCK`] pixels, and each block is written as 96 planes: byte 0 of every pixel of
+//! the block, then byte 1, and so on (the "shuffle" filter of Blosc and HDF5). The high limbs of the
+//! exact sums are zero in almost every pixel and the exponent bytes of the f32 sums vary slowly, so
+//! their planes are long runs that Zstandard compresses to almost nothing; interleaved, they would sit
+//! between noisy low limbs. The planar layout and the compression are exact: the decoded pixels are the
+//! bits that were written. The encoder is single-threaded at a fixed level, so the same state always
+//! gives the same file (a retried farm task writes the same bytes).
 //!
 //! The checksum covers the header too: an edited sample range or identity is refused like a damaged
-//! pixel, before anything in the file is used. Files are written atomically (temporary file, fsync,
-//! rename): a crash leaves the previous checkpoint or the new one, never a mix.
+//! pixel, before anything in the file is used (the compressed payload is checked before it is
+//! decompressed). Files are written atomically (temporary file, fsync, rename): a crash leaves the
+//! previous checkpoint or the new one, never a mix.
+//!
+//! Version 3 files (the same header, the pixels uncompressed and interleaved, no payload length) are
+//! still read.
 
 pub mod merge;
 
@@ -44,10 +59,19 @@ pub use crate::render::identity::{Identity, VKPATH_VERSION};
 
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"VKPATHCP";
-/// The layout version; a file of another version is refused.
-/// Version 3: the checksum covers the whole file (version 2 checked only the pixels; version 1 held
-/// Kahan pairs instead of exact sums).
-pub const FORMAT_VERSION: u32 = 3;
+/// The layout version written. Version 4: the pixels byte-planar and compressed. Version 3 (read too):
+/// uncompressed, and the checksum covers the whole file (version 2 checked only the pixels; version 1
+/// held Kahan pairs instead of exact sums); older versions are refused.
+pub const FORMAT_VERSION: u32 = 4;
+/// The uncompressed layout, still read.
+const FORMAT_VERSION_UNCOMPRESSED: u32 = 3;
+/// Pixels per block of the byte-planar layout: 1.5 MiB blocks, large enough that each plane is a long
+/// run for the compressor, small enough to stay in cache while a block is transposed.
+pub const PLANAR_BLOCK: usize = 1 << 14;
+/// Zstandard's level for checkpoints: level 3 (its default) compresses a 1080p state at a few hundred
+/// MB/s on one core, so a checkpoint costs well under a second, and higher levels gain little on the
+/// planar data (docs/reliability.md has the measured sizes).
+const ZSTD_LEVEL: i32 = 3;
 /// A header longer than this is refused before it is read (it is a few hundred bytes).
 pub const MAX_HEADER_BYTES: u32 = 1 << 20;
 
@@ -109,6 +133,59 @@ pub struct Header {
     /// is one unbroken chain of passes (a render, resumed or not); several come from a merge.
     pub ranges: Vec<[u32; 2]>,
     pub display: Display,
+    /// Which part of a farm render this is (`--part I/N`), so that `vkpath merge` can tell a missing,
+    /// duplicated or unfinished part by name; absent for any other state.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub part: Option<Part>,
+}
+
+/// Part `index` (0-based) of `count` of a render of `samples` samples per pixel (`--part I/N`): the
+/// contiguous sample range [floor(index S / N), floor((index + 1) S / N)). Consecutive parts tile
+/// 0..S exactly and their sizes differ by at most one sample per pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Part {
+    pub index: u32,
+    pub count: u32,
+    pub samples: u32,
+}
+
+impl Part {
+    /// Part `index` of `count` of `samples`, or why there is no such part: every part must hold at
+    /// least one sample per pixel.
+    pub fn new(index: u32, count: u32, samples: u32) -> Result<Part, String> {
+        if count == 0 {
+            return Err("a render cannot be cut into 0 parts".into());
+        }
+        if index >= count {
+            return Err(format!(
+                "there is no part {index} of {count}: parts are numbered from 0 to {}",
+                count - 1
+            ));
+        }
+        if count > samples {
+            return Err(format!(
+                "a render of {samples} samples per pixel cannot be cut into {count} parts of at least one \
+                 sample each: use at most {samples} parts, or more samples (--spp)"
+            ));
+        }
+        Ok(Part {
+            index,
+            count,
+            samples,
+        })
+    }
+
+    /// The part's sample indices [start, end).
+    pub fn range(&self) -> [u32; 2] {
+        let at = |i: u32| (u64::from(i) * u64::from(self.samples) / u64::from(self.count)) as u32;
+        [at(self.index), at(self.index + 1)]
+    }
+
+    /// `I/N`, as `--part` takes it.
+    pub fn show(&self) -> String {
+        format!("{}/{}", self.index, self.count)
+    }
 }
 
 /// The ranges' total sample count, or why the ranges are invalid.
@@ -168,6 +245,7 @@ impl Checkpoint {
                 device: renderer.context().device_info().name.clone(),
                 ranges: renderer.ranges().to_vec(),
                 display: Display::of(&scene.image),
+                part: None,
             },
             accum,
         })
@@ -202,26 +280,32 @@ impl Checkpoint {
 
     /// Writes the state to `path` atomically (temporary file, fsync, rename).
     pub fn write(&self, path: &Path) -> Result<(), Error> {
-        let payload = accum_bytes(&self.accum);
+        let encoding = |e: std::io::Error| Error::Io {
+            path: path.to_path_buf(),
+            message: format!("cannot encode the checkpoint: {e}"),
+        };
         let json = serde_json::to_vec(&self.header).map_err(|e| Error::Io {
             path: path.to_path_buf(),
             message: format!("cannot encode the checkpoint header: {e}"),
         })?;
+        let payload = compress(&self.accum).map_err(encoding)?;
         let header_len = u32::try_from(json.len()).unwrap_or(u32::MAX);
-        let mut crc = crc32fast::Hasher::new();
         let head = [
             &MAGIC[..],
             &FORMAT_VERSION.to_le_bytes(),
             &header_len.to_le_bytes(),
         ]
         .concat();
-        for part in [&head[..], &json, &payload] {
+        let payload_len = (payload.len() as u64).to_le_bytes();
+        let mut crc = crc32fast::Hasher::new();
+        for part in [&head[..], &json, &payload_len, &payload] {
             crc.update(part);
         }
         let crc = crc.finalize();
         write_atomically_with(path, |f| {
             f.write_all(&head)?;
             f.write_all(&json)?;
+            f.write_all(&payload_len)?;
             f.write_all(&payload)?;
             f.write_all(&crc.to_le_bytes())
         })
@@ -274,11 +358,16 @@ impl Checkpoint {
             return Err(invalid(SIGNATURE.into()));
         }
         let version = u32::from_le_bytes([head[8], head[9], head[10], head[11]]);
-        if version != FORMAT_VERSION {
-            return Err(invalid(format!(
-                "its layout version is {version}, and this vkpath reads version {FORMAT_VERSION}"
-            )));
-        }
+        let compressed = match version {
+            FORMAT_VERSION => true,
+            FORMAT_VERSION_UNCOMPRESSED => false,
+            _ => {
+                return Err(invalid(format!(
+                    "its layout version is {version}, and this vkpath reads versions \
+                     {FORMAT_VERSION_UNCOMPRESSED} and {FORMAT_VERSION}"
+                )));
+            }
+        };
         let header_len = u32::from_le_bytes([head[12], head[13], head[14], head[15]]);
         if header_len > MAX_HEADER_BYTES || u64::from(header_len) > len - 16 {
             return Err(invalid(format!(
@@ -300,22 +389,47 @@ impl Checkpoint {
         }
         let expected = pixels * ACCUM_BYTES as u64;
         let held = len - 16 - u64::from(header_len);
-        if held != expected + 4 {
-            return Err(invalid(format!(
-                "it should hold {} bytes of pixel data and checksum for {}x{} pixels but holds {held} (a truncated or damaged file)",
-                expected + 4,
-                id.width,
-                id.height
-            )));
-        }
-        let mut payload = vec![0u8; expected as usize];
+        let truncated = |should: String| {
+            invalid(format!(
+                "it should hold {should} for {}x{} pixels but holds {held} bytes after its header (a \
+                 truncated or damaged file)",
+                id.width, id.height
+            ))
+        };
+        let mut crc = crc32fast::Hasher::new();
+        crc.update(&head);
+        crc.update(&json);
+        let payload_len = if compressed {
+            let mut l = [0u8; 8];
+            if held < 12 {
+                return Err(truncated(
+                    "a payload length, a payload and a checksum".into(),
+                ));
+            }
+            r.read_exact(&mut l).map_err(Decode::Io)?;
+            crc.update(&l);
+            let payload_len = u64::from_le_bytes(l);
+            if payload_len > max_compressed_len(expected) || held != 8 + payload_len + 4 {
+                return Err(truncated(format!(
+                    "8 bytes of length, {payload_len} of compressed pixels (at most {}) and 4 of checksum",
+                    max_compressed_len(expected)
+                )));
+            }
+            payload_len
+        } else {
+            if held != expected + 4 {
+                return Err(truncated(format!(
+                    "{} bytes of pixel data and checksum",
+                    expected + 4
+                )));
+            }
+            expected
+        };
+        let mut payload = vec![0u8; payload_len as usize];
         r.read_exact(&mut payload).map_err(Decode::Io)?;
         let mut stored = [0u8; 4];
         r.read_exact(&mut stored).map_err(Decode::Io)?;
-        let mut crc = crc32fast::Hasher::new();
-        for part in [&head[..], &json, &payload] {
-            crc.update(part);
-        }
+        crc.update(&payload);
         let (crc, stored) = (crc.finalize(), u32::from_le_bytes(stored));
         if crc != stored {
             return Err(invalid(format!(
@@ -324,10 +438,21 @@ impl Checkpoint {
             )));
         }
         count_samples(&header.ranges).map_err(invalid)?;
-        Ok(Checkpoint {
-            header,
-            accum: accum_from_bytes(&payload),
-        })
+        if let Some(p) = header.part {
+            Part::new(p.index, p.count, p.samples)
+                .map_err(|m| invalid(format!("its part {} is not valid: {m}", p.show())))?;
+        }
+        let accum = if compressed {
+            decompress(&payload, pixels as usize).map_err(|e| {
+                invalid(format!(
+                    "its pixel data does not decompress to {}x{} pixels ({e})",
+                    id.width, id.height
+                ))
+            })?
+        } else {
+            accum_from_bytes(&payload)
+        };
+        Ok(Checkpoint { header, accum })
     }
 
     /// Refuses, with a message that says what differs and what to do, a state that does not belong to
@@ -372,15 +497,69 @@ fn accum_bytes(accum: &[GpuAccum]) -> std::borrow::Cow<'_, [u8]> {
 fn accum_from_bytes(bytes: &[u8]) -> Vec<GpuAccum> {
     bytes
         .chunks_exact(ACCUM_BYTES)
-        .map(|px| {
-            let mut a = GpuAccum::default();
-            let words: &mut [u32] = bytemuck::cast_slice_mut(std::slice::from_mut(&mut a));
-            for (w, b) in words.iter_mut().zip(px.chunks_exact(4)) {
-                *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
-            }
-            a
-        })
+        .map(pixel_from_bytes)
         .collect()
+}
+
+/// One pixel from its 96 little-endian bytes.
+fn pixel_from_bytes(px: &[u8]) -> GpuAccum {
+    let mut a = GpuAccum::default();
+    let words: &mut [u32] = bytemuck::cast_slice_mut(std::slice::from_mut(&mut a));
+    for (w, b) in words.iter_mut().zip(px.chunks_exact(4)) {
+        *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+    }
+    a
+}
+
+/// The most compressed bytes a state of `expected` uncompressed bytes may hold: Zstandard's worst case
+/// (incompressible input stored in raw blocks) is a few bytes per 128 KiB block more than the input.
+fn max_compressed_len(expected: u64) -> u64 {
+    expected + expected / 1024 + 4096
+}
+
+/// The pixels, byte-planar by blocks (see the module's documentation), compressed by Zstandard.
+fn compress(accum: &[GpuAccum]) -> std::io::Result<Vec<u8>> {
+    let mut encoder = zstd::stream::write::Encoder::new(Vec::new(), ZSTD_LEVEL)?;
+    // The file's CRC-32 covers the payload; Zstandard's own frame checksum would only repeat it.
+    encoder.include_checksum(false)?;
+    encoder.include_contentsize(false)?;
+    let mut planes = vec![0u8; PLANAR_BLOCK * ACCUM_BYTES];
+    for block in accum.chunks(PLANAR_BLOCK) {
+        let n = block.len();
+        for (p, px) in accum_bytes(block).chunks_exact(ACCUM_BYTES).enumerate() {
+            for (b, &v) in px.iter().enumerate() {
+                planes[b * n + p] = v;
+            }
+        }
+        encoder.write_all(&planes[..n * ACCUM_BYTES])?;
+    }
+    encoder.finish()
+}
+
+/// `pixels` pixels from a compressed payload: exactly that many, or an error (a payload that
+/// decompresses to more or fewer bytes is refused, and never allocates more than the pixels need).
+fn decompress(payload: &[u8], pixels: usize) -> std::io::Result<Vec<GpuAccum>> {
+    let mut decoder = zstd::stream::read::Decoder::new(payload)?;
+    let mut accum = Vec::with_capacity(pixels);
+    let mut planes = vec![0u8; PLANAR_BLOCK.min(pixels) * ACCUM_BYTES];
+    let mut px = [0u8; ACCUM_BYTES];
+    while accum.len() < pixels {
+        let n = PLANAR_BLOCK.min(pixels - accum.len());
+        decoder.read_exact(&mut planes[..n * ACCUM_BYTES])?;
+        for p in 0..n {
+            for (b, v) in px.iter_mut().enumerate() {
+                *v = planes[b * n + p];
+            }
+            accum.push(pixel_from_bytes(&px));
+        }
+    }
+    if decoder.read(&mut [0u8; 1])? != 0 {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "more data than the pixels",
+        ));
+    }
+    Ok(accum)
 }
 
 #[cfg(test)]
@@ -411,6 +590,7 @@ mod tests {
                     gamma: Some(2.2),
                     tonemap: crate::scene::Tonemap::None,
                 },
+                part: None,
             },
             accum: vec![
                 {
@@ -508,5 +688,135 @@ mod tests {
         let e = Checkpoint::read(&path).unwrap_err().to_string();
         assert!(e.contains("truncated or damaged"), "{e}");
         assert!(start.elapsed().as_secs() < 2, "the files were read");
+    }
+    /// A state whose pixels hold arbitrary bits (noisy low limbs, zero high limbs in most pixels, any
+    /// float bits) over more than one planar block round-trips exactly, and compresses.
+    #[test]
+    fn planar_compression_is_exact_across_blocks() {
+        let pixels = PLANAR_BLOCK + 1234;
+        let mut s = state(vec![[0, 4]], 1.0);
+        s.header.identity.width = pixels as u32;
+        s.header.identity.height = 1;
+        let mut x: u64 = 0x9e3779b97f4a7c15;
+        let mut next = move || {
+            // xorshift64*: any bits, reproducibly.
+            x ^= x >> 12;
+            x ^= x << 25;
+            x ^= x >> 27;
+            (x.wrapping_mul(0x2545f4914f6cdd1d) >> 32) as u32
+        };
+        s.accum = (0..pixels)
+            .map(|p| {
+                let mut a = GpuAccum::default();
+                let words: &mut [u32] = bytemuck::cast_slice_mut(std::slice::from_mut(&mut a));
+                for (k, w) in words.iter_mut().enumerate() {
+                    // Two low limbs per channel noisy, high limbs zero but in every 97th pixel.
+                    let limb = k % ACCUM_LIMBS;
+                    *w = if k >= 18 || limb < 2 || p % 97 == 0 {
+                        next()
+                    } else {
+                        0
+                    };
+                }
+                a
+            })
+            .collect();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("big.ckpt");
+        s.write(&path).unwrap();
+        let back = Checkpoint::read(&path).unwrap();
+        // Compared as bits: random float bits include NaNs, which are not equal to themselves.
+        let bits = |a: &[GpuAccum]| bytemuck::cast_slice::<GpuAccum, u8>(a).to_vec();
+        assert!(bits(&back.accum) == bits(&s.accum), "the pixels changed");
+        let size = std::fs::metadata(&path).unwrap().len() as usize;
+        assert!(
+            size < pixels * ACCUM_BYTES * 3 / 4,
+            "{size} bytes for {} uncompressed",
+            pixels * ACCUM_BYTES
+        );
+        // The same state writes the same bytes.
+        let again = dir.path().join("again.ckpt");
+        s.write(&again).unwrap();
+        assert_eq!(
+            std::fs::read(&path).unwrap(),
+            std::fs::read(&again).unwrap()
+        );
+    }
+
+    /// A version 3 file (uncompressed, interleaved pixels: what vkpath wrote before) is still read, to
+    /// the same state.
+    #[test]
+    fn version_3_files_are_still_read() {
+        let s = state(vec![[0, 4]], 3.0);
+        let json = serde_json::to_vec(&s.header).unwrap();
+        let mut bytes = [
+            &MAGIC[..],
+            &3u32.to_le_bytes(),
+            &(json.len() as u32).to_le_bytes(),
+            &json,
+            &accum_bytes(&s.accum),
+        ]
+        .concat();
+        let crc = crc32fast::hash(&bytes);
+        bytes.extend(crc.to_le_bytes());
+        assert_eq!(Checkpoint::from_bytes(&bytes).unwrap(), s);
+        // Version 2 is refused, naming both versions read.
+        bytes[8] = 2;
+        let e = Checkpoint::from_bytes(&bytes).unwrap_err();
+        assert!(e.contains("version is 2") && e.contains("3 and 4"), "{e}");
+    }
+
+    /// A payload that decompresses to more or fewer pixels than the header says is refused, even with a
+    /// valid checksum.
+    #[test]
+    fn a_payload_of_the_wrong_size_is_refused() {
+        let s = state(vec![[0, 4]], 3.0);
+        let json = serde_json::to_vec(&s.header).unwrap();
+        for pixels in [1usize, 3] {
+            let payload = compress(&vec![GpuAccum::default(); pixels]).unwrap();
+            let mut bytes = [
+                &MAGIC[..],
+                &FORMAT_VERSION.to_le_bytes(),
+                &(json.len() as u32).to_le_bytes(),
+                &json,
+                &(payload.len() as u64).to_le_bytes(),
+                &payload,
+            ]
+            .concat();
+            let crc = crc32fast::hash(&bytes);
+            bytes.extend(crc.to_le_bytes());
+            let e = Checkpoint::from_bytes(&bytes).unwrap_err();
+            assert!(
+                e.contains("does not decompress to 2x1 pixels"),
+                "{pixels}: {e}"
+            );
+        }
+    }
+
+    /// Parts tile the render's samples exactly, in order, with sizes that differ by at most one; a part
+    /// that would be empty is refused.
+    #[test]
+    fn parts_tile_the_samples() {
+        for samples in [1u32, 2, 7, 64, 1000, u32::MAX] {
+            for count in [1u32, 2, 3, 4, 7, 64, 1000] {
+                if count > samples {
+                    assert!(Part::new(0, count, samples).is_err());
+                    continue;
+                }
+                let ranges: Vec<[u32; 2]> = (0..count)
+                    .map(|i| Part::new(i, count, samples).unwrap().range())
+                    .collect();
+                assert_eq!(ranges[0][0], 0);
+                assert_eq!(ranges[count as usize - 1][1], samples);
+                for w in ranges.windows(2) {
+                    assert_eq!(w[0][1], w[1][0]);
+                }
+                let sizes: Vec<u32> = ranges.iter().map(|r| r[1] - r[0]).collect();
+                let (lo, hi) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
+                assert!(*lo >= 1 && hi - lo <= 1, "{samples}/{count}: {lo}..{hi}");
+            }
+        }
+        assert!(Part::new(4, 4, 16).is_err());
+        assert!(Part::new(0, 0, 16).is_err());
     }
 }

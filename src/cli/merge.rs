@@ -10,9 +10,13 @@ use vkpath::checkpoint::Checkpoint;
 
 #[derive(Args)]
 pub struct MergeArgs {
-    /// Partial renders: checkpoint files written by `vkpath render --sample-range A..B --checkpoint FILE`.
+    /// Partial renders: checkpoint files written by `vkpath render --part I/N` or `--sample-range A..B`
+    /// with `--checkpoint FILE`; a directory (its *.ckpt files) or a quoted glob ('parts/*.ckpt').
     #[arg(required = true)]
     parts: Vec<PathBuf>,
+    /// No warnings (parts computed on different devices).
+    #[arg(long)]
+    quiet: bool,
     /// Output image; repeatable; .png or .exr.
     #[arg(short = 'o', long = "output")]
     outputs: Vec<PathBuf>,
@@ -34,25 +38,25 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
         ));
     }
     check_output_formats(&m.outputs)?;
-    let inputs = m
-        .parts
-        .iter()
-        .map(|p| (p.clone(), "a part merged"))
-        .collect();
+    let files = expand_parts(&m.parts)?;
+    let inputs = files.iter().map(|p| (p.clone(), "a part merged")).collect();
     super::paths::check_outputs(&m.outputs, m.checkpoint.as_deref(), inputs, None)?;
-    let mut parts = Vec::with_capacity(m.parts.len());
-    for p in &m.parts {
+    let mut parts = Vec::with_capacity(files.len());
+    for p in &files {
         parts.push((
             p.clone(),
             Checkpoint::read(p).map_err(|e| {
                 e.with_checkpoint_hint(
-                    "Render that part again (vkpath render --sample-range A..B --checkpoint FILE) or \
-                     leave it out.",
+                    "Render that part again (vkpath render --part I/N or --sample-range A..B, with \
+                     --checkpoint FILE) or leave it out.",
                 )
             })?,
         ));
     }
     let merged = vkpath::checkpoint::merge::merge(&parts)?;
+    if !m.quiet {
+        warn_devices(&parts);
+    }
     // The parts can be as large as the merged state each: free them before writing.
     drop(parts);
     let film = merged.film();
@@ -70,7 +74,7 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
             width: film.width,
             height: film.height,
             spp: film.spp,
-            parts: m.parts.len(),
+            parts: files.len(),
             sample_ranges: &merged.header.ranges,
             estimated_rel_error: rel.is_finite().then_some(rel),
             device: &merged.header.device,
@@ -79,4 +83,80 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
         });
     }
     Ok(0)
+}
+
+/// The part files named on the command line: a file as it is, a directory's `*.ckpt` files (sorted by
+/// name), and a pattern with `*`, `?` or `[` that is not itself a file (quoted, so the shell did not
+/// expand it) as the files it matches. A directory or pattern that yields no file is an error, and so is
+/// a path that does not exist (named, so that a typo is not merged as "no parts").
+fn expand_parts(args: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
+    let mut files = Vec::new();
+    for arg in args {
+        let shown = arg.display();
+        if arg.is_dir() {
+            let entries = std::fs::read_dir(arg).map_err(|e| {
+                usage(format!(
+                    "cannot list the directory {shown} of parts to merge: {e}."
+                ))
+            })?;
+            let mut found: Vec<PathBuf> = entries
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "ckpt") && p.is_file())
+                .collect();
+            if found.is_empty() {
+                return Err(usage(format!(
+                    "the directory {shown} holds no part to merge (no *.ckpt file): give the directory \
+                     the parts were written to (vkpath render --part I/N --checkpoint DIR/part-I.ckpt)."
+                )));
+            }
+            found.sort();
+            files.extend(found);
+        } else if !arg.exists() && arg.to_str().is_some_and(|t| t.contains(['*', '?', '['])) {
+            let pattern = arg.to_str().unwrap_or_default();
+            let matches = glob::glob(pattern).map_err(|e| {
+                usage(format!(
+                    "{pattern} is not a valid pattern of parts to merge: {e}."
+                ))
+            })?;
+            let found: Vec<PathBuf> = matches
+                .filter_map(Result::ok)
+                .filter(|p| p.is_file())
+                .collect();
+            if found.is_empty() {
+                return Err(usage(format!(
+                    "the pattern {pattern} matches no part to merge: check the directory the parts were \
+                     written to."
+                )));
+            }
+            files.extend(found);
+        } else {
+            files.push(arg.clone());
+        }
+    }
+    Ok(files)
+}
+
+/// Warns on stderr when the parts were computed on different devices: the merge is an unbiased estimate
+/// either way, but its bits are a single render's only when one device computed every part (another
+/// device's floating-point results may differ in the last bits).
+fn warn_devices(parts: &[(PathBuf, Checkpoint)]) {
+    let mut devices: Vec<(&str, Vec<String>)> = Vec::new();
+    for (path, c) in parts {
+        let name = path.display().to_string();
+        match devices.iter_mut().find(|(d, _)| *d == c.header.device) {
+            Some((_, files)) => files.push(name),
+            None => devices.push((&c.header.device, vec![name])),
+        }
+    }
+    if devices.len() > 1 {
+        let list: Vec<String> = devices
+            .iter()
+            .map(|(d, files)| format!("{d} ({})", files.join(", ")))
+            .collect();
+        eprintln!(
+            "vkpath: warning: the parts were computed on different devices: {}. The merged image is an \
+             unbiased estimate, but it is not bit-identical to a render on a single device.",
+            list.join("; ")
+        );
+    }
 }

@@ -1,5 +1,5 @@
 //! `vkpath render`: a scene to PNG/EXR, progressively, with time and error budgets, progress images,
-//! checkpoints, resumes and partial renders (`--sample-range`).
+//! checkpoints, resumes and partial renders (`--sample-range`, and `--part I/N` for render farms).
 //!
 //! [`run_render`] runs the steps in order, each a function that makes one decision: [`check_flags`]
 //! (what the flags decide on their own), [`prepare`] (the scene with its overrides, the options, the
@@ -18,7 +18,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
-use vkpath::checkpoint::Checkpoint;
+use vkpath::checkpoint::{Checkpoint, Part};
 use vkpath::film::Film;
 use vkpath::gpu::{ContextOptions, GpuContext};
 use vkpath::render::{
@@ -30,12 +30,21 @@ use vkpath::{Error, Scene};
 /// render (a lost device) is reported here, with the files still intact, and ends with its status.
 pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
     let flags = check_flags(&a)?;
-    let job = prepare(&a)?;
+    let job = prepare(&a, flags.part.is_some())?;
+    // A part's range depends on the render's samples, known once the scene is read.
+    let part = flags
+        .part
+        .map(|(index, count)| {
+            Part::new(index, count, job.scene.render.samples)
+                .map_err(|m| usage(format!("--part {index}/{count}: {m}.")))
+        })
+        .transpose()?;
+    let range = part.map(|p| p.range()).or(flags.range);
 
     let stop = install_stop_handler();
     let ctx = GpuContext::new(&ContextOptions::default())?;
     let mut renderer = Renderer::new(&ctx, &job.scene, &job.options)?;
-    let plan = plan_samples(&mut renderer, &job.scene, flags.range, job.resumed, a.quiet)?;
+    let plan = plan_samples(&mut renderer, &job.scene, range, part, job.resumed, a.quiet)?;
 
     let budget = Budget {
         spp: plan.target_spp,
@@ -49,6 +58,7 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
         scene: &job.scene,
         outputs: &job.outputs,
         checkpoint: flags.checkpoint.as_deref(),
+        part,
         saved: Saved::default(),
     };
     // Resuming into the file resumed from: that file is the last intact checkpoint until a new one is
@@ -91,6 +101,8 @@ struct Flags {
     time: Option<Duration>,
     /// `--sample-range`.
     range: Option<[u32; 2]>,
+    /// `--part`: the part's index and the number of parts (the range follows from the scene's samples).
+    part: Option<(u32, u32)>,
     /// Where checkpoints go: `--checkpoint`, or back into the file resumed from.
     checkpoint: Option<PathBuf>,
     /// How often to save one (every 60 s when only the file is given).
@@ -126,6 +138,29 @@ fn check_flags(a: &RenderArgs) -> Result<Flags, Error> {
             "--spp and --sample-range both set the samples to render; give one of them.",
         ));
     }
+    let part = a
+        .part
+        .as_deref()
+        .map(|p| resolve_part(p, |name| std::env::var(name).ok()))
+        .transpose()?;
+    if part.is_some() && range.is_some() {
+        return Err(usage(
+            "--part and --sample-range both choose the samples to render; give one of them.",
+        ));
+    }
+    if part.is_some() && (a.time.is_some() || a.target_error.is_some()) {
+        return Err(usage(
+            "--part renders the whole of its part, so that the merge can use it: --time and \
+             --target-error would stop it early. Give neither with --part (choose the samples with --spp \
+             and the number of parts instead).",
+        ));
+    }
+    if part.is_some() && a.checkpoint.is_none() && a.resume.is_none() {
+        return Err(usage(
+            "--part renders one part of the samples, to be merged with the others: give --checkpoint \
+             FILE (the part's file for vkpath merge), or --resume FILE to finish a part that stopped.",
+        ));
+    }
     let checkpoint = a.checkpoint.clone().or_else(|| a.resume.clone());
     let save_every = match (&a.checkpoint_every, &checkpoint) {
         (Some(_), None) => {
@@ -140,6 +175,7 @@ fn check_flags(a: &RenderArgs) -> Result<Flags, Error> {
     Ok(Flags {
         time,
         range,
+        part,
         checkpoint,
         save_every,
     })
@@ -157,13 +193,13 @@ struct Job {
 }
 
 /// Loads the scene and applies the overrides, decides the renderer's options and the outputs (refusing
-/// an output of unknown format), and reads the checkpoint to resume: a damaged or foreign file is
-/// refused here, before any device work.
-fn prepare(a: &RenderArgs) -> Result<Job, Error> {
+/// an output of unknown format; a part writes no image unless asked: its checkpoint is what counts), and
+/// reads the checkpoint to resume: a damaged or foreign file is refused here, before any device work.
+fn prepare(a: &RenderArgs, is_part: bool) -> Result<Job, Error> {
     let mut scene = load_scene(a.scene.as_deref(), a.camera.map(|c| c as usize))?;
     apply_overrides(&mut scene, a)?;
     let options = render_options(a)?;
-    let outputs = if a.outputs.is_empty() {
+    let outputs = if a.outputs.is_empty() && !is_part {
         vec![PathBuf::from(format!("{}.png", scene.stem()))]
     } else {
         a.outputs.clone()
@@ -195,13 +231,14 @@ struct Plan {
 }
 
 /// Decides where the samples start: from the checkpoint resumed (which must be of this render, and, for
-/// a partial render, of the start of the same `--sample-range`: anything else would render other
-/// samples), at the start of `--sample-range`, or at 0. Puts the resumed state on the device, and warns
-/// (unless `--quiet`) when it was computed on another device.
+/// a partial render, of the start of the same `--sample-range` or the same `--part`: anything else would
+/// render other samples), at the start of the range, or at 0. Puts the resumed state on the device, and
+/// warns (unless `--quiet`) when it was computed on another device.
 fn plan_samples(
     renderer: &mut Renderer,
     scene: &Scene,
     range: Option<[u32; 2]>,
+    part: Option<Part>,
     resumed: Option<(PathBuf, Checkpoint)>,
     quiet: bool,
 ) -> Result<Plan, Error> {
@@ -215,6 +252,16 @@ fn plan_samples(
             let held = vkpath::checkpoint::show_ranges(&c.header.ranges);
             let first = c.header.ranges.first().map_or(0, |r| r[0]);
             let refusal = match range {
+                Some(_) if part.is_some() && c.header.part != part => Some(format!(
+                    "this checkpoint is {}, not part {} of this render: resume each part from its own file.",
+                    c.header
+                        .part
+                        .map_or("not a part of a --part split".into(), |p| format!(
+                            "part {}",
+                            p.show()
+                        )),
+                    part.map_or(String::new(), |p| p.show())
+                )),
                 Some([a0, b0])
                     if c.header.ranges.len() != 1 || first != a0 || c.next_sample() > b0 =>
                 {
@@ -286,6 +333,8 @@ struct Disk<'a> {
     scene: &'a Scene,
     outputs: &'a [PathBuf],
     checkpoint: Option<&'a Path>,
+    /// `--part`: recorded in the checkpoint, so that `vkpath merge` knows the split.
+    part: Option<Part>,
     /// For the message if the render fails part-way.
     saved: Saved,
 }
@@ -303,7 +352,9 @@ impl Disk<'_> {
     /// Writes the renderer's state to the checkpoint file, when there is one, noting it as written.
     fn save_checkpoint(&mut self, r: &mut Renderer) -> Result<(), Error> {
         if let Some(path) = self.checkpoint {
-            Checkpoint::of(r, self.scene)?.write(path)?;
+            let mut state = Checkpoint::of(r, self.scene)?;
+            state.header.part = self.part;
+            state.write(path)?;
             self.saved.checkpoint = Some((path.to_path_buf(), r.samples_done()));
         }
         Ok(())
@@ -364,7 +415,27 @@ fn report(
     film: &Film,
     (reason, elapsed): (StopReason, Duration),
 ) -> i32 {
-    if reason == StopReason::Interrupted && !a.quiet {
+    // A part that stopped early is not done: exit 1, so that the scheduler (Slurm, Kubernetes) does not
+    // count the task as a success and runs it again, and the merge is not started without it.
+    let unfinished_part = match (reason, disk.part) {
+        (StopReason::Interrupted, Some(p)) => Some(p),
+        _ => None,
+    };
+    if let Some(p) = unfinished_part {
+        let [start, end] = p.range();
+        eprintln!(
+            "vkpath: error: part {} was interrupted with {} of its {} samples per pixel ({start}..{end}); \
+             its checkpoint {} holds them: finish it with --resume {} (the same scene and flags). Exit \
+             status 1: the part is not done.",
+            p.show(),
+            film.spp,
+            end - start,
+            disk.checkpoint
+                .map_or("(none)".into(), |c| c.display().to_string()),
+            disk.checkpoint
+                .map_or("FILE".into(), |c| c.display().to_string()),
+        );
+    } else if reason == StopReason::Interrupted && !a.quiet {
         eprintln!(
             "vkpath: interrupted; wrote the image with {} samples per pixel{}.",
             film.spp,
@@ -420,7 +491,7 @@ fn report(
             sample_faults: faults,
         });
     }
-    if report_validation_errors(&validation_errors) {
+    if report_validation_errors(&validation_errors) || unfinished_part.is_some() {
         return 1;
     }
     0
@@ -527,6 +598,12 @@ pub struct RenderArgs {
     /// to be combined with `vkpath merge` (save it with --checkpoint).
     #[arg(long = "sample-range")]
     sample_range: Option<String>,
+    /// Render part I (0-based) of N contiguous, near-equal sample ranges of the render's samples (a
+    /// render farm's task; needs --checkpoint; merge the parts with `vkpath merge DIR`). `env/N` reads I
+    /// from SLURM_ARRAY_TASK_ID or JOB_COMPLETION_INDEX (Kubernetes); `env` also reads N from
+    /// SLURM_ARRAY_TASK_COUNT. No image is written unless -o is given.
+    #[arg(long, allow_hyphen_values = true)]
+    part: Option<String>,
     /// Cut the image into tiles of at most WxH pixels (one dispatch each) and strips of at most H rows
     /// (one accumulator buffer each), instead of the adaptive cut. The image is the same.
     #[arg(long)]
@@ -748,6 +825,122 @@ fn parse_sample_range(text: &str) -> Result<[u32; 2], Error> {
     Ok([a, b])
 }
 
+/// `--part I/N`, `--part env/N` or `--part env`: the part's index and the number of parts. `var` reads
+/// an environment variable (a parameter so that the tests need not set the process's environment).
+///
+/// `env` takes the index from a Slurm job array's SLURM_ARRAY_TASK_ID or a Kubernetes Indexed Job's
+/// JOB_COMPLETION_INDEX, and the count from `/N` or else SLURM_ARRAY_TASK_COUNT. The index is used as
+/// it is, not relative to the array's first index: a failed part is rerun as `sbatch --array=I` (an
+/// array of one task, whose SLURM_ARRAY_TASK_COUNT is 1), so scripts should give `/N`. Without `/N`,
+/// the array must be exactly 0..N-1 (SLURM_ARRAY_TASK_MIN = 0, SLURM_ARRAY_TASK_MAX = N - 1), so that
+/// the count it reports is the number of parts.
+fn resolve_part(text: &str, var: impl Fn(&str) -> Option<String>) -> Result<(u32, u32), Error> {
+    let bad = |why: String| {
+        usage(format!(
+            "--part takes I/N (part I, from 0, of N), env/N or env (I, and N, from a Slurm job array or a \
+             Kubernetes Indexed Job); \"{text}\" {why}."
+        ))
+    };
+    let number = |what: &str, t: &str| -> Result<u32, Error> {
+        t.trim().parse::<u32>().map_err(|_| {
+            bad(format!(
+                "has {what} \"{t}\", which is not a whole number from 0 to 2^32 - 1"
+            ))
+        })
+    };
+    let (index, count) = text.split_once('/').unwrap_or((text, ""));
+    let (index, count) = if index.trim() == "env" {
+        let count = (!count.is_empty() || text.contains('/'))
+            .then(|| number("the count", count))
+            .transpose()?;
+        from_scheduler(count, &var)?
+    } else {
+        if !text.contains('/') {
+            return Err(bad("has no \"/N\"".into()));
+        }
+        (number("the index", index)?, number("the count", count)?)
+    };
+    if count == 0 {
+        return Err(bad("asks for 0 parts".into()));
+    }
+    if index >= count {
+        return Err(usage(format!(
+            "--part {text}: part {index} of {count} does not exist; parts are numbered from 0 to {}.{}",
+            count - 1,
+            if text.starts_with("env") {
+                " Submit the job array as --array=0-(N-1), or give the right N in env/N."
+            } else {
+                ""
+            }
+        )));
+    }
+    Ok((index, count))
+}
+
+/// The part's index (and, without `count`, the number of parts) from the scheduler's environment.
+fn from_scheduler(
+    count: Option<u32>,
+    var: &impl Fn(&str) -> Option<String>,
+) -> Result<(u32, u32), Error> {
+    let read = |name: &str| -> Result<Option<u32>, Error> {
+        match var(name) {
+            None => Ok(None),
+            Some(v) => v.trim().parse::<u32>().map(Some).map_err(|_| {
+                usage(format!(
+                    "--part env: {name}={v} is not a whole number; it should be set by the scheduler \
+                     (Slurm or Kubernetes), not by hand."
+                ))
+            }),
+        }
+    };
+    let slurm = read("SLURM_ARRAY_TASK_ID")?;
+    let k8s = read("JOB_COMPLETION_INDEX")?;
+    let index = match (slurm, k8s) {
+        (Some(s), Some(k)) if s != k => {
+            return Err(usage(format!(
+                "--part env: SLURM_ARRAY_TASK_ID={s} and JOB_COMPLETION_INDEX={k} disagree on the part's \
+                 index; unset the one that does not belong to this job, or give --part I/N."
+            )));
+        }
+        (Some(i), _) | (None, Some(i)) => i,
+        (None, None) => {
+            return Err(usage(
+                "--part env reads the part's index from SLURM_ARRAY_TASK_ID (a Slurm job array: sbatch \
+                 --array=0-(N-1)) or JOB_COMPLETION_INDEX (a Kubernetes Indexed Job), and neither is set: \
+                 run it as a task of one, or give --part I/N.",
+            ));
+        }
+    };
+    if let Some(n) = count {
+        return Ok((index, n));
+    }
+    if slurm.is_none() {
+        return Err(usage(
+            "--part env: JOB_COMPLETION_INDEX gives the part's index but not the number of parts: give \
+             --part env/N, with N the Job's completions.",
+        ));
+    }
+    let Some(n) = read("SLURM_ARRAY_TASK_COUNT")? else {
+        return Err(usage(
+            "--part env: SLURM_ARRAY_TASK_ID is set but not SLURM_ARRAY_TASK_COUNT (the number of parts): \
+             give --part env/N.",
+        ));
+    };
+    let (min, max) = (read("SLURM_ARRAY_TASK_MIN")?, read("SLURM_ARRAY_TASK_MAX")?);
+    if min.is_some_and(|m| m != 0) || max.is_some_and(|m| Some(m) != n.checked_sub(1)) {
+        return Err(usage(format!(
+            "--part env: this job array runs the tasks {}..={} ({n} of them), not 0..={}: the task ids are \
+             the parts' indices, so submit it as --array=0-{}, or give the number of parts with --part \
+             env/N (a rerun of some parts: sbatch --array=I,J ... --part env/N).",
+            min.map_or("?".into(), |m| m.to_string()),
+            max.map_or("?".into(), |m| m.to_string()),
+            n.saturating_sub(1),
+            n.saturating_sub(1)
+        )));
+    }
+    Ok((index, n))
+}
+
 /// `--light-sampling`'s values: the names of `LightSampling::ALL` (render.light_sampling in the scene).
 fn light_sampling_names() -> clap::builder::PossibleValuesParser {
     clap::builder::PossibleValuesParser::new(vkpath::scene::LightSampling::ALL.map(|(_, n)| n))
@@ -768,5 +961,68 @@ mod tests {
         for bad in ["0", "-1", "0s", "nan", "inf", "1e20", "soon", ""] {
             assert!(secs(bad).is_err(), "{bad:?} accepted");
         }
+    }
+
+    /// `--part` from the flag and from the schedulers' variables, and every inconsistency refused with
+    /// the flag or the variable named.
+    #[test]
+    fn part_from_flag_and_environment() {
+        let env = |vars: &'static [(&'static str, &'static str)]| {
+            move |name: &str| {
+                vars.iter()
+                    .find(|(n, _)| *n == name)
+                    .map(|(_, v)| v.to_string())
+            }
+        };
+        let none = env(&[]);
+        assert_eq!(resolve_part("2/4", none).unwrap(), (2, 4));
+        assert_eq!(resolve_part("0/1", none).unwrap(), (0, 1));
+        let slurm = env(&[
+            ("SLURM_ARRAY_TASK_ID", "3"),
+            ("SLURM_ARRAY_TASK_COUNT", "4"),
+            ("SLURM_ARRAY_TASK_MIN", "0"),
+            ("SLURM_ARRAY_TASK_MAX", "3"),
+        ]);
+        assert_eq!(resolve_part("env", slurm).unwrap(), (3, 4));
+        assert_eq!(resolve_part("env/4", slurm).unwrap(), (3, 4));
+        // A rerun of part 2 alone: an array of one task; the count comes from env/N.
+        let rerun = env(&[
+            ("SLURM_ARRAY_TASK_ID", "2"),
+            ("SLURM_ARRAY_TASK_COUNT", "1"),
+            ("SLURM_ARRAY_TASK_MIN", "2"),
+            ("SLURM_ARRAY_TASK_MAX", "2"),
+        ]);
+        assert_eq!(resolve_part("env/4", rerun).unwrap(), (2, 4));
+        let k8s = env(&[("JOB_COMPLETION_INDEX", "1")]);
+        assert_eq!(resolve_part("env/8", k8s).unwrap(), (1, 8));
+        let err = |t: &str, var: &dyn Fn(&str) -> Option<String>| {
+            resolve_part(t, var).unwrap_err().to_string()
+        };
+        for (t, words) in [
+            ("4/4", &["part 4 of 4", "0 to 3"][..]),
+            ("1/0", &["0 parts"]),
+            ("3", &["--part", "/N"]),
+            ("a/4", &["--part", "\"a\""]),
+            ("1/-4", &["--part", "\"-4\""]),
+            (
+                "env",
+                &["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX", "neither"],
+            ),
+            ("env/4", &["neither"]),
+        ] {
+            let e = err(t, &none);
+            for w in words {
+                assert!(e.contains(w), "--part {t}: {w:?} not in {e}");
+            }
+        }
+        assert!(err("env", &rerun).contains("--array=0-0"));
+        assert!(err("env", &k8s).contains("env/N"));
+        assert!(err("env/2", &slurm).contains("part 3 of 2"));
+        let clash = env(&[("SLURM_ARRAY_TASK_ID", "1"), ("JOB_COMPLETION_INDEX", "2")]);
+        assert!(err("env/4", &clash).contains("disagree"));
+        let junk = env(&[("JOB_COMPLETION_INDEX", "x1")]);
+        assert!(err("env/4", &junk).contains("JOB_COMPLETION_INDEX=x1"));
+        let no_count = env(&[("SLURM_ARRAY_TASK_ID", "1")]);
+        assert!(err("env", &no_count).contains("SLURM_ARRAY_TASK_COUNT"));
     }
 }
