@@ -11,7 +11,7 @@
 #   3. Shows that ci/k8s_local_run.py refuses a render Job whose completions disagree with its
 #      --part env/N.
 #   4. Runs the manifests locally with ci/k8s_local_run.py: every index of the render Job, a retried
-#      index, the merge Job, and compares the merged image with a single render byte for byte.
+#      index, the merge Job, and compares the merged image's pixels with a single render's, bit for bit.
 #
 # Needs: the venv ${VKPATH_CI_VENV:-target/ci-venv} with kubernetes-validate (ci/setup.sh installs it;
 # by hand: python3 -m venv target/ci-venv && target/ci-venv/bin/pip install kubernetes-validate==1.37.0),

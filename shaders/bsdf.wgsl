@@ -647,6 +647,37 @@ fn bsdf_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent:
 
 // Whether the material has only delta lobes (or none): next-event estimation cannot help there, since
 // bsdf_eval is 0 for every direction a light sample could give.
+// The material's albedo for the `--aov albedo` layer (what denoisers call albedo: the colour of the
+// surface, not lit): the diffuse albedo, the plastic's base, glTF's base colour; a conductor's
+// reflectance at normal incidence, F(1) (from eta + i k, or the Schlick base colour); white for
+// dielectrics (they scatter all the light they do not absorb, and absorb none); black for the emitter
+// material, which reflects nothing. A mirror's tint, should a mirror be the surface counted (after
+// max_bounces delta bounces).
+fn bsdf_albedo(mat: Material) -> vec3<f32> {
+    var a = mat.albedo;
+    if HAS_DIELECTRIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_DIELECTRIC {
+            a = vec3<f32>(1.0);
+        }
+    }
+    if HAS_EMITTERS {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_EMITTER {
+            a = vec3<f32>(0.0);
+        }
+    }
+    if HAS_CONDUCTOR {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_CONDUCTOR {
+            a = conductor_fresnel(mat, 1.0);
+        }
+    }
+    if HAS_ROUGH_DIELECTRIC {
+        if SINGLE_MATERIAL_KIND || mat.kind == MAT_ROUGH_DIELECTRIC {
+            a = vec3<f32>(1.0);
+        }
+    }
+    return a;
+}
+
 fn bsdf_is_delta(mat: Material) -> bool {
     var delta = true;
     if HAS_DIFFUSE {

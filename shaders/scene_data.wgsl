@@ -33,6 +33,10 @@ struct Params {
     roulette_depth: u32, // Russian roulette from this many scattering events on
     guard_one: f32, // always 1.0; see accumulate.wgsl
     camera_kind: u32, // CAMERA_PERSPECTIVE or CAMERA_ORTHOGRAPHIC (camera.wgsl)
+    aov: u32, // AOV_NONE (radiance) or the --aov layer the samples are (trace.wgsl)
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct Sphere {

@@ -24,6 +24,75 @@ const FILTER_GAUSSIAN: u32 = 2u;
 override FILTER_FROM_PARAMS: bool = true;
 override FILTER_KIND: u32 = 0u;
 
+// What a sample is (params.aov): radiance, or a layer of `--aov` (trace_aov). Read from `params` by the
+// generic kernel; a constant when specialised, so that a render's kernel has no AOV code at all.
+const AOV_NONE: u32 = 0u;
+const AOV_ALBEDO: u32 = 1u;
+const AOV_NORMAL: u32 = 2u;
+const AOV_DEPTH: u32 = 3u;
+override AOV_FROM_PARAMS: bool = true;
+override AOV_KIND: u32 = 0u;
+
+// One sample of an `--aov` layer of the pixel, through the camera ray (o, d) that the same sample of the
+// render traces (same film position and lens point), so that each layer is filtered like the image:
+// - AOV_DEPTH: (t, 1, 0) with t the distance from the ray's origin to the first surface, or (0, 0, 0)
+//   for a ray that leaves the scene; the host divides the means (mean distance of the hits, +inf where
+//   none hit).
+// - AOV_ALBEDO: bsdf_albedo of the first non-delta surface, times the weights of the delta bounces
+//   (mirrors, smooth glass and metals, sampled as the render samples them) on the way there; 0 for a ray
+//   that leaves the scene (the environment is light, not a surface).
+// - AOV_NORMAL: that surface's shading normal n, as the surface defines it (outward on spheres, the
+//   interpolated vertex normal on smooth meshes), not flipped towards the viewer; 0 for none. Stored as
+//   n / 2 + 1/2, in [0, 1], because the exact accumulator sums non-negative samples only; the host
+//   undoes it on the mean (2 m - 1), which the affine map commutes with.
+// After max_bounces delta bounces, the surface reached counts as the first non-delta one.
+fn trace_aov(kind: u32, o0: vec3<f32>, d0: vec3<f32>, rng: ptr<function, Rng>) -> vec3<f32> {
+    var o = o0;
+    var d = d0;
+    var tint = vec3<f32>(1.0);
+    for (var bounce = 0u; bounce <= params.max_bounces; bounce++) {
+        let hit = scene_intersect(o, d, T_MISS);
+        if hit.prim_kind == PRIM_NONE {
+            break;
+        }
+        let sp = surface_at(o, d, hit);
+        if kind == AOV_DEPTH {
+            return vec3<f32>(distance(o0, sp.p), 1.0, 0.0);
+        }
+        var mat = materials[hit_material(hit)];
+        if HAS_TEXTURES {
+            if sp.textured {
+                mat.albedo = sp.albedo;
+            }
+        }
+        if !bsdf_is_delta(mat) || bounce == params.max_bounces {
+            if kind == AOV_NORMAL {
+                return 0.5 * sp.ns + vec3<f32>(0.5);
+            }
+            return tint * bsdf_albedo(mat);
+        }
+        let entering = dot(d, sp.n) < 0.0;
+        let n = select(-sp.n, sp.n, entering);
+        var ns = n;
+        if HAS_SMOOTH_NORMALS {
+            ns = select(-sp.ns, sp.ns, entering);
+        }
+        var tangent = vec3<f32>(0.0);
+        if HAS_ANISOTROPY {
+            tangent = surface_tangent(hit, sp.n);
+        }
+        let bs = bsdf_sample(mat, -d, ns, tangent, entering, rng);
+        if bs.flags == 0u {
+            break;
+        }
+        tint *= bs.weight;
+        o = offset_ray_origin(sp.p, sp.err, n, bs.wi);
+        d = bs.wi;
+    }
+    // Nothing met: albedo 0, normal 0 (stored as 1/2), depth (0, 0, 0).
+    return select(vec3<f32>(0.0), vec3<f32>(0.5), kind == AOV_NORMAL);
+}
+
 // Position on the film of one sample of pixel `px`, importance-sampled from the pixel filter: the
 // filter's weight is then 1 for every sample, and the pixel value is the plain mean of its samples.
 fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
@@ -155,6 +224,15 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
             cam = orthographic_ray(params.cam_position, params.cam_right, params.cam_up,
                                    params.cam_forward, params.view_half_width, params.width,
                                    params.height, film);
+        }
+    }
+    if AOV_FROM_PARAMS {
+        if params.aov != AOV_NONE {
+            return trace_aov(params.aov, cam.o, cam.d, &rng);
+        }
+    } else {
+        if AOV_KIND != AOV_NONE {
+            return trace_aov(AOV_KIND, cam.o, cam.d, &rng);
         }
     }
     var o = cam.o;

@@ -143,27 +143,17 @@ impl Film {
 
     /// Writes the film to `path` (format from the extension), atomically: a temporary file in the same
     /// directory, flushed and synced, then renamed over the target. A crash never leaves a partial image.
+    /// No metadata and no extra layers: [`crate::output::write_images`] writes those.
     pub fn write(&self, path: &Path, settings: &ImageSettings) -> Result<(), crate::Error> {
-        let format = OutputFormat::from_path(path).ok_or_else(|| {
-            crate::Error::Usage(format!(
-                "cannot tell the image format of {}: use a .png or .exr extension",
-                path.display()
-            ))
-        })?;
-        let mut bytes = std::io::Cursor::new(Vec::new());
-        let encoded = match format {
-            OutputFormat::Png => self
-                .to_rgb8(settings)
-                .write_to(&mut bytes, image::ImageFormat::Png),
-            OutputFormat::Exr => self
-                .to_rgb32f()
-                .write_to(&mut bytes, image::ImageFormat::OpenExr),
-        };
-        encoded.map_err(|e| crate::Error::Io {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        write_atomically(path, bytes.get_ref())
+        crate::output::write_images(
+            &[path.to_path_buf()],
+            &crate::output::ImageFile {
+                film: self,
+                settings,
+                metadata: None,
+                layers: &crate::output::Layers::default(),
+            },
+        )
     }
 }
 
@@ -175,7 +165,8 @@ pub fn directory_of(path: &Path) -> &Path {
     }
 }
 
-fn temp_path_for(path: &Path) -> PathBuf {
+/// The temporary file a write of `path` goes through: hidden, beside it, named by this process.
+pub(crate) fn temp_path_for(path: &Path) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
@@ -218,7 +209,7 @@ pub fn write_atomically_with(
 }
 
 /// Best effort: make a rename in `path`'s directory durable (a no-op where directories cannot be opened).
-fn sync_parent_dir(path: &Path) {
+pub(crate) fn sync_parent_dir(path: &Path) {
     if let Ok(d) = std::fs::File::open(directory_of(path)) {
         let _ = d.sync_all();
     }

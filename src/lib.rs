@@ -24,6 +24,7 @@ pub mod checkpoint;
 pub mod film;
 pub mod gpu;
 pub mod kernel;
+pub mod output;
 #[cfg(feature = "preview")]
 pub mod preview;
 pub mod render;

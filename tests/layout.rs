@@ -298,7 +298,8 @@ fn params_matches_wgsl() {
         fields!(GpuParams:
             cam_position, lens_radius, cam_right, view_half_width, cam_up, focus_distance, cam_forward,
             filter_sigma, environment_light, triangle_light, sample_clamp, filter_kind, width, height, max_bounces, seed, sampler,
-            light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, camera_kind),
+            light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, camera_kind,
+            aov, _pad),
     );
     // The uniform buffer holds one Params.
     let (_, params) = module

@@ -7,6 +7,7 @@ use clap::Args;
 use std::path::PathBuf;
 use vkpath::Error;
 use vkpath::checkpoint::Checkpoint;
+use vkpath::output::{Aov, ImageFile, ImageMetadata, Layers, write_images};
 
 #[derive(Args)]
 pub struct MergeArgs {
@@ -17,6 +18,9 @@ pub struct MergeArgs {
     /// No warnings (parts computed on different devices).
     #[arg(long)]
     quiet: bool,
+    /// Extra EXR layers: `variance` (the others need the scene: vkpath render --aov).
+    #[arg(long)]
+    aov: Option<String>,
     /// Output image; repeatable; .png or .exr.
     #[arg(short = 'o', long = "output")]
     outputs: Vec<PathBuf>,
@@ -38,6 +42,18 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
         ));
     }
     check_output_formats(&m.outputs)?;
+    let aovs = match &m.aov {
+        Some(list) => Aov::parse_list(list).map_err(|e| usage(format!("--aov: {e}.")))?,
+        None => Vec::new(),
+    };
+    if let Some(other) = aovs.iter().find(|a| **a != Aov::Variance) {
+        return Err(usage(format!(
+            "vkpath merge --aov can add only the variance layer, which the parts hold; {} is rendered \
+             from the scene: vkpath render --aov {}.",
+            other.name(),
+            other.name()
+        )));
+    }
     let files = expand_parts(&m.parts)?;
     let inputs = files.iter().map(|p| (p.clone(), "a part merged")).collect();
     super::paths::check_outputs(&m.outputs, m.checkpoint.as_deref(), inputs, None)?;
@@ -61,9 +77,29 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
     drop(parts);
     let film = merged.film();
     let settings = merged.image_settings();
-    for o in &m.outputs {
-        film.write(o, &settings)?;
-    }
+    let h = &merged.header;
+    let metadata = ImageMetadata {
+        scene: h.scene.clone(),
+        scene_hash: h.identity.scene_hash.clone(),
+        spp: film.spp,
+        seed: h.identity.seed,
+        // The parts do not record their time (a retried part writes the same bytes as the first try).
+        seconds: None,
+        device: h.device.clone(),
+    };
+    let layers = Layers {
+        variance: aovs.contains(&Aov::Variance),
+        ..Layers::default()
+    };
+    write_images(
+        &m.outputs,
+        &ImageFile {
+            film: &film,
+            settings: &settings,
+            metadata: Some(&metadata),
+            layers: &layers,
+        },
+    )?;
     if let Some(path) = &m.checkpoint {
         merged.write(path)?;
     }

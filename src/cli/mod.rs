@@ -3,6 +3,7 @@
 //! way. Each `run` returns the exit status to end with, or an error that `main` maps to one.
 
 mod bench;
+mod compare;
 mod convert;
 mod info;
 mod merge;
@@ -35,13 +36,16 @@ pub enum Command {
     /// Open a window and watch the render converge (cargo feature `preview`). Keys: S saves the image
     /// (PNG + EXR), R restarts, Esc/Q quits; drag with the left button to orbit the camera.
     Preview(Box<preview::PreviewArgs>),
-    /// Combine partial renders (checkpoints of disjoint --sample-range's) into the image of their union.
+    /// Combine partial renders (--part or --sample-range checkpoints; a directory, a glob) into the image
+    /// of their union.
     Merge(merge::MergeArgs),
     /// Benchmarks that report measured ratios.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
     /// Write any scene vkpath can read (TOML, glTF) as vkpath TOML: what was understood, to see and edit.
     Convert(convert::ConvertArgs),
+    /// Whether two images hold the same pixels (exit 0) or not (exit 1), and how far apart they are.
+    Compare(compare::CompareArgs),
     /// List the Vulkan devices, the one chosen and why, and its limits.
     Info {
         /// Print one JSON object instead of text.
@@ -58,6 +62,7 @@ pub fn run(command: Command) -> Result<i32, Error> {
         Command::Info { json } => info::run_info(json),
         Command::Merge(m) => merge::run_merge(m),
         Command::Convert(c) => convert::run_convert(c),
+        Command::Compare(c) => compare::run_compare(c),
         Command::Bench(b) => bench::run_bench(b),
     }
 }

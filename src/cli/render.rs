@@ -20,9 +20,12 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 use vkpath::checkpoint::{Checkpoint, Part};
 use vkpath::film::Film;
+use vkpath::film::OutputFormat;
 use vkpath::gpu::{ContextOptions, GpuContext};
+use vkpath::kernel::abi::{AOV_ALBEDO, AOV_DEPTH, AOV_NORMAL};
+use vkpath::output::{Aov, ImageFile, ImageMetadata, Layers, write_images};
 use vkpath::render::{
-    Budget, Fault, RenderOptions, Renderer, SaveEvery, StopReason, render_progressive,
+    Budget, Fault, RenderOptions, Renderer, SaveEvery, StopReason, render_aov, render_progressive,
 };
 use vkpath::{Error, Scene};
 
@@ -31,6 +34,16 @@ use vkpath::{Error, Scene};
 pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
     let flags = check_flags(&a)?;
     let job = prepare(&a, flags.part.is_some())?;
+    if !flags.aovs.is_empty()
+        && !job
+            .outputs
+            .iter()
+            .any(|o| OutputFormat::from_path(o) == Some(OutputFormat::Exr))
+    {
+        return Err(usage(
+            "--aov adds layers to the EXR output, and no -o names an .exr file: add -o OUT.exr.",
+        ));
+    }
     // A part's range depends on the render's samples, known once the scene is read.
     let part = flags
         .part
@@ -60,6 +73,9 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
         checkpoint: flags.checkpoint.as_deref(),
         part,
         saved: Saved::default(),
+        scene_hash: renderer.identity().scene_hash,
+        device: ctx.device_info().name.clone(),
+        started: std::time::Instant::now(),
     };
     // Resuming into the file resumed from: that file is the last intact checkpoint until a new one is
     // written.
@@ -73,6 +89,7 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
         &stop,
         bar.as_ref(),
         &mut disk,
+        flags.aovs.contains(&Aov::Variance),
     ) {
         Ok(v) => v,
         Err(e) => return Ok(fail(bar.as_ref(), &disk, e)),
@@ -88,7 +105,13 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
         eprintln!("vkpath: interrupted before the first pass ended; no image was written.");
         return Ok(1);
     }
-    if let Err(e) = write_outputs(&film, &mut renderer, &mut disk) {
+    let aovs = AovJob {
+        list: &flags.aovs,
+        ctx: &ctx,
+        scene: &job.scene,
+        options: &job.options,
+    };
+    if let Err(e) = write_outputs(&film, &mut renderer, &mut disk, &aovs) {
         // Say what is still on disk (the checkpoint, written first).
         return Ok(fail(None, &disk, e));
     }
@@ -103,6 +126,8 @@ struct Flags {
     range: Option<[u32; 2]>,
     /// `--part`: the part's index and the number of parts (the range follows from the scene's samples).
     part: Option<(u32, u32)>,
+    /// `--aov`: the EXR's extra layers.
+    aovs: Vec<Aov>,
     /// Where checkpoints go: `--checkpoint`, or back into the file resumed from.
     checkpoint: Option<PathBuf>,
     /// How often to save one (every 60 s when only the file is given).
@@ -172,10 +197,19 @@ fn check_flags(a: &RenderArgs) -> Result<Flags, Error> {
         (None, Some(_)) => Some(SaveEvery::Time(Duration::from_secs(60))),
         (None, None) => None,
     };
+    let aovs = match &a.aov {
+        Some(list) => Aov::parse_list(list).map_err(|m| {
+            usage(format!(
+                "--aov takes a comma-separated list of the EXR's extra layers (albedo,normal,variance,depth): {m}."
+            ))
+        })?,
+        None => Vec::new(),
+    };
     Ok(Flags {
         time,
         range,
         part,
+        aovs,
         checkpoint,
         save_every,
     })
@@ -301,6 +335,9 @@ fn plan_samples(
     })
 }
 
+/// How often the progress bar's estimated error is brought up to date.
+const BAR_ERROR_EVERY: Duration = Duration::from_secs(5);
+
 /// A progress bar on stderr when it is a terminal and `--quiet` is not given, starting at the samples
 /// resumed.
 fn progress_bar(quiet: bool, plan: &Plan) -> Option<ProgressBar> {
@@ -310,7 +347,7 @@ fn progress_bar(quiet: bool, plan: &Plan) -> Option<ProgressBar> {
     let bar = ProgressBar::new(plan.target_spp as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template(
-            "{elapsed_precise} [{bar:40}] {pos}/{len} spp ({rate}, eta {eta})",
+            "{elapsed_precise} [{bar:40}] {pos}/{len} spp ({rate}{msg}, eta {eta})",
         )
         .map(|s| {
             // indicatif's own {per_sec} prints "17.7599/s", without the unit.
@@ -337,13 +374,35 @@ struct Disk<'a> {
     part: Option<Part>,
     /// For the message if the render fails part-way.
     saved: Saved,
+    /// For the images' metadata: the render's content hash, the device, and when this run's passes
+    /// started.
+    scene_hash: String,
+    device: String,
+    started: std::time::Instant,
 }
 
 impl Disk<'_> {
-    /// Writes `film` to every output, each atomically, noting each as written.
-    fn write_images(&mut self, film: &Film) -> Result<(), Error> {
-        for o in self.outputs {
-            film.write(o, &self.scene.image)?;
+    /// Writes `film` with `layers` to every output, all or nothing, with the render's metadata, noting
+    /// them as written.
+    fn write_images(&mut self, film: &Film, layers: &Layers) -> Result<(), Error> {
+        let metadata = ImageMetadata {
+            scene: self.scene.display_name(),
+            scene_hash: self.scene_hash.clone(),
+            spp: film.spp,
+            seed: self.scene.render.seed,
+            seconds: Some(self.started.elapsed().as_secs_f64()),
+            device: self.device.clone(),
+        };
+        write_images(
+            self.outputs,
+            &ImageFile {
+                film,
+                settings: &self.scene.image,
+                metadata: Some(&metadata),
+                layers,
+            },
+        )?;
+        if let Some(o) = self.outputs.last() {
             self.saved.image = Some((o.clone(), film.spp));
         }
         Ok(())
@@ -371,14 +430,32 @@ fn render_loop(
     stop: &AtomicBool,
     bar: Option<&ProgressBar>,
     disk: &mut Disk,
+    aovs_variance: bool,
 ) -> Result<(StopReason, Duration), Error> {
+    let mut error_shown: Option<std::time::Instant> = None;
     render_progressive(renderer, options, budget, stop, |r, report| {
         if let Some(bar) = bar {
             bar.set_position(report.samples_done as u64);
+            // The estimated error needs the film read back (96 bytes a pixel): at most every few
+            // seconds, so that the bar costs the render next to nothing.
+            if report.samples_done >= 2
+                && error_shown.is_none_or(|t| t.elapsed() >= BAR_ERROR_EVERY)
+            {
+                let rel = r.film()?.estimated_rel_error();
+                if rel.is_finite() {
+                    bar.set_message(format!(", error {:.2}%", 100.0 * rel));
+                }
+                error_shown = Some(std::time::Instant::now());
+            }
         }
         let ending = report.samples_done >= budget.spp;
         if report.progress && !ending {
-            disk.write_images(&r.film()?)?;
+            let film = r.film()?;
+            let layers = Layers {
+                variance: aovs_variance,
+                ..Layers::default()
+            };
+            disk.write_images(&film, &layers)?;
         }
         if report.save_state && !ending {
             disk.save_checkpoint(r)?;
@@ -397,12 +474,48 @@ fn fail(bar: Option<&ProgressBar>, disk: &Disk, e: Error) -> i32 {
     e.exit_code()
 }
 
-/// The final image to every output, and the final state to the checkpoint file: also after an
-/// interrupt, so that the render can go on from there.
-fn write_outputs(film: &Film, renderer: &mut Renderer, disk: &mut Disk) -> Result<(), Error> {
+/// What `--aov` asks for, and what rendering its layers takes.
+struct AovJob<'a> {
+    list: &'a [Aov],
+    ctx: &'a std::sync::Arc<GpuContext>,
+    scene: &'a Scene,
+    options: &'a RenderOptions,
+}
+
+impl AovJob<'_> {
+    /// The layers for a render of `spp` samples per pixel: the variance from the render's own sums, the
+    /// others each rendered by the kernel specialised for it with min(spp, AOV_MAX_SPP) samples.
+    fn layers(&self, spp: u32) -> Result<Layers, Error> {
+        let mut layers = Layers {
+            variance: self.list.contains(&Aov::Variance),
+            ..Layers::default()
+        };
+        let spp = spp.clamp(1, vkpath::render::AOV_MAX_SPP);
+        for aov in self.list {
+            let (code, slot) = match aov {
+                Aov::Albedo => (AOV_ALBEDO, &mut layers.albedo),
+                Aov::Normal => (AOV_NORMAL, &mut layers.normal),
+                Aov::Depth => (AOV_DEPTH, &mut layers.depth),
+                Aov::Variance => continue,
+            };
+            *slot = Some(render_aov(self.ctx, self.scene, self.options, code, spp)?);
+        }
+        Ok(layers)
+    }
+}
+
+/// The final state to the checkpoint file, then the final image (with the `--aov` layers) to every
+/// output: also after an interrupt, so that the render can go on from there.
+fn write_outputs(
+    film: &Film,
+    renderer: &mut Renderer,
+    disk: &mut Disk,
+    aovs: &AovJob,
+) -> Result<(), Error> {
     // The checkpoint first: if an image cannot be written after all, the samples are kept.
     disk.save_checkpoint(renderer)?;
-    disk.write_images(film)
+    let layers = aovs.layers(film.spp)?;
+    disk.write_images(film, &layers)
 }
 
 /// Says how an interrupted render can go on (unless `--quiet`), prints the `--json` report, and reports
@@ -604,6 +717,10 @@ pub struct RenderArgs {
     /// SLURM_ARRAY_TASK_COUNT. No image is written unless -o is given.
     #[arg(long, allow_hyphen_values = true)]
     part: Option<String>,
+    /// Extra layers in the EXR output: a comma-separated list of albedo, normal, variance, depth
+    /// (channels albedo.R/G/B, normal.X/Y/Z, variance.R/G/B, depth.Z).
+    #[arg(long)]
+    aov: Option<String>,
     /// Cut the image into tiles of at most WxH pixels (one dispatch each) and strips of at most H rows
     /// (one accumulator buffer each), instead of the adaptive cut. The image is the same.
     #[arg(long)]

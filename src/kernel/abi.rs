@@ -46,6 +46,10 @@ pub struct GpuParams {
     pub guard_one: f32,
     /// [`CAMERA_PERSPECTIVE`] or [`CAMERA_ORTHOGRAPHIC`].
     pub camera_kind: u32,
+    /// What a sample is: [`AOV_NONE`], radiance (the render); else one of the `AOV_*` layers of
+    /// `--aov`, traced by the same kernel through the same camera rays (trace.wgsl, `trace_aov`).
+    pub aov: u32,
+    pub _pad: [u32; 3],
 }
 
 /// Mirrors `PassConstants` in scene_data.wgsl: which sample the next dispatch traces, over which tile,
@@ -269,6 +273,13 @@ pub const LIGHT_SAMPLING_AREA: u32 = 1;
 pub const LIGHT_SAMPLING_NONE: u32 = 2;
 pub const LIGHT_SAMPLING_MIS: u32 = 3;
 
+/// What the kernel's samples are (`GpuParams::aov`, `AOV_*` in trace.wgsl): radiance, or one of the
+/// layers `--aov` adds to the EXR (the variance layer comes from the render's own sums instead).
+pub const AOV_NONE: u32 = 0;
+pub const AOV_ALBEDO: u32 = 1;
+pub const AOV_NORMAL: u32 = 2;
+pub const AOV_DEPTH: u32 = 3;
+
 /// The counters of `sample_faults` (scene_data.wgsl): samples clamped below 2^64 by the accumulator, and
 /// samples dropped as not finite (see accumulate.wgsl).
 pub const SAMPLE_FAULT_COUNTERS: usize = 2;
@@ -306,6 +317,10 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("LIGHT_SAMPLING_AREA", LIGHT_SAMPLING_AREA),
     ("LIGHT_SAMPLING_NONE", LIGHT_SAMPLING_NONE),
     ("LIGHT_SAMPLING_MIS", LIGHT_SAMPLING_MIS),
+    ("AOV_NONE", AOV_NONE),
+    ("AOV_ALBEDO", AOV_ALBEDO),
+    ("AOV_NORMAL", AOV_NORMAL),
+    ("AOV_DEPTH", AOV_DEPTH),
     ("NO_MESH", NO_MESH),
     ("MESH_SMOOTH", MESH_SMOOTH),
     ("MESH_TEXTURED", MESH_TEXTURED),
@@ -317,7 +332,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("BVH_MAX_STEPS", crate::scene::bvh::MAX_STEPS),
 ];
 
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 128);
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 144);
 const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuMeshFace>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);

@@ -343,6 +343,13 @@ pub const KNOBS: &[KnobRow] = &[
         ],
         read: |p| p.light_sampling,
     },
+    KnobRow {
+        // Radiance, or an `--aov` layer (trace.wgsl, trace_aov): a render's kernel has no AOV code.
+        name: "aov",
+        from_params: "AOV_FROM_PARAMS",
+        values: &[("AOV_KIND", KNOB_VALUE)],
+        read: |p| p.aov,
+    },
 ];
 
 /// The features a kernel keeps (a bit per [`FEATURES`] row), and the knobs it has as constants

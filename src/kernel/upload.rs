@@ -579,6 +579,8 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
             Projection::Perspective => CAMERA_PERSPECTIVE,
             Projection::Orthographic => CAMERA_ORTHOGRAPHIC,
         },
+        aov: AOV_NONE,
+        _pad: [0; 3],
     }
 }
 

@@ -87,6 +87,9 @@ pub struct RenderOptions {
     pub max_tile: Option<[u32; 2]>,
     /// A fault to inject, for testing what the caller does when the device fails (`VKPATH_FAULT`).
     pub fault: Option<Fault>,
+    /// What the samples are: radiance ([`AOV_NONE`](crate::kernel::abi::AOV_NONE)), or an `AOV_*`
+    /// layer (`--aov`: albedo, normal or depth, averaged over the pixel's samples like radiance).
+    pub aov: u32,
 }
 
 /// Faults the renderer can be told to simulate, so that the handling of each (messages, exit codes,
@@ -127,6 +130,7 @@ impl Default for RenderOptions {
             target_dispatch_seconds: 0.1,
             max_tile: None,
             fault: None,
+            aov: crate::kernel::abi::AOV_NONE,
         }
     }
 }
@@ -239,6 +243,11 @@ fn render_params(scene: &Scene, gpu: &GpuScene, options: &RenderOptions) -> GpuP
     params.num_lights = gpu.lights.len() as u32;
     params.environment_light = gpu.environment_light;
     params.triangle_light = gpu.triangle_light;
+    params.aov = options.aov;
+    if options.aov != crate::kernel::abi::AOV_NONE {
+        // The firefly clamp is for radiance: it would scale normals and distances.
+        params.sample_clamp = 0.0;
+    }
     params
 }
 
@@ -761,6 +770,37 @@ pub struct PassReport {
     pub progress: bool,
     /// True when the state is due to be saved (see [`SaveEvery`]).
     pub save_state: bool,
+}
+
+/// The most samples per pixel of an `--aov` layer: albedo, normal and depth vary only with the surface a
+/// camera ray meets, so a few dozen samples filter their edges as the image does, and more would only
+/// add time.
+pub const AOV_MAX_SPP: u32 = 64;
+
+/// Renders `spp` samples per pixel of an `--aov` layer (`AOV_ALBEDO`, `AOV_NORMAL` or `AOV_DEPTH`) of
+/// `scene` with a renderer of its own (its kernel specialised for the layer, its own accumulator: the
+/// render's are untouched), and returns its film: the layer's mean per pixel (see trace.wgsl's
+/// `trace_aov` for what each holds).
+pub fn render_aov(
+    ctx: &Arc<GpuContext>,
+    scene: &Scene,
+    options: &RenderOptions,
+    aov: u32,
+    spp: u32,
+) -> Result<Film, GpuError> {
+    let options = RenderOptions {
+        aov,
+        fault: None,
+        ..options.clone()
+    };
+    let mut r = Renderer::new(ctx, scene, &options)?;
+    let mut done = 0;
+    while done < spp {
+        let k = (spp - done).min(16);
+        r.run_pass(k)?;
+        done += k;
+    }
+    r.film()
 }
 
 /// Runs passes until the budget is spent or `stop` is set (Ctrl-C), adapting the pass size so that a
