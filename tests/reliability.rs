@@ -410,6 +410,20 @@ fn parts_merge_from_a_directory_into_the_single_render() {
         "merged from the directory"
     );
     run_ok(d, &["merge", "parts/*.ckpt", "-o", "glob.exr"]);
+    // The variance layer of a merge is the union's; the other layers need the scene.
+    run_ok(d, &["merge", "parts", "--aov", "variance", "-o", "var.exr"]);
+    run_fails(
+        d,
+        &["merge", "parts", "--aov", "albedo", "-o", "x.exr"],
+        2,
+        &["--aov albedo"],
+    );
+    run_fails(
+        d,
+        &["merge", "parts", "--aov", "variance", "-o", "x.png"],
+        2,
+        &["-o OUT.exr"],
+    );
     assert!(
         exr_bits(&d.join("glob.exr")) == single,
         "merged from the glob"

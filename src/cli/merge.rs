@@ -54,6 +54,15 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
             other.name()
         )));
     }
+    if !aovs.is_empty()
+        && !m.outputs.iter().any(|o| {
+            vkpath::film::OutputFormat::from_path(o) == Some(vkpath::film::OutputFormat::Exr)
+        })
+    {
+        return Err(usage(
+            "--aov adds layers to the EXR output, and no -o names an .exr file: add -o OUT.exr.",
+        ));
+    }
     let files = expand_parts(&m.parts)?;
     let inputs = files.iter().map(|p| (p.clone(), "a part merged")).collect();
     super::paths::check_outputs(&m.outputs, m.checkpoint.as_deref(), inputs, None)?;
