@@ -402,8 +402,8 @@ impl Disk<'_> {
                 layers,
             },
         )?;
-        if let Some(o) = self.outputs.last() {
-            self.saved.image = Some((o.clone(), film.spp));
+        if !self.outputs.is_empty() {
+            self.saved.images = Some((self.outputs.to_vec(), film.spp));
         }
         Ok(())
     }
@@ -827,7 +827,8 @@ fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
 #[derive(Default)]
 struct Saved {
     checkpoint: Option<(PathBuf, u32)>,
-    image: Option<(PathBuf, u32)>,
+    /// The images of the last progress write (all of them: they are written all or nothing).
+    images: Option<(Vec<PathBuf>, u32)>,
 }
 
 impl Saved {
@@ -841,10 +842,13 @@ impl Saved {
                 p.display()
             ));
         }
-        if let Some((p, n)) = &self.image {
+        if let Some((paths, n)) = &self.images {
+            let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
             s.push_str(&format!(
-                " The last progress image, {} ({n} samples per pixel), is intact.",
-                p.display()
+                " The last progress image{}, {} ({n} samples per pixel), {} intact.",
+                if names.len() == 1 { "" } else { "s" },
+                names.join(", "),
+                if names.len() == 1 { "is" } else { "are" }
             ));
         }
         s
