@@ -1,24 +1,29 @@
 //! `vkpath convert SCENE -o OUT.toml`: any scene vkpath can read, written as the vkpath TOML it
 //! understood, so that a user can see and edit it. A glTF file becomes the scene src/scene/import.rs
 //! makes of it (the file as a mesh, its camera and lights), its mesh path written relative to OUT's
-//! directory when it can be (else absolute); a TOML scene is checked and written as it is.
+//! directory when it can be (else absolute); a Mitsuba 3 XML file the scene src/scene/mitsuba.rs makes
+//! of it, its file paths likewise; a TOML scene is checked and written as it is.
 
-use super::{load_scene, usage};
+use super::{load_scene_with, usage};
 use clap::Args;
 use std::path::{Component, Path, PathBuf};
 use vkpath::Error;
-use vkpath::scene::{import, mesh};
+use vkpath::scene::toml_text::relative_to;
+use vkpath::scene::{import, mesh, mitsuba};
 
 #[derive(Args)]
 pub struct ConvertArgs {
-    /// Scene to read: TOML, or glTF 2.0 (.gltf, .glb).
+    /// Scene to read: TOML, glTF 2.0 (.gltf, .glb) or Mitsuba 3 XML (.xml).
     scene: PathBuf,
     /// The TOML file to write.
     #[arg(short = 'o', long = "output")]
     output: PathBuf,
-    /// A glTF scene's camera (as `render --camera`).
+    /// A glTF scene's camera, or a Mitsuba XML scene's sensor (as `render --camera`).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
     camera: Option<u32>,
+    /// A Mitsuba XML scene: skip what vkpath does not read, with a warning each (as `render`).
+    #[arg(long = "xml-lenient")]
+    xml_lenient: bool,
 }
 
 pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
@@ -44,8 +49,18 @@ pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
     }
     // Read (and check) the scene as render would, warnings included.
     let camera = a.camera.map(|c| c as usize);
-    load_scene(Some(&a.scene), camera)?;
-    let text = if mesh::is_gltf(&a.scene) {
+    load_scene_with(Some(&a.scene), camera, a.xml_lenient)?;
+    let text = if mitsuba::is_xml(&a.scene) {
+        // File paths relative to the output's folder, so that the TOML reads them from where it is.
+        let options = mitsuba::XmlOptions {
+            camera,
+            lenient: a.xml_lenient,
+            paths_relative_to: Some(absolute(a.output.parent().unwrap_or(Path::new("")))),
+        };
+        let translated = mitsuba::xml_scene(&a.scene, &options)?;
+        // The warnings were printed by load_scene_with.
+        translated.toml
+    } else if mesh::is_gltf(&a.scene) {
         let out_dir = absolute(a.output.parent().unwrap_or(Path::new("")));
         let input = absolute(&a.scene);
         let mesh_ref = relative_to(&input, &out_dir).unwrap_or_else(|| input.clone());
@@ -75,22 +90,4 @@ fn absolute(p: &Path) -> PathBuf {
         }
     }
     out
-}
-
-/// The path of `target` relative to the directory `dir` (both absolute), with `..` as needed.
-fn relative_to(target: &Path, dir: &Path) -> Option<PathBuf> {
-    let t: Vec<_> = target.components().collect();
-    let d: Vec<_> = dir.components().collect();
-    let common = t.iter().zip(&d).take_while(|(a, b)| a == b).count();
-    if common == 0 {
-        return None;
-    }
-    let mut out = PathBuf::new();
-    for _ in common..d.len() {
-        out.push("..");
-    }
-    for c in &t[common..] {
-        out.push(c);
-    }
-    Some(out)
 }

@@ -75,12 +75,21 @@ fn usage(msg: impl Into<String>) -> Error {
 /// scene when none is. What the reader noticed and worked around (Scene::warnings) is printed on stderr,
 /// one line each.
 fn load_scene(path: Option<&Path>, camera: Option<usize>) -> Result<Scene, Error> {
+    load_scene_with(path, camera, false)
+}
+
+/// [`load_scene`]; `xml_lenient`: a Mitsuba XML scene's unknown elements are skipped with a warning.
+fn load_scene_with(
+    path: Option<&Path>,
+    camera: Option<usize>,
+    xml_lenient: bool,
+) -> Result<Scene, Error> {
     let scene = match (path, camera) {
-        (Some(path), camera) => Scene::load_with_camera(path, camera)?,
+        (Some(path), camera) => Scene::load_with_options(path, camera, xml_lenient)?,
         (None, None) => Scene::default_scene(),
         (None, Some(_)) => {
             return Err(usage(
-                "--camera picks a camera of a glTF scene file; give the scene file as well.",
+                "--camera picks a camera of a glTF or Mitsuba XML scene file; give the scene file as well.",
             ));
         }
     };

@@ -9,7 +9,7 @@
 
 use super::report::{RenderReport, kernel_name, print_json, shown_paths};
 use super::{
-    check_image_size, check_output_formats, install_stop_handler, load_scene,
+    check_image_size, check_output_formats, install_stop_handler, load_scene_with,
     report_validation_errors, usage,
 };
 use clap::Args;
@@ -230,7 +230,11 @@ struct Job {
 /// an output of unknown format; a part writes no image unless asked: its checkpoint is what counts), and
 /// reads the checkpoint to resume: a damaged or foreign file is refused here, before any device work.
 fn prepare(a: &RenderArgs, is_part: bool) -> Result<Job, Error> {
-    let mut scene = load_scene(a.scene.as_deref(), a.camera.map(|c| c as usize))?;
+    let mut scene = load_scene_with(
+        a.scene.as_deref(),
+        a.camera.map(|c| c as usize),
+        a.xml_lenient,
+    )?;
     apply_overrides(&mut scene, a)?;
     let options = render_options(a)?;
     let outputs = if a.outputs.is_empty() && !is_part {
@@ -640,11 +644,16 @@ enum SamplerArg {
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// Scene file: TOML, or glTF 2.0 (.gltf, .glb). Default: the embedded course scene.
+    /// Scene file: TOML, glTF 2.0 (.gltf, .glb) or Mitsuba 3 XML (.xml). Default: the embedded course scene.
     scene: Option<PathBuf>,
-    /// A glTF scene's camera to render from: N counts its camera nodes, depth first (default: the first).
+    /// A glTF scene's camera to render from: N counts its camera nodes, depth first (default: the first);
+    /// a Mitsuba XML scene's sensor N, in file order.
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
     camera: Option<u32>,
+    /// A Mitsuba XML scene: skip the elements, plugins and parameters vkpath does not read, with a
+    /// warning each, instead of refusing the file.
+    #[arg(long = "xml-lenient")]
+    xml_lenient: bool,
     /// Output file; repeatable; the format follows the extension (.png, .exr). Default: <scene-stem>.png.
     #[arg(short = 'o', long = "output")]
     outputs: Vec<PathBuf>,

@@ -15,9 +15,15 @@
 //! 640 pixels wide (height = 640 / aspect); an orthographic camera's xmag is half the view's width.
 
 use super::SceneError;
+use super::toml_text::{num, toml_string};
 use glam::{Mat4, Vec3};
 use std::fmt::Write as _;
 use std::path::Path;
+
+/// `[x, y, z]` of a glam vector.
+fn vec3(v: Vec3) -> String {
+    super::toml_text::vec3(v.to_array())
+}
 
 /// The image width an imported camera gets (its aspect ratio gives the height).
 pub const IMPORTED_IMAGE_WIDTH: u32 = 640;
@@ -196,38 +202,4 @@ pub fn gltf_scene_referring(
         );
     }
     Ok(Imported { toml, warnings })
-}
-
-/// A number as TOML writes it (finite: the caller's values come from finite glTF numbers; a non-finite
-/// one is written as TOML's nan/inf and the TOML reader reports it).
-fn num(x: f32) -> String {
-    if x.is_finite() {
-        format!("{x:?}")
-    } else if x.is_nan() {
-        "nan".into()
-    } else if x > 0.0 {
-        "inf".into()
-    } else {
-        "-inf".into()
-    }
-}
-
-fn vec3(v: Vec3) -> String {
-    format!("[{}, {}, {}]", num(v.x), num(v.y), num(v.z))
-}
-
-/// A TOML basic string.
-fn toml_string(s: &str) -> String {
-    let mut out = String::from("\"");
-    for c in s.chars() {
-        match c {
-            '"' => out += "\\\"",
-            '\\' => out += "\\\\",
-            c if c.is_control() => {
-                let _ = write!(out, "\\u{:04X}", c as u32);
-            }
-            c => out.push(c),
-        }
-    }
-    out + "\""
 }

@@ -9,9 +9,11 @@ pub mod environment;
 pub mod gltf;
 pub mod import;
 pub mod mesh;
+pub mod mitsuba;
 mod parse;
 pub mod ply;
 pub mod shapes;
+pub mod toml_text;
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
@@ -372,9 +374,27 @@ impl Scene {
     }
 
     /// Reads a scene file: TOML, or a glTF 2.0 file (`.gltf`, `.glb`) read as the scene
-    /// super::import makes of it, from its first camera or camera `camera` (which only glTF files
-    /// take).
+    /// super::import makes of it, from its first camera or camera `camera` (which only glTF and
+    /// Mitsuba XML files take), or a Mitsuba 3 XML file (`.xml`, super::mitsuba).
     pub fn load_with_camera(path: &Path, camera: Option<usize>) -> Result<Scene, SceneError> {
+        Scene::load_with_options(path, camera, false)
+    }
+
+    /// [`Scene::load_with_camera`]; `xml_lenient` reads a Mitsuba XML file skipping what vkpath does
+    /// not read (a warning each) instead of refusing it.
+    pub fn load_with_options(
+        path: &Path,
+        camera: Option<usize>,
+        xml_lenient: bool,
+    ) -> Result<Scene, SceneError> {
+        if mitsuba::is_xml(path) {
+            let options = mitsuba::XmlOptions {
+                camera,
+                lenient: xml_lenient,
+                paths_relative_to: None,
+            };
+            return mitsuba::load(path, &options);
+        }
         if mesh::is_gltf(path) {
             let imported = import::gltf_scene(path, camera)?;
             let mut scene = Scene::from_toml_str(&imported.toml, Some(path))?;
@@ -387,8 +407,8 @@ impl Scene {
             return Err(SceneError::import(
                 path,
                 Some("--camera".into()),
-                "--camera picks a camera of a glTF scene, but this scene is a TOML file with one [camera]",
-                "Leave --camera out, or render the glTF file itself.",
+                "--camera picks a camera of a glTF or Mitsuba XML scene, but this scene is a TOML file with one [camera]",
+                "Leave --camera out, or render the glTF or XML file itself.",
             ));
         }
         Scene::load_toml(path)

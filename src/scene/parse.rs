@@ -70,6 +70,33 @@ impl SceneError {
         SceneError::new(path.display().to_string(), None, key, problem, hint)
     }
 
+    /// A problem at a line of a file of another format (super::mitsuba): `key` names the element.
+    pub(crate) fn at(
+        path: &Path,
+        line: Option<usize>,
+        key: Option<String>,
+        problem: impl Into<String>,
+        hint: &str,
+    ) -> SceneError {
+        SceneError::new(path.display().to_string(), line, key, problem, hint)
+    }
+
+    /// The same problem reported at another file, line and key (a scene translated from another format
+    /// reports where its source said what the TOML reader refused).
+    pub(crate) fn relocated(
+        self,
+        file: String,
+        line: Option<usize>,
+        key: Option<String>,
+    ) -> SceneError {
+        SceneError {
+            file,
+            line,
+            key,
+            ..self
+        }
+    }
+
     /// The scene file could not be read at all.
     pub fn io(path: &Path, e: &std::io::Error) -> SceneError {
         SceneError::new(
