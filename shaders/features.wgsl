@@ -17,9 +17,14 @@ override HAS_TRIANGLES: bool = true;
 // loop over every triangle, which is also the reference the BVH is tested and benchmarked against.
 override HAS_BVH: bool = true;
 override HAS_TRIANGLE_LOOP: bool = true;
-// Meshes: interpolated vertex normals, albedo textures, and either (the per-triangle shading data).
+// Meshes: interpolated vertex normals, base colour (albedo) textures, emissive textures (multiplying
+// the emission), metallic-roughness textures and normal maps (glTF), and any of them (the per-triangle
+// shading data).
 override HAS_SMOOTH_NORMALS: bool = true;
 override HAS_TEXTURES: bool = true;
+override HAS_EMISSIVE_TEXTURES: bool = true;
+override HAS_METALLIC_ROUGHNESS_TEXTURES: bool = true;
+override HAS_NORMAL_MAPS: bool = true;
 override HAS_MESH_SHADING: bool = true;
 // Materials (bsdf.wgsl).
 override HAS_DIFFUSE: bool = true;

@@ -65,26 +65,36 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
 }
 
 // Surface data at a hit: position with its error bound, geometric normal (outward for spheres,
-// (v1 - v0) x (v2 - v0) for triangles), material index; for meshes, the shading normal and the texture's
-// albedo.
+// (v1 - v0) x (v2 - v0) for triangles), material index; for meshes, the shading normal and what the
+// mesh's textures make of the material there (textured_material).
 struct Surface {
     p: vec3<f32>,
     err: vec3<f32>,
     n: vec3<f32>,
     material: u32,
-    // The shading normal, on the same side as n: the interpolated vertex normal when `shading_normal`, else n.
+    // The shading normal, on the same side as n: the interpolated vertex normal, perturbed by a normal
+    // map, when `shading_normal`, else n.
     ns: vec3<f32>,
     shading_normal: bool,
-    // The texture's albedo at the hit, when `textured`: it replaces the material's albedo (or tint).
+    // The albedo at the hit, when `textured`: the base colour texture's value (TOML and OBJ meshes), or
+    // that times the material's albedo (glTF's baseColorFactor, MESH_BASE_COLOR_FACTOR). It replaces the
+    // material's albedo (or tint).
     albedo: vec3<f32>,
     textured: bool,
+    // What multiplies the material's emission: the emissive texture's value, or 1.
+    emission_scale: vec3<f32>,
+    // With a metallic-roughness texture (`metallic_roughness_textured`): metallic at the hit
+    // (metallicFactor x B) and the factor of roughness (G).
+    metallic_roughness: vec2<f32>,
+    metallic_roughness_textured: bool,
 }
 
 fn sphere_surface(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
     let s = spheres[hit.prim_index];
     let sp = sphere_surface_point(o, d, hit.t, s.center, s.radius);
     let n = normalize(sp.p - s.center);
-    return Surface(sp.p, sp.err, n, s.material, n, false, vec3<f32>(0.0), false);
+    return Surface(sp.p, sp.err, n, s.material, n, false, vec3<f32>(0.0), false, vec3<f32>(1.0),
+                   vec2<f32>(1.0), false);
 }
 
 fn mesh_normal(v: MeshVertex) -> vec3<f32> {
@@ -95,7 +105,8 @@ fn triangle_surface(hit: Hit) -> Surface {
     let tri = triangles[hit.prim_index];
     let sp = triangle_surface_point(tri.v0, tri.v1, tri.v2, hit.b);
     let n = triangle_normal(tri.v0, tri.v1, tri.v2);
-    var s = Surface(sp.p, sp.err, n, tri.material, n, false, vec3<f32>(0.0), false);
+    var s = Surface(sp.p, sp.err, n, tri.material, n, false, vec3<f32>(0.0), false, vec3<f32>(1.0),
+                    vec2<f32>(1.0), false);
     if HAS_MESH_SHADING {
         // (The generic kernel also runs scenes without shading data, whose mesh_faces is empty.)
         var face = MeshFace(vec3<u32>(0u), NO_MESH);
@@ -123,12 +134,37 @@ fn triangle_surface(hit: Hit) -> Surface {
                     }
                 }
             }
+            let uv = b.x * vec2<f32>(v0.u, v0.v) + b.y * vec2<f32>(v1.u, v1.v) + b.z * vec2<f32>(v2.u, v2.v);
             if HAS_TEXTURES {
                 if (mesh.flags & MESH_TEXTURED) != 0u {
-                    let uv = b.x * vec2<f32>(v0.u, v0.v) + b.y * vec2<f32>(v1.u, v1.v)
-                           + b.z * vec2<f32>(v2.u, v2.v);
-                    s.albedo = texture_bilinear(mesh, uv);
+                    // glTF: base colour = baseColorFactor x texel, both linear (the material's albedo
+                    // holds the factor); TOML and OBJ: the texel.
+                    var factor = vec3<f32>(1.0);
+                    if (mesh.flags & MESH_BASE_COLOR_FACTOR) != 0u {
+                        factor = materials[tri.material].albedo;
+                    }
+                    s.albedo = texture_bilinear_scaled(mesh.base_color, uv, factor);
                     s.textured = true;
+                }
+            }
+            if HAS_EMISSIVE_TEXTURES {
+                if (mesh.flags & MESH_EMISSIVE_TEXTURED) != 0u {
+                    s.emission_scale = texture_bilinear(mesh.emissive, uv);
+                }
+            }
+            if HAS_NORMAL_MAPS {
+                if (mesh.flags & MESH_NORMAL_MAPPED) != 0u {
+                    s = normal_mapped(s, mesh, tri, v0, v1, v2, uv);
+                }
+            }
+            if HAS_METALLIC_ROUGHNESS_TEXTURES {
+                if (mesh.flags & MESH_METALLIC_ROUGHNESS_TEXTURED) != 0u {
+                    // glTF 2.0 §3.9.2: metalness in B, roughness in G, both linear; metallic =
+                    // metallicFactor x B (the material holds the factor).
+                    let metallic = materials[tri.material].metallic;
+                    s.metallic_roughness =
+                        texture_bilinear_scaled(mesh.metallic_roughness, uv, vec3<f32>(1.0, 1.0, metallic)).bg;
+                    s.metallic_roughness_textured = true;
                 }
             }
         }
@@ -136,12 +172,53 @@ fn triangle_surface(hit: Hit) -> Surface {
     return s;
 }
 
-// What a textured mesh's texture makes of the emission at point p of triangle `tri` (p from a light
-// sample, on the triangle up to rounding): the texture's value there (the texture multiplies the
-// emission, as it replaces the albedo), or 1 off textured meshes.
+// A tangent-space normal map (glTF 2.0 §3.9.3) applied to surface s: texel t (linear data) encodes
+// m = 2 t - 1 in the frame (T, B, N) of the surface at the hit, N the shading normal so far (interpolated
+// or geometric), T the direction in which u increases, dp/du, made perpendicular to N, and B = +-N x T,
+// on the side in which v increases (dp/dv: the image's up, glTF's +Y). The shading normal becomes
+//   normalize(T (scale m.x) + B (scale m.y) + N m.z),  scale = normalTexture.scale.
+// dp/du and dp/dv are the triangle's own (pbrt-v4 §6.5.1): p_i - p_2 = (u_i - u_2) dp/du + (v_i - v_2) dp/dv
+// for i = 0, 1, solved by Cramer's rule with det = (u_0 - u_2)(v_1 - v_2) - (v_0 - v_2)(u_1 - u_2). A
+// triangle with degenerate uvs (det = 0), or a mapped normal on the far side of the geometric surface
+// (which no shading frame can use), keeps the normal it had.
+fn normal_mapped(s: Surface, mesh: MeshInfo, tri: Triangle, a: MeshVertex, b: MeshVertex, c: MeshVertex,
+                 uv: vec2<f32>) -> Surface {
+    var out = s;
+    let duv02 = vec2<f32>(a.u - c.u, a.v - c.v);
+    let duv12 = vec2<f32>(b.u - c.u, b.v - c.v);
+    let det = duv02.x * duv12.y - duv02.y * duv12.x;
+    if det != 0.0 {
+        let dp02 = tri.v0 - tri.v2;
+        let dp12 = tri.v1 - tri.v2;
+        let dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
+        let dpdv = (duv02.x * dp12 - duv12.x * dp02) / det;
+        let n = s.ns;
+        let t_raw = dpdu - dot(dpdu, n) * n;
+        let t_len2 = dot(t_raw, t_raw);
+        if t_len2 > 0.0 && t_len2 < 1e30 {
+            let t = t_raw * inverseSqrt(t_len2);
+            let bt = select(cross(n, t), -cross(n, t), dot(cross(n, t), dpdv) < 0.0);
+            let m = 2.0 * texture_bilinear(mesh.normal, uv) - vec3<f32>(1.0);
+            let p = t * (m.x * mesh.normal_scale) + bt * (m.y * mesh.normal_scale) + n * m.z;
+            let len2 = dot(p, p);
+            if len2 > 1e-12 {
+                let unit = p * inverseSqrt(len2);
+                if dot(unit, s.n) > 0.0 {
+                    out.ns = unit;
+                    out.shading_normal = true;
+                }
+            }
+        }
+    }
+    return out;
+}
+
+// What a mesh's emissive texture makes of the emission at point p of triangle `tri` (p from a light
+// sample, on the triangle up to rounding): the texture's value there, which multiplies the emission, or 1
+// off such meshes.
 fn emission_texture(tri: u32, p: vec3<f32>) -> vec3<f32> {
     var scale = vec3<f32>(1.0);
-    if HAS_TEXTURES {
+    if HAS_EMISSIVE_TEXTURES {
         let t = triangles[tri];
         let e1 = t.v1 - t.v0;
         let e2 = t.v2 - t.v0;
@@ -150,11 +227,33 @@ fn emission_texture(tri: u32, p: vec3<f32>) -> vec3<f32> {
         let b1 = clamp(dot(cross(p - t.v0, e2), n) * inv, 0.0, 1.0);
         let b2 = clamp(dot(cross(e1, p - t.v0), n) * inv, 0.0, 1.0 - b1);
         let s = triangle_surface(Hit(0.0, PRIM_TRIANGLE, tri, vec3<f32>(1.0 - b1 - b2, b1, b2)));
-        if s.textured {
-            scale = s.albedo;
-        }
+        scale = s.emission_scale;
     }
     return scale;
+}
+
+// The material `mat` as the hit's surface makes it: the textured albedo replacing the albedo (or
+// tint), and with a metallic-roughness texture (glTF) metallic = metallicFactor x B and roughness =
+// roughnessFactor x G. The material holds alpha = roughnessFactor^2 (on each axis), so the textured
+// alpha is (roughnessFactor G)^2 = alpha G^2 (below SMOOTH_ALPHA, the smooth lobe: microfacet_smooth).
+// (That product reaches the BSDF only through material_alpha's max, never an addition, so it rounds the
+// same in every kernel: see texture_bilinear_scaled.)
+fn textured_material(mat: Material, sp: Surface) -> Material {
+    var m = mat;
+    if HAS_TEXTURES {
+        if sp.textured {
+            m.albedo = sp.albedo;
+        }
+    }
+    if HAS_METALLIC_ROUGHNESS_TEXTURES {
+        if sp.metallic_roughness_textured {
+            m.metallic = sp.metallic_roughness.x;
+            let g2 = sp.metallic_roughness.y * sp.metallic_roughness.y;
+            m.alpha_x *= g2;
+            m.alpha_y *= g2;
+        }
+    }
+    return m;
 }
 
 // The direction an anisotropic material's roughness alpha_x runs along at a hit (the BSDF keeps its

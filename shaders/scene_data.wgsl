@@ -72,7 +72,13 @@ struct BvhNode {
 
 const NO_MESH: u32 = 0xffffffffu;
 const MESH_SMOOTH: u32 = 1u;
-const MESH_TEXTURED: u32 = 2u;
+const MESH_TEXTURED: u32 = 2u; // a base colour texture
+const MESH_BASE_COLOR_FACTOR: u32 = 4u; // it multiplies the material's albedo (glTF), else replaces it
+const MESH_EMISSIVE_TEXTURED: u32 = 8u; // the emissive texture multiplies the emission
+const MESH_METALLIC_ROUGHNESS_TEXTURED: u32 = 16u; // B scales metallic, G roughness (glTF)
+const MESH_NORMAL_MAPPED: u32 = 32u; // a tangent-space normal map perturbs the shading normal
+const NO_TEXTURE: u32 = 0xffffffffu;
+const TEXTURE_SRGB: u32 = 1u; // colour texels, sRGB-encoded; else linear data
 
 // Shading data of triangle i (same index as `triangles`): its three vertices in `mesh_vertices` and its
 // mesh in `meshes`, or mesh == NO_MESH for a triangle without (flat and untextured).
@@ -90,11 +96,24 @@ struct MeshVertex {
     v: f32,
 }
 
+// A mesh's textures, each an index into `textures` or NO_TEXTURE, and its MESH_* flags.
 struct MeshInfo {
-    texture_offset: u32, // first texel in `texels`
-    texture_width: u32,
-    texture_height: u32,
-    flags: u32, // MESH_SMOOTH | MESH_TEXTURED
+    base_color: u32,
+    metallic_roughness: u32,
+    emissive: u32,
+    normal: u32,
+    normal_scale: f32, // glTF's normalTexture.scale, the factor of the map's x and y
+    flags: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// The texture table: texture k's texels are texels[offset ..] (width x height, rows from the top).
+struct TextureInfo {
+    offset: u32,
+    width: u32,
+    height: u32,
+    flags: u32, // TEXTURE_SRGB or 0
 }
 
 // A closest hit: which primitive, where along the ray, and for triangles the barycentrics.
@@ -118,8 +137,10 @@ struct Hit {
 @group(0) @binding(8) var<storage, read> mesh_faces: array<MeshFace>;
 @group(0) @binding(9) var<storage, read> mesh_vertices: array<MeshVertex>;
 @group(0) @binding(10) var<storage, read> meshes: array<MeshInfo>;
-// Every texture's texels, RGBA8 with sRGB-encoded colour (r in the low byte), rows from the top.
+// Every texture's texels, RGBA8 (r in the low byte), rows from the top: sRGB-encoded colour or linear
+// data, as its TextureInfo says.
 @group(0) @binding(11) var<storage, read> texels: array<u32>;
+@group(0) @binding(16) var<storage, read> textures: array<TextureInfo>;
 
 // The render target: per-pixel running sums, and which sample the current dispatch traces over which
 // pixels. An image too large for one buffer or one dispatch is cut (src/render/mod.rs, "Tiles"): each

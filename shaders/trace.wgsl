@@ -59,12 +59,7 @@ fn trace_aov(kind: u32, o0: vec3<f32>, d0: vec3<f32>, rng: ptr<function, Rng>) -
         if kind == AOV_DEPTH {
             return vec3<f32>(distance(o0, sp.p), 1.0, 0.0);
         }
-        var mat = materials[hit_material(hit)];
-        if HAS_TEXTURES {
-            if sp.textured {
-                mat.albedo = sp.albedo;
-            }
-        }
+        let mat = textured_material(materials[hit_material(hit)], sp);
         if !bsdf_is_delta(mat) || bounce == params.max_bounces {
             if kind == AOV_NORMAL {
                 return 0.5 * sp.ns + vec3<f32>(0.5);
@@ -74,7 +69,7 @@ fn trace_aov(kind: u32, o0: vec3<f32>, d0: vec3<f32>, rng: ptr<function, Rng>) -
         let entering = dot(d, sp.n) < 0.0;
         let n = select(-sp.n, sp.n, entering);
         var ns = n;
-        if HAS_SMOOTH_NORMALS {
+        if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
             ns = select(-sp.ns, sp.ns, entering);
         }
         var tangent = vec3<f32>(0.0);
@@ -116,7 +111,7 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
 // start on the far side).
 fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 {
     var cos_theta = dot(n, wi);
-    if HAS_SMOOTH_NORMALS {
+    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
         if sp.shading_normal && cos_theta > 0.0 {
             cos_theta = dot(ns, wi);
         }
@@ -150,7 +145,7 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, tangent
         let chosen = light_select(k);
         var ls = light_sample_li(chosen.light, sp.p, strategy, rng);
         if HAS_TRIANGLE_LIGHTS {
-            if HAS_TEXTURES {
+            if HAS_EMISSIVE_TEXTURES {
                 if ls.triangle != NO_LIGHT && ls.pdf > 0.0 {
                     ls.L *= emission_texture(ls.triangle, ls.p_light);
                 }
@@ -277,14 +272,12 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         var mat = materials[hit_material(hit)];
         if HAS_EMISSION {
             if any(mat.emission > vec3<f32>(0.0)) {
-                // Front or back: against the geometric normal (outward on spheres). A textured mesh's
+                // Front or back: against the geometric normal (outward on spheres). A mesh's emissive
                 // texture multiplies the emission.
                 let s = surface_at(o, d, hit);
                 var le = material_emission(mat, dot(d, s.n) < 0.0);
-                if HAS_TEXTURES {
-                    if s.textured {
-                        le *= s.albedo;
-                    }
+                if HAS_EMISSIVE_TEXTURES {
+                    le *= s.emission_scale;
                 }
                 var w = 1.0;
                 if !last_delta {
@@ -308,20 +301,18 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         // Both faces scatter: shade with the normal on the side the ray came from.
         let entering = dot(d, sp.n) < 0.0;
         let n = select(-sp.n, sp.n, entering);
-        // Smooth meshes scatter about their interpolated normal ns (on the same side as n); everything
-        // else about n. A direction chosen about ns can still point below the geometric surface near a
-        // silhouette; such a path ends there (absorbed), rather than leaking through the mesh. That
-        // loses a little energy at grazing angles, the usual price of shading normals (pbrt-v4 §10.1).
+        // Smooth and normal-mapped meshes scatter about their shading normal ns (on the same side as n);
+        // everything else about n. A direction chosen about ns can still point below the geometric
+        // surface near a silhouette; such a path ends there (absorbed), rather than leaking through the
+        // mesh. That loses a little energy at grazing angles, the usual price of shading normals (pbrt-v4
+        // §10.1).
         var ns = n;
-        if HAS_SMOOTH_NORMALS {
+        if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
             ns = select(-sp.ns, sp.ns, entering);
         }
-        // A texture replaces the material's albedo (diffuse) or tint (mirror).
-        if HAS_TEXTURES {
-            if sp.textured {
-                mat.albedo = sp.albedo;
-            }
-        }
+        // Textures: the base colour replaces the material's albedo (diffuse) or tint (mirror); a
+        // metallic-roughness texture scales metallic and roughness (textured_material, scene.wgsl).
+        mat = textured_material(mat, sp);
         // The direction anisotropic roughness runs along (zero, and not computed, without anisotropy).
         var tangent = vec3<f32>(0.0);
         if HAS_ANISOTROPY {
@@ -341,7 +332,7 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         prev_p = sp.p;
         prev_sphere = on_sphere;
         last_delta = delta;
-        if HAS_SMOOTH_NORMALS {
+        if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
             // wi must leave on the side the ray came from (reflection) or cross (transmission).
             let reflected = (bs.flags & BSDF_REFLECTION) != 0u;
             if sp.shading_normal && (dot(bs.wi, n) > 0.0) != reflected {

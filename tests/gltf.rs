@@ -7,6 +7,10 @@
 //!   texture (oriented as glTF's: v = 0 is the image's top row).
 //! * The image against the same scene written by hand as OBJ files and TOML materials: image means agree
 //!   within noise.
+//! * Textures (a one-quad glTF written per test, `write_textured_quad`): the tables after loading; base
+//!   colour = factor x texel; metallic and roughness per texel against the analytic reflectances under a
+//!   uniform environment; emission = factor x texel seen directly and as a light; normal maps (scale 0
+//!   changes no bit, a tilted map renders like a tilted quad); the same maps as TOML keys; specialisation.
 
 mod common;
 
@@ -254,25 +258,25 @@ fn a_gltf_mesh_renders_like_its_hand_written_equivalent() {
     );
 }
 
-/// What glTF brings that vkpath does not use is a warning; a broken file is an error at the mesh's `obj`.
+/// What glTF brings that vkpath does not use (here an occlusionTexture) is a warning; a broken file is an error at the mesh's `obj`.
 #[test]
 fn gltf_notes_and_errors() {
     let dir = tempfile::tempdir().unwrap();
     write_gltf(dir.path());
     let json = std::fs::read_to_string(dir.path().join("scene.gltf")).unwrap();
-    let with_normal_map = json.replace(
+    let with_occlusion = json.replace(
         r#""metallicFactor": 0.0, "roughnessFactor": 0.8}}"#,
-        r#""metallicFactor": 0.0, "roughnessFactor": 0.8}, "normalTexture": {"index": 0}}"#,
+        r#""metallicFactor": 0.0, "roughnessFactor": 0.8}, "occlusionTexture": {"index": 0}}"#,
     );
-    assert_ne!(json, with_normal_map);
-    std::fs::write(dir.path().join("scene.gltf"), with_normal_map).unwrap();
+    assert_ne!(json, with_occlusion);
+    std::fs::write(dir.path().join("scene.gltf"), with_occlusion).unwrap();
     let scene = load(
         dir.path(),
         &format!("{HEAD}[[mesh]]\nobj = \"scene.gltf\"\n"),
     );
     assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
     assert!(
-        scene.warnings[0].contains("normalTexture"),
+        scene.warnings[0].contains("occlusionTexture"),
         "{:?}",
         scene.warnings
     );
@@ -430,4 +434,608 @@ fn the_gallery_gltf_scene_loads_and_specialises() {
     );
     assert!(specialised.average() > 0.0);
     assert_eq!(specialised.mean, generic.mean);
+}
+
+// ----- Textures: base colour x factor, metallic-roughness, emissive -----
+
+/// The sRGB decoding of an 8-bit value (IEC 61966-2-1), in f64: the reference for the shader's.
+fn srgb_decode(byte: u8) -> f64 {
+    let c = f64::from(byte) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Writes quad.gltf (with quad.bin) into `dir`: the square [-1, 1]^2 in the plane z = 0, facing +z, glTF
+/// uv u = (x + 1) / 2, v = (1 - y) / 2 (v = 0 at the top), with the one material `material` (JSON), whose
+/// texture k is image k, `images[k]` written as tex{k}.png.
+fn write_textured_quad(dir: &Path, material: &str, images: &[image::RgbImage]) {
+    let mut bin = f32s(&[
+        -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
+    ]);
+    bin.extend(f32s(&[0.0, 0.0, 1.0].repeat(4)));
+    bin.extend(f32s(&[0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0]));
+    bin.extend(u32s(&[0, 1, 2, 0, 2, 3]));
+    std::fs::write(dir.join("quad.bin"), &bin).unwrap();
+    let mut textures = Vec::new();
+    let mut uris = Vec::new();
+    for (k, img) in images.iter().enumerate() {
+        img.save(dir.join(format!("tex{k}.png"))).unwrap();
+        textures.push(format!(r#"{{"source": {k}}}"#));
+        uris.push(format!(r#"{{"uri": "tex{k}.png"}}"#));
+    }
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [
+    {{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}, "indices": 3, "material": 0}}
+  ]}}],
+  "materials": [{material}],
+  "textures": [{}],
+  "images": [{}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"}},
+    {{"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"}},
+    {{"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}}
+  ],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
+    {{"buffer": 0, "byteOffset": 48, "byteLength": 48}},
+    {{"buffer": 0, "byteOffset": 96, "byteLength": 32}},
+    {{"buffer": 0, "byteOffset": 128, "byteLength": 24}}
+  ],
+  "buffers": [{{"uri": "quad.bin", "byteLength": {}}}]
+}}"#,
+        textures.join(", "),
+        uris.join(", "),
+        bin.len()
+    );
+    std::fs::write(dir.join("quad.gltf"), json).unwrap();
+}
+
+/// A constant image.
+fn flat(w: u32, h: u32, rgb: [u8; 3]) -> image::RgbImage {
+    image::RgbImage::from_fn(w, h, |_, _| image::Rgb(rgb))
+}
+
+/// The quad seen head on by an orthographic camera whose view is the quad exactly (32 x 32 pixels, each
+/// 1/16 wide; +x to the right), lit by a uniform environment of radiance `env`, one bounce.
+fn quad_scene(dir: &Path, env: f32, samples: u32) -> Scene {
+    load(
+        dir,
+        &format!(
+            "[camera]\ntype = \"orthographic\"\nextent = 2.0\nposition = [0.0, 0.0, 5.0]\n\
+             look_at = [0.0, 0.0, 0.0]\n[image]\nwidth = 32\nheight = 32\n[render]\nsamples = {samples}\n\
+             max_bounces = 1\nfilter = \"box\"\n[environment]\nradiance = [{env}, {env}, {env}]\n\
+             [[mesh]]\nobj = \"quad.gltf\"\n"
+        ),
+    )
+}
+
+/// Per channel, the mean over the pixels (px, py) in the given ranges and its standard error (the
+/// pixels are independent: the variances of their means, summed, over n^2).
+fn region(
+    film: &vkpath::Film,
+    xs: std::ops::RangeInclusive<usize>,
+    ys: std::ops::RangeInclusive<usize>,
+) -> [(f64, f64); 3] {
+    let mut sum = [0.0f64; 3];
+    let mut var = [0.0f64; 3];
+    let mut n = 0.0;
+    for y in ys {
+        for x in xs.clone() {
+            let i = y * film.width as usize + x;
+            for c in 0..3 {
+                sum[c] += f64::from(film.mean[i][c]);
+                var[c] += f64::from(film.variance[i][c]).max(0.0);
+            }
+            n += 1.0;
+        }
+    }
+    [0, 1, 2].map(|c| (sum[c] / n, var[c].sqrt() / n))
+}
+
+/// What the importer makes of a material with every texture glTF's metallic-roughness model has: the
+/// factors in the material, the base colour, emissive, metallic-roughness and normal textures on the mesh
+/// (the first two colour, sRGB; the others linear data), the normal map's scale, and in the GPU tables: one texel block per image
+/// however many textures use it, one table entry per (image, colour or data) pair.
+#[test]
+fn gltf_textures_load_with_their_factors() {
+    use vkpath::kernel::abi::*;
+    let dir = tempfile::tempdir().unwrap();
+    // Image 0 is the base colour, the metallic-roughness and the normal texture (textures 0 and 2, the
+    // last two sharing texture 2); image 1 the emissive one.
+    write_textured_quad(
+        dir.path(),
+        r#"{"name": "all", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.25, 1.0, 1.0],
+            "baseColorTexture": {"index": 0}, "metallicFactor": 0.75, "roughnessFactor": 0.5,
+            "metallicRoughnessTexture": {"index": 2}},
+          "emissiveFactor": [2.0, 1.0, 0.5], "emissiveTexture": {"index": 1},
+          "normalTexture": {"index": 2, "scale": 0.5}}"#,
+        &[flat(2, 2, [10, 20, 30]), flat(1, 1, [40, 50, 60])],
+    );
+    let json = std::fs::read_to_string(dir.path().join("quad.gltf")).unwrap();
+    std::fs::write(
+        dir.path().join("quad.gltf"),
+        json.replace(
+            r#""textures": [{"source": 0}, {"source": 1}]"#,
+            r#""textures": [{"source": 0}, {"source": 1}, {"source": 0}]"#,
+        ),
+    )
+    .unwrap();
+    let scene = quad_scene(dir.path(), 1.0, 1);
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(
+        scene.materials[0].bsdf,
+        Bsdf::MetallicRoughness {
+            base_color: Vec3::new(0.5, 0.25, 1.0),
+            metallic: 0.75,
+            roughness: 0.5
+        }
+    );
+    assert_eq!(
+        scene.materials[0].emission.map(|e| e.radiance),
+        Some(Vec3::new(2.0, 1.0, 0.5))
+    );
+    let m = &scene.meshes[0];
+    assert!(m.maps.base_color_factor);
+    let base = m.texture.as_ref().expect("a base colour texture");
+    let emissive = m.maps.emissive.as_ref().expect("an emissive texture");
+    let mr = m
+        .maps
+        .metallic_roughness
+        .as_ref()
+        .expect("a metallic-roughness texture");
+    assert!(std::sync::Arc::ptr_eq(base, mr), "image 0 is decoded once");
+    assert!(std::sync::Arc::ptr_eq(
+        base,
+        m.maps.normal.as_ref().unwrap()
+    ));
+    assert_eq!(m.maps.normal_scale, 0.5);
+    assert_eq!(emissive.texels[0].to_le_bytes()[..3], [40, 50, 60]);
+
+    let gpu = vkpath::kernel::upload::GpuScene::build(&scene);
+    let info = gpu.meshes[0];
+    assert_eq!(
+        info.flags,
+        MESH_SMOOTH
+            | MESH_TEXTURED
+            | MESH_BASE_COLOR_FACTOR
+            | MESH_EMISSIVE_TEXTURED
+            | MESH_METALLIC_ROUGHNESS_TEXTURED
+            | MESH_NORMAL_MAPPED
+    );
+    assert_eq!(
+        info.normal, info.metallic_roughness,
+        "both linear data of image 0"
+    );
+    assert_eq!(info.normal_scale, 0.5);
+    let [b, e, r] =
+        [info.base_color, info.emissive, info.metallic_roughness].map(|k| gpu.textures[k as usize]);
+    assert_eq!(gpu.textures.len(), 3);
+    assert_eq!((b.flags, e.flags, r.flags), (TEXTURE_SRGB, TEXTURE_SRGB, 0));
+    assert_eq!(b.offset, r.offset, "one image, its texels uploaded once");
+    assert_eq!((b.width, b.height, e.width, e.height), (2, 2, 1, 1));
+    assert_eq!(gpu.texels.len(), 4 + 1);
+    assert_eq!(
+        gpu.texels[e.offset as usize].to_le_bytes()[..3],
+        [40, 50, 60]
+    );
+}
+
+/// base colour = baseColorFactor x texel (glTF 2.0 §3.9.2, both linear): a quad with a constant texture
+/// c and a factor f renders as the same quad without a texture and the factor f x decode(c), computed
+/// here. Same random numbers, so the images agree far within their noise.
+#[test]
+fn gltf_base_color_factor_multiplies_the_texture() {
+    let c = [200u8, 120, 60];
+    let f = [0.5f64, 0.8, 0.25];
+    let product = [0, 1, 2].map(|k| f[k] * srgb_decode(c[k]));
+    let material = |factor: [f64; 3], texture: bool| {
+        format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [{}, {}, {}, 1.0], {}
+                "metallicFactor": 0.0, "roughnessFactor": 0.5}}}}"#,
+            factor[0] as f32,
+            factor[1] as f32,
+            factor[2] as f32,
+            if texture {
+                r#""baseColorTexture": {"index": 0},"#
+            } else {
+                ""
+            }
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    write_textured_quad(dir.path(), &material(f, true), &[flat(1, 1, c)]);
+    let textured = common::render(&quad_scene(dir.path(), 1.0, 16));
+    write_textured_quad(dir.path(), &material(product, false), &[flat(1, 1, c)]);
+    let plain = common::render(&quad_scene(dir.path(), 1.0, 16));
+    let a = region(&textured, 0..=31, 0..=31);
+    let b = region(&plain, 0..=31, 0..=31);
+    for k in 0..3 {
+        println!(
+            "channel {k}: textured {:.6} +- {:.1e}, factor x texel {:.6}",
+            a[k].0, a[k].1, b[k].0
+        );
+        assert!(
+            (a[k].0 - b[k].0).abs() <= 1e-3 * b[k].0,
+            "channel {k}: {} vs {}",
+            a[k].0,
+            b[k].0
+        );
+    }
+}
+
+/// metallic = metallicFactor x B, roughness = roughnessFactor x G (linear data, glTF 2.0 §3.9.2): a
+/// texture that is metal (B = 255) on the right half and dielectric (B = 0) on the left, G = 0 (smooth)
+/// throughout, under a uniform environment of radiance 1, seen head on (wo = n):
+/// - metal: a mirror of Schlick reflectance F(1) = base colour, so each pixel is the base colour;
+/// - dielectric: specular F_d(1) = 0.04 plus the diffuse lobe fd = (1 - F_d(wo.h)) base / pi integrated
+///   against cos_i: with h halfway between n and wi, wo.h = sqrt((1 + mu) / 2) at mu = cos_i, so its
+///   albedo is base x 2 int_0^1 (1 - F_d(sqrt((1 + mu) / 2))) mu dmu (Simpson's rule here).
+///
+/// With roughnessFactor 1 and the G channel ignored, the metal would be rough and reflect less.
+#[test]
+fn gltf_metallic_roughness_texture_sets_metal_and_roughness_per_texel() {
+    let base = [0.9f64, 0.6, 0.3];
+    let dir = tempfile::tempdir().unwrap();
+    // 8 x 1: four dielectric texels, then four metal ones (R is unused: 255 there).
+    let mr = image::RgbImage::from_fn(8, 1, |x, _| {
+        image::Rgb([255, 0, if x < 4 { 0 } else { 255 }])
+    });
+    write_textured_quad(
+        dir.path(),
+        &format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [{}, {}, {}, 1.0],
+                "metallicFactor": 1.0, "roughnessFactor": 1.0, "metallicRoughnessTexture": {{"index": 0}}}}}}"#,
+            base[0] as f32, base[1] as f32, base[2] as f32
+        ),
+        &[mr],
+    );
+    let film = common::render(&quad_scene(dir.path(), 1.0, 64));
+    let fd = |c: f64| 0.04 + 0.96 * (1.0 - c).powi(5);
+    let n = 1000;
+    let g = |mu: f64| (1.0 - fd(((1.0 + mu) / 2.0).sqrt())) * mu;
+    let h = 1.0 / n as f64;
+    let simpson = (0..=n)
+        .map(|i| {
+            let w = if i == 0 || i == n {
+                1.0
+            } else if i % 2 == 1 {
+                4.0
+            } else {
+                2.0
+            };
+            w * g(i as f64 * h)
+        })
+        .sum::<f64>()
+        * h
+        / 3.0;
+    // Pure texels: u in [1/16, 7/16] and [9/16, 15/16] (texel centres, bilinear filtering between them),
+    // pixel columns 4..=11 and 20..=27 (each 1/32 of u wide).
+    let dielectric = region(&film, 4..=11, 2..=29);
+    let metal = region(&film, 20..=27, 2..=29);
+    for k in 0..3 {
+        let want_d = fd(1.0) + base[k] * 2.0 * simpson;
+        println!(
+            "channel {k}: dielectric {:.5} +- {:.1e} (want {want_d:.5}), metal {:.6} (want {})",
+            dielectric[k].0, dielectric[k].1, metal[k].0, base[k] as f32
+        );
+        assert!(
+            (dielectric[k].0 - want_d).abs() <= 4.0 * dielectric[k].1 + 1e-4,
+            "channel {k}: dielectric {} vs {want_d}",
+            dielectric[k].0
+        );
+        assert!(
+            (metal[k].0 - f64::from(base[k] as f32)).abs() <= 1e-4,
+            "channel {k}: metal {} vs {}",
+            metal[k].0,
+            base[k]
+        );
+    }
+}
+
+/// emission = emissiveFactor x texel (sRGB decoded): a quad with a constant emissive texture c, seen
+/// directly in a black environment, has exactly that radiance; its base colour texture (another colour)
+/// does not tint the emission, as it does on TOML meshes.
+#[test]
+fn gltf_emissive_texture_multiplies_the_emissive_factor() {
+    let c = [250u8, 128, 20];
+    let e = [2.0f64, 1.5, 3.0];
+    let dir = tempfile::tempdir().unwrap();
+    write_textured_quad(
+        dir.path(),
+        &format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}},
+                "emissiveFactor": [{}, {}, {}], "emissiveTexture": {{"index": 1}}}}"#,
+            e[0], e[1], e[2]
+        ),
+        &[flat(1, 1, [10, 200, 30]), flat(1, 1, c)],
+    );
+    let film = common::render(&quad_scene(dir.path(), 0.0, 4));
+    let seen = region(&film, 0..=31, 0..=31);
+    for k in 0..3 {
+        let want = e[k] * srgb_decode(c[k]);
+        assert!(
+            (seen[k].0 - want).abs() <= 1e-5 * want,
+            "channel {k}: {} vs {want}",
+            seen[k].0
+        );
+    }
+}
+
+/// The emissive texture lights other surfaces too (light sampling and the BSDF's rays that hit it): an
+/// emissive quad with factor e and a constant texture c lights a diffuse floor as one of emission
+/// e x decode(c) without a texture does, within noise.
+#[test]
+fn gltf_emissive_texture_lights_the_scene() {
+    let c = [180u8, 90, 220];
+    let e = [3.0f64, 2.0, 1.0];
+    let dir = tempfile::tempdir().unwrap();
+    let emissive = |factor: [f64; 3], texture: bool| {
+        format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [0, 0, 0, 1]}},
+                "emissiveFactor": [{}, {}, {}] {}}}"#,
+            factor[0] as f32,
+            factor[1] as f32,
+            factor[2] as f32,
+            if texture {
+                r#", "emissiveTexture": {"index": 0}"#
+            } else {
+                ""
+            }
+        )
+    };
+    // The lamp faces down (+z turned to -y) one unit above a floor the camera looks at from above.
+    let toml = "[camera]\nposition = [0.0, 6.0, 0.5]\nlook_at = [0.0, 0.0, 0.0]\nfov = 60\n\
+        [image]\nwidth = 24\nheight = 24\n[render]\nsamples = 64\nmax_bounces = 2\nfilter = \"box\"\n\
+        [materials]\nfloor = { type = \"diffuse\", albedo = [0.8, 0.8, 0.8] }\n\
+        [[triangle]]\nvertices = [[-4.0, 0.0, -4.0], [-4.0, 0.0, 4.0], [4.0, 0.0, 4.0]]\nmaterial = \"floor\"\n\
+        [[triangle]]\nvertices = [[-4.0, 0.0, -4.0], [4.0, 0.0, 4.0], [4.0, 0.0, -4.0]]\nmaterial = \"floor\"\n\
+        [[mesh]]\nobj = \"quad.gltf\"\nrotate = [90.0, 0.0, 0.0]\nscale = 0.5\ntranslate = [0.0, 1.0, 0.0]\n";
+    write_textured_quad(dir.path(), &emissive(e, true), &[flat(1, 1, c)]);
+    let textured = common::render(&load(dir.path(), toml));
+    let product = [0, 1, 2].map(|k| e[k] * srgb_decode(c[k]));
+    write_textured_quad(dir.path(), &emissive(product, false), &[flat(1, 1, c)]);
+    let plain = common::render(&load(dir.path(), toml));
+    let a = region(&textured, 0..=23, 0..=23);
+    let b = region(&plain, 0..=23, 0..=23);
+    for k in 0..3 {
+        println!(
+            "channel {k}: textured {:.5} +- {:.1e}, plain {:.5} +- {:.1e}",
+            a[k].0, a[k].1, b[k].0, b[k].1
+        );
+        assert!(a[k].0 > 0.0);
+        assert!(
+            (a[k].0 - b[k].0).abs() <= 4.0 * (a[k].1 * a[k].1 + b[k].1 * b[k].1).sqrt(),
+            "channel {k}: {} vs {}",
+            a[k].0,
+            b[k].0
+        );
+    }
+}
+
+/// A glTF mesh with every texture needs each texture feature, and its specialised kernel renders the
+/// same bits as the generic one. (The metallic channel is held at 1 here: metallic_roughness materials
+/// of some metallic values, e.g. 0.1423, textured or not, already render a few ulps apart in the two
+/// kernels, a difference of the BSDF's code that this test is not about.)
+#[test]
+fn gltf_textures_are_features_and_specialise() {
+    use vkpath::kernel::features::{Feature, FeatureSet};
+    use vkpath::render::RenderOptions;
+    let dir = tempfile::tempdir().unwrap();
+    let mr = image::RgbImage::from_fn(4, 4, |x, y| image::Rgb([0, 60 * x as u8 + y as u8, 255]));
+    write_textured_quad(
+        dir.path(),
+        r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.7, 0.9, 1.0],
+            "baseColorTexture": {"index": 0}, "metallicRoughnessTexture": {"index": 1}},
+          "emissiveFactor": [0.2, 0.3, 0.4], "emissiveTexture": {"index": 0},
+          "normalTexture": {"index": 1, "scale": 0.7}}"#,
+        &[flat(2, 2, [200, 150, 100]), mr],
+    );
+    let scene = quad_scene(dir.path(), 1.0, 4);
+    let gpu = vkpath::kernel::upload::GpuScene::build(&scene);
+    let features = FeatureSet::of(&gpu, &vkpath::kernel::upload::params_for(&scene, 3));
+    for f in [
+        Feature::Textures,
+        Feature::EmissiveTextures,
+        Feature::MetallicRoughnessTextures,
+        Feature::NormalMaps,
+    ] {
+        assert!(features.has(f), "{f:?}");
+    }
+    let specialised = common::render_passes(&scene, &RenderOptions::default(), 1, 4);
+    let generic = common::render_passes(
+        &scene,
+        &RenderOptions {
+            generic: true,
+            ..Default::default()
+        },
+        1,
+        4,
+    );
+    assert!(specialised.average() > 0.0);
+    let differ = specialised
+        .mean
+        .iter()
+        .zip(&generic.mean)
+        .filter(|(a, b)| a != b)
+        .count();
+    assert_eq!(differ, 0, "pixels that differ");
+}
+
+/// The quad of [`write_textured_quad`] lit by a sun (direction (0.6, -0.3, -1), irradiance 3) in a black
+/// environment, seen head on: each pixel is the BSDF at (wo = +z, wi = the sun) times the irradiance
+/// times the cosine about the shading normal, with no noise but the pixel's position.
+fn sunlit_quad_scene(dir: &Path) -> Scene {
+    load(
+        dir,
+        "[camera]\ntype = \"orthographic\"\nextent = 2.0\nposition = [0.0, 0.0, 5.0]\n\
+         look_at = [0.0, 0.0, 0.0]\n[image]\nwidth = 32\nheight = 32\n[render]\nsamples = 4\n\
+         max_bounces = 1\nfilter = \"box\"\n\
+         [[light]]\ntype = \"directional\"\ndirection = [0.6, -0.3, -1.0]\nirradiance = 3.0\n\
+         [[mesh]]\nobj = \"quad.gltf\"\n",
+    )
+}
+
+const GLOSSY: &str = r#""pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.5, 0.3, 1.0],
+    "metallicFactor": 0.0, "roughnessFactor": 0.5}"#;
+
+/// A normal map whose x and y are scaled to 0 (normalTexture.scale = 0) maps every texel to (0, 0, 1):
+/// the shading normal stays the quad's, and the image has the same bits as without the map.
+#[test]
+fn gltf_flat_normal_map_changes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    write_textured_quad(
+        dir.path(),
+        &format!("{{{GLOSSY}}}"),
+        &[flat(1, 1, [90, 200, 255])],
+    );
+    let plain = common::render(&sunlit_quad_scene(dir.path()));
+    write_textured_quad(
+        dir.path(),
+        &format!(r#"{{{GLOSSY}, "normalTexture": {{"index": 0, "scale": 0.0}}}}"#),
+        &[flat(1, 1, [90, 200, 255])],
+    );
+    let scene = sunlit_quad_scene(dir.path());
+    assert!(scene.meshes[0].maps.normal.is_some());
+    let mapped = common::render(&scene);
+    assert!(plain.average() > 0.0);
+    assert_eq!(plain.mean, mapped.mean);
+}
+
+/// A constant normal map tilted towards +x renders like the quad turned so that its geometric normal is
+/// the mapped one: m = 2 t - 1 decoded here from the texel, the quad rotated by the quaternion that takes
+/// +z to m / |m| (glTF node rotation, (z x u, 1 + z.u) normalised). The tangent frame is the uv
+/// directions: +x (u) and +y (v up). Two maps: tilted towards +x (its y is 1/255, G = 128, not 0, and
+/// counts as well), and towards -y.
+#[test]
+fn gltf_tilted_normal_map_renders_like_a_tilted_quad() {
+    // Towards +x (u), and towards -y (v down: the bitangent's side).
+    for texel in [[210u8, 128, 220], [128, 40, 220]] {
+        let m = texel.map(|c| 2.0 * f64::from(c) / 255.0 - 1.0);
+        let len = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+        let u = m.map(|c| c / len);
+        let dir = tempfile::tempdir().unwrap();
+        write_textured_quad(
+            dir.path(),
+            &format!(r#"{{{GLOSSY}, "normalTexture": {{"index": 0}}}}"#),
+            &[flat(1, 1, texel)],
+        );
+        let mapped = common::render(&sunlit_quad_scene(dir.path()));
+        // z x u = (-u.y, u.x, 0); w = 1 + u.z.
+        let q = [-u[1], u[0], 0.0, 1.0 + u[2]];
+        let qn = (q.iter().map(|c| c * c).sum::<f64>()).sqrt();
+        let q = q.map(|c| c / qn);
+        write_textured_quad(dir.path(), &format!("{{{GLOSSY}}}"), &[flat(1, 1, texel)]);
+        let json = std::fs::read_to_string(dir.path().join("quad.gltf")).unwrap();
+        let turned = json.replace(
+            r#""nodes": [{"mesh": 0}]"#,
+            &format!(
+                r#""nodes": [{{"mesh": 0, "rotation": [{}, {}, {}, {}]}}]"#,
+                q[0], q[1], q[2], q[3]
+            ),
+        );
+        assert_ne!(json, turned);
+        std::fs::write(dir.path().join("quad.gltf"), turned).unwrap();
+        let tilted = common::render(&sunlit_quad_scene(dir.path()));
+        // The turned quad is narrower on screen: compare the middle of the image, which both cover.
+        let a = region(&mapped, 10..=21, 10..=21);
+        let b = region(&tilted, 10..=21, 10..=21);
+        let flat_quad = {
+            write_textured_quad(dir.path(), &format!("{{{GLOSSY}}}"), &[flat(1, 1, texel)]);
+            region(
+                &common::render(&sunlit_quad_scene(dir.path())),
+                10..=21,
+                10..=21,
+            )
+        };
+        for k in 0..3 {
+            println!(
+                "channel {k}: normal map {:.6}, tilted quad {:.6}, flat quad {:.6}",
+                a[k].0, b[k].0, flat_quad[k].0
+            );
+            assert!(
+                (a[k].0 - b[k].0).abs() <= 1e-4 * b[k].0,
+                "channel {k}: {} vs {}",
+                a[k].0,
+                b[k].0
+            );
+            // The tilt matters: the flat quad is far from both.
+            assert!((flat_quad[k].0 - b[k].0).abs() > 0.05 * b[k].0);
+        }
+    }
+}
+
+/// The same maps on a TOML mesh (`emission_texture`, `metallic_roughness_texture`, `normal_map`,
+/// `normal_scale`): an OBJ quad with them renders the bits of the glTF quad with the same textures and
+/// factors (same positions, normals, uvs and materials); and each key is refused where it cannot apply.
+#[test]
+fn toml_mesh_maps_render_like_the_gltf_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let mr = image::RgbImage::from_fn(4, 4, |x, y| {
+        image::Rgb([0, 60 * x as u8 + 10 * y as u8, 255])
+    });
+    let normals = flat(1, 1, [200, 100, 230]);
+    write_textured_quad(
+        dir.path(),
+        r#"{"name": "m", "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.5, 0.3, 1.0],
+            "metallicFactor": 1.0, "roughnessFactor": 0.6, "metallicRoughnessTexture": {"index": 0}},
+          "emissiveFactor": [0.5, 0.25, 0.125], "emissiveTexture": {"index": 1},
+          "normalTexture": {"index": 2, "scale": 0.8}}"#,
+        &[mr, flat(1, 1, [250, 128, 20]), normals],
+    );
+    let from_gltf = common::render(&sunlit_quad_scene(dir.path()));
+    // The quad as an OBJ, with OBJ's v-up uvs (glTF's v flipped).
+    std::fs::write(
+        dir.path().join("quad.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n\
+         f 1/1/1 2/2/1 3/3/1\nf 1/1/1 3/3/1 4/4/1\n",
+    )
+    .unwrap();
+    let mesh = "obj = \"quad.obj\"\nmaterial = \"m\"\nmetallic_roughness_texture = \"tex0.png\"\n\
+        emission_texture = \"tex1.png\"\nnormal_map = \"tex2.png\"\nnormal_scale = 0.8\n";
+    let toml = |mesh: &str, material: &str| {
+        format!(
+            "[camera]\ntype = \"orthographic\"\nextent = 2.0\nposition = [0.0, 0.0, 5.0]\n\
+             look_at = [0.0, 0.0, 0.0]\n[image]\nwidth = 32\nheight = 32\n[render]\nsamples = 4\n\
+             max_bounces = 1\nfilter = \"box\"\n\
+             [[light]]\ntype = \"directional\"\ndirection = [0.6, -0.3, -1.0]\nirradiance = 3.0\n\
+             [materials]\nm = {material}\n[[mesh]]\n{mesh}"
+        )
+    };
+    let material = "{ type = \"metallic_roughness\", base_color = [0.8, 0.5, 0.3], metallic = 1.0, \
+        roughness = 0.6, emission = [0.5, 0.25, 0.125] }";
+    let from_toml = common::render(&load(dir.path(), &toml(mesh, material)));
+    assert!(from_toml.average() > 0.0);
+    assert_eq!(from_toml.mean, from_gltf.mean);
+
+    let refused = |mesh: &str, material: &str, key: &str| {
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, toml(mesh, material)).unwrap();
+        let err = Scene::load(&path).expect_err(key);
+        assert_eq!(err.key(), Some(key), "{err}");
+    };
+    let diffuse = "{ type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }";
+    refused(mesh, diffuse, "mesh[0].emission_texture");
+    refused(
+        "obj = \"quad.obj\"\nmaterial = \"m\"\nmetallic_roughness_texture = \"tex0.png\"\n",
+        diffuse,
+        "mesh[0].metallic_roughness_texture",
+    );
+    refused(
+        "obj = \"quad.obj\"\nmaterial = \"m\"\nnormal_scale = 2.0\n",
+        diffuse,
+        "mesh[0].normal_scale",
+    );
+    refused(
+        "obj = \"quad.obj\"\nnormal_map = \"tex2.png\"\n",
+        diffuse,
+        "mesh[0].normal_map",
+    );
 }

@@ -583,7 +583,9 @@ fn pass_constants_match_wgsl() {
 
 #[test]
 fn mesh_structs_match_wgsl() {
-    use vkpath::kernel::abi::{GpuBvhNode, GpuMeshFace, GpuMeshInfo, GpuMeshVertex};
+    use vkpath::kernel::abi::{
+        GpuBvhNode, GpuMeshFace, GpuMeshInfo, GpuMeshVertex, GpuTextureInfo,
+    };
     let module = kernel();
     check_struct(
         &module,
@@ -632,7 +634,7 @@ fn mesh_structs_match_wgsl() {
         "MeshInfo",
         "GpuMeshInfo",
         size_of::<GpuMeshInfo>(),
-        fields!(GpuMeshInfo: texture_offset, texture_width, texture_height, flags),
+        fields!(GpuMeshInfo: base_color, metallic_roughness, emissive, normal, normal_scale, flags, _pad),
     );
     check_storage_array(
         &module,
@@ -640,5 +642,19 @@ fn mesh_structs_match_wgsl() {
         "MeshInfo",
         "GpuMeshInfo",
         size_of::<GpuMeshInfo>(),
+    );
+    check_struct(
+        &module,
+        "TextureInfo",
+        "GpuTextureInfo",
+        size_of::<GpuTextureInfo>(),
+        fields!(GpuTextureInfo: offset, width, height, flags),
+    );
+    check_storage_array(
+        &module,
+        "textures",
+        "TextureInfo",
+        "GpuTextureInfo",
+        size_of::<GpuTextureInfo>(),
     );
 }

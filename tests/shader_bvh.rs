@@ -41,6 +41,7 @@ fn mesh_scene(positions: Vec<Vec3>, normals: Vec<Vec3>, triangles: Vec<[u32; 3]>
         triangles,
         material: 0,
         texture: None,
+        maps: Default::default(),
     });
     s
 }
@@ -90,6 +91,10 @@ impl SceneKernel {
             ),
             ("meshes", s("meshes", bytemuck::cast_slice(&gpu.meshes))),
             ("texels", s("texels", bytemuck::cast_slice(&gpu.texels))),
+            (
+                "textures",
+                s("textures", bytemuck::cast_slice(&gpu.textures)),
+            ),
         ];
         let k = SceneKernel {
             ctx,

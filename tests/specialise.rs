@@ -232,3 +232,63 @@ fn trimmed_kernel_renders_the_same_image() {
     assert_eq!(specialised.mean, trimmed.mean);
     assert_no_validation_errors();
 }
+
+/// Mesh textures are features like the others: a quad with a base colour texture needs `textures` only;
+/// on an emitting material the texture also multiplies the emission (`emissive_textures`); the code of
+/// an absent texture feature is pruned (the kernel with it switched on is larger).
+#[test]
+fn texture_features_follow_the_scene_and_prune() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("quad.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n",
+    )
+    .unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]))
+        .save(dir.path().join("tex.png"))
+        .unwrap();
+    let text = |material: &str| {
+        format!(
+            "[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 40\n[materials]\nm = {material}\n\
+             [[mesh]]\nobj = {:?}\nmaterial = \"m\"\ntexture = {:?}\n",
+            dir.path().join("quad.obj"),
+            dir.path().join("tex.png")
+        )
+    };
+    let features = |text: &str| {
+        let s = scene(text);
+        let gpu = vkpath::kernel::upload::GpuScene::build(&s);
+        FeatureSet::of(
+            &gpu,
+            &vkpath::kernel::upload::params_for(&s, RenderOptions::default().roulette_depth),
+        )
+    };
+    let plain = features(&text("{ type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }"));
+    assert!(plain.has(F::Textures));
+    assert!(
+        !plain.has(F::EmissiveTextures)
+            && !plain.has(F::MetallicRoughnessTextures)
+            && !plain.has(F::NormalMaps)
+    );
+    let lamp = features(&text(
+        "{ type = \"diffuse\", albedo = [0.5, 0.5, 0.5], emission = [1.0, 1.0, 1.0] }",
+    ));
+    assert!(lamp.has(F::Textures) && lamp.has(F::EmissiveTextures));
+    assert!(!lamp.has(F::MetallicRoughnessTextures));
+
+    let words = |f: &FeatureSet| kernel_for(f).unwrap().spirv.len();
+    for name in [
+        "emissive_textures",
+        "metallic_roughness_textures",
+        "normal_maps",
+    ] {
+        let mut with = plain;
+        with.enable(name);
+        assert!(
+            words(&plain) < words(&with),
+            "{name}: {} words without, {} with",
+            words(&plain),
+            words(&with)
+        );
+    }
+}

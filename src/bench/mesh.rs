@@ -71,6 +71,7 @@ pub fn scaling_scene(triangles: usize, settings: &BenchSettings) -> Scene {
         triangles: shape.triangles,
         material: 4, // the course's white
         texture: None,
+        maps: Default::default(),
     });
     scene
 }

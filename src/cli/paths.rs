@@ -31,7 +31,15 @@ pub fn scene_inputs(scene: &Scene) -> Vec<(PathBuf, &'static str)> {
     }
     for m in &scene.meshes {
         v.push((m.obj.clone(), "a mesh of the scene"));
-        if let Some(t) = &m.texture {
+        for t in [
+            &m.texture,
+            &m.maps.emissive,
+            &m.maps.metallic_roughness,
+            &m.maps.normal,
+        ]
+        .into_iter()
+        .flatten()
+        {
             v.push((t.path.clone(), "a texture of the scene"));
         }
     }

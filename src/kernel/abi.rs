@@ -219,9 +219,27 @@ pub struct GpuBvhNode {
 /// No mesh: `GpuMeshFace::mesh` of a triangle that has no shading data (a `[[triangle]]` or a flat,
 /// untextured mesh).
 pub const NO_MESH: u32 = u32::MAX;
-/// `GpuMeshInfo::flags`: interpolate the vertex normals / sample the texture.
+/// `GpuMeshInfo::flags`: interpolate the vertex normals.
 pub const MESH_SMOOTH: u32 = 1;
+/// `GpuMeshInfo::flags`: the mesh has a base colour texture (`GpuMeshInfo::base_color`).
 pub const MESH_TEXTURED: u32 = 2;
+/// `GpuMeshInfo::flags`: the base colour texture multiplies the material's albedo (glTF: base colour =
+/// baseColorFactor x texel) instead of replacing it (TOML and OBJ meshes).
+pub const MESH_BASE_COLOR_FACTOR: u32 = 4;
+/// `GpuMeshInfo::flags`: the emission is multiplied by the `emissive` texture.
+pub const MESH_EMISSIVE_TEXTURED: u32 = 8;
+/// `GpuMeshInfo::flags`: metallic and roughness are multiplied per hit by the `metallic_roughness`
+/// texture's B and G channels (glTF's metallicRoughnessTexture).
+pub const MESH_METALLIC_ROUGHNESS_TEXTURED: u32 = 16;
+/// `GpuMeshInfo::flags`: the shading normal is perturbed by the tangent-space `normal` map (glTF's
+/// normalTexture).
+pub const MESH_NORMAL_MAPPED: u32 = 32;
+/// No texture: a `GpuMeshInfo` texture index that is unused.
+pub const NO_TEXTURE: u32 = u32::MAX;
+/// `GpuTextureInfo::flags`: the texels hold sRGB-encoded colour, decoded before filtering (base colour
+/// and emissive textures). Without it they are linear data (metallic-roughness, normal maps), read as
+/// they are.
+pub const TEXTURE_SRGB: u32 = 1;
 
 /// Mirrors `MeshFace` in scene_data.wgsl: the shading vertices of triangle i (same index as in
 /// `triangles`) and the mesh it belongs to.
@@ -244,13 +262,31 @@ pub struct GpuMeshVertex {
     pub v: f32,
 }
 
-/// Mirrors `MeshInfo` in scene_data.wgsl: per mesh, its flags and its texture's place in `texels`.
+/// Mirrors `MeshInfo` in scene_data.wgsl: per mesh, its flags and its textures, each an index into
+/// `textures` or [`NO_TEXTURE`].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMeshInfo {
-    pub texture_offset: u32,
-    pub texture_width: u32,
-    pub texture_height: u32,
+    pub base_color: u32,
+    pub metallic_roughness: u32,
+    pub emissive: u32,
+    pub normal: u32,
+    /// glTF's normalTexture.scale: the factor of the map's x and y.
+    pub normal_scale: f32,
+    /// `MESH_*` flags.
+    pub flags: u32,
+    pub _pad: [u32; 2],
+}
+
+/// Mirrors `TextureInfo` in scene_data.wgsl: one texture of the texture table, its texels in `texels`
+/// from `offset` on, row-major from the top-left, `width` x `height`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTextureInfo {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    /// [`TEXTURE_SRGB`] or 0.
     pub flags: u32,
 }
 
@@ -324,6 +360,15 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("NO_MESH", NO_MESH),
     ("MESH_SMOOTH", MESH_SMOOTH),
     ("MESH_TEXTURED", MESH_TEXTURED),
+    ("MESH_BASE_COLOR_FACTOR", MESH_BASE_COLOR_FACTOR),
+    ("MESH_EMISSIVE_TEXTURED", MESH_EMISSIVE_TEXTURED),
+    (
+        "MESH_METALLIC_ROUGHNESS_TEXTURED",
+        MESH_METALLIC_ROUGHNESS_TEXTURED,
+    ),
+    ("MESH_NORMAL_MAPPED", MESH_NORMAL_MAPPED),
+    ("NO_TEXTURE", NO_TEXTURE),
+    ("TEXTURE_SRGB", TEXTURE_SRGB),
     ("ACCUM_LIMBS", ACCUM_LIMBS as u32),
     ("BVH_LEAF", crate::scene::bvh::LEAF),
     ("BVH_LEAF_COUNT_BITS", crate::scene::bvh::LEAF_COUNT_BITS),
@@ -336,7 +381,8 @@ const _: () = assert!(std::mem::size_of::<GpuParams>() == 144);
 const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuMeshFace>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);
-const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);
+const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuTextureInfo>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 80);

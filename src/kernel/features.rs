@@ -23,6 +23,9 @@ pub enum Feature {
     TriangleLoop,
     SmoothNormals,
     Textures,
+    EmissiveTextures,
+    MetallicRoughnessTextures,
+    NormalMaps,
     Diffuse,
     Mirror,
     Dielectric,
@@ -137,6 +140,30 @@ pub const FEATURES: &[FeatureRow] = &[
         constant: "HAS_TEXTURES",
         group: Group::Other,
         needed: |g, _| mesh_flag(g, MESH_TEXTURED),
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::EmissiveTextures,
+        name: "emissive_textures",
+        constant: "HAS_EMISSIVE_TEXTURES",
+        group: Group::Other,
+        needed: |g, _| mesh_flag(g, MESH_EMISSIVE_TEXTURED),
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::MetallicRoughnessTextures,
+        name: "metallic_roughness_textures",
+        constant: "HAS_METALLIC_ROUGHNESS_TEXTURES",
+        group: Group::Other,
+        needed: |g, _| mesh_flag(g, MESH_METALLIC_ROUGHNESS_TEXTURED),
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::NormalMaps,
+        name: "normal_maps",
+        constant: "HAS_NORMAL_MAPS",
+        group: Group::Other,
+        needed: |g, _| mesh_flag(g, MESH_NORMAL_MAPPED),
         reported: true,
     },
     FeatureRow {
@@ -458,7 +485,15 @@ impl FeatureSet {
             .collect();
         out.push((SINGLE_MATERIAL_KIND, b(self.single_material_kind())));
         out.push((SINGLE_LIGHT_KIND, b(self.single_light_kind())));
-        let shading = self.has(Feature::SmoothNormals) || self.has(Feature::Textures);
+        let shading = [
+            Feature::SmoothNormals,
+            Feature::Textures,
+            Feature::EmissiveTextures,
+            Feature::MetallicRoughnessTextures,
+            Feature::NormalMaps,
+        ]
+        .into_iter()
+        .any(|f| self.has(f));
         out.push((HAS_MESH_SHADING, b(shading)));
         for (k, knob) in KNOBS.iter().enumerate() {
             let value = self.knobs[k];

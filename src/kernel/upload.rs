@@ -43,8 +43,10 @@ pub struct GpuScene {
     pub mesh_faces: Vec<GpuMeshFace>,
     pub mesh_vertices: Vec<GpuMeshVertex>,
     pub meshes: Vec<GpuMeshInfo>,
-    /// Every texture's texels, RGBA8 sRGB, one after the other (`GpuMeshInfo::texture_offset`).
+    /// Every texture's texels, RGBA8 (sRGB colour or linear data), one after the other.
     pub texels: Vec<u32>,
+    /// The texture table (`GpuMeshInfo`'s texture indices): where each texture's texels are.
+    pub textures: Vec<GpuTextureInfo>,
     /// The emitting triangles, with the alias table that picks them (LIGHT_TRIANGLES).
     pub light_triangles: Vec<GpuLightTriangle>,
     /// The environment map's RGB radiance, three floats per pixel, rows from the top.
@@ -402,10 +404,51 @@ impl GpuScene {
             corners.push(t.vertices);
             materials.push(t.material);
         }
-        // Textures shared by several meshes are uploaded once.
-        let mut texture_offsets: Vec<(*const crate::scene::Texture, u32)> = Vec::new();
+        // The texture table: one entry per (image, colour or data) pair, an image's texels uploaded once
+        // however many meshes and entries share it.
+        let mut texel_offsets: Vec<(*const crate::scene::Texture, u32)> = Vec::new();
+        let mut table: Vec<(*const crate::scene::Texture, u32, u32)> = Vec::new();
+        let mut texture_index = |tex: &std::sync::Arc<crate::scene::Texture>, flags: u32| -> u32 {
+            let key = std::sync::Arc::as_ptr(tex);
+            if let Some(&(_, _, index)) = table.iter().find(|&&(k, f, _)| k == key && f == flags) {
+                return index;
+            }
+            let offset = match texel_offsets.iter().find(|(k, _)| *k == key) {
+                Some(&(_, offset)) => offset,
+                None => {
+                    let offset = self.texels.len() as u32;
+                    self.texels.extend_from_slice(&tex.texels);
+                    texel_offsets.push((key, offset));
+                    offset
+                }
+            };
+            let index = self.textures.len() as u32;
+            self.textures.push(GpuTextureInfo {
+                offset,
+                width: tex.width,
+                height: tex.height,
+                flags,
+            });
+            table.push((key, flags, index));
+            index
+        };
         for m in &scene.meshes {
-            let shaded = !m.normals.is_empty() || m.texture.is_some();
+            // A TOML or OBJ mesh's texture also multiplies its material's emission; a glTF one's
+            // emission has its own texture (`maps.emissive`).
+            let emits = scene
+                .materials
+                .get(m.material as usize)
+                .is_some_and(|mat| mat.emission.is_some());
+            let emissive = match (&m.maps.emissive, &m.texture) {
+                (Some(e), _) => Some(e),
+                (None, Some(t)) if emits && !m.maps.base_color_factor => Some(t),
+                _ => None,
+            };
+            let shaded = !m.normals.is_empty()
+                || m.texture.is_some()
+                || emissive.is_some()
+                || m.maps.metallic_roughness.is_some()
+                || m.maps.normal.is_some();
             if shaded && faces.is_empty() {
                 faces.resize(corners.len(), no_face);
             }
@@ -426,24 +469,37 @@ impl GpuScene {
             if !shaded {
                 continue;
             }
-            let mut info = GpuMeshInfo::default();
+            let mut info = GpuMeshInfo {
+                base_color: NO_TEXTURE,
+                metallic_roughness: NO_TEXTURE,
+                emissive: NO_TEXTURE,
+                normal: NO_TEXTURE,
+                normal_scale: 1.0,
+                flags: 0,
+                _pad: [0; 2],
+            };
             if !m.normals.is_empty() {
                 info.flags |= MESH_SMOOTH;
             }
             if let Some(tex) = &m.texture {
                 info.flags |= MESH_TEXTURED;
-                let key = std::sync::Arc::as_ptr(tex);
-                info.texture_offset = match texture_offsets.iter().find(|(k, _)| *k == key) {
-                    Some(&(_, offset)) => offset,
-                    None => {
-                        let offset = self.texels.len() as u32;
-                        self.texels.extend_from_slice(&tex.texels);
-                        texture_offsets.push((key, offset));
-                        offset
-                    }
-                };
-                info.texture_width = tex.width;
-                info.texture_height = tex.height;
+                if m.maps.base_color_factor {
+                    info.flags |= MESH_BASE_COLOR_FACTOR;
+                }
+                info.base_color = texture_index(tex, TEXTURE_SRGB);
+            }
+            if let Some(tex) = emissive {
+                info.flags |= MESH_EMISSIVE_TEXTURED;
+                info.emissive = texture_index(tex, TEXTURE_SRGB);
+            }
+            if let Some(tex) = &m.maps.metallic_roughness {
+                info.flags |= MESH_METALLIC_ROUGHNESS_TEXTURED;
+                info.metallic_roughness = texture_index(tex, 0);
+            }
+            if let Some(tex) = &m.maps.normal {
+                info.flags |= MESH_NORMAL_MAPPED;
+                info.normal = texture_index(tex, 0);
+                info.normal_scale = m.maps.normal_scale;
             }
             self.meshes.push(info);
             for k in 0..m.positions.len() {

@@ -91,6 +91,7 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
         mesh_vertices,
         meshes,
         texels,
+        textures,
         light_triangles,
         env_texels,
         env_cdf: _,           // follows from env_texels
@@ -121,6 +122,7 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
     h.field("mesh_vertices", bytemuck::cast_slice(mesh_vertices));
     h.field("meshes", bytemuck::cast_slice(meshes));
     h.field("texels", bytemuck::cast_slice(texels));
+    h.field("textures", bytemuck::cast_slice(textures));
     h.field("light_triangles", bytemuck::cast_slice(light_triangles));
     h.field("env_texels", bytemuck::cast_slice(env_texels));
     h.0

@@ -308,6 +308,9 @@ fn upload_scene(
     if kernel.uses("meshes") {
         bound.push(small("meshes", bytemuck::cast_slice(&gpu.meshes))?);
     }
+    if kernel.uses("textures") {
+        bound.push(small("textures", bytemuck::cast_slice(&gpu.textures))?);
+    }
     let big: [(&'static str, &[u8]); 8] = [
         ("triangles", bytemuck::cast_slice(&gpu.triangles)),
         ("bvh_nodes", bytemuck::cast_slice(&gpu.bvh_nodes)),
@@ -903,6 +906,7 @@ fn check_device_memory(
         mesh_vertices,
         meshes,
         texels,
+        textures,
         light_triangles,
         env_texels,
         env_cdf,
@@ -910,7 +914,7 @@ fn check_device_memory(
         triangle_light: _,
         stats: _,
     } = gpu;
-    let arrays: [(&str, u64); 12] = [
+    let arrays: [(&str, u64); 13] = [
         ("spheres", std::mem::size_of_val(spheres.as_slice()) as u64),
         (
             "triangles",
@@ -934,6 +938,10 @@ fn check_device_memory(
             std::mem::size_of_val(mesh_vertices.as_slice()) as u64,
         ),
         ("meshes", std::mem::size_of_val(meshes.as_slice()) as u64),
+        (
+            "texture table",
+            std::mem::size_of_val(textures.as_slice()) as u64,
+        ),
         (
             "texture texels",
             std::mem::size_of_val(texels.as_slice()) as u64,

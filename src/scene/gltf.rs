@@ -7,16 +7,20 @@
 //! normals (transformed by the inverse transpose), TEXCOORD_0, indices. Materials are glTF's
 //! metallic-roughness ones (Appendix B), which vkpath's `metallic_roughness` implements: baseColorFactor
 //! (its alpha ignored), metallicFactor, roughnessFactor, emissiveFactor x KHR_materials_emissive_strength,
-//! and the baseColorTexture when it is a file beside the glTF or an image in a buffer (PNG, JPEG).
+//! and the textures each factor multiplies (glTF 2.0 §3.9): baseColorTexture and emissiveTexture (sRGB
+//! colour: base colour = baseColorFactor x texel, emission = emissive factor x texel) and
+//! metallicRoughnessTexture (linear: metallic = metallicFactor x B, roughness = roughnessFactor x G), and
+//! normalTexture (linear: a tangent-space normal map, its x and y times normalTexture.scale, in the frame
+//! of the triangle's uv directions; the TANGENT attribute is not read), each a file beside the glTF or an
+//! image in a buffer (PNG, JPEG), decoded once however many use it.
 //!
 //! What is not, each said in a note (a warning of the scene, never silent): non-triangle primitives
-//! (points, lines, strips and fans are skipped), metallicRoughnessTexture, normalTexture, occlusionTexture,
-//! emissiveTexture, alpha modes other than OPAQUE, a baseColorFactor other than 1 together with a texture
-//! (the texture replaces the base colour; glTF multiplies them), images given as data URIs, cameras and
-//! lights (a mesh file brings geometry and materials only).
+//! (points, lines, strips and fans are skipped), occlusionTexture, texture coordinate sets
+//! other than TEXCOORD_0, alpha modes other than OPAQUE, images given as data URIs, cameras and lights (a
+//! mesh file brings geometry and materials only).
 
 use super::mesh::{
-    FileMaterial, MAX_TRIANGLES, ObjError, ObjMesh, load_texture, load_texture_bytes,
+    FileMaterial, MAX_TRIANGLES, ObjError, ObjMesh, Texture, load_texture, load_texture_bytes,
 };
 use glam::{Mat3, Mat4, Vec3};
 use std::path::Path;
@@ -39,9 +43,14 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     let doc = &gltf.document;
     let mut mesh = ObjMesh::default();
     let mut notes = Notes::default();
+    let mut images = Images {
+        buffers: &buffers,
+        dir,
+        loaded: Vec::new(),
+    };
     mesh.materials = doc
         .materials()
-        .map(|m| material(m, &buffers, dir, &mut notes))
+        .map(|m| material(m, &mut images, &mut notes))
         .collect();
 
     let scene = doc
@@ -163,13 +172,8 @@ impl Notes {
     }
 }
 
-/// A glTF material as vkpath maps it (the PBR fields of [`FileMaterial`]).
-fn material(
-    m: gltf::Material,
-    buffers: &[gltf::buffer::Data],
-    dir: &Path,
-    notes: &mut Notes,
-) -> FileMaterial {
+/// A glTF material as vkpath maps it (the PBR fields of [`FileMaterial`] and its textures).
+fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMaterial {
     let name = m.name().map_or_else(
         || format!("material{}", m.index().unwrap_or(0)),
         str::to_owned,
@@ -185,14 +189,11 @@ fn material(
         metallic: Some(pbr.metallic_factor()),
         ..FileMaterial::default()
     };
+    // glTF multiplies each texture by its factor (base colour, emissive, metallic and roughness); the
+    // material holds the factors and the shader multiplies.
+    out.maps.base_color_factor = true;
     let unused = [
-        (
-            "metallicRoughnessTexture",
-            pbr.metallic_roughness_texture().is_some(),
-        ),
-        ("normalTexture", m.normal_texture().is_some()),
         ("occlusionTexture", m.occlusion_texture().is_some()),
-        ("emissiveTexture", m.emissive_texture().is_some()),
         (
             "an alpha mode other than OPAQUE",
             m.alpha_mode() != gltf::material::AlphaMode::Opaque,
@@ -203,46 +204,75 @@ fn material(
             notes.add(format!("material \"{name}\": {what} is not used"));
         }
     }
+    let mut texture = |what: &str, tex: gltf::Texture, tex_coord: u32| {
+        if tex_coord != 0 {
+            notes.add(format!(
+                "material \"{name}\": its {what} texture uses TEXCOORD_{tex_coord}; only TEXCOORD_0 is read"
+            ));
+        }
+        images
+            .get(tex.source())
+            .map_err(|e| {
+                notes.add(format!(
+                    "material \"{name}\": its {what} texture: {e}; it is not used"
+                ))
+            })
+            .ok()
+    };
     if let Some(info) = pbr.base_color_texture() {
-        if info.tex_coord() != 0 {
-            notes.add(format!(
-                "material \"{name}\": its base colour texture uses TEXCOORD_{}; only TEXCOORD_0 is read",
-                info.tex_coord()
-            ));
-        }
-        if [r, g, b] != [1.0; 3] {
-            notes.add(format!(
-                "material \"{name}\": baseColorFactor [{r}, {g}, {b}] is not applied over its texture (the texture replaces the base colour)"
-            ));
-        }
-        match info.texture().source().source() {
-            gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => notes.add(format!(
-                "material \"{name}\": its base colour texture is a data URI, which is not read"
-            )),
-            gltf::image::Source::Uri { uri, .. } => {
-                match load_texture(&dir.join(percent_decode(uri))) {
-                    Ok(t) => out.texture = Some(Arc::new(t)),
-                    Err(e) => {
-                        notes.add(format!("material \"{name}\": {e}; the texture is not used"))
-                    }
-                }
-            }
-            gltf::image::Source::View { view, .. } => {
-                let data = buffers.get(view.buffer().index()).map(|d| &d.0[..]);
-                let bytes = data.and_then(|d| d.get(view.offset()..view.offset() + view.length()));
-                match bytes.map(|b| load_texture_bytes(b, &format!("image {}", view.index()))) {
-                    Some(Ok(t)) => out.texture = Some(Arc::new(t)),
-                    Some(Err(e)) => {
-                        notes.add(format!("material \"{name}\": {e}; the texture is not used"))
-                    }
-                    None => notes.add(format!(
-                        "material \"{name}\": its image's buffer view is out of range; the texture is not used"
-                    )),
-                }
-            }
-        }
+        out.texture = texture("base colour", info.texture(), info.tex_coord());
+    }
+    if let Some(info) = m.emissive_texture() {
+        out.maps.emissive = texture("emissive", info.texture(), info.tex_coord());
+    }
+    if let Some(info) = pbr.metallic_roughness_texture() {
+        out.maps.metallic_roughness =
+            texture("metallic-roughness", info.texture(), info.tex_coord());
+    }
+    if let Some(info) = m.normal_texture() {
+        out.maps.normal = texture("normal", info.texture(), info.tex_coord());
+        out.maps.normal_scale = info.scale();
     }
     out
+}
+
+/// The glTF file's images, each decoded once however many textures use it (and so uploaded once).
+struct Images<'a> {
+    buffers: &'a [gltf::buffer::Data],
+    dir: &'a Path,
+    loaded: Vec<Option<Result<Arc<Texture>, String>>>,
+}
+
+impl Images<'_> {
+    /// Image `image` decoded (PNG, JPEG), or why it cannot be used.
+    fn get(&mut self, image: gltf::Image) -> Result<Arc<Texture>, String> {
+        let k = image.index();
+        if self.loaded.len() <= k {
+            self.loaded.resize(k + 1, None);
+        }
+        if let Some(done) = &self.loaded[k] {
+            return done.clone();
+        }
+        let result = match image.source() {
+            gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
+                Err("the image is a data URI, which is not read".to_owned())
+            }
+            gltf::image::Source::Uri { uri, .. } => {
+                load_texture(&self.dir.join(percent_decode(uri)))
+            }
+            gltf::image::Source::View { view, .. } => {
+                let data = self.buffers.get(view.buffer().index()).map(|d| &d.0[..]);
+                let bytes = data.and_then(|d| d.get(view.offset()..view.offset() + view.length()));
+                match bytes {
+                    Some(b) => load_texture_bytes(b, &format!("image {}", view.index())),
+                    None => Err("its image's buffer view is out of range".to_owned()),
+                }
+            }
+        }
+        .map(Arc::new);
+        self.loaded[k] = Some(result.clone());
+        result
+    }
 }
 
 /// A URI's %XX escapes decoded (glTF URIs are RFC 3986 references: a space in a file name is `%20`).

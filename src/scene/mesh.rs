@@ -36,7 +36,29 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     /// Index into `Scene::materials`.
     pub material: u32,
+    /// The base colour texture: it replaces the material's albedo (or tint), or multiplies it when
+    /// `maps.base_color_factor`.
     pub texture: Option<Arc<Texture>>,
+    /// The textures glTF materials bring besides it.
+    pub maps: MeshMaps,
+}
+
+/// A mesh's textures besides its base colour texture, and how that one combines with the material
+/// (docs/scene-format.md, "glTF meshes"). The default is a TOML or OBJ mesh's: the texture replaces the
+/// albedo and, on an emitting material, multiplies the emission.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshMaps {
+    /// The base colour texture multiplies the material's albedo (glTF: base colour = baseColorFactor x
+    /// texel) instead of replacing it, and leaves the emission alone (only `emissive` changes that).
+    pub base_color_factor: bool,
+    /// sRGB colour multiplying the emission (glTF: emissive = emissiveFactor x texel).
+    pub emissive: Option<Arc<Texture>>,
+    /// Linear data (glTF's metallicRoughnessTexture): B multiplies metallic, G roughness.
+    pub metallic_roughness: Option<Arc<Texture>>,
+    /// A tangent-space normal map (glTF's normalTexture, linear data), and the factor of its x and y
+    /// (normalTexture.scale; read only with a map, so the default's 0 never applies).
+    pub normal: Option<Arc<Texture>>,
+    pub normal_scale: f32,
 }
 
 /// An 8-bit sRGB-encoded RGBA image, rows from the top, as the shader samples it.
@@ -136,6 +158,9 @@ pub struct FileMaterial {
     pub metallic: Option<f32>,
     /// A texture already decoded (a glTF image); it takes the place of `diffuse_texture`.
     pub texture: Option<Arc<Texture>>,
+    /// glTF's other textures, and that its base colour factor multiplies `texture` (set for every glTF
+    /// material; MTL ones keep the default).
+    pub maps: MeshMaps,
 }
 
 impl FileMaterial {
@@ -156,6 +181,7 @@ impl FileMaterial {
             roughness: number("Pr"),
             metallic: number("Pm"),
             texture: None,
+            maps: MeshMaps::default(),
         }
     }
 }

@@ -17,7 +17,7 @@
 //! overflow.
 
 use super::environment::{self, Environment};
-use super::mesh::{self, Mesh, ObjMesh, Placement, Texture};
+use super::mesh::{self, Mesh, MeshMaps, ObjMesh, Placement, Texture};
 use super::{
     Bsdf, CONDUCTOR_PRESETS, Camera, ConductorFresnel, Emission, Filter, Gamma, ImageSettings,
     Light, LightSampling, Material, Projection, RenderSettings, Roughness, Sampler, Scene, Sphere,
@@ -390,6 +390,13 @@ struct RawMesh {
     translate: Option<Spanned<RawVec3>>,
     smooth: Option<Spanned<bool>>,
     texture: Option<Spanned<String>>,
+    /// sRGB colour multiplying the material's emission (instead of `texture`).
+    emission_texture: Option<Spanned<String>>,
+    /// Linear data, glTF's layout: B multiplies metallic, G roughness (a metallic_roughness material).
+    metallic_roughness_texture: Option<Spanned<String>>,
+    /// A tangent-space normal map (linear data), and the factor of its x and y (default 1).
+    normal_map: Option<Spanned<String>>,
+    normal_scale: Option<Spanned<f32>>,
 }
 
 /// Flat for the same reason as [`RawMaterial`].
@@ -1575,54 +1582,130 @@ impl Checker<'_> {
                         "Export the OBJ with uvs (faces written `v/vt` or `v/vt/vn`), or remove `texture`.",
                     ));
                 }
-                let texture_path = base.join(t.get_ref());
-                Some(match files.textures.get(&texture_path) {
-                    Some(tex) => tex.clone(),
-                    None => {
-                        let tex = mesh::load_texture(&texture_path).map_err(|e| {
-                            self.error(
-                                t.span(),
-                                &tkey,
-                                e,
-                                "The path is relative to the scene file; the texture must be a PNG image (sRGB).",
-                            )
-                        })?;
-                        let tex = Arc::new(tex);
-                        files.textures.insert(texture_path, tex.clone());
-                        tex
-                    }
-                })
+                Some(self.mesh_texture(
+                    t,
+                    &tkey,
+                    base,
+                    files,
+                    "The path is relative to the scene file; the texture must be a PNG image (sRGB).",
+                )?)
             }
         };
+
+        // The glTF-style maps (docs/scene-format.md, "[[mesh]]"): each needs the mesh's `material`, a
+        // material it can change, and the mesh's uvs.
+        let mut maps = MeshMaps {
+            normal_scale: 1.0,
+            ..MeshMaps::default()
+        };
+        let given = [
+            ("emission_texture", &m.emission_texture),
+            ("metallic_roughness_texture", &m.metallic_roughness_texture),
+            ("normal_map", &m.normal_map),
+        ];
+        for (field, t) in given {
+            let Some(t) = t else { continue };
+            let tkey = key(field);
+            let Some(material) = material else {
+                return Err(self.error(
+                    t.span(),
+                    &tkey,
+                    format!("`{field}` is given but no material for it to apply to"),
+                    "Give the mesh a `material` as well.",
+                ));
+            };
+            let mat = materials.get(material as usize);
+            let unfit = match field {
+                "emission_texture" if mat.is_some_and(|m| m.emission.is_none()) => {
+                    Some("does not emit: there is no emission for the texture to multiply")
+                }
+                "metallic_roughness_texture"
+                    if !mat.is_some_and(|m| matches!(m.bsdf, Bsdf::MetallicRoughness { .. })) =>
+                {
+                    Some(
+                        "is not a metallic_roughness material: it has no metallic and roughness for the texture to scale",
+                    )
+                }
+                _ => None,
+            };
+            if let Some(why) = unfit {
+                return Err(self.error(
+                    t.span(),
+                    &tkey,
+                    format!("material \"{}\" {why}", names[material as usize]),
+                    "emission_texture needs an emitting material (an `emission`, or an emitter), metallic_roughness_texture a metallic_roughness material.",
+                ));
+            }
+            if obj.uvs.is_none() {
+                return Err(self.error(
+                    t.span(),
+                    &tkey,
+                    format!(
+                        "{} has no texture coordinates (`vt`) for every face corner, so `{field}` cannot be mapped",
+                        obj_path.display()
+                    ),
+                    "Export the OBJ with uvs (faces written `v/vt` or `v/vt/vn`), or remove the key.",
+                ));
+            }
+            let tex = self.mesh_texture(
+                t,
+                &tkey,
+                base,
+                files,
+                "The path is relative to the scene file; data maps (metallic_roughness_texture, normal_map) are read as stored, so give them as PNG (8-bit, not sRGB-decoded).",
+            )?;
+            match field {
+                "emission_texture" => maps.emissive = Some(tex),
+                "metallic_roughness_texture" => maps.metallic_roughness = Some(tex),
+                _ => maps.normal = Some(tex),
+            }
+        }
+        if let Some(s) = &m.normal_scale {
+            if m.normal_map.is_none() {
+                return Err(self.error(
+                    s.span(),
+                    &key("normal_scale"),
+                    "normal_scale is given without a normal_map",
+                    "Give the mesh a `normal_map`, or remove `normal_scale`.",
+                ));
+            }
+            maps.normal_scale = self.number(s, &key("normal_scale"))?;
+        }
 
         let placement = Placement {
             scale,
             rotate_deg,
             translate,
         };
-        let place = |obj: &ObjMesh, material: u32, texture: Option<Arc<Texture>>| {
-            let (positions, normals, uvs) = mesh::place(obj, &placement, smooth, texture.is_some());
-            if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
-                return Err(self.error(
-                    raw.span(),
-                    &format!("mesh[{i}]"),
-                    format!(
-                        "placing {} overflows 32-bit floats (a vertex lands at {p})",
-                        obj_path.display()
-                    ),
-                    "Use a smaller scale or translation.",
-                ));
-            }
-            Ok(Mesh {
-                obj: obj_path.clone(),
-                positions,
-                normals,
-                uvs,
-                triangles: obj.triangles.clone(),
-                material,
-                texture,
-            })
-        };
+        let place =
+            |obj: &ObjMesh, material: u32, texture: Option<Arc<Texture>>, maps: MeshMaps| {
+                let textured = texture.is_some()
+                    || maps.emissive.is_some()
+                    || maps.metallic_roughness.is_some()
+                    || maps.normal.is_some();
+                let (positions, normals, uvs) = mesh::place(obj, &placement, smooth, textured);
+                if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
+                    return Err(self.error(
+                        raw.span(),
+                        &format!("mesh[{i}]"),
+                        format!(
+                            "placing {} overflows 32-bit floats (a vertex lands at {p})",
+                            obj_path.display()
+                        ),
+                        "Use a smaller scale or translation.",
+                    ));
+                }
+                Ok(Mesh {
+                    obj: obj_path.clone(),
+                    positions,
+                    normals,
+                    uvs,
+                    triangles: obj.triangles.clone(),
+                    material,
+                    texture,
+                    maps,
+                })
+            };
         let mut table = MeshTable::default();
         table.warnings.extend(
             obj.notes
@@ -1631,7 +1714,7 @@ impl Checker<'_> {
         );
         if let Some(material) = material {
             // The scene's material applies to every face, whatever the OBJ's MTL says.
-            table.meshes.push(place(&obj, material, texture)?);
+            table.meshes.push(place(&obj, material, texture, maps)?);
             return Ok(table);
         }
         if obj.materials.is_empty() {
@@ -1662,13 +1745,14 @@ impl Checker<'_> {
         let obj_dir = obj_path.parent().unwrap_or(Path::new("."));
         for id in groups {
             let index = (names.len() + table.materials.len()) as u32;
-            let (name, material, texture) = match id.map(|k| &obj.materials[k as usize]) {
+            let (name, material, texture, maps) = match id.map(|k| &obj.materials[k as usize]) {
                 None => (
                     format!("mesh[{i}]/default"),
                     Material::from(Bsdf::Diffuse {
                         albedo: Vec3::splat(0.8),
                     }),
                     None,
+                    MeshMaps::default(),
                 ),
                 Some(mtl) => {
                     let (material, clipped) = mtl_material(mtl);
@@ -1719,7 +1803,24 @@ impl Checker<'_> {
                             }
                         }
                     };
-                    (format!("mesh[{i}]/{}", mtl.name), material, texture)
+                    // glTF's other textures need the texture coordinates too.
+                    let mut maps = mtl.maps.clone();
+                    if obj.uvs.is_none() {
+                        if maps.emissive.is_some()
+                            || maps.metallic_roughness.is_some()
+                            || maps.normal.is_some()
+                        {
+                            table.warnings.push(format!(
+                                "mesh[{i}]: {}: material \"{}\" has an emissive, metallic-roughness or normal texture but the file has no texture coordinates for every vertex; it is not used",
+                                obj_path.display(),
+                                mtl.name
+                            ));
+                        }
+                        maps.emissive = None;
+                        maps.metallic_roughness = None;
+                        maps.normal = None;
+                    }
+                    (format!("mesh[{i}]/{}", mtl.name), material, texture, maps)
                 }
             };
             // A texture replaces the albedo; a glass has none: the map is not used.
@@ -1728,10 +1829,29 @@ impl Checker<'_> {
                 (_, t) => t,
             };
             let sub = obj.subset(id);
-            table.meshes.push(place(&sub, index, texture)?);
+            table.meshes.push(place(&sub, index, texture, maps)?);
             table.materials.push((name, material));
         }
         Ok(table)
+    }
+
+    /// The image file `t` names (relative to the scene file), read once however many keys name it.
+    fn mesh_texture(
+        &self,
+        t: &Spanned<String>,
+        key: &str,
+        base: &Path,
+        files: &mut LoadedFiles,
+        hint: &str,
+    ) -> Result<Arc<Texture>, SceneError> {
+        let path = base.join(t.get_ref());
+        if let Some(tex) = files.textures.get(&path) {
+            return Ok(tex.clone());
+        }
+        let tex = mesh::load_texture(&path).map_err(|e| self.error(t.span(), key, e, hint))?;
+        let tex = Arc::new(tex);
+        files.textures.insert(path, tex.clone());
+        Ok(tex)
     }
 
     fn light(&self, i: usize, raw: &Spanned<RawLight>) -> Result<Light, SceneError> {
