@@ -1051,7 +1051,7 @@ fn fuzz_config() -> ProptestConfig {
     let cases = std::env::var("PROPTEST_CASES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(96);
+        .unwrap_or(1500);
     let mut c = ProptestConfig {
         cases,
         failure_persistence: None,
