@@ -226,10 +226,12 @@ fn check_loop_budget(ctx: &GpuContext, gpu: &GpuScene, max_bounces: u32) -> Resu
             "this scene is too heavy for {device}: a path of up to {max_bounces} bounces over {} primitives \
              and {} lights could run {iterations} shader loop iterations, and lavapipe stops every loop of \
              an invocation after {LAVAPIPE_LOOP_BUDGET}, which would cut paths short silently. Lower \
-             max_bounces to {max_ok} or less (Russian roulette keeps the result unbiased), use fewer \
-             primitives, or render on a GPU (VKPATH_DEVICE).",
+             max_bounces to {max_ok} or less (--max-bounces; in a Mitsuba XML scene the path \
+             integrator's max_depth to {} or less; Russian roulette keeps the result unbiased), use \
+             fewer primitives, or render on a GPU (VKPATH_DEVICE).",
             gpu.spheres.len() + gpu.triangles.len(),
-            gpu.lights.len()
+            gpu.lights.len(),
+            max_ok + 1
         )));
     }
     Ok(())
