@@ -407,7 +407,6 @@ fn render_and_convert_a_gltf_scene_from_the_command_line() {
 /// renders the same bits as the generic one (metallic_roughness is a feature like the others).
 #[test]
 fn the_gallery_gltf_scene_loads_and_specialises() {
-    use vkpath::render::RenderOptions;
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gltf/materials.gltf");
     let mut scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
@@ -422,18 +421,21 @@ fn the_gallery_gltf_scene_loads_and_specialises() {
     );
     scene.image.width = 24;
     scene.image.height = 14;
-    let specialised = common::render_passes(&scene, &RenderOptions::default(), 1, 4);
-    let generic = common::render_passes(
-        &scene,
-        &RenderOptions {
-            generic: true,
-            ..Default::default()
-        },
-        1,
-        4,
-    );
+    let (specialised, generic) = specialised_and_generic(&scene);
     assert!(specialised.average() > 0.0);
     assert_eq!(specialised.mean, generic.mean);
+}
+
+/// One 4-spp pass of `scene` with its specialised kernel and one with the generic kernel.
+fn specialised_and_generic(scene: &vkpath::Scene) -> (vkpath::Film, vkpath::Film) {
+    let generic = vkpath::render::RenderOptions {
+        generic: true,
+        ..Default::default()
+    };
+    (
+        common::render_passes(scene, &Default::default(), 1, 4),
+        common::render_passes(scene, &generic, 1, 4),
+    )
 }
 
 // ----- Textures: base colour x factor, metallic-roughness, emissive -----
@@ -827,7 +829,6 @@ fn gltf_emissive_texture_lights_the_scene() {
 #[test]
 fn gltf_textures_are_features_and_specialise() {
     use vkpath::kernel::features::{Feature, FeatureSet};
-    use vkpath::render::RenderOptions;
     let dir = tempfile::tempdir().unwrap();
     let mr = image::RgbImage::from_fn(4, 4, |x, y| image::Rgb([0, 60 * x as u8 + y as u8, 255]));
     write_textured_quad(
@@ -849,16 +850,7 @@ fn gltf_textures_are_features_and_specialise() {
     ] {
         assert!(features.has(f), "{f:?}");
     }
-    let specialised = common::render_passes(&scene, &RenderOptions::default(), 1, 4);
-    let generic = common::render_passes(
-        &scene,
-        &RenderOptions {
-            generic: true,
-            ..Default::default()
-        },
-        1,
-        4,
-    );
+    let (specialised, generic) = specialised_and_generic(&scene);
     assert!(specialised.average() > 0.0);
     let differ = specialised
         .mean

@@ -6,9 +6,9 @@
 
 use super::{load_scene_with, usage};
 use clap::Args;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 use vkpath::Error;
-use vkpath::scene::toml_text::relative_to;
+use vkpath::scene::toml_text::{absolute, relative_to};
 use vkpath::scene::{import, mesh, mitsuba};
 
 #[derive(Args)]
@@ -74,20 +74,4 @@ pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
     vkpath::film::write_atomically(&a.output, text.as_bytes())?;
     eprintln!("vkpath: wrote {}", a.output.display());
     Ok(0)
-}
-
-/// `p` made absolute against the working directory, `.` and `..` resolved lexically.
-fn absolute(p: &Path) -> PathBuf {
-    let joined = std::env::current_dir().unwrap_or_default().join(p);
-    let mut out = PathBuf::new();
-    for c in joined.components() {
-        match c {
-            Component::ParentDir => {
-                out.pop();
-            }
-            Component::CurDir => {}
-            c => out.push(c),
-        }
-    }
-    out
 }

@@ -21,13 +21,13 @@
 //! docs/scene-format.md, "Mitsuba 3 XML scenes", lists every element, its mapping and what is refused.
 //! The maths of each conversion (camera frame, field of view, transforms, the disk) is next to its code.
 
-use super::toml_text::{self, relative_to, toml_string};
-use super::{MAX_SCENE_FILE_BYTES, Scene, SceneError};
+use super::toml_text::{self, absolute, relative_to, toml_string};
+use super::{Scene, SceneError};
 use glam::{DMat3, DMat4, DVec3, DVec4};
 use std::cell::Cell;
 use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::path::{Component, Path, PathBuf};
+use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
 /// vkpath's `max_bounces` for Mitsuba's `max_depth = -1` (no limit, Mitsuba's default): a path is ended
@@ -282,22 +282,6 @@ impl Attrs {
     }
 }
 
-fn read_text(path: &Path) -> Result<String, SceneError> {
-    use std::io::Read;
-    let file = std::fs::File::open(path).map_err(|e| SceneError::io(path, &e))?;
-    let mut bytes = Vec::new();
-    file.take(MAX_SCENE_FILE_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| SceneError::io(path, &e))?;
-    if bytes.len() as u64 > MAX_SCENE_FILE_BYTES {
-        return Err(SceneError::too_large(path, MAX_SCENE_FILE_BYTES));
-    }
-    String::from_utf8(bytes).map_err(|e| {
-        let valid = e.utf8_error().valid_up_to();
-        SceneError::not_utf8(path, e.as_bytes(), valid)
-    })
-}
-
 fn parse_xml<'i>(path: &Path, text: &'i str) -> Result<roxmltree::Document<'i>, SceneError> {
     roxmltree::Document::parse(text).map_err(|e| {
         SceneError::at(
@@ -423,7 +407,7 @@ impl Parser {
 
     /// Reads the main file: its root must be `<scene version="...">`.
     fn main_file(&mut self, path: &Path) -> Result<Obj, SceneError> {
-        let text = read_text(path)?;
+        let text = super::read_scene_text(path)?;
         let doc = parse_xml(path, &text)?;
         self.chain
             .push(path.canonicalize().unwrap_or_else(|_| absolute(path)));
@@ -727,7 +711,7 @@ impl Parser {
                 "Flatten the includes.",
             ));
         }
-        let text = read_text(&target).map_err(|e| {
+        let text = super::read_scene_text(&target).map_err(|e| {
             loc.error(
                 format!("the included file {} cannot be read: {e}", target.display()),
                 "Check the include's filename.",
@@ -963,22 +947,6 @@ fn listed(names: &[&str]) -> String {
     }
 }
 
-/// `p` made absolute against the working directory, `.` and `..` resolved lexically.
-fn absolute(p: &Path) -> PathBuf {
-    let joined = std::env::current_dir().unwrap_or_default().join(p);
-    let mut out = PathBuf::new();
-    for c in joined.components() {
-        match c {
-            Component::ParentDir => {
-                out.pop();
-            }
-            Component::CurDir => {}
-            c => out.push(c),
-        }
-    }
-    out
-}
-
 /// A file named in `file`: absolute as given, else beside `file`, else in the main file's folder (the
 /// first that exists). None when none exists.
 fn resolve(name: &str, file: &Path, main_dir: &Path) -> Option<PathBuf> {
@@ -1074,15 +1042,29 @@ impl<'o> Args<'o> {
         )
     }
 
-    fn float(&self, name: &str) -> Result<Option<(f64, &'o Loc)>, SceneError> {
-        match self.prop(name) {
-            None => Ok(None),
-            Some(p) => match &p.value {
-                Value::Float(x) => Ok(Some((*x, &p.loc))),
-                Value::Integer(i) => Ok(Some((*i as f64, &p.loc))),
-                _ => Err(Self::wrong(p, "a <float>")),
-            },
+    /// Parameter `name` as `read` takes it from its value, or `None` when the object has none; a value of
+    /// another kind is an error that says what vkpath reads it as (`expected`).
+    fn typed<T>(
+        &self,
+        name: &str,
+        expected: &str,
+        read: impl Fn(&'o Value) -> Option<T>,
+    ) -> Result<Option<(T, &'o Loc)>, SceneError> {
+        let Some(p) = self.prop(name) else {
+            return Ok(None);
+        };
+        match read(&p.value) {
+            Some(v) => Ok(Some((v, &p.loc))),
+            None => Err(Self::wrong(p, expected)),
         }
+    }
+
+    fn float(&self, name: &str) -> Result<Option<(f64, &'o Loc)>, SceneError> {
+        self.typed(name, "a <float>", |v| match v {
+            Value::Float(x) => Some(*x),
+            Value::Integer(i) => Some(*i as f64),
+            _ => None,
+        })
     }
 
     fn float_or(&self, name: &str, default: f64) -> Result<f64, SceneError> {
@@ -1090,53 +1072,38 @@ impl<'o> Args<'o> {
     }
 
     fn int(&self, name: &str) -> Result<Option<(i64, &'o Loc)>, SceneError> {
-        match self.prop(name) {
-            None => Ok(None),
-            Some(p) => match &p.value {
-                Value::Integer(i) => Ok(Some((*i, &p.loc))),
-                _ => Err(Self::wrong(p, "an <integer>")),
-            },
-        }
+        self.typed(name, "an <integer>", |v| match v {
+            Value::Integer(i) => Some(*i),
+            _ => None,
+        })
     }
 
     fn boolean(&self, name: &str) -> Result<Option<(bool, &'o Loc)>, SceneError> {
-        match self.prop(name) {
-            None => Ok(None),
-            Some(p) => match &p.value {
-                Value::Boolean(b) => Ok(Some((*b, &p.loc))),
-                _ => Err(Self::wrong(p, "a <boolean>")),
-            },
-        }
+        self.typed(name, "a <boolean>", |v| match v {
+            Value::Boolean(b) => Some(*b),
+            _ => None,
+        })
     }
 
     fn string(&self, name: &str) -> Result<Option<(&'o str, &'o Loc)>, SceneError> {
-        match self.prop(name) {
-            None => Ok(None),
-            Some(p) => match &p.value {
-                Value::Str(s) => Ok(Some((s.as_str(), &p.loc))),
-                _ => Err(Self::wrong(p, "a <string>")),
-            },
-        }
+        self.typed(name, "a <string>", |v| match v {
+            Value::Str(s) => Some(s.as_str()),
+            _ => None,
+        })
     }
 
     fn vector(&self, name: &str) -> Result<Option<(DVec3, &'o Loc)>, SceneError> {
-        match self.prop(name) {
-            None => Ok(None),
-            Some(p) => match &p.value {
-                Value::Vector(v) => Ok(Some((*v, &p.loc))),
-                _ => Err(Self::wrong(p, "a <point> or <vector>")),
-            },
-        }
+        self.typed(name, "a <point> or <vector>", |v| match v {
+            Value::Vector(v) => Some(*v),
+            _ => None,
+        })
     }
 
     fn transform(&self, name: &str) -> Result<Option<(&'o Xf, &'o Loc)>, SceneError> {
-        match self.prop(name) {
-            None => Ok(None),
-            Some(p) => match &p.value {
-                Value::Transform(x) => Ok(Some((x, &p.loc))),
-                _ => Err(Self::wrong(p, "a <transform>")),
-            },
-        }
+        self.typed(name, "a <transform>", |v| match v {
+            Value::Transform(x) => Some(x),
+            _ => None,
+        })
     }
 
     /// The nested or referenced objects of element `tag` (any name: Mitsuba's shapes find their BSDF by

@@ -416,23 +416,7 @@ impl Scene {
 
     /// Reads a TOML scene file.
     fn load_toml(path: &Path) -> Result<Scene, SceneError> {
-        use std::io::Read;
-        // Read at most one byte past the limit: a huge file (10^8 inline spheres would be several GB,
-        // and parsing costs ~50 bytes of memory per byte of TOML) or an endless one (/dev/zero, a pipe)
-        // is refused without being read into memory.
-        let file = std::fs::File::open(path).map_err(|e| SceneError::io(path, &e))?;
-        let mut bytes = Vec::new();
-        file.take(MAX_SCENE_FILE_BYTES + 1)
-            .read_to_end(&mut bytes)
-            .map_err(|e| SceneError::io(path, &e))?;
-        if bytes.len() as u64 > MAX_SCENE_FILE_BYTES {
-            return Err(SceneError::too_large(path, MAX_SCENE_FILE_BYTES));
-        }
-        // Not read_to_string: its error for a byte that is not UTF-8 names neither line nor byte.
-        let text = String::from_utf8(bytes).map_err(|e| {
-            let valid = e.utf8_error().valid_up_to();
-            SceneError::not_utf8(path, e.as_bytes(), valid)
-        })?;
+        let text = read_scene_text(path)?;
         Scene::from_toml_str(&text, Some(path))
     }
 
@@ -462,4 +446,24 @@ impl Scene {
             .map(|p| p.display().to_string())
             .unwrap_or_else(|| format!("<default: {DEFAULT_SCENE_NAME}>"))
     }
+}
+
+/// A scene file's text (TOML, or an XML scene and its includes). Read at most one byte past the limit: a
+/// huge file (10^8 inline spheres would be several GB, and parsing costs ~50 bytes of memory per byte of
+/// TOML) or an endless one (/dev/zero, a pipe) is refused without being read into memory. Not
+/// read_to_string: its error for a byte that is not UTF-8 names neither line nor byte.
+pub(crate) fn read_scene_text(path: &Path) -> Result<String, SceneError> {
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|e| SceneError::io(path, &e))?;
+    let mut bytes = Vec::new();
+    file.take(MAX_SCENE_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|e| SceneError::io(path, &e))?;
+    if bytes.len() as u64 > MAX_SCENE_FILE_BYTES {
+        return Err(SceneError::too_large(path, MAX_SCENE_FILE_BYTES));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let valid = e.utf8_error().valid_up_to();
+        SceneError::not_utf8(path, e.as_bytes(), valid)
+    })
 }

@@ -2,7 +2,7 @@
 //! the TOML reader checks it like any scene file and `vkpath convert` can write it out.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::{Component, Path, PathBuf};
 
 /// A number as TOML writes it: the shortest text that reads back as the same f32 (the scene stores
 /// f32), or TOML's nan/inf, which the TOML reader then reports where a finite number is required.
@@ -37,6 +37,23 @@ pub fn toml_string(s: &str) -> String {
         }
     }
     out + "\""
+}
+
+/// `p` made absolute against the working directory, `.` and `..` resolved lexically (the paths a
+/// translated scene names, written relative to where the TOML will be).
+pub fn absolute(p: &Path) -> PathBuf {
+    let joined = std::env::current_dir().unwrap_or_default().join(p);
+    let mut out = PathBuf::new();
+    for c in joined.components() {
+        match c {
+            Component::ParentDir => {
+                out.pop();
+            }
+            Component::CurDir => {}
+            c => out.push(c),
+        }
+    }
+    out
 }
 
 /// The path of `target` relative to the directory `dir` (both absolute), with `..` as needed; `None`
