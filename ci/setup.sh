@@ -4,6 +4,11 @@
 #   ci/setup.sh          a Vulkan loader (libvulkan.so.1) and at least one Vulkan driver (an ICD json);
 #                        when either is missing, installs Mesa's drivers (lavapipe, the CPU implementation,
 #                        is among them) and the loader: apt packages mesa-vulkan-drivers libvulkan1.
+#                        And a current lavapipe: Mesa 24 or newer runs vkpath's kernel 1.3-1.6x faster than
+#                        Mesa 22 (same image, bit for bit). On Debian 12, whose Mesa is 22.3, it installs
+#                        mesa-vulkan-drivers from bookworm-backports (Mesa 25), adding that suite to apt's
+#                        sources when missing; elsewhere (Ubuntu 24.04, Debian 13: Mesa 24, 25) the stock
+#                        package is current. --keep-mesa leaves an installed Mesa as it is.
 #   ci/setup.sh --test   also the Khronos validation layers (vulkan-validationlayers), which the tests enable,
 #                        and an X server in memory for the preview window's test (xvfb, with xauth for
 #                        xvfb-run) with the X client libraries winit loads at run time (libx11-6,
@@ -17,15 +22,17 @@
 set -euo pipefail
 
 want_validation=0
+keep_mesa=0
 for arg in "$@"; do
     case "$arg" in
         --test) want_validation=1 ;;
+        --keep-mesa) keep_mesa=1 ;;
         -h | --help)
-            sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'
+            sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'
             exit 0
             ;;
         *)
-            echo "ci/setup.sh: unknown argument '$arg' (use --test or nothing)" >&2
+            echo "ci/setup.sh: unknown argument '$arg' (use --test, --keep-mesa or nothing)" >&2
             exit 2
             ;;
     esac
@@ -91,9 +98,29 @@ have_x11_libs() {
     done
 }
 
+# Mesa's lavapipe: its major version as dpkg knows it (0 when not installed by dpkg), and whether this is
+# Debian 12, whose stock Mesa 22.3 is older than the 24 vkpath wants and whose backports have Mesa 25.
+mesa_major() {
+    local v
+    v=$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null) || v=0
+    v=${v#*:}
+    v=${v%%.*}
+    [[ "$v" =~ ^[0-9]+$ ]] || v=0
+    echo "$v"
+}
+
+on_bookworm() {
+    [ -r /etc/os-release ] && (. /etc/os-release && [ "${ID:-}" = debian ] && [ "${VERSION_CODENAME:-}" = bookworm ])
+}
+
+want_backports=0
+if [ "$keep_mesa" = 0 ] && command -v dpkg-query >/dev/null 2>&1 && on_bookworm && [ "$(mesa_major)" -lt 24 ]; then
+    want_backports=1
+fi
+
 packages=()
 have_loader || packages+=(libvulkan1)
-have_icd || packages+=(mesa-vulkan-drivers)
+have_icd || [ "$want_backports" = 1 ] || packages+=(mesa-vulkan-drivers)
 if [ "$want_validation" = 1 ] && ! have_validation; then
     packages+=(vulkan-validationlayers)
 fi
@@ -156,8 +183,9 @@ fi
 # apt-get install of "$@", with no service started by the packages' scripts (munge's would start a
 # system munged that nothing stops): a policy-rc.d that refuses every start, for the install only, when
 # the system has none of its own.
+apt_updated=0
 apt_install() {
-    local log policy=/usr/sbin/policy-rc.d made_policy=0
+    local log policy=/usr/sbin/policy-rc.d made_policy=0 update=(true)
     if ! command -v apt-get >/dev/null 2>&1; then
         echo "ci/setup.sh: missing $* and no apt-get here: install them (a Vulkan loader and driver" \
             "such as Mesa's lavapipe, and for the tests the packages above) with this system's package" \
@@ -174,7 +202,8 @@ apt_install() {
         made_policy=1
     fi
     log=$(mktemp)
-    if ! { "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update -q &&
+    [ "$apt_updated" = 1 ] || update=("${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get update -q)
+    if ! { "${update[@]}" &&
         "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends \
             "$@"; } >"$log" 2>&1; then
         [ "$made_policy" = 0 ] || "${sudo[@]}" rm -f "$policy"
@@ -185,10 +214,48 @@ apt_install() {
     fi
     [ "$made_policy" = 0 ] || "${sudo[@]}" rm -f "$policy"
     rm -f "$log"
+    apt_updated=1
 }
 
+# Debian 12: Mesa 25's mesa-vulkan-drivers from bookworm-backports (with the libdrm it needs; nothing else
+# is taken from backports), adding the suite to apt's sources when no source names it.
+install_backports_mesa() {
+    local list=/etc/apt/sources.list.d/vkpath-bookworm-backports.list
+    if ! grep -rqs 'bookworm-backports' /etc/apt/sources.list /etc/apt/sources.list.d/; then
+        echo "deb http://deb.debian.org/debian bookworm-backports main" | "${sudo[@]}" tee "$list" >/dev/null
+        apt_updated=0
+    fi
+    apt_install -t bookworm-backports mesa-vulkan-drivers
+    if [ "$(mesa_major)" -lt 24 ]; then
+        echo "ci/setup.sh: installed mesa-vulkan-drivers from bookworm-backports but Mesa is still" \
+            "$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || echo missing)" >&2
+        exit 1
+    fi
+}
+
+check_complete() {
+    if ! have_loader || ! have_icd ||
+        { [ "$want_validation" = 1 ] && ! { have_validation && have_xvfb && have_xauth && have_x11_libs && have_farm; }; }; then
+        echo "ci/setup.sh: installed $1 but Vulkan is still incomplete" \
+            "(loader: $(have_loader && echo yes || echo no), driver: $(have_icd && echo yes || echo no))" >&2
+        exit 1
+    fi
+}
+
+mesa_note=""
+if [ "$want_backports" = 1 ]; then
+    [ "${#packages[@]}" -eq 0 ] || apt_install "${packages[@]}"
+    install_backports_mesa
+    mesa_note="Mesa $(dpkg-query -W -f='${Version}' mesa-vulkan-drivers) from bookworm-backports"
+    [ "${#packages[@]}" -eq 0 ] || mesa_note="${packages[*]}; $mesa_note"
+    packages=()
+fi
+
 if [ "${#packages[@]}" -eq 0 ]; then
-    if [ "$want_validation" = 1 ]; then
+    if [ -n "$mesa_note" ]; then
+        check_complete "$mesa_note"
+        finish "installed $mesa_note"
+    elif [ "$want_validation" = 1 ]; then
         finish "Vulkan loader, driver, validation layers, Xvfb and Slurm already present; nothing to install"
     else
         finish "Vulkan loader and driver already present; nothing to do"
@@ -203,11 +270,5 @@ if ! have_loader || ! have_icd; then
 fi
 
 apt_install "${packages[@]}"
-
-if ! have_loader || ! have_icd ||
-    { [ "$want_validation" = 1 ] && ! { have_validation && have_xvfb && have_xauth && have_x11_libs && have_farm; }; }; then
-    echo "ci/setup.sh: installed ${packages[*]} but Vulkan is still incomplete" \
-        "(loader: $(have_loader && echo yes || echo no), driver: $(have_icd && echo yes || echo no))" >&2
-    exit 1
-fi
+check_complete "${packages[*]}"
 finish "installed ${packages[*]}"

@@ -38,7 +38,7 @@
 // one comparison per sample (docs/robustness.md).
 //
 // The including kernel declares `accum: array<Accum>` (read_write storage); accumulate_sample updates
-// one entry of it in place.
+// one entry of it in place, accumulate_into an entry the caller holds in registers.
 //
 // requires: (nothing)
 
@@ -133,7 +133,19 @@ fn add_limb(acc: ptr<function, Accum>, j: u32, t: GridTerm, carry_in: vec3<u32>)
 }
 
 // Adds one sample (linear RGB radiance) to accum[slot]; returns SAMPLE_* flags saying what was changed.
+// The entry is read and written whole, once, and updated in registers in between.
 fn accumulate_sample(slot: u32, radiance: vec3<f32>, guard: f32) -> u32 {
+    var acc = accum[slot];
+    let fault = accumulate_into(&acc, radiance, guard);
+    accum[slot] = acc;
+    return fault;
+}
+
+// Adds one sample to an accumulator held in registers: the render kernel reads a pixel's entry once,
+// adds the samples of its dispatch to it in index order, and writes it once (trace.wgsl). The same
+// operations in the same order as accumulate_sample, so the bits do not depend on how many samples one
+// dispatch adds.
+fn accumulate_into(acc: ptr<function, Accum>, radiance: vec3<f32>, guard: f32) -> u32 {
     var l = max(radiance, vec3<f32>(0.0));
     var fault = 0u;
     if !is_finite_vec3(radiance) {
@@ -147,29 +159,26 @@ fn accumulate_sample(slot: u32, radiance: vec3<f32>, guard: f32) -> u32 {
     }
     // The exact sums: a 192-bit add with carry, limb by limb, unrolled (lavapipe counts every loop
     // iteration against its per-invocation budget, trace.wgsl).
-    // The entry is read and written whole, once, and updated in registers in between.
-    var acc = accum[slot];
     let t = grid_term(l);
-    var carry = add_limb(&acc, 0u, t, vec3<u32>(0u));
-    carry = add_limb(&acc, 1u, t, carry);
-    carry = add_limb(&acc, 2u, t, carry);
-    carry = add_limb(&acc, 3u, t, carry);
-    carry = add_limb(&acc, 4u, t, carry);
-    carry = add_limb(&acc, 5u, t, carry);
+    var carry = add_limb(acc, 0u, t, vec3<u32>(0u));
+    carry = add_limb(acc, 1u, t, carry);
+    carry = add_limb(acc, 2u, t, carry);
+    carry = add_limb(acc, 3u, t, carry);
+    carry = add_limb(acc, 4u, t, carry);
+    carry = add_limb(acc, 5u, t, carry);
 
     // Kahan step on the squares: y = x - c; t = sum + y; c' = (t - sum) - y.
-    let sq = vec3<f32>(acc.sum_sq[0], acc.sum_sq[1], acc.sum_sq[2]);
-    let comp = vec3<f32>(acc.sum_sq_c[0], acc.sum_sq_c[1], acc.sum_sq_c[2]);
+    let sq = vec3<f32>((*acc).sum_sq[0], (*acc).sum_sq[1], (*acc).sum_sq[2]);
+    let comp = vec3<f32>((*acc).sum_sq_c[0], (*acc).sum_sq_c[1], (*acc).sum_sq_c[2]);
     // A square past the largest f32 (radiance above 1.8e19) is clamped to it rather than made infinite.
     let y = min(l * l, vec3<f32>(3.4028235e38)) - comp;
     let ts = sq + y;
     let c2 = (ts * guard - sq) - y;
-    acc.sum_sq[0] = ts.x;
-    acc.sum_sq[1] = ts.y;
-    acc.sum_sq[2] = ts.z;
-    acc.sum_sq_c[0] = c2.x;
-    acc.sum_sq_c[1] = c2.y;
-    acc.sum_sq_c[2] = c2.z;
-    accum[slot] = acc;
+    (*acc).sum_sq[0] = ts.x;
+    (*acc).sum_sq[1] = ts.y;
+    (*acc).sum_sq[2] = ts.z;
+    (*acc).sum_sq_c[0] = c2.x;
+    (*acc).sum_sq_c[1] = c2.y;
+    (*acc).sum_sq_c[2] = c2.z;
     return fault;
 }

@@ -142,7 +142,7 @@ struct Hit {
 @group(0) @binding(11) var<storage, read> texels: array<u32>;
 @group(0) @binding(16) var<storage, read> textures: array<TextureInfo>;
 
-// The render target: per-pixel running sums, and which sample the current dispatch traces over which
+// The render target: per-pixel running sums, and which samples the current dispatch traces over which
 // pixels. An image too large for one buffer or one dispatch is cut (src/render/mod.rs, "Tiles"): each
 // strip of whole rows has its own accumulator, whose entry 0 is pixel `accum_base` (row-major over the
 // whole image), and each dispatch covers one tile of a strip, the pixels from (tile_x0, tile_y0)
@@ -154,8 +154,9 @@ struct PassConstants {
     tile_y0: u32,
     tile_x1: u32,
     tile_y1: u32,
+    // The dispatch traces samples sample_index .. sample_index + sample_count - 1 of each pixel.
+    sample_count: u32,
     _pad0: u32,
-    _pad1: u32,
 }
 
 @group(0) @binding(5) var<storage, read_write> accum: array<Accum>;

@@ -195,10 +195,15 @@ fn suns_seen(d: vec3<f32>) -> vec3<f32> {
     return l;
 }
 
-// One path: the Monte Carlo estimate of the radiance arriving at the camera through this sample.
-// L = sum over vertices of beta * (emission seen by a specular chain, or direct light by next-event
-// estimation at non-delta vertices), with beta the product of f cos / pdf along the path.
-fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
+// The camera ray of sample `sample` of pixel px, and the sample's random numbers, positioned after the
+// film and lens dimensions (0 and 1).
+struct CameraSample {
+    o: vec3<f32>,
+    d: vec3<f32>,
+    rng: Rng,
+}
+
+fn camera_sample(px: vec2<u32>, sample: u32) -> CameraSample {
     var rng = rng_new_sampler(px.y * params.width + px.x, sample, params.seed, params.sampler);
     let film = film_position(px, &rng);
     // The lens sample is dimension 1 whether or not there is a lens, so that a pinhole-specialised kernel
@@ -221,140 +226,199 @@ fn trace_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
                                    params.height, film);
         }
     }
-    if AOV_FROM_PARAMS {
-        if params.aov != AOV_NONE {
-            return trace_aov(params.aov, cam.o, cam.d, &rng);
-        }
-    } else {
-        if AOV_KIND != AOV_NONE {
-            return trace_aov(AOV_KIND, cam.o, cam.d, &rng);
-        }
-    }
-    var o = cam.o;
-    var d = cam.d;
-    var beta = vec3<f32>(1.0);
-    var radiance = vec3<f32>(0.0);
-    // Emission found by a ray (a surface's, the environment's) counts in full on camera rays and after
-    // delta bounces (mirror, glass), where no light sample competed; after a non-delta bounce, with
-    // emission_weight against the light's sampling of the same direction from the previous vertex
-    // (prev_p, where the BSDF sampled it with density prev_pdf).
-    let strategy = light_sampling_strategy();
-    let mis = lights_mis(strategy);
-    var prev_p = vec3<f32>(0.0);
-    var prev_pdf = 0.0;
-    var prev_sphere = NO_LIGHT; // the sphere prev_p lies on, if any
-    // Whether the ray was spawned by a delta bounce (or is the camera ray): then no light sample at its
-    // origin could have found what it finds.
-    var last_delta = true;
-    var bounces = 0u;
-    loop {
-        let hit = scene_intersect(o, d, T_MISS);
-        if hit.prim_kind == PRIM_NONE {
-            if HAS_ENVIRONMENT {
-                if params.environment_light != NO_LIGHT {
-                    let env = lights[params.environment_light];
-                    var w = 1.0;
-                    if !last_delta {
-                        w = emission_weight(prev_pdf, light_pdf_li(env, prev_p, d, strategy), strategy);
-                    }
-                    radiance += beta * environment_radiance(env, d) * w;
-                }
-            }
-            // A sun of nonzero size seen directly, or through a mirror or glass (its caustics included):
-            // after a non-delta bounce it was light-sampled instead (suns are not weighed by mis).
-            if HAS_DIRECTIONAL_LIGHTS {
-                if last_delta {
-                    radiance += beta * suns_seen(d);
-                }
-            }
-            break;
-        }
-        var mat = materials[hit_material(hit)];
-        if HAS_EMISSION {
-            if any(mat.emission > vec3<f32>(0.0)) {
-                // Front or back: against the geometric normal (outward on spheres). A mesh's emissive
-                // texture multiplies the emission.
-                let s = surface_at(o, d, hit);
-                var le = material_emission(mat, dot(d, s.n) < 0.0);
-                if HAS_EMISSIVE_TEXTURES {
-                    le *= s.emission_scale;
-                }
-                var w = 1.0;
-                if !last_delta {
-                    w = emission_weight(prev_pdf, emitter_light_pdf(hit, prev_p, prev_sphere, d, strategy),
-                                        strategy);
-                }
-                radiance += beta * le * w;
-            }
-        }
-        if HAS_EMITTERS {
-            if mat.kind == MAT_EMITTER {
-                break;
-            }
-        }
-        if bounces >= params.max_bounces {
-            break;
-        }
-        bounces += 1u;
-        let sp = surface_at(o, d, hit);
-        let on_sphere = select(NO_LIGHT, hit.prim_index, hit.prim_kind == PRIM_SPHERE);
-        // Both faces scatter: shade with the normal on the side the ray came from.
-        let entering = dot(d, sp.n) < 0.0;
-        let n = select(-sp.n, sp.n, entering);
-        // Smooth and normal-mapped meshes scatter about their shading normal ns (on the same side as n);
-        // everything else about n. A direction chosen about ns can still point below the geometric
-        // surface near a silhouette; such a path ends there (absorbed), rather than leaking through the
-        // mesh. That loses a little energy at grazing angles, the usual price of shading normals (pbrt-v4
-        // §10.1).
-        var ns = n;
-        if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
-            ns = select(-sp.ns, sp.ns, entering);
-        }
-        // Textures: the base colour replaces the material's albedo (diffuse) or tint (mirror); a
-        // metallic-roughness texture scales metallic and roughness (textured_material, scene.wgsl).
-        mat = textured_material(mat, sp);
-        // The direction anisotropic roughness runs along (zero, and not computed, without anisotropy).
-        var tangent = vec3<f32>(0.0);
-        if HAS_ANISOTROPY {
-            tangent = surface_tangent(hit, sp.n);
-        }
-        let wo = -d;
-        if !bsdf_is_delta(mat) {
-            radiance += beta * direct_light(mat, sp, n, ns, tangent, entering, wo, mis, on_sphere, &rng);
-        }
-        let bs = bsdf_sample(mat, wo, ns, tangent, entering, &rng);
-        if bs.flags == 0u {
-            break; // absorbed
-        }
-        beta *= bs.weight;
-        let delta = (bs.flags & BSDF_DELTA) != 0u;
-        prev_pdf = select(bs.pdf, 0.0, delta);
-        prev_p = sp.p;
-        prev_sphere = on_sphere;
-        last_delta = delta;
-        if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
-            // wi must leave on the side the ray came from (reflection) or cross (transmission).
-            let reflected = (bs.flags & BSDF_REFLECTION) != 0u;
-            if sp.shading_normal && (dot(bs.wi, n) > 0.0) != reflected {
-                break;
-            }
-        }
-        o = offset_ray_origin(sp.p, sp.err, n, bs.wi);
-        d = bs.wi;
-        // Russian roulette (unbiased): past roulette_depth, continue with probability q and divide by q.
-        if HAS_ROULETTE {
-            if bounces >= params.roulette_depth {
-                let q = clamp(max(beta.x, max(beta.y, beta.z)), 0.05, 0.95);
-                if rng_next(&rng) >= q {
-                    break;
-                }
-                beta /= q;
-            }
-        }
-    }
-    return radiance;
+    return CameraSample(cam.o, cam.d, rng);
 }
 
+// A path in flight: everything trace_path carries from one ray cast to the next. The kernel keeps one per
+// invocation and, when its path ends, starts the invocation's next sample in the same state (path
+// regeneration, main below).
+//
+// The path's estimate: L = sum over vertices of beta * (emission seen by a specular chain, or direct
+// light by next-event estimation at non-delta vertices), with beta the product of f cos / pdf along the
+// path. Emission found by a ray (a surface's, the environment's) counts in full on camera rays and after
+// delta bounces (mirror, glass), where no light sample competed; after a non-delta bounce, with
+// emission_weight against the light's sampling of the same direction from the previous vertex (prev_p,
+// where the BSDF sampled it with density prev_pdf).
+struct Path {
+    rng: Rng,
+    o: vec3<f32>,
+    d: vec3<f32>,
+    beta: vec3<f32>,
+    radiance: vec3<f32>,
+    prev_p: vec3<f32>,
+    prev_pdf: f32,
+    prev_sphere: u32, // the sphere prev_p lies on, if any
+    // Whether the ray was spawned by a delta bounce (or is the camera ray): then no light sample at its
+    // origin could have found what it finds.
+    last_delta: bool,
+    bounces: u32,
+}
+
+fn path_begin(px: vec2<u32>, sample: u32) -> Path {
+    let cam = camera_sample(px, sample);
+    return Path(cam.rng, cam.o, cam.d, vec3<f32>(1.0), vec3<f32>(0.0), vec3<f32>(0.0), 0.0, NO_LIGHT,
+                true, 0u);
+}
+
+// One ray cast of the path and what follows it: the emission the ray finds, then (unless the path ends
+// there) next-event estimation and a BSDF-sampled continuation. Returns whether the path goes on.
+// (One exit per outcome, `return` in place of the `break`s of a loop.)
+fn path_step(path: ptr<function, Path>) -> bool {
+    let o = (*path).o;
+    let d = (*path).d;
+    let beta = (*path).beta;
+    let strategy = light_sampling_strategy();
+    let mis = lights_mis(strategy);
+    let hit = scene_intersect(o, d, T_MISS);
+    if hit.prim_kind == PRIM_NONE {
+        if HAS_ENVIRONMENT {
+            if params.environment_light != NO_LIGHT {
+                let env = lights[params.environment_light];
+                var w = 1.0;
+                if !(*path).last_delta {
+                    w = emission_weight((*path).prev_pdf, light_pdf_li(env, (*path).prev_p, d, strategy),
+                                        strategy);
+                }
+                (*path).radiance += beta * environment_radiance(env, d) * w;
+            }
+        }
+        // A sun of nonzero size seen directly, or through a mirror or glass (its caustics included):
+        // after a non-delta bounce it was light-sampled instead (suns are not weighed by mis).
+        if HAS_DIRECTIONAL_LIGHTS {
+            if (*path).last_delta {
+                (*path).radiance += beta * suns_seen(d);
+            }
+        }
+        return false;
+    }
+    var mat = materials[hit_material(hit)];
+    if HAS_EMISSION {
+        if any(mat.emission > vec3<f32>(0.0)) {
+            // Front or back: against the geometric normal (outward on spheres). A mesh's emissive
+            // texture multiplies the emission.
+            let s = surface_at(o, d, hit);
+            var le = material_emission(mat, dot(d, s.n) < 0.0);
+            if HAS_EMISSIVE_TEXTURES {
+                le *= s.emission_scale;
+            }
+            var w = 1.0;
+            if !(*path).last_delta {
+                w = emission_weight((*path).prev_pdf,
+                                    emitter_light_pdf(hit, (*path).prev_p, (*path).prev_sphere, d, strategy),
+                                    strategy);
+            }
+            (*path).radiance += beta * le * w;
+        }
+    }
+    if HAS_EMITTERS {
+        if mat.kind == MAT_EMITTER {
+            return false;
+        }
+    }
+    if (*path).bounces >= params.max_bounces {
+        return false;
+    }
+    (*path).bounces += 1u;
+    let sp = surface_at(o, d, hit);
+    let on_sphere = select(NO_LIGHT, hit.prim_index, hit.prim_kind == PRIM_SPHERE);
+    // Both faces scatter: shade with the normal on the side the ray came from.
+    let entering = dot(d, sp.n) < 0.0;
+    let n = select(-sp.n, sp.n, entering);
+    // Smooth and normal-mapped meshes scatter about their shading normal ns (on the same side as n);
+    // everything else about n. A direction chosen about ns can still point below the geometric
+    // surface near a silhouette; such a path ends there (absorbed), rather than leaking through the
+    // mesh. That loses a little energy at grazing angles, the usual price of shading normals (pbrt-v4
+    // §10.1).
+    var ns = n;
+    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
+        ns = select(-sp.ns, sp.ns, entering);
+    }
+    // Textures: the base colour replaces the material's albedo (diffuse) or tint (mirror); a
+    // metallic-roughness texture scales metallic and roughness (textured_material, scene.wgsl).
+    mat = textured_material(mat, sp);
+    // The direction anisotropic roughness runs along (zero, and not computed, without anisotropy).
+    var tangent = vec3<f32>(0.0);
+    if HAS_ANISOTROPY {
+        tangent = surface_tangent(hit, sp.n);
+    }
+    let wo = -d;
+    var rng = (*path).rng;
+    if !bsdf_is_delta(mat) {
+        (*path).radiance += beta * direct_light(mat, sp, n, ns, tangent, entering, wo, mis, on_sphere,
+                                                &rng);
+    }
+    let bs = bsdf_sample(mat, wo, ns, tangent, entering, &rng);
+    (*path).rng = rng;
+    if bs.flags == 0u {
+        return false; // absorbed
+    }
+    var beta_next = beta * bs.weight;
+    let delta = (bs.flags & BSDF_DELTA) != 0u;
+    (*path).prev_pdf = select(bs.pdf, 0.0, delta);
+    (*path).prev_p = sp.p;
+    (*path).prev_sphere = on_sphere;
+    (*path).last_delta = delta;
+    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
+        // wi must leave on the side the ray came from (reflection) or cross (transmission).
+        let reflected = (bs.flags & BSDF_REFLECTION) != 0u;
+        if sp.shading_normal && (dot(bs.wi, n) > 0.0) != reflected {
+            return false;
+        }
+    }
+    (*path).o = offset_ray_origin(sp.p, sp.err, n, bs.wi);
+    (*path).d = bs.wi;
+    // Russian roulette (unbiased): past roulette_depth, continue with probability q and divide by q.
+    if HAS_ROULETTE {
+        if (*path).bounces >= params.roulette_depth {
+            let q = clamp(max(beta_next.x, max(beta_next.y, beta_next.z)), 0.05, 0.95);
+            if rng_next(&rng) >= q {
+                (*path).rng = rng;
+                return false;
+            }
+            (*path).rng = rng;
+            beta_next /= q;
+        }
+    }
+    (*path).beta = beta_next;
+    return true;
+}
+
+// One sample of an `--aov` layer (trace_aov) through the sample's camera ray; radiance is traced by
+// path_begin and path_step.
+fn aov_sample(kind: u32, px: vec2<u32>, sample: u32) -> vec3<f32> {
+    var cam = camera_sample(px, sample);
+    var rng = cam.rng;
+    return trace_aov(kind, cam.o, cam.d, &rng);
+}
+
+// The sample as the accumulator takes it. The firefly clamp (render.clamp, off by default): biased by
+// design, so a scene opts in. The sample is scaled, not clipped per channel, so that a clamped sample
+// keeps its hue. (A NaN passes through to the accumulator, which counts it.)
+fn add_sample(acc: ptr<function, Accum>, sample_radiance: vec3<f32>) {
+    var radiance = sample_radiance;
+    let peak = max(radiance.x, max(radiance.y, radiance.z));
+    if params.sample_clamp > 0.0 && peak > params.sample_clamp {
+        radiance *= params.sample_clamp / peak;
+    }
+    let fault = accumulate_into(acc, radiance, params.guard_one);
+    if fault != 0u {
+        count_sample_fault(fault);
+    }
+}
+
+// One invocation: samples sample_index .. sample_index + sample_count - 1 of one pixel, added to the
+// pixel's sums in index order. The pixel's accumulator entry is read once, updated in registers and
+// written once.
+//
+// Path regeneration: the invocation traces its samples in one loop whose every iteration is one ray cast
+// (path_step); when a path ends, the iteration adds it and starts the next sample. On a SIMD machine (a
+// GPU's warp, lavapipe's 8-wide AVX2 lanes) an invocation whose path ended early then goes on working
+// instead of idling until the longest path of its group ends, and the group runs about max over lanes
+// of (sum of path lengths) iterations instead of sum over samples of (max of path lengths). The host
+// sizes sample_count so that the invocation's loop iterations stay within lavapipe's budget
+// (render::samples_per_invocation). The bits do not depend on sample_count: each sample is the same
+// function of (pixel, sample index, seed) and is added in the same order, so any split of a pass into
+// dispatches, tiles, passes or ranges gives the same image.
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     // The dispatch covers one tile (see PassConstants); the pixel, and so its random numbers, do not
@@ -365,16 +429,40 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let slot = px.y * params.width + px.x - pc.accum_base;
-    var radiance = trace_path(px, pass_constants.sample_index);
-    // The firefly clamp (render.clamp, off by default): biased by design, so a scene opts in. The sample
-    // is scaled, not clipped per channel, so that a clamped sample keeps its hue. (A NaN passes through to
-    // the accumulator, which counts it.)
-    let peak = max(radiance.x, max(radiance.y, radiance.z));
-    if params.sample_clamp > 0.0 && peak > params.sample_clamp {
-        radiance *= params.sample_clamp / peak;
+    let end = pc.sample_index + pc.sample_count;
+    var acc = accum[slot];
+    // An `--aov` layer instead of radiance: written with bare constant conditions, so that a specialised
+    // render kernel has no AOV code (scene.wgsl explains the pruning).
+    if AOV_FROM_PARAMS {
+        if params.aov != AOV_NONE {
+            add_aov_samples(&acc, params.aov, px, pc.sample_index, end);
+            accum[slot] = acc;
+            return;
+        }
+    } else {
+        if AOV_KIND != AOV_NONE {
+            add_aov_samples(&acc, AOV_KIND, px, pc.sample_index, end);
+            accum[slot] = acc;
+            return;
+        }
     }
-    let fault = accumulate_sample(slot, radiance, params.guard_one);
-    if fault != 0u {
-        count_sample_fault(fault);
+    var sample = pc.sample_index;
+    var path = path_begin(px, sample);
+    loop {
+        if !path_step(&path) {
+            add_sample(&acc, path.radiance);
+            sample += 1u;
+            if sample >= end {
+                break;
+            }
+            path = path_begin(px, sample);
+        }
+    }
+    accum[slot] = acc;
+}
+
+fn add_aov_samples(acc: ptr<function, Accum>, kind: u32, px: vec2<u32>, first: u32, end: u32) {
+    for (var sample = first; sample < end; sample++) {
+        add_sample(acc, aov_sample(kind, px, sample));
     }
 }

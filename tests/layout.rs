@@ -567,6 +567,7 @@ fn pass_constants_match_wgsl() {
             tile_y0,
             tile_x1,
             tile_y1,
+            sample_count,
             _pad
         ),
     );

@@ -85,6 +85,49 @@ fn same_bits(a: &[GpuAccum], b: &[GpuAccum]) -> bool {
     bytemuck::cast_slice::<GpuAccum, u8>(a) == bytemuck::cast_slice::<GpuAccum, u8>(b)
 }
 
+/// Path regeneration (trace.wgsl): one invocation traces a chunk of its pixel's samples, regenerating a
+/// path when the previous one ends. Chunks of 1 (one path per invocation), 3 (passes of 7 and 9 samples
+/// leave chunks of 1, 2 and 3) and the default all give the same bits, with and without tiles; the
+/// default takes several samples per invocation on every device (this scene's paths are short).
+#[test]
+fn samples_per_invocation_do_not_change_the_image() {
+    let scene = sized(64, 48);
+    let passes = [7, 9, 1];
+    let one = RenderOptions {
+        samples_per_invocation: Some(1),
+        ..untiled()
+    };
+    let (reference, r) = render_state(&scene, &one, &passes);
+    assert_eq!(r.samples_per_invocation(), 1);
+    for (m, tile) in [
+        (Some(3), None),
+        (None, None),
+        (None, Some([40, 24])),
+        (Some(2), Some([64, 1])),
+    ] {
+        let options = RenderOptions {
+            samples_per_invocation: m,
+            max_tile: tile,
+            ..untiled()
+        };
+        let (state, r) = render_state(&scene, &options, &passes);
+        if let Some(m) = m {
+            assert_eq!(r.samples_per_invocation(), m);
+        } else {
+            assert!(
+                r.samples_per_invocation() >= 16,
+                "{}",
+                r.samples_per_invocation()
+            );
+        }
+        assert!(
+            same_bits(&state, &reference),
+            "{m:?} samples per invocation with tiles {tile:?} changed the image"
+        );
+    }
+    assert_no_validation_errors();
+}
+
 /// A 256x256 render cut into 64x64 tiles (4 strips of 64 rows, 4 tiles each), into tiles that are not
 /// multiples of the workgroup (40x24), into single rows, and into tiles adapted to a tiny dispatch
 /// target: every accumulator bit equals the uncut render's.

@@ -168,16 +168,33 @@ class Vkpath:
         return Render(img, float(info["seconds"]), spp, info)
 
 
-class Mitsuba:
-    label = "Mitsuba 3"
+MITSUBA = "Mitsuba 3"
+MITSUBA_SAMPLERS = ("independent", "stratified", "multijitter", "orthogonal", "ldsampler")
 
-    def __init__(self, dr, mi, scene_dict: dict):
-        self.dr, self.mi = dr, mi
+
+def is_mitsuba(label: str) -> bool:
+    return label.startswith(MITSUBA)
+
+
+class Mitsuba:
+    def __init__(self, dr, mi, scene_dict: dict, sampler: str = "independent"):
+        self.dr, self.mi, self.sampler = dr, mi, sampler
+        # One label per sampler ("Mitsuba 3" alone is the independent sampler, as in earlier runs).
+        self.label = MITSUBA if sampler == "independent" else f"{MITSUBA} {sampler}"
+        self._counts: dict[int, int] = {}
         dr.set_flag(dr.JitFlag.KernelHistory, True)
         self.scene = mi.load_dict(scene_dict)
         t = time.perf_counter()
         self._render(1, seed=999_999)  # warm-up: kernel compilation (or Dr.Jit cache load), not timed
         self.warmup_seconds = time.perf_counter() - t
+
+    def actual_spp(self, spp: int) -> int:
+        """The samples per pixel Mitsuba's sampler really takes when asked for spp: stratified and
+        ldsampler round up to a power of 4, orthogonal to the square of a prime, multijitter to a
+        product of two near-equal factors."""
+        if spp not in self._counts:
+            self._counts[spp] = int(self.mi.load_dict({"type": self.sampler, "sample_count": spp}).sample_count())
+        return self._counts[spp]
 
     def _render(self, spp: int, seed: int):
         import numpy as np
@@ -202,7 +219,7 @@ class Mitsuba:
             seconds = time.perf_counter() - t
             if not self._compiled():
                 break
-        return Render(img, seconds, spp, {"retimed": attempt})
+        return Render(img, seconds, self.actual_spp(spp), {"retimed": attempt})
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -371,8 +388,8 @@ def check_configs(configs: list[tuple[str, list[str]]]) -> None:
         if labels.count(label) > 1:
             sys.exit(f"compare.py: two --vkpath-config share the label {label!r}; give each its own "
                      "(e.g. 'mis:--light-sampling mis' 'cone:--light-sampling cone')")
-        if label == Mitsuba.label:
-            sys.exit(f"compare.py: the label {label!r} is Mitsuba's; choose another")
+        if is_mitsuba(label):
+            sys.exit(f"compare.py: the label {label!r} is taken for Mitsuba's ladders; choose another")
         if "|" in label:
             sys.exit(f"compare.py: a label may not contain '|' (it breaks the Markdown tables): {label!r}")
 
@@ -400,6 +417,10 @@ def main() -> int:
                     help="a vkpath setting to compare, e.g. 'vkpath generic:--generic' or "
                     "'mis:--light-sampling mis' (repeatable: one ladder each, side by side in the tables; "
                     "the first also renders the reference); default 'vkpath:' (no extra flags)")
+    ap.add_argument("--mitsuba-samplers", nargs="+", default=list(MITSUBA_SAMPLERS), metavar="SAMPLER",
+                    help="Mitsuba samplers to run a ladder with (one each; the tables compare vkpath with the "
+                    "best of them per scene); default: " + " ".join(MITSUBA_SAMPLERS) + ". The reference is "
+                    "always rendered with the independent sampler")
     ap.add_argument("--check-every-config", action="store_true",
                     help="render the reference batches with every --vkpath-config (not only the first) and "
                     "check each against Mitsuba's (the unbiasedness table gets a row per config); costs "
@@ -427,6 +448,11 @@ def main() -> int:
         sys.exit("compare.py: --ref-spp must be a multiple of --ref-batches")
     configs = [parse_config(c) for c in (a.vkpath_config or ["vkpath:"])]
     check_configs(configs)
+    for sampler in a.mitsuba_samplers:
+        if sampler not in MITSUBA_SAMPLERS:
+            sys.exit(f"compare.py: unknown Mitsuba sampler {sampler!r} (one of {', '.join(MITSUBA_SAMPLERS)})")
+    if len(set(a.mitsuba_samplers)) != len(a.mitsuba_samplers):
+        sys.exit("compare.py: a Mitsuba sampler is named twice in --mitsuba-samplers")
     vkpath_bin = Path(a.vkpath)
     if not vkpath_bin.exists():
         sys.exit(f"compare.py: no vkpath binary at {vkpath_bin}; run `cargo build --release` first")
@@ -434,6 +460,7 @@ def main() -> int:
     import numpy as np
 
     dr, mi, llvm = import_mitsuba()
+    mi.set_log_level(mi.LogLevel.Error)  # the samplers' "sample count rounded" warnings: actual_spp
     out = Path(a.out)
     tmp = out / "tmp"
     imgdir = out / "images" / tag
@@ -464,6 +491,7 @@ def main() -> int:
         "size": f"{size}x{size} (box filter)",
         "ladder": f"1..{max_spp} spp (doubling)",
         "reference": f"{ref_spp} spp from each renderer in {batches} batches (mean of both)",
+        "mitsuba_samplers": " ".join(a.mitsuba_samplers),
     }
     print("# " + ", ".join(f"{k}: {v}" for k, v in meta.items()), flush=True)
 
@@ -503,7 +531,12 @@ def main() -> int:
         for v in vks:
             v.render(1, seed=999_999)  # warm-up (page cache, driver), not recorded
         # No `samples_per_pass`: Mitsuba 3.6 deprecates it and splits a large render into passes itself.
-        mit = Mitsuba(dr, mi, ms.mitsuba_dict(mi, over, spp=1, tmp_dir=tmp / name, rr_depth=a.rr_depth))
+        # The reference batches use the independent sampler (its batches are independent estimates); the
+        # ladders every sampler asked for.
+        mits = {sampler: Mitsuba(dr, mi, ms.mitsuba_dict(mi, over, spp=1, tmp_dir=tmp / name,
+                                                         rr_depth=a.rr_depth, sampler=sampler), sampler)
+                for sampler in dict.fromkeys(["independent", *a.mitsuba_samplers])}
+        mit = mits["independent"]
 
         # 1. The common reference and the unbiasedness check. Batches alternate between the renderers
         # so that a change of load on the machine hits both alike.
@@ -547,7 +580,7 @@ def main() -> int:
         # 2. The ladders, interleaved: at each spp every renderer renders once (the order rotating from
         # one step to the next), so that load from elsewhere on the machine falls on all of them alike.
         # With --repeat N, each render is timed N times and the fastest counts (the image is the first).
-        renderers = [(v.label, v) for v in vks] + [(mit.label, mit)]
+        renderers = [(v.label, v) for v in vks] + [(mits[sm].label, mits[sm]) for sm in a.mitsuba_samplers]
         ladders: dict[str, list] = {label: [] for label, _ in renderers}
         active = {label for label, _ in renderers}
         for i, spp in enumerate(spps):
@@ -555,19 +588,23 @@ def main() -> int:
             for label, rdr in order:
                 if label not in active:
                     continue
+                # A Mitsuba sampler that rounds this spp to the count of its previous step skips it.
+                if isinstance(rdr, Mitsuba) and ladders[label] and rdr.actual_spp(spp) == ladders[label][-1][2]:
+                    continue
                 res = rdr.render(spp, seed=a.seed_base + 1000 + i)
+                spp_done = res.spp
                 seconds = res.seconds
                 for _ in range(a.repeat - 1):
                     seconds = min(seconds, rdr.render(spp, seed=a.seed_base + 1000 + i).seconds)
                 raw_e, e = rel_errors(res.img, ref, ref_noise_ms)
-                sps = w * h * spp / seconds
+                sps = w * h * spp_done / seconds
                 if isinstance(rdr, Vkpath) and vk_device is None:
                     vk_device = res.info.get("device")
                 ladder_rows.append({
-                    "scene": name, "renderer": label, "spp": spp, "seconds": f"{seconds:.5f}",
+                    "scene": name, "renderer": label, "spp": spp_done, "seconds": f"{seconds:.5f}",
                     "samples_per_s": f"{sps:.0f}", "rel_error": f"{e:.5f}", "rel_error_raw": f"{raw_e:.5f}",
                 })
-                ladders[label].append((seconds, e, spp, sps))
+                ladders[label].append((seconds, e, spp_done, sps))
                 if a.time_budget is not None and seconds > a.time_budget:
                     active.discard(label)
         for label, pts in ladders.items():
@@ -575,6 +612,7 @@ def main() -> int:
                   flush=True)
 
     meta["vkpath_device"] = vk_device or "?"
+    meta["vkpath_driver"] = vkpath_driver(vkpath_bin)
     meta["command"] = " ".join(["compare.py", *sys.argv[1:]])
     for rows in (ladder_rows, ref_rows):
         for row in rows:
@@ -583,6 +621,17 @@ def main() -> int:
     write_csv(out / f"{tag}-reference.csv", ref_rows)
     (out / f"{tag}-meta.json").write_text(json.dumps({"meta": meta, "skipped": skipped}, indent=1) + "\n")
     return report(out, tag)
+
+
+def vkpath_driver(binary: Path) -> str:
+    """The chosen device's driver as `vkpath info --json` reports it (e.g. "llvmpipe: Mesa 25.0.7 (LLVM
+    15.0.6)"): the Mesa version changes lavapipe's speed."""
+    p = subprocess.run([str(binary), "info", "--json"], capture_output=True, text=True)
+    try:
+        info = json.loads(p.stdout)
+        return info["devices"][info["chosen"]].get("driver", "")
+    except (ValueError, KeyError, IndexError, TypeError):
+        return ""
 
 
 def write_csv(path, rows):
@@ -683,7 +732,7 @@ def side_by_side(summary_rows: list[dict], shown) -> list[str]:
             renderers.append(row["renderer"])
         by_scene.setdefault(row["scene"], {})[row["renderer"]] = row
     # Mitsuba last, the vkpath configs in the order of the command line (the ladder CSV's order).
-    renderers = [r for r in renderers if r != Mitsuba.label] + [r for r in renderers if r == Mitsuba.label]
+    renderers = [r for r in renderers if not is_mitsuba(r)] + [r for r in renderers if is_mitsuba(r)]
     md: list[str] = []
     for title, key, fmt in (
         ("Relative error at equal time (the longest time every renderer's ladder reached on the scene)",
@@ -713,6 +762,56 @@ def side_by_side(summary_rows: list[dict], shown) -> list[str]:
     return md
 
 
+def efficiency_table(summary_rows: list[dict], shown) -> list[str]:
+    """Markdown: the headline comparison. Equal-time efficiency is 1 / (error^2 x seconds) = 1 / c^2 with
+    c = error x sqrt(seconds) (efficiency_constant: the ladder's last three renders), so the ratio of two
+    renderers' efficiencies is (c_other / c_this)^2: how many times longer the other needs for the same
+    error. Each vkpath config against the best Mitsuba sampler of each scene (the lowest c), and against
+    Mitsuba's independent sampler; then the median and the minimum over the distinct scenes."""
+    by_scene: dict[str, dict[str, dict]] = {}
+    for row in summary_rows:
+        by_scene.setdefault(row["scene"], {})[row["renderer"]] = row
+    configs: list[str] = []
+    for row in summary_rows:
+        if not is_mitsuba(row["renderer"]) and row["renderer"] not in configs:
+            configs.append(row["renderer"])
+    md = ["", "Equal-time efficiency, 1 / (error^2 x seconds), of vkpath against Mitsuba 3's best sampler on "
+          "each scene (ratio > 1: vkpath reaches the same error sooner, by that factor):", "",
+          "| scene | vkpath config | vkpath samples/s | Mitsuba's best sampler | its samples/s | "
+          "vkpath / best Mitsuba | vkpath / Mitsuba independent |",
+          "| --- | --- | ---: | --- | ---: | ---: | ---: |"]
+    ratios: dict[str, list[tuple[float, str]]] = {c: [] for c in configs}
+    for rows in by_scene.values():
+        mits = {r: row for r, row in rows.items() if is_mitsuba(r) and row.get("efficiency_c")}
+        if not mits:
+            continue
+        best = min(mits, key=lambda r: float(mits[r]["efficiency_c"]))
+        c_best = float(mits[best]["efficiency_c"])
+        indep = mits.get(MITSUBA)
+        for config in configs:
+            row = rows.get(config)
+            if row is None or not row.get("efficiency_c"):
+                continue
+            c = float(row["efficiency_c"])
+            ratio = (c_best / c) ** 2
+            ratios[config].append((ratio, row["scene"]))
+            vs_indep = f"{(float(indep['efficiency_c']) / c) ** 2:.2f}" if indep else "n/a"
+            sampler = best[len(MITSUBA):].strip() or "independent"
+            md.append(f"| {shown(row)} | {config} | {float(row['samples_per_s']) / 1e6:.2f} M | {sampler} | "
+                      f"{float(mits[best]['samples_per_s']) / 1e6:.2f} M | {ratio:.2f} | {vs_indep} |")
+    md.append("")
+    for config, rs in ratios.items():
+        if not rs:
+            continue
+        values = sorted(r for r, _ in rs)
+        n = len(values)
+        median = values[n // 2] if n % 2 else 0.5 * (values[n // 2 - 1] + values[n // 2])
+        low, low_scene = min(rs)
+        md.append(f"- {config}: median {median:.2f} over {n} distinct scenes, minimum {low:.2f} ({low_scene}) "
+                  f"(targets: median >= 2, minimum >= 1)")
+    return md
+
+
 def report(out: Path, tag: str) -> int:
     """Summary CSV and Markdown tables from <tag>-ladder.csv, <tag>-reference.csv and <tag>-meta.json."""
     ladder_rows = read_csv(out / f"{tag}-ladder.csv")
@@ -726,9 +825,11 @@ def report(out: Path, tag: str) -> int:
         same = row.get("same_as", "").split()
         return row["scene"] + (f" (= {', '.join(same)})" if same else "")
 
+    samplers = meta.get("mitsuba_samplers")
     md = [f"Measured {meta['date_utc']} on {meta['cpu']}; vkpath {meta['vkpath_commit']} on "
-          f"{meta['vkpath_device']}; Mitsuba {meta['mitsuba']}. {meta['size']}, ladder {meta['ladder']}, "
-          f"reference {meta['reference']}. Command: `{meta['command']}`.", "",
+          f"{meta['vkpath_device']}{' (' + meta['vkpath_driver'] + ')' if meta.get('vkpath_driver') else ''}; "
+          f"Mitsuba {meta['mitsuba']}{' (samplers: ' + samplers + ')' if samplers else ''}. {meta['size']}, "
+          f"ladder {meta['ladder']}, reference {meta['reference']}. Command: `{meta['command']}`.", "",
           "| scene | renderer | samples/s | error x sqrt(spp) | time to 5% | time to 2% | time to 1% | "
           "error at equal time | error ~ spp^ |",
           "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
@@ -747,6 +848,7 @@ def report(out: Path, tag: str) -> int:
            "each ladder's fitted time model seconds = a + b spp (measured seconds: the ladder CSV). "
            "error x sqrt(spp): the noise per sample, whatever the speed (lower is better). Last "
            "column: the fitted convergence rate (-0.5 expected)."]
+    md += efficiency_table(summary_rows, shown)
     md += side_by_side(summary_rows, shown)
     with_config = any(r.get("vkpath_config") for r in ref_rows)
     md += ["", "Unbiasedness (vkpath's reference against Mitsuba's; expected: ratio ~1, |z| small):", "",

@@ -595,10 +595,11 @@ def _write_obj(path: Path, triangles: list[list[list[float]]]) -> None:
 
 
 def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_depth: int = 3,
-                 scene_dir: str | os.PathLike | None = None) -> dict:
+                 scene_dir: str | os.PathLike | None = None, sampler: str = "independent") -> dict:
     """The Mitsuba 3 scene dict for `raw` (already overridden: size, bounces, filter). `mi` is the mitsuba
     module with a variant set. Triangles are written as OBJ files under tmp_dir. A relative environment
-    map is found relative to scene_dir (with_overrides makes it absolute already)."""
+    map is found relative to scene_dir (with_overrides makes it absolute already). `sampler` is the
+    sensor's Mitsuba sampler plugin (independent, stratified, multijitter, orthogonal, ldsampler)."""
     reasons = unsupported_reasons(raw)
     if reasons:
         raise ValueError("; ".join(reasons))
@@ -623,7 +624,7 @@ def mitsuba_dict(mi, raw: dict, *, spp: int, tmp_dir: str | os.PathLike, rr_dept
     sensor = {
         **projection,
         "far_clip": 1e6,  # the course's wall spheres reach 2000 units away; never clip them
-        "sampler": {"type": "independent", "sample_count": int(spp)},
+        "sampler": {"type": sampler, "sample_count": int(spp)},
         "film": {
             "type": "hdrfilm",
             "width": image["width"],

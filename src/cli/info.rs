@@ -28,6 +28,12 @@ pub fn run_info(json: bool) -> Result<i32, Error> {
     }
     let d = &devices[chosen];
     println!("chosen: [{}] {}, because {}", d.index, d.name, reason);
+    if !d.driver.is_empty() {
+        println!("driver: {}", d.driver);
+    }
+    if let Some(w) = d.old_lavapipe_warning() {
+        eprintln!("vkpath: warning: {w}");
+    }
     println!("limits:");
     println!(
         "  max compute workgroup count:       {:?}",

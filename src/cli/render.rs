@@ -56,6 +56,9 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
 
     let stop = install_stop_handler();
     let ctx = GpuContext::new(&ContextOptions::default())?;
+    if let (Some(w), false) = (ctx.device_info().old_lavapipe_warning(), a.quiet) {
+        eprintln!("vkpath: warning: {w}");
+    }
     let mut renderer = Renderer::new(&ctx, &job.scene, &job.options)?;
     let plan = plan_samples(&mut renderer, &job.scene, range, part, job.resumed, a.quiet)?;
 
@@ -698,6 +701,10 @@ pub struct RenderArgs {
     /// Samples per pixel in each pass (default: adapted to about a quarter second per pass).
     #[arg(long = "samples-per-pass", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     samples_per_pass: Option<u32>,
+    /// The most samples of its pixel one kernel invocation traces per dispatch (default: as many as
+    /// the device's loop budget allows, at most 64). The image does not depend on it.
+    #[arg(long = "samples-per-invocation", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    samples_per_invocation: Option<u32>,
     /// Start Russian roulette after this many bounces ("off" disables it). Default 3.
     #[arg(long = "roulette-depth")]
     roulette_depth: Option<String>,
@@ -788,6 +795,7 @@ fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
         }
         o.samples_per_pass = Some(k);
     }
+    o.samples_per_invocation = a.samples_per_invocation;
     if let Some(r) = &a.roulette_depth {
         o.roulette_depth = match r.as_str() {
             "off" => u32::MAX,

@@ -17,6 +17,12 @@ pub struct DeviceInfo {
     pub device_type: String,
     pub api_version: String,
     pub driver_version: u32,
+    /// The driver's name and version string (VkPhysicalDeviceDriverProperties), e.g. "llvmpipe: Mesa
+    /// 25.0.7 (LLVM 15.0.6)"; empty when the device does not report them.
+    pub driver: String,
+    /// For Mesa's lavapipe (driver id MESA_LLVMPIPE), the Mesa version [major, minor] from its
+    /// driver string; `None` for every other driver.
+    pub lavapipe_mesa: Option<[u32; 2]>,
     pub has_compute_queue: bool,
     pub max_compute_workgroup_count: [u32; 3],
     pub max_compute_workgroup_invocations: u32,
@@ -172,8 +178,36 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
     let queues = unsafe { instance.get_physical_device_queue_family_properties(pd) };
     let mem = unsafe { instance.get_physical_device_memory_properties(pd) };
     let mut maint3 = vk::PhysicalDeviceMaintenance3Properties::default();
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    // The instance asks for Vulkan 1.1, so the driver properties (core in 1.2) may be chained only
+    // where the device has VK_KHR_driver_properties.
+    let has_driver_props = unsafe { instance.enumerate_device_extension_properties(pd) }
+        .map(|exts| {
+            exts.iter()
+                .any(|e| e.extension_name_as_c_str() == Ok(ash::khr::driver_properties::NAME))
+        })
+        .unwrap_or(false);
     let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut maint3);
+    if has_driver_props {
+        props2 = props2.push_next(&mut driver);
+    }
     unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    let (driver_text, lavapipe_mesa) = if has_driver_props {
+        let name = driver
+            .driver_name_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let info = driver
+            .driver_info_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let mesa = (driver.driver_id == vk::DriverId::MESA_LLVMPIPE)
+            .then(|| mesa_version(&info))
+            .flatten();
+        (format!("{name}: {info}"), mesa)
+    } else {
+        (String::new(), None)
+    };
     let device_local = mem.memory_heaps[..mem.memory_heap_count as usize]
         .iter()
         .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
@@ -194,6 +228,8 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
             vk::api_version_patch(v)
         ),
         driver_version: props.driver_version,
+        driver: driver_text,
+        lavapipe_mesa,
         has_compute_queue: queues
             .iter()
             .any(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE)),
@@ -202,6 +238,33 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
         max_memory_allocation_size: maint3.max_memory_allocation_size,
         device_local_memory_bytes: device_local,
+    }
+}
+
+/// The [major, minor] of a Mesa driver string such as "Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)".
+fn mesa_version(info: &str) -> Option<[u32; 2]> {
+    let rest = &info[info.find("Mesa ")? + 5..];
+    let mut parts = rest.split(|c: char| !c.is_ascii_digit());
+    let major = parts.next()?.parse().ok()?;
+    let minor = parts.next()?.parse().ok()?;
+    Some([major, minor])
+}
+
+/// The oldest Mesa whose lavapipe vkpath runs at full speed: Mesa 24 and 25 run the same kernels, to
+/// the same bits, 1.3-1.6x faster than Mesa 22.3 (README, "Performance").
+pub const FAST_LAVAPIPE_MESA: u32 = 24;
+
+impl DeviceInfo {
+    /// A warning for a lavapipe older than [`FAST_LAVAPIPE_MESA`], with the fix; `None` otherwise.
+    pub fn old_lavapipe_warning(&self) -> Option<String> {
+        let [major, minor] = self.lavapipe_mesa?;
+        (major < FAST_LAVAPIPE_MESA).then(|| {
+            format!(
+                "lavapipe from Mesa {major}.{minor} is slow: Mesa {FAST_LAVAPIPE_MESA} or newer renders \
+                 the same image 1.3-1.6x faster. On Debian 12, `ci/setup.sh` installs Mesa 25 from \
+                 bookworm-backports; Ubuntu 24.04 and Debian 13 ship Mesa 24 and 25."
+            )
+        })
     }
 }
 
@@ -531,5 +594,47 @@ impl Drop for GpuContext {
             }
             self.instance.destroy_instance(None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mesa_versions_are_read_from_driver_strings() {
+        assert_eq!(
+            mesa_version("Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"),
+            Some([25, 0])
+        );
+        assert_eq!(mesa_version("Mesa 22.3.6 (LLVM 15.0.6)"), Some([22, 3]));
+        assert_eq!(mesa_version("Mesa 24.2"), Some([24, 2]));
+        assert_eq!(mesa_version("535.104.05"), None);
+        assert_eq!(mesa_version("Mesa x"), None);
+    }
+
+    #[test]
+    fn only_an_old_lavapipe_is_warned_about() {
+        let mut d = DeviceInfo {
+            index: 0,
+            name: "llvmpipe".into(),
+            device_type: "CPU".into(),
+            api_version: "1.3.0".into(),
+            driver_version: 0,
+            driver: String::new(),
+            lavapipe_mesa: Some([22, 3]),
+            has_compute_queue: true,
+            max_compute_workgroup_count: [1; 3],
+            max_compute_workgroup_invocations: 1,
+            max_storage_buffer_range: 1,
+            max_memory_allocation_size: 1,
+            device_local_memory_bytes: 1,
+        };
+        let w = d.old_lavapipe_warning().expect("Mesa 22.3 is old");
+        assert!(w.contains("Mesa 22.3") && w.contains("ci/setup.sh"), "{w}");
+        d.lavapipe_mesa = Some([24, 0]);
+        assert_eq!(d.old_lavapipe_warning(), None);
+        d.lavapipe_mesa = None;
+        assert_eq!(d.old_lavapipe_warning(), None);
     }
 }

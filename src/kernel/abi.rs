@@ -52,8 +52,9 @@ pub struct GpuParams {
     pub _pad: [u32; 3],
 }
 
-/// Mirrors `PassConstants` in scene_data.wgsl: which sample the next dispatch traces, over which tile,
-/// into which accumulator strip (updated in the command buffer before each dispatch).
+/// Mirrors `PassConstants` in scene_data.wgsl: which samples the next dispatch traces (`sample_count`
+/// of them from `sample_index` on, in each pixel), over which tile, into which accumulator strip (updated
+/// in the command buffer before each dispatch).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuPassConstants {
@@ -65,7 +66,8 @@ pub struct GpuPassConstants {
     pub tile_y0: u32,
     pub tile_x1: u32,
     pub tile_y1: u32,
-    pub _pad: [u32; 2],
+    pub sample_count: u32,
+    pub _pad: u32,
 }
 
 /// Mirrors `Sphere` in scene_data.wgsl.

@@ -90,6 +90,10 @@ pub struct RenderOptions {
     /// What the samples are: radiance ([`AOV_NONE`](crate::kernel::abi::AOV_NONE)), or an `AOV_*`
     /// layer (`--aov`: albedo, normal or depth, averaged over the pixel's samples like radiance).
     pub aov: u32,
+    /// The most samples of its pixel one kernel invocation traces in a dispatch (path regeneration,
+    /// trace.wgsl); `None` lets the renderer choose ([`samples_per_invocation`]). The image does not
+    /// depend on it (tests/tiling.rs); `Some(1)` is the one-path-per-invocation kernel of before.
+    pub samples_per_invocation: Option<u32>,
 }
 
 /// Faults the renderer can be told to simulate, so that the handling of each (messages, exit codes,
@@ -131,8 +135,27 @@ impl Default for RenderOptions {
             max_tile: None,
             fault: None,
             aov: crate::kernel::abi::AOV_NONE,
+            samples_per_invocation: None,
         }
     }
+}
+
+/// The largest number of samples one invocation traces per dispatch, whatever the device: past a few
+/// dozen, the dispatches saved no longer show, and a dispatch's duration grows with it.
+pub const MAX_SAMPLES_PER_INVOCATION: u32 = 64;
+
+/// How many samples of its pixel one invocation traces per dispatch (trace.wgsl, path regeneration):
+/// on lavapipe, as many as fit its loop budget, the invocation's loops running at most
+/// `samples x worst_case_loop_iterations` iterations ([`LAVAPIPE_LOOP_BUDGET`]); elsewhere
+/// [`MAX_SAMPLES_PER_INVOCATION`]. At least 1 (a scene whose single path exceeds the budget is refused
+/// before this is asked).
+pub fn samples_per_invocation(device_name: &str, gpu: &GpuScene, max_bounces: u32) -> u32 {
+    let mut m = MAX_SAMPLES_PER_INVOCATION;
+    if device_name.contains("llvmpipe") {
+        let per_sample = worst_case_loop_iterations(gpu, max_bounces).max(1);
+        m = m.min((LAVAPIPE_LOOP_BUDGET / per_sample) as u32);
+    }
+    m.max(1)
 }
 
 /// One strip of whole rows of the image and its accumulator (see [`tiles`]).
@@ -153,6 +176,8 @@ pub struct Renderer {
     layout: tiles::TileLayout,
     /// The current budget of pixels per dispatch (adapted to `target_dispatch_seconds`).
     tile_pixels: u64,
+    /// The most samples one invocation traces per dispatch ([`samples_per_invocation`]).
+    samples_per_invocation: u32,
     target_dispatch_seconds: f64,
     /// Host-visible, as large as the largest strip: film readback and checkpoint restore go through it.
     staging: Buffer,
@@ -385,6 +410,20 @@ impl Renderer {
             FeatureSet::of(&gpu, &params)
         };
         let content_hash = identity::content_hash(scene, &gpu, &params);
+        // A caller's kernel (benchmarks) traces one sample per invocation.
+        let per_invocation = match (&custom_kernel, options.samples_per_invocation) {
+            (Some(_), _) => 1,
+            (None, Some(m)) => m
+                .clamp(1, MAX_SAMPLES_PER_INVOCATION)
+                .min(samples_per_invocation(
+                    &ctx.device_info().name,
+                    &gpu,
+                    scene.render.max_bounces,
+                )),
+            (None, None) => {
+                samples_per_invocation(&ctx.device_info().name, &gpu, scene.render.max_bounces)
+            }
+        };
         let compiled = match custom_kernel {
             Some(k) => k,
             None => compile_kernel(&features, options.fault)?,
@@ -432,6 +471,7 @@ impl Renderer {
             bound_strip: 0,
             layout,
             tile_pixels: INITIAL_TILE_PIXELS,
+            samples_per_invocation: per_invocation,
             target_dispatch_seconds: options.target_dispatch_seconds,
             staging,
             pass_constants,
@@ -537,11 +577,13 @@ impl Renderer {
             self.poisoned = Some(e.to_string());
             return Err(e);
         }
-        // Adapt the tiles so that one dispatch (one sample over one tile) takes about its target.
+        // Adapt the tiles so that one dispatch (a chunk of samples over one tile) takes about its
+        // target.
         let paths = f64::from(spp) * f64::from(self.params.width) * f64::from(self.params.height);
         let per_path = t0.elapsed().as_secs_f64() / paths.max(1.0);
         if per_path > 0.0 {
-            let ideal = self.target_dispatch_seconds / per_path;
+            let chunk = f64::from(self.samples_per_invocation.min(spp.max(1)));
+            let ideal = self.target_dispatch_seconds / (per_path * chunk);
             self.tile_pixels = ideal.clamp(64.0, 4.0e9) as u64;
         }
         self.next_sample += spp;
@@ -555,8 +597,10 @@ impl Renderer {
     }
 
     /// Records and submits the dispatches of samples `start..start + spp`: for each strip, for each
-    /// sample in order, one dispatch per tile.
+    /// chunk of at most `samples_per_invocation` samples in order, one dispatch per tile.
     fn dispatch_samples(&mut self, start: u32, spp: u32) -> Result<(), GpuError> {
+        let chunk = self.samples_per_invocation.max(1);
+        let chunks = spp.div_ceil(chunk);
         for si in 0..self.strips.len() {
             let tiles = self.layout.tiles(si, self.tile_pixels);
             if tiles.is_empty() {
@@ -564,22 +608,24 @@ impl Renderer {
             }
             self.bind_strip(si)?;
             let accum_base = self.strips[si].rows[0] * self.params.width;
-            let per_sample = tiles.len() as u64;
-            let total = u64::from(spp) * per_sample;
+            let per_chunk = tiles.len() as u64;
+            let total = u64::from(chunks) * per_chunk;
             let mut first = 0u64;
             while first < total {
                 let last = (first + MAX_DISPATCHES_PER_SUBMIT).min(total);
                 let constants: Vec<GpuPassConstants> = (first..last)
                     .map(|i| {
-                        let t = tiles[(i % per_sample) as usize];
+                        let t = tiles[(i % per_chunk) as usize];
+                        let offset = (i / per_chunk) as u32 * chunk;
                         GpuPassConstants {
-                            sample_index: start + (i / per_sample) as u32,
+                            sample_index: start + offset,
                             accum_base,
                             tile_x0: t.origin[0],
                             tile_y0: t.origin[1],
                             tile_x1: t.end[0],
                             tile_y1: t.end[1],
-                            _pad: [0; 2],
+                            sample_count: chunk.min(spp - offset),
+                            _pad: 0,
                         }
                     })
                     .collect();
@@ -611,6 +657,11 @@ impl Renderer {
     /// How the image is cut into strips (accumulator buffers) and tiles (dispatches).
     pub fn tile_layout(&self) -> &tiles::TileLayout {
         &self.layout
+    }
+
+    /// The most samples one invocation traces per dispatch ([`samples_per_invocation`]).
+    pub fn samples_per_invocation(&self) -> u32 {
+        self.samples_per_invocation
     }
 
     /// The tiles one sample is dispatched over now (they adapt to the dispatch target).
