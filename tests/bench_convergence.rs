@@ -219,6 +219,7 @@ height = 48
 samples     = 4
 max_bounces = 3
 seed        = 7
+sampler     = "independent"   # the 1/sqrt(N) law and the film's error estimate assume independent samples
 
 [materials]
 white = { type = "diffuse", albedo = [0.8, 0.8, 0.8] }

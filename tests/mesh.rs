@@ -944,3 +944,89 @@ fn mtl_map_kd_textures_the_group() {
         "textured quad: {p:?}"
     );
 }
+
+// ----- a million triangles on the device -----
+
+/// A 1,310,720-triangle icosphere (subdivided 8 times, flat faces) renders on whatever storage-buffer
+/// range the device has (lavapipe on Mesa 24 and later offers 128 MiB per buffer; the triangles take
+/// 63 MB, the BVH nodes and faces less), and renders right: a convex diffuse body of albedo 0.5 under a
+/// uniform sky of radiance 1 reflects exactly 0.5 (every direction it scatters to sees the sky, one
+/// bounce, no interreflection), the sky around it is 1, and the body covers the disc its silhouette
+/// subtends: angular radius asin(r / d) about the camera axis.
+#[test]
+fn a_million_triangle_mesh_renders_within_the_device_buffer_limits() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut ico = shapes::icosphere(8);
+    ico.normals.clear();
+    assert!(ico.triangles.len() >= 1_000_000);
+    write(dir.path(), "ico.obj", &ico.to_obj());
+    let scene = load(
+        dir.path(),
+        r#"
+[camera]
+position = [0.0, 0.0, 4.0]
+look_at = [0.0, 0.0, 0.0]
+fov = 40.0
+[image]
+width = 64
+height = 64
+[render]
+max_bounces = 1
+filter = "box"
+background = [1.0, 1.0, 1.0]
+[materials]
+grey = { type = "diffuse", albedo = [0.5, 0.5, 0.5] }
+[[mesh]]
+obj = "ico.obj"
+material = "grey"
+"#,
+    );
+    let ctx = vkpath::gpu::testing::context();
+    let mut r = vkpath::render::Renderer::new(&ctx, &scene, &RenderOptions::default())
+        .unwrap_or_else(|e| panic!("a 10^6-triangle mesh should render: {e}"));
+    assert_eq!(r.scene_stats().triangles as usize, ico.triangles.len());
+    r.run_pass(16).unwrap();
+    let film = r.film().unwrap();
+    common::assert_no_validation_errors();
+    eprintln!(
+        "device storage-buffer range {} bytes; {} triangles, {} BVH nodes",
+        ctx.device_info().max_storage_buffer_range,
+        r.scene_stats().triangles,
+        r.scene_stats().bvh_nodes
+    );
+
+    // The silhouette: radius tan(asin(1/4)) / tan(20 deg) x 32 pixels about the image centre.
+    let r_px = (0.25f64.asin().tan() / 20f64.to_radians().tan()) * 32.0;
+    let (mut inside, mut outside) = ((0.0, 0), (0.0, 0));
+    let mut covered = 0.0;
+    for y in 0..64 {
+        for x in 0..64 {
+            let v = film.mean[y * 64 + x][1] as f64;
+            let d = ((x as f64 + 0.5 - 32.0).powi(2) + (y as f64 + 0.5 - 32.0).powi(2)).sqrt();
+            if d < r_px - 1.5 {
+                inside = (inside.0 + v, inside.1 + 1);
+            } else if d > r_px + 1.5 {
+                outside = (outside.0 + v, outside.1 + 1);
+            }
+            // Sky 1, body 0.5: 2 (1 - v) is the covered fraction of the pixel, in expectation.
+            covered += 2.0 * (1.0 - v);
+        }
+    }
+    let inside_mean = inside.0 / inside.1 as f64;
+    let outside_mean = outside.0 / outside.1 as f64;
+    assert!(
+        (inside_mean - 0.5).abs() < 0.01,
+        "the body's mean {inside_mean} over {} pixels should be 0.5",
+        inside.1
+    );
+    assert_eq!(outside_mean, 1.0, "the sky around the body is exactly 1");
+    let disc = std::f64::consts::PI * r_px * r_px;
+    eprintln!(
+        "body {inside_mean} over {} pixels, covered {covered:.1} pixels of a {disc:.1}-pixel disc",
+        inside.1
+    );
+    assert!(
+        (covered / disc - 1.0).abs() < 0.02,
+        "covered {covered:.1} pixels, the silhouette's disc {disc:.1}"
+    );
+}

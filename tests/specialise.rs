@@ -87,10 +87,12 @@ fn function_names(features: &FeatureSet) -> Vec<String> {
 /// has all of them. The SPIR-V shrinks accordingly.
 #[test]
 fn absent_features_leave_no_code() {
-    let s = vkpath::Scene::load(
+    let mut s = vkpath::Scene::load(
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/03-shadows.toml"),
     )
     .unwrap();
+    // With the independent sampler the kernel has no Sobol' code either (the default is Sobol').
+    s.render.sampler = vkpath::scene::Sampler::Independent;
     let gpu = vkpath::kernel::upload::GpuScene::build(&s);
     let params = vkpath::kernel::upload::params_for(&s, RenderOptions::default().roulette_depth);
     let features = FeatureSet::of(&gpu, &params);
@@ -220,6 +222,8 @@ fn trimmed_kernel_renders_the_same_image() {
     .unwrap();
     s.image.width = 24;
     s.image.height = 24;
+    // The trimmed kernel draws independent numbers.
+    s.render.sampler = vkpath::scene::Sampler::Independent;
     let specialised = render_passes(&s, &RenderOptions::default(), 1, 4);
     let trimmed_kernel = std::sync::Arc::new(
         vkpath::kernel::specialise::compile(&vkpath::kernel::library::trimmed_source()).unwrap(),

@@ -16,19 +16,29 @@ fn scene_file(name: &str) -> std::path::PathBuf {
         .join(name)
 }
 
-/// Calibration on a small diffuse course scene: at 16, 64 and 256 spp the estimate is within a factor
-/// 1.5 of the true relative error. The reference has 4096 spp and another seed: its own error adds
-/// n/4096 (under 7% at 256 spp) to the true squared error, well inside the factor.
+/// Calibration on a small diffuse course scene: with independent samples (which s^2 / n assumes), at 16,
+/// 64 and 256 spp the estimate is within a factor 1.5 of the true relative error. With Sobol' points
+/// (the default) the samples of a pixel are stratified, the true error is smaller than s^2 / n says,
+/// and the estimate is an upper bound: at least 0.9 of the truth (and --target-error stops late, never
+/// early). The reference has 4096 spp and another seed: its own error adds n/4096 (under 7% at 256
+/// spp) to the true squared error, well inside the factor.
 #[test]
 fn estimate_tracks_true_error_within_factor_1_5() {
     let mut s = vkpath::Scene::load(&scene_file("07-indirect.toml")).unwrap();
     s.image.width = 32;
     s.image.height = 32;
     s.render.seed = 1;
+    s.render.sampler = vkpath::scene::Sampler::Independent;
     let reference = render_passes(&s, &RenderOptions::default(), 16, 256);
     let ref_mean = reference.average();
     s.render.seed = 2;
-    for spp in [16, 64, 256] {
+    for (spp, sampler) in [16, 64, 256].into_iter().flat_map(|n| {
+        [
+            (n, vkpath::scene::Sampler::Independent),
+            (n, vkpath::scene::Sampler::Sobol),
+        ]
+    }) {
+        s.render.sampler = sampler;
         let film = render_passes(&s, &RenderOptions::default(), 1, spp);
         let mse: f64 = film
             .mean
@@ -40,9 +50,13 @@ fn estimate_tracks_true_error_within_factor_1_5() {
         let truth = mse.sqrt() / ref_mean;
         let estimate = film.estimated_rel_error();
         let ratio = estimate / truth;
+        let allowed = match sampler {
+            vkpath::scene::Sampler::Independent => 1.0 / 1.5..=1.5,
+            vkpath::scene::Sampler::Sobol => 0.9..=f64::INFINITY,
+        };
         assert!(
-            (1.0 / 1.5..=1.5).contains(&ratio),
-            "{spp} spp: estimated {estimate:.4}, true {truth:.4} (ratio {ratio:.3})"
+            allowed.contains(&ratio),
+            "{spp} spp, {sampler:?}: estimated {estimate:.4}, true {truth:.4} (ratio {ratio:.3})"
         );
     }
 }

@@ -1019,7 +1019,7 @@ impl Checker<'_> {
             )
         })?;
         let sampler = match &raw.sampler {
-            None => Sampler::Independent,
+            None => Sampler::Sobol,
             Some(s) => match s.get_ref().as_str() {
                 "independent" => Sampler::Independent,
                 "sobol" => Sampler::Sobol,
@@ -1028,7 +1028,7 @@ impl Checker<'_> {
                         s.span(),
                         "render.sampler",
                         format!("unknown sampler \"{other}\""),
-                        "Use \"independent\" (the default) or \"sobol\".",
+                        "Use \"sobol\" (the default) or \"independent\".",
                     ));
                 }
             },
@@ -2593,7 +2593,7 @@ fov      = 45
                 seed: 0,
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
-                sampler: Sampler::Independent,
+                sampler: Sampler::Sobol,
                 light_sampling: LightSampling::Mis,
                 clamp: None,
             }
@@ -2676,7 +2676,7 @@ fov      = 45
                 seed: 0,
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
-                sampler: Sampler::Independent,
+                sampler: Sampler::Sobol,
                 light_sampling: LightSampling::Mis,
                 clamp: None,
             }
