@@ -3,12 +3,40 @@
 //
 // requires: features.wgsl, scene_data.wgsl, intersect.wgsl, bvh.wgsl, texture.wgsl
 
+// How many spheres, loop-tested triangles (scenes without a BVH) and lights the scene has. The generic
+// kernel reads them from `params`; a kernel specialised for a scene has them as constants (the
+// `sphere_count`, `triangle_count` and `light_count` knobs of src/kernel/features.rs), so that the loops
+// over them have a constant trip count the shader compiler can unroll: on lavapipe a loop costs, besides
+// its body, the execution-mask bookkeeping of every iteration and a jump, which for a handful of
+// primitives is a sizeable part of a ray cast. Written with bare constant conditions (scene.wgsl's pruning
+// scheme, features.wgsl).
+override SPHERE_COUNT_FROM_PARAMS: bool = true;
+override SPHERE_COUNT: u32 = 0u;
+override TRIANGLE_COUNT_FROM_PARAMS: bool = true;
+override TRIANGLE_COUNT: u32 = 0u;
+override LIGHT_COUNT_FROM_PARAMS: bool = true;
+override LIGHT_COUNT: u32 = 0u;
+
+fn sphere_count() -> u32 {
+    if SPHERE_COUNT_FROM_PARAMS {
+        return params.num_spheres;
+    }
+    return SPHERE_COUNT;
+}
+
+fn triangle_count() -> u32 {
+    if TRIANGLE_COUNT_FROM_PARAMS {
+        return params.num_triangles;
+    }
+    return TRIANGLE_COUNT;
+}
+
 // The closest intersection along the ray in (0, t_max). The origin has already been offset off its
 // surface (offset_ray_origin), so t_min is 0.
 fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
     var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
     if HAS_SPHERES {
-        for (var i = 0u; i < params.num_spheres; i++) {
+        for (var i = 0u; i < sphere_count(); i++) {
             let s = spheres[i];
             let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
             if t < hit.t {
@@ -27,7 +55,7 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
         }
     }
     if HAS_TRIANGLE_LOOP {
-        for (var i = 0u; i < params.num_triangles; i++) {
+        for (var i = 0u; i < triangle_count(); i++) {
             let tri = triangles[i];
             let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
             if th.t < hit.t {
@@ -41,7 +69,7 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
 // Is anything in the way over (0, t_max)? Stops at the first blocker.
 fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
     if HAS_SPHERES {
-        for (var i = 0u; i < params.num_spheres; i++) {
+        for (var i = 0u; i < sphere_count(); i++) {
             let s = spheres[i];
             if intersect_sphere(o, d, s.center, s.radius, 0.0, t_max) < t_max {
                 return true;
@@ -54,7 +82,7 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
         }
     }
     if HAS_TRIANGLE_LOOP {
-        for (var i = 0u; i < params.num_triangles; i++) {
+        for (var i = 0u; i < triangle_count(); i++) {
             let tri = triangles[i];
             if intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, t_max).t < t_max {
                 return true;
@@ -338,7 +366,10 @@ struct SelectedLight {
 }
 
 fn light_selection_count() -> u32 {
-    return params.num_lights;
+    if LIGHT_COUNT_FROM_PARAMS {
+        return params.num_lights;
+    }
+    return LIGHT_COUNT;
 }
 
 fn light_select(k: u32) -> SelectedLight {

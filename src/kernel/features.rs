@@ -338,8 +338,9 @@ pub struct KnobRow {
     /// The overrides that fix the value when specialised: `(constant, value)`, for `u32` constants the
     /// value itself (`value == u32::MAX`), for `bool` ones whether the knob has that value.
     pub values: &'static [(&'static str, u32)],
-    /// The knob's value in the parameters.
-    pub read: fn(&GpuParams) -> u32,
+    /// The knob's value for the scene as uploaded: a `Params` field, or (for the scene's sizes) the
+    /// length of the array the kernel loops over.
+    pub read: fn(&GpuScene, &GpuParams) -> u32,
 }
 
 /// `KnobRow::values` entry of a `u32` override that takes the knob's value itself.
@@ -351,13 +352,13 @@ pub const KNOBS: &[KnobRow] = &[
         name: "filter",
         from_params: "FILTER_FROM_PARAMS",
         values: &[("FILTER_KIND", KNOB_VALUE)],
-        read: |p| p.filter_kind,
+        read: |_, p| p.filter_kind,
     },
     KnobRow {
         name: "sampler",
         from_params: "SAMPLER_FROM_RNG",
         values: &[("SAMPLER_IS_SOBOL", SAMPLER_SOBOL)],
-        read: |p| p.sampler,
+        read: |_, p| p.sampler,
     },
     KnobRow {
         name: "light_sampling",
@@ -368,14 +369,34 @@ pub const KNOBS: &[KnobRow] = &[
             ("LIGHT_SAMPLING_IS_NONE", LIGHT_SAMPLING_NONE),
             ("LIGHT_SAMPLING_IS_MIS", LIGHT_SAMPLING_MIS),
         ],
-        read: |p| p.light_sampling,
+        read: |_, p| p.light_sampling,
+    },
+    // Scene sizes (scene.wgsl, sphere_count): constant loop bounds that the compiler can unroll. The
+    // triangle count matters only to scenes without a BVH (the loop over every triangle).
+    KnobRow {
+        name: "sphere_count",
+        from_params: "SPHERE_COUNT_FROM_PARAMS",
+        values: &[("SPHERE_COUNT", KNOB_VALUE)],
+        read: |g, _| g.spheres.len() as u32,
+    },
+    KnobRow {
+        name: "triangle_count",
+        from_params: "TRIANGLE_COUNT_FROM_PARAMS",
+        values: &[("TRIANGLE_COUNT", KNOB_VALUE)],
+        read: |g, _| g.triangles.len() as u32,
+    },
+    KnobRow {
+        name: "light_count",
+        from_params: "LIGHT_COUNT_FROM_PARAMS",
+        values: &[("LIGHT_COUNT", KNOB_VALUE)],
+        read: |g, _| g.lights.len() as u32,
     },
     KnobRow {
         // Radiance, or an `--aov` layer (trace.wgsl, trace_aov): a render's kernel has no AOV code.
         name: "aov",
         from_params: "AOV_FROM_PARAMS",
         values: &[("AOV_KIND", KNOB_VALUE)],
-        read: |p| p.aov,
+        read: |_, p| p.aov,
     },
 ];
 
@@ -429,7 +450,7 @@ impl FeatureSet {
             set.set(row.feature, needed);
         }
         for (k, knob) in KNOBS.iter().enumerate() {
-            set.knobs[k] = Some((knob.read)(params));
+            set.knobs[k] = Some((knob.read)(scene, params));
         }
         set
     }
@@ -638,6 +659,36 @@ mod tests {
         assert_eq!(on(&plastic), vec![Feature::Plastic]);
         let pbr = scene_with("{ type = \"metallic_roughness\" }");
         assert_eq!(on(&pbr), vec![Feature::MetallicRoughness]);
+    }
+
+    /// A specialised kernel has the scene's sizes as loop bounds: 12-triangle lists 9 spheres, a sphere
+    /// light (one more sphere, its emitting surface) and 2 triangles (too few for a BVH, so the loop
+    /// finds them); the generic kernel reads all three from `params`.
+    #[test]
+    fn scene_sizes_are_constants_of_a_specialised_kernel() {
+        use super::super::upload::{GpuScene, params_for};
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/scenes/12-triangle.toml"
+        ))
+        .expect("scene file");
+        let scene = crate::scene::Scene::from_toml_str(&text, None).expect("scene");
+        let f = FeatureSet::of(&GpuScene::build(&scene), &params_for(&scene, 3));
+        assert_eq!(f.knob("sphere_count"), Some(10));
+        assert_eq!(f.knob("triangle_count"), Some(2));
+        assert_eq!(f.knob("light_count"), Some(1));
+        assert!(f.has(Feature::TriangleLoop) && !f.has(Feature::Bvh));
+        let consts = f.pipeline_constants();
+        for c in [
+            ("SPHERE_COUNT_FROM_PARAMS", 0.0),
+            ("SPHERE_COUNT", 10.0),
+            ("TRIANGLE_COUNT", 2.0),
+        ] {
+            assert!(consts.contains(&c), "{c:?}");
+        }
+        let generic = FeatureSet::generic().pipeline_constants();
+        assert!(generic.contains(&("SPHERE_COUNT_FROM_PARAMS", 1.0)));
+        assert!(generic.contains(&("LIGHT_COUNT_FROM_PARAMS", 1.0)));
     }
 
     #[test]
