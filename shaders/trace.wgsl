@@ -183,6 +183,22 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, tangent
     return l;
 }
 
+// Whether a ray can find emission: some surface emits, or light comes from infinity (the environment,
+// a sun of nonzero size seen through a mirror or glass). Bare constant conditions: the specialised
+// kernel folds it to a constant.
+fn rays_find_emission() -> bool {
+    if HAS_EMISSION {
+        return true;
+    }
+    if HAS_ENVIRONMENT {
+        return true;
+    }
+    if HAS_DIRECTIONAL_LIGHTS {
+        return true;
+    }
+    return false;
+}
+
 // The radiance of the suns whose cones contain direction d.
 fn suns_seen(d: vec3<f32>) -> vec3<f32> {
     var l = vec3<f32>(0.0);
@@ -346,6 +362,14 @@ fn path_step(path: ptr<function, Path>) -> bool {
     if !bsdf_is_delta(mat) {
         (*path).radiance += beta * direct_light(mat, sp, n, ns, tangent, entering, wo, mis, on_sphere,
                                                 &rng);
+    }
+    // After the last scattering event the continuation ray can only add the emission it finds (an
+    // emitting surface, the environment, a sun seen through glass). In a scene where nothing a ray can
+    // hit emits (lights that are points or delta suns only: a constant of the specialised kernel), that
+    // is exactly nothing, so the path ends here without sampling the BSDF or casting the ray: the same
+    // bits, one ray cast fewer per path (half the rays of a one-bounce scene).
+    if (*path).bounces >= params.max_bounces && !rays_find_emission() {
+        return false;
     }
     let bs = bsdf_sample(mat, wo, ns, tangent, entering, &rng);
     (*path).rng = rng;
