@@ -4,7 +4,7 @@
 #   ci/setup.sh          a Vulkan loader (libvulkan.so.1) and at least one Vulkan driver (an ICD json);
 #                        when either is missing, installs Mesa's drivers (lavapipe, the CPU implementation,
 #                        is among them) and the loader: apt packages mesa-vulkan-drivers libvulkan1.
-#                        And a current lavapipe: Mesa 24 or newer runs vkpath's kernel 1.3-1.6x faster than
+#                        And a current lavapipe: Mesa 24 or newer runs vkpath's kernel 1.4-3x faster than
 #                        Mesa 22 (same image, bit for bit). On Debian 12, whose Mesa is 22.3, it installs
 #                        mesa-vulkan-drivers from bookworm-backports (Mesa 25), adding that suite to apt's
 #                        sources when missing; elsewhere (Ubuntu 24.04, Debian 13: Mesa 24, 25) the stock

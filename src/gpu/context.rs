@@ -251,7 +251,7 @@ fn mesa_version(info: &str) -> Option<[u32; 2]> {
 }
 
 /// The oldest Mesa whose lavapipe vkpath runs at full speed: Mesa 24 and 25 run the same kernels, to
-/// the same bits, 1.3-1.6x faster than Mesa 22.3 (README, "Performance").
+/// the same bits, 1.4-3x faster than Mesa 22.3 on the course scenes (README, "Performance").
 pub const FAST_LAVAPIPE_MESA: u32 = 24;
 
 impl DeviceInfo {
@@ -261,7 +261,7 @@ impl DeviceInfo {
         (major < FAST_LAVAPIPE_MESA).then(|| {
             format!(
                 "lavapipe from Mesa {major}.{minor} is slow: Mesa {FAST_LAVAPIPE_MESA} or newer renders \
-                 the same image 1.3-1.6x faster. On Debian 12, `ci/setup.sh` installs Mesa 25 from \
+                 the same image 1.4-3x faster. On Debian 12, `ci/setup.sh` installs Mesa 25 from \
                  bookworm-backports; Ubuntu 24.04 and Debian 13 ship Mesa 24 and 25."
             )
         })
