@@ -22,7 +22,7 @@
 
 const SAMPLER_INDEPENDENT: u32 = 0u;
 const SAMPLER_SOBOL: u32 = 1u;
-// Specialisation (scene.wgsl explains the scheme): the generic kernel and the test kernels read the
+// Specialisation (features.wgsl explains the scheme): the generic kernel and the test kernels read the
 // sampler from the Rng at run time; a kernel specialised for a scene has it as a constant, and the other
 // sampler's code is pruned away (a scene that does not use Sobol' points pays nothing for them).
 override SAMPLER_FROM_RNG: bool = true;
@@ -78,7 +78,7 @@ fn rng_next2(rng: ptr<function, Rng>) -> vec2<f32> {
 // The next draw as two 32-bit words; consumes one dimension. Independent: the x and y words of one hash
 // (independent outputs). Sobol': the point of the dimension pair (x alone, a scrambled and shuffled van
 // der Corput sequence, serves rng_next). The sampler test is written with bare constant conditions so
-// that a specialised kernel keeps only one sampler's code (scene.wgsl explains the pruning).
+// that a specialised kernel keeps only one sampler's code (features.wgsl explains the pruning).
 fn rng_next_bits(rng: ptr<function, Rng>) -> vec2<u32> {
     let r = *rng;
     (*rng).dim += 1u;

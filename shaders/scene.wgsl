@@ -8,7 +8,7 @@
 // `sphere_count`, `triangle_count` and `light_count` knobs of src/kernel/features.rs), so that the loops
 // over them have a constant trip count the shader compiler can unroll: on lavapipe a loop costs, besides
 // its body, the execution-mask bookkeeping of every iteration and a jump, which for a handful of
-// primitives is a sizeable part of a ray cast. Written with bare constant conditions (scene.wgsl's pruning
+// primitives is a sizeable part of a ray cast. Written with bare constant conditions (the pruning
 // scheme, features.wgsl).
 override SPHERE_COUNT_FROM_PARAMS: bool = true;
 override SPHERE_COUNT: u32 = 0u;

@@ -456,7 +456,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let end = pc.sample_index + pc.sample_count;
     var acc = accum[slot];
     // An `--aov` layer instead of radiance: written with bare constant conditions, so that a specialised
-    // render kernel has no AOV code (scene.wgsl explains the pruning).
+    // render kernel has no AOV code (features.wgsl explains the pruning).
     if AOV_FROM_PARAMS {
         if params.aov != AOV_NONE {
             add_aov_samples(&acc, params.aov, px, pc.sample_index, end);
