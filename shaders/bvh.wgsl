@@ -11,7 +11,7 @@
 // A child reference with BVH_LEAF set is a leaf, first = (ref & ~BVH_LEAF) >> BVH_LEAF_COUNT_BITS and
 // count = (ref & BVH_LEAF_COUNT_MASK) + 1; otherwise it is a node index. (Mirrors src/scene/bvh.rs.)
 //
-// requires: scene_data.wgsl, intersect.wgsl
+// requires: scene_data.wgsl, intersect.wgsl, opacity.wgsl
 const BVH_LEAF: u32 = 0x80000000u;
 const BVH_LEAF_COUNT_BITS: u32 = 2u;
 const BVH_LEAF_COUNT_MASK: u32 = 3u;
@@ -109,9 +109,13 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
         let tri = triangles[first];
         let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
         if th.t < hit.t {
-            hit = Hit(th.t, PRIM_TRIANGLE, first, th.b);
-            if any_hit {
-                break;
+            // (A hit the surface's opacity lets through is no hit: scene.wgsl, hit_is_transparent.)
+            let candidate = Hit(th.t, PRIM_TRIANGLE, first, th.b);
+            if !hit_is_transparent(o, d, candidate, tri.material) {
+                hit = candidate;
+                if any_hit {
+                    break;
+                }
             }
         }
         first += 1u;

@@ -17,14 +17,18 @@ override HAS_TRIANGLES: bool = true;
 // loop over every triangle, which is also the reference the BVH is tested and benchmarked against.
 override HAS_BVH: bool = true;
 override HAS_TRIANGLE_LOOP: bool = true;
-// Meshes: interpolated vertex normals, base colour (albedo) textures, emissive textures (multiplying
-// the emission), metallic-roughness textures and normal maps (glTF), and any of them (the per-triangle
-// shading data).
+// Meshes: interpolated vertex normals. Materials' textures (scene_data.wgsl, MaterialTextures): a
+// textured albedo (base colour, tint), emission, metallic or roughness, normal maps, bump maps, and
+// opacity (cut-outs and stochastic transparency, constant or textured); any texture at all (the texture
+// coordinates of a hit), and any per-triangle shading data (smooth normals or texture coordinates).
 override HAS_SMOOTH_NORMALS: bool = true;
 override HAS_TEXTURES: bool = true;
 override HAS_EMISSIVE_TEXTURES: bool = true;
 override HAS_METALLIC_ROUGHNESS_TEXTURES: bool = true;
 override HAS_NORMAL_MAPS: bool = true;
+override HAS_BUMP_MAPS: bool = true;
+override HAS_OPACITY: bool = true;
+override HAS_MATERIAL_TEXTURES: bool = true;
 override HAS_MESH_SHADING: bool = true;
 // Materials (bsdf.wgsl).
 override HAS_DIFFUSE: bool = true;

@@ -1,7 +1,7 @@
 // scene.wgsl: closest-hit and visibility queries over the scene buffers (scene_data.wgsl), the surface
 // at a hit, and which lights a next-event estimate samples (light selection).
 //
-// requires: features.wgsl, scene_data.wgsl, intersect.wgsl, bvh.wgsl, texture.wgsl
+// requires: features.wgsl, scene_data.wgsl, intersect.wgsl, bvh.wgsl, texture.wgsl, opacity.wgsl
 
 // How many spheres, loop-tested triangles (scenes without a BVH) and lights the scene has. The generic
 // kernel reads them from `params`; a kernel specialised for a scene has them as constants (the
@@ -40,7 +40,10 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
             let s = spheres[i];
             let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
             if t < hit.t {
-                hit = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0));
+                let candidate = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0));
+                if !hit_is_transparent(o, d, candidate, s.material) {
+                    hit = candidate;
+                }
             }
         }
     }
@@ -59,7 +62,10 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
             let tri = triangles[i];
             let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
             if th.t < hit.t {
-                hit = Hit(th.t, PRIM_TRIANGLE, i, th.b);
+                let candidate = Hit(th.t, PRIM_TRIANGLE, i, th.b);
+                if !hit_is_transparent(o, d, candidate, tri.material) {
+                    hit = candidate;
+                }
             }
         }
     }
@@ -71,8 +77,11 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
     if HAS_SPHERES {
         for (var i = 0u; i < sphere_count(); i++) {
             let s = spheres[i];
-            if intersect_sphere(o, d, s.center, s.radius, 0.0, t_max) < t_max {
-                return true;
+            let t = intersect_sphere(o, d, s.center, s.radius, 0.0, t_max);
+            if t < t_max {
+                if !hit_is_transparent(o, d, Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0)), s.material) {
+                    return true;
+                }
             }
         }
     }
@@ -84,8 +93,11 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
     if HAS_TRIANGLE_LOOP {
         for (var i = 0u; i < triangle_count(); i++) {
             let tri = triangles[i];
-            if intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, t_max).t < t_max {
-                return true;
+            let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, t_max);
+            if th.t < t_max {
+                if !hit_is_transparent(o, d, Hit(th.t, PRIM_TRIANGLE, i, th.b), tri.material) {
+                    return true;
+                }
             }
         }
     }
@@ -93,36 +105,31 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
 }
 
 // Surface data at a hit: position with its error bound, geometric normal (outward for spheres,
-// (v1 - v0) x (v2 - v0) for triangles), material index; for meshes, the shading normal and what the
-// mesh's textures make of the material there (textured_material).
+// (v1 - v0) x (v2 - v0) for triangles), material index, texture coordinates, and the shading normal
+// (interpolated on smooth meshes, then perturbed by the material's normal or bump map).
 struct Surface {
     p: vec3<f32>,
     err: vec3<f32>,
     n: vec3<f32>,
     material: u32,
     // The shading normal, on the same side as n: the interpolated vertex normal, perturbed by a normal
-    // map, when `shading_normal`, else n.
+    // or bump map, when `shading_normal`, else n.
     ns: vec3<f32>,
     shading_normal: bool,
-    // The albedo at the hit, when `textured`: the base colour texture's value (TOML and OBJ meshes), or
-    // that times the material's albedo (glTF's baseColorFactor, MESH_BASE_COLOR_FACTOR). It replaces the
-    // material's albedo (or tint).
-    albedo: vec3<f32>,
-    textured: bool,
-    // What multiplies the material's emission: the emissive texture's value, or 1.
-    emission_scale: vec3<f32>,
-    // With a metallic-roughness texture (`metallic_roughness_textured`): metallic at the hit
-    // (metallicFactor x B) and the factor of roughness (G).
-    metallic_roughness: vec2<f32>,
-    metallic_roughness_textured: bool,
+    // Texture coordinates (when some material has a texture; else zero): a mesh's interpolated vertex
+    // uvs, a triangle's barycentrics (b1, b2) when it has none, a sphere's longitude and latitude.
+    uv: vec2<f32>,
 }
 
 fn sphere_surface(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
     let s = spheres[hit.prim_index];
     let sp = sphere_surface_point(o, d, hit.t, s.center, s.radius);
     let n = normalize(sp.p - s.center);
-    return Surface(sp.p, sp.err, n, s.material, n, false, vec3<f32>(0.0), false, vec3<f32>(1.0),
-                   vec2<f32>(1.0), false);
+    var uv = vec2<f32>(0.0);
+    if HAS_MATERIAL_TEXTURES {
+        uv = sphere_uv(sp.p - s.center, s.radius);
+    }
+    return Surface(sp.p, sp.err, n, s.material, n, false, uv);
 }
 
 fn mesh_normal(v: MeshVertex) -> vec3<f32> {
@@ -133,107 +140,170 @@ fn triangle_surface(hit: Hit) -> Surface {
     let tri = triangles[hit.prim_index];
     let sp = triangle_surface_point(tri.v0, tri.v1, tri.v2, hit.b);
     let n = triangle_normal(tri.v0, tri.v1, tri.v2);
-    var s = Surface(sp.p, sp.err, n, tri.material, n, false, vec3<f32>(0.0), false, vec3<f32>(1.0),
-                    vec2<f32>(1.0), false);
-    if HAS_MESH_SHADING {
-        // (The generic kernel also runs scenes without shading data, whose mesh_faces is empty.)
-        var face = MeshFace(vec3<u32>(0u), NO_MESH);
-        if hit.prim_index < arrayLength(&mesh_faces) {
-            face = mesh_faces[hit.prim_index];
-        }
+    var s = Surface(sp.p, sp.err, n, tri.material, n, false, vec2<f32>(0.0));
+    if HAS_SMOOTH_NORMALS {
+        let face = triangle_face(hit.prim_index);
         if face.mesh != NO_MESH {
-            let mesh = meshes[face.mesh];
-            let v0 = mesh_vertices[face.vertices.x];
-            let v1 = mesh_vertices[face.vertices.y];
-            let v2 = mesh_vertices[face.vertices.z];
-            let b = hit.b;
-            if HAS_SMOOTH_NORMALS {
-                if (mesh.flags & MESH_SMOOTH) != 0u {
-                    // Phong normal interpolation: the barycentric mix of the vertex normals, renormalised.
-                    // Shared vertices give both triangles of an edge the same normal along it, so shading
-                    // is continuous across edges. A mix that vanishes (opposed or missing normals) keeps
-                    // the geometric normal.
-                    let ns = b.x * mesh_normal(v0) + b.y * mesh_normal(v1) + b.z * mesh_normal(v2);
-                    let len2 = dot(ns, ns);
-                    if len2 > 1.0e-12 {
-                        let unit = ns * inverseSqrt(len2);
-                        s.ns = select(-unit, unit, dot(unit, n) >= 0.0);
-                        s.shading_normal = true;
-                    }
-                }
-            }
-            let uv = b.x * vec2<f32>(v0.u, v0.v) + b.y * vec2<f32>(v1.u, v1.v) + b.z * vec2<f32>(v2.u, v2.v);
-            if HAS_TEXTURES {
-                if (mesh.flags & MESH_TEXTURED) != 0u {
-                    // glTF: base colour = baseColorFactor x texel, both linear (the material's albedo
-                    // holds the factor); TOML and OBJ: the texel.
-                    var factor = vec3<f32>(1.0);
-                    if (mesh.flags & MESH_BASE_COLOR_FACTOR) != 0u {
-                        factor = materials[tri.material].albedo;
-                    }
-                    s.albedo = texture_bilinear_scaled(mesh.base_color, uv, factor);
-                    s.textured = true;
-                }
-            }
-            if HAS_EMISSIVE_TEXTURES {
-                if (mesh.flags & MESH_EMISSIVE_TEXTURED) != 0u {
-                    s.emission_scale = texture_bilinear(mesh.emissive, uv);
-                }
-            }
-            if HAS_NORMAL_MAPS {
-                if (mesh.flags & MESH_NORMAL_MAPPED) != 0u {
-                    s = normal_mapped(s, mesh, tri, v0, v1, v2, uv);
-                }
-            }
-            if HAS_METALLIC_ROUGHNESS_TEXTURES {
-                if (mesh.flags & MESH_METALLIC_ROUGHNESS_TEXTURED) != 0u {
-                    // glTF 2.0 §3.9.2: metalness in B, roughness in G, both linear; metallic =
-                    // metallicFactor x B (the material holds the factor).
-                    let metallic = materials[tri.material].metallic;
-                    s.metallic_roughness =
-                        texture_bilinear_scaled(mesh.metallic_roughness, uv, vec3<f32>(1.0, 1.0, metallic)).bg;
-                    s.metallic_roughness_textured = true;
+            if (meshes[face.mesh].flags & MESH_SMOOTH) != 0u {
+                // Phong normal interpolation: the barycentric mix of the vertex normals, renormalised.
+                // Shared vertices give both triangles of an edge the same normal along it, so shading
+                // is continuous across edges. A mix that vanishes (opposed or missing normals) keeps
+                // the geometric normal.
+                let b = hit.b;
+                let ns = b.x * mesh_normal(mesh_vertices[face.vertices.x])
+                       + b.y * mesh_normal(mesh_vertices[face.vertices.y])
+                       + b.z * mesh_normal(mesh_vertices[face.vertices.z]);
+                let len2 = dot(ns, ns);
+                if len2 > 1.0e-12 {
+                    let unit = ns * inverseSqrt(len2);
+                    s.ns = select(-unit, unit, dot(unit, n) >= 0.0);
+                    s.shading_normal = true;
                 }
             }
         }
     }
+    if HAS_MATERIAL_TEXTURES {
+        s.uv = triangle_uv(hit.prim_index, hit.b);
+    }
     return s;
+}
+
+// The partial derivatives of the surface position with respect to the texture coordinates, dp/du and
+// dp/dv (scene units per unit of uv), which orient the tangent frame of normal maps and the slopes of
+// bump maps. Zero vectors where they do not exist (a sphere's poles, a triangle with degenerate uvs).
+struct SurfaceDerivatives {
+    dpdu: vec3<f32>,
+    dpdv: vec3<f32>,
+}
+
+// A triangle's own dp/du and dp/dv (pbrt-v4 §6.5.1): p_i - p_2 = (u_i - u_2) dp/du + (v_i - v_2) dp/dv
+// for i = 0, 1, solved by Cramer's rule with det = (u_0 - u_2)(v_1 - v_2) - (v_0 - v_2)(u_1 - u_2).
+// A sphere's, from p = c + r (sin theta cos phi, cos theta, -sin theta sin phi), u = phi / (2 pi),
+// v = 1 - theta / pi (sphere_uv): dp/du = 2 pi (q.z, 0, -q.x) and dp/dv = -pi dp/dtheta =
+// -pi (q.y cos phi, -r sin theta, -q.y sin phi) for the offset q = p - c, where
+// (cos phi, sin phi) = (q.x, -q.z) / (r sin theta).
+fn surface_derivatives(hit: Hit, s: Surface) -> SurfaceDerivatives {
+    var out = SurfaceDerivatives(vec3<f32>(0.0), vec3<f32>(0.0));
+    if HAS_SPHERES {
+        if hit.prim_kind == PRIM_SPHERE {
+            let sphere = spheres[hit.prim_index];
+            let q = s.p - sphere.center;
+            let rho2 = q.x * q.x + q.z * q.z; // (r sin theta)^2
+            if rho2 > 1e-12 * sphere.radius * sphere.radius {
+                let rho = sqrt(rho2);
+                let cos_phi = q.x / rho;
+                let sin_phi = -q.z / rho;
+                out.dpdu = TWO_PI * vec3<f32>(q.z, 0.0, -q.x);
+                out.dpdv = -PI * vec3<f32>(q.y * cos_phi, -rho, -q.y * sin_phi);
+            }
+        }
+    }
+    if HAS_TRIANGLES {
+        if hit.prim_kind == PRIM_TRIANGLE {
+            let tri = triangles[hit.prim_index];
+            // Without vertex uvs, the vertices are at uv (0, 0), (1, 0), (0, 1) (triangle_uv).
+            var duv02 = vec2<f32>(0.0, -1.0);
+            var duv12 = vec2<f32>(1.0, -1.0);
+            if HAS_MESH_SHADING {
+                let face = triangle_face(hit.prim_index);
+                if face_has_uv(face) {
+                    let a = mesh_vertices[face.vertices.x];
+                    let b = mesh_vertices[face.vertices.y];
+                    let c = mesh_vertices[face.vertices.z];
+                    duv02 = vec2<f32>(a.u - c.u, a.v - c.v);
+                    duv12 = vec2<f32>(b.u - c.u, b.v - c.v);
+                }
+            }
+            let det = duv02.x * duv12.y - duv02.y * duv12.x;
+            if det != 0.0 {
+                let dp02 = tri.v0 - tri.v2;
+                let dp12 = tri.v1 - tri.v2;
+                out.dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
+                out.dpdv = (duv02.x * dp12 - duv12.x * dp02) / det;
+            }
+        }
+    }
+    return out;
 }
 
 // A tangent-space normal map (glTF 2.0 §3.9.3) applied to surface s: texel t (linear data) encodes
 // m = 2 t - 1 in the frame (T, B, N) of the surface at the hit, N the shading normal so far (interpolated
 // or geometric), T the direction in which u increases, dp/du, made perpendicular to N, and B = +-N x T,
 // on the side in which v increases (dp/dv: the image's up, glTF's +Y). The shading normal becomes
-//   normalize(T (scale m.x) + B (scale m.y) + N m.z),  scale = normalTexture.scale.
-// dp/du and dp/dv are the triangle's own (pbrt-v4 §6.5.1): p_i - p_2 = (u_i - u_2) dp/du + (v_i - v_2) dp/dv
-// for i = 0, 1, solved by Cramer's rule with det = (u_0 - u_2)(v_1 - v_2) - (v_0 - v_2)(u_1 - u_2). A
-// triangle with degenerate uvs (det = 0), or a mapped normal on the far side of the geometric surface
-// (which no shading frame can use), keeps the normal it had.
-fn normal_mapped(s: Surface, mesh: MeshInfo, tri: Triangle, a: MeshVertex, b: MeshVertex, c: MeshVertex,
-                 uv: vec2<f32>) -> Surface {
+//   normalize(T (scale m.x) + B (scale m.y) + N m.z),  scale = the map's scale.
+// Degenerate derivatives, or a mapped normal on the far side of the geometric surface (which no shading
+// frame can use), keep the normal it had.
+fn normal_mapped(s: Surface, dp: SurfaceDerivatives, texture: u32, scale: f32) -> Surface {
     var out = s;
-    let duv02 = vec2<f32>(a.u - c.u, a.v - c.v);
-    let duv12 = vec2<f32>(b.u - c.u, b.v - c.v);
-    let det = duv02.x * duv12.y - duv02.y * duv12.x;
-    if det != 0.0 {
-        let dp02 = tri.v0 - tri.v2;
-        let dp12 = tri.v1 - tri.v2;
-        let dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
-        let dpdv = (duv02.x * dp12 - duv12.x * dp02) / det;
-        let n = s.ns;
-        let t_raw = dpdu - dot(dpdu, n) * n;
-        let t_len2 = dot(t_raw, t_raw);
-        if t_len2 > 0.0 && t_len2 < 1e30 {
-            let t = t_raw * inverseSqrt(t_len2);
-            let bt = select(cross(n, t), -cross(n, t), dot(cross(n, t), dpdv) < 0.0);
-            let m = 2.0 * texture_bilinear(mesh.normal, uv) - vec3<f32>(1.0);
-            let p = t * (m.x * mesh.normal_scale) + bt * (m.y * mesh.normal_scale) + n * m.z;
-            let len2 = dot(p, p);
-            if len2 > 1e-12 {
-                let unit = p * inverseSqrt(len2);
-                if dot(unit, s.n) > 0.0 {
-                    out.ns = unit;
-                    out.shading_normal = true;
+    let n = s.ns;
+    let t_raw = dp.dpdu - dot(dp.dpdu, n) * n;
+    let t_len2 = dot(t_raw, t_raw);
+    if t_len2 > 0.0 && t_len2 < 1e30 {
+        let t = t_raw * inverseSqrt(t_len2);
+        let bt = select(cross(n, t), -cross(n, t), dot(cross(n, t), dp.dpdv) < 0.0);
+        let m = 2.0 * texture_value(texture, s.uv) - vec3<f32>(1.0);
+        let p = t * (m.x * scale) + bt * (m.y * scale) + n * m.z;
+        let len2 = dot(p, p);
+        if len2 > 1e-12 {
+            let unit = p * inverseSqrt(len2);
+            if dot(unit, s.n) > 0.0 {
+                out.ns = unit;
+                out.shading_normal = true;
+            }
+        }
+    }
+    return out;
+}
+
+// A bump map applied to surface s (Blinn 1978; pbrt-v4 §10.5.1, Mitsuba 3's `bumpmap`): the surface
+// displaced along its shading normal N by the height h(u, v) = scale x texel has, to first order,
+//   dp'/du = T_u + (dh/du) N,  dp'/dv = T_v + (dh/dv) N,
+// with T_u, T_v the components of dp/du, dp/dv perpendicular to N (the curvature term h dN/du is left
+// out, as Mitsuba does: heights are small against the surface's radius of curvature). The shading
+// normal becomes dp'/du x dp'/dv, on N's side. The height's derivatives are central differences of the
+// filtered texture one texel either side, du = 1 / width and dv = 1 / height: independent of the
+// camera (no ray differentials), exact for a height that is linear between texel centres.
+fn bump_mapped(s: Surface, dp: SurfaceDerivatives, texture: u32, scale: f32) -> Surface {
+    var out = s;
+    let n = s.ns;
+    let tu = dp.dpdu - dot(dp.dpdu, n) * n;
+    let tv = dp.dpdv - dot(dp.dpdv, n) * n;
+    let tex = textures[texture];
+    let du = 1.0 / f32(tex.width);
+    let dv = 1.0 / f32(tex.height);
+    let hu = (texture_value(texture, s.uv + vec2<f32>(du, 0.0)).x
+            - texture_value(texture, s.uv - vec2<f32>(du, 0.0)).x) * (scale / (2.0 * du));
+    let hv = (texture_value(texture, s.uv + vec2<f32>(0.0, dv)).x
+            - texture_value(texture, s.uv - vec2<f32>(0.0, dv)).x) * (scale / (2.0 * dv));
+    let c = cross(tu + hu * n, tv + hv * n);
+    let len2 = dot(c, c);
+    if len2 > 1e-30 && len2 < 1e30 {
+        var unit = c * inverseSqrt(len2);
+        unit = select(-unit, unit, dot(unit, n) >= 0.0);
+        if dot(unit, s.n) > 0.0 {
+            out.ns = unit;
+            out.shading_normal = true;
+        }
+    }
+    return out;
+}
+
+// The material's normal and bump maps applied to the surface (in that order, as Mitsuba nests them when
+// both are given: the bump map perturbs the normal-mapped frame).
+fn modified_surface(hit: Hit, s: Surface) -> Surface {
+    var out = s;
+    if HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
+        let mt = material_textures_of(s.material);
+        if mt.normal_texture != NO_TEXTURE || mt.bump_texture != NO_TEXTURE {
+            let dp = surface_derivatives(hit, s);
+            if HAS_NORMAL_MAPS {
+                if mt.normal_texture != NO_TEXTURE {
+                    out = normal_mapped(out, dp, mt.normal_texture, mt.normal_scale);
+                }
+            }
+            if HAS_BUMP_MAPS {
+                if mt.bump_texture != NO_TEXTURE {
+                    out = bump_mapped(out, dp, mt.bump_texture, mt.bump_scale);
                 }
             }
         }
@@ -241,44 +311,64 @@ fn normal_mapped(s: Surface, mesh: MeshInfo, tri: Triangle, a: MeshVertex, b: Me
     return out;
 }
 
-// What a mesh's emissive texture makes of the emission at point p of triangle `tri` (p from a light
-// sample, on the triangle up to rounding): the texture's value there, which multiplies the emission, or 1
-// off such meshes.
+// What a textured emission makes of the emission at point p of triangle `tri` (p from a light sample, on
+// the triangle up to rounding): the emission texture's value there, which multiplies the emission, or 1.
 fn emission_texture(tri: u32, p: vec3<f32>) -> vec3<f32> {
     var scale = vec3<f32>(1.0);
     if HAS_EMISSIVE_TEXTURES {
         let t = triangles[tri];
-        let e1 = t.v1 - t.v0;
-        let e2 = t.v2 - t.v0;
-        let n = cross(e1, e2);
-        let inv = 1.0 / dot(n, n);
-        let b1 = clamp(dot(cross(p - t.v0, e2), n) * inv, 0.0, 1.0);
-        let b2 = clamp(dot(cross(e1, p - t.v0), n) * inv, 0.0, 1.0 - b1);
-        let s = triangle_surface(Hit(0.0, PRIM_TRIANGLE, tri, vec3<f32>(1.0 - b1 - b2, b1, b2)));
-        scale = s.emission_scale;
+        let texture = material_textures_of(t.material).emission_texture;
+        if texture != NO_TEXTURE {
+            let e1 = t.v1 - t.v0;
+            let e2 = t.v2 - t.v0;
+            let n = cross(e1, e2);
+            let inv = 1.0 / dot(n, n);
+            let b1 = clamp(dot(cross(p - t.v0, e2), n) * inv, 0.0, 1.0);
+            let b2 = clamp(dot(cross(e1, p - t.v0), n) * inv, 0.0, 1.0 - b1);
+            scale = texture_value(texture, triangle_uv(tri, vec3<f32>(1.0 - b1 - b2, b1, b2)));
+        }
     }
     return scale;
 }
 
-// The material `mat` as the hit's surface makes it: the textured albedo replacing the albedo (or
-// tint), and with a metallic-roughness texture (glTF) metallic = metallicFactor x B and roughness =
-// roughnessFactor x G. The material holds alpha = roughnessFactor^2 (on each axis), so the textured
-// alpha is (roughnessFactor G)^2 = alpha G^2 (below SMOOTH_ALPHA, the smooth lobe: microfacet_smooth).
-// (That product reaches the BSDF only through material_alpha's max, never an addition, so it rounds the
-// same in every kernel: see texture_bilinear_scaled.)
-fn textured_material(mat: Material, sp: Surface) -> Material {
-    var m = mat;
-    if HAS_TEXTURES {
-        if sp.textured {
-            m.albedo = sp.albedo;
+// The factor of a surface's emission at a hit: its material's emission texture there, or 1.
+fn surface_emission_scale(sp: Surface) -> vec3<f32> {
+    var scale = vec3<f32>(1.0);
+    if HAS_EMISSIVE_TEXTURES {
+        let texture = material_textures_of(sp.material).emission_texture;
+        if texture != NO_TEXTURE {
+            scale = texture_value(texture, sp.uv);
         }
     }
-    if HAS_METALLIC_ROUGHNESS_TEXTURES {
-        if sp.metallic_roughness_textured {
-            m.metallic = sp.metallic_roughness.x;
-            let g2 = sp.metallic_roughness.y * sp.metallic_roughness.y;
-            m.alpha_x *= g2;
-            m.alpha_y *= g2;
+    return scale;
+}
+
+// The material `mat` as its textures make it at the hit: each textured parameter is the material's
+// constant (its factor) times the texture's value. albedo = albedo x texel (the albedo, a mirror's tint,
+// a plastic's base, a base colour, a Schlick conductor's f0); metallic = metallic x texel; roughness =
+// roughness x texel, and since the material holds alpha = roughness^2 (on each axis), the textured alpha
+// is alpha texel^2 (below SMOOTH_ALPHA, the smooth lobe: microfacet_smooth). (alpha's product reaches the
+// BSDF only through material_alpha's max, never an addition, so it rounds the same in every kernel: see
+// texture_lookup.)
+fn textured_material(mat: Material, sp: Surface) -> Material {
+    var m = mat;
+    if HAS_TEXTURES || HAS_METALLIC_ROUGHNESS_TEXTURES {
+        let mt = material_textures_of(sp.material);
+        if HAS_TEXTURES {
+            if mt.albedo_texture != NO_TEXTURE {
+                m.albedo = texture_lookup(mt.albedo_texture, sp.uv, mat.albedo);
+            }
+        }
+        if HAS_METALLIC_ROUGHNESS_TEXTURES {
+            if mt.metallic_texture != NO_TEXTURE {
+                m.metallic = texture_lookup(mt.metallic_texture, sp.uv, vec3<f32>(mat.metallic)).x;
+            }
+            if mt.roughness_texture != NO_TEXTURE {
+                let r = texture_value(mt.roughness_texture, sp.uv).x;
+                let r2 = r * r;
+                m.alpha_x *= r2;
+                m.alpha_y *= r2;
+            }
         }
     }
     return m;
@@ -303,24 +393,19 @@ fn surface_tangent(hit: Hit, n: vec3<f32>) -> vec3<f32> {
         if hit.prim_kind == PRIM_TRIANGLE {
             let tri = triangles[hit.prim_index];
             t = tri.v1 - tri.v0;
-            if HAS_TEXTURES {
-                var face = MeshFace(vec3<u32>(0u), NO_MESH);
-                if hit.prim_index < arrayLength(&mesh_faces) {
-                    face = mesh_faces[hit.prim_index];
-                }
-                if face.mesh != NO_MESH {
-                    if (meshes[face.mesh].flags & MESH_TEXTURED) != 0u {
-                        let a = mesh_vertices[face.vertices.x];
-                        let b = mesh_vertices[face.vertices.y];
-                        let c = mesh_vertices[face.vertices.z];
-                        // p - p2 = (u - u2) dp/du + (v - v2) dp/dv at the vertices 0 and 1, solved for dp/du.
-                        let duv02 = vec2<f32>(a.u - c.u, a.v - c.v);
-                        let duv12 = vec2<f32>(b.u - c.u, b.v - c.v);
-                        let det = duv02.x * duv12.y - duv02.y * duv12.x;
-                        let dpdu = (duv12.y * (tri.v0 - tri.v2) - duv02.y * (tri.v1 - tri.v2)) / det;
-                        if abs(det) > 1e-12 && dot(dpdu, dpdu) > 0.0 {
-                            t = dpdu;
-                        }
+            if HAS_MESH_SHADING {
+                let face = triangle_face(hit.prim_index);
+                if face_has_uv(face) {
+                    let a = mesh_vertices[face.vertices.x];
+                    let b = mesh_vertices[face.vertices.y];
+                    let c = mesh_vertices[face.vertices.z];
+                    // p - p2 = (u - u2) dp/du + (v - v2) dp/dv at the vertices 0 and 1, solved for dp/du.
+                    let duv02 = vec2<f32>(a.u - c.u, a.v - c.v);
+                    let duv12 = vec2<f32>(b.u - c.u, b.v - c.v);
+                    let det = duv02.x * duv12.y - duv02.y * duv12.x;
+                    let dpdu = (duv12.y * (tri.v0 - tri.v2) - duv02.y * (tri.v1 - tri.v2)) / det;
+                    if abs(det) > 1e-12 && dot(dpdu, dpdu) > 0.0 {
+                        t = dpdu;
                     }
                 }
             }
@@ -343,15 +428,24 @@ fn hit_material(hit: Hit) -> u32 {
 }
 
 fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
+    var s: Surface;
     if HAS_TRIANGLES {
         if HAS_SPHERES {
             if hit.prim_kind == PRIM_SPHERE {
-                return sphere_surface(o, d, hit);
+                s = sphere_surface(o, d, hit);
+            } else {
+                s = triangle_surface(hit);
             }
+        } else {
+            s = triangle_surface(hit);
         }
-        return triangle_surface(hit);
+    } else {
+        s = sphere_surface(o, d, hit);
     }
-    return sphere_surface(o, d, hit);
+    if HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
+        s = modified_surface(hit, s);
+    }
+    return s;
 }
 
 // --- Lights ------------------------------------------------------------------------------------------

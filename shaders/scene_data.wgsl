@@ -71,17 +71,12 @@ struct BvhNode {
 }
 
 const NO_MESH: u32 = 0xffffffffu;
-const MESH_SMOOTH: u32 = 1u;
-const MESH_TEXTURED: u32 = 2u; // a base colour texture
-const MESH_BASE_COLOR_FACTOR: u32 = 4u; // it multiplies the material's albedo (glTF), else replaces it
-const MESH_EMISSIVE_TEXTURED: u32 = 8u; // the emissive texture multiplies the emission
-const MESH_METALLIC_ROUGHNESS_TEXTURED: u32 = 16u; // B scales metallic, G roughness (glTF)
-const MESH_NORMAL_MAPPED: u32 = 32u; // a tangent-space normal map perturbs the shading normal
+const MESH_SMOOTH: u32 = 1u; // interpolate the vertex normals
+const MESH_UV: u32 = 2u; // the vertices have texture coordinates (else a triangle's uv are (0,0), (1,0), (0,1))
 const NO_TEXTURE: u32 = 0xffffffffu;
-const TEXTURE_SRGB: u32 = 1u; // colour texels, sRGB-encoded; else linear data
 
 // Shading data of triangle i (same index as `triangles`): its three vertices in `mesh_vertices` and its
-// mesh in `meshes`, or mesh == NO_MESH for a triangle without (flat and untextured).
+// mesh in `meshes`, or mesh == NO_MESH for a triangle without (flat, and uv from its barycentrics).
 struct MeshFace {
     vertices: vec3<u32>,
     mesh: u32,
@@ -96,24 +91,53 @@ struct MeshVertex {
     v: f32,
 }
 
-// A mesh's textures, each an index into `textures` or NO_TEXTURE, and its MESH_* flags.
+// A mesh's MESH_* flags. (Its textures belong to its material: MaterialTextures.)
 struct MeshInfo {
-    base_color: u32,
-    metallic_roughness: u32,
-    emissive: u32,
-    normal: u32,
-    normal_scale: f32, // glTF's normalTexture.scale, the factor of the map's x and y
     flags: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
-// The texture table: texture k's texels are texels[offset ..] (width x height, rows from the top).
+// The texture table: one texture reference each (texture.wgsl): texture k's texels are texels[offset ..]
+// (width x height, rows from the top, one word per texel or two with TEXTURE_HALF), read through the uv
+// transform uv' = (uv_matrix.xy . uv, uv_matrix.zw . uv) + uv_offset, with the TEXTURE_* flags' wrap
+// mode, filter, channel and colour space.
 struct TextureInfo {
     offset: u32,
     width: u32,
     height: u32,
-    flags: u32, // TEXTURE_SRGB or 0
+    flags: u32,
+    uv_matrix: vec4<f32>,
+    uv_offset: vec2<f32>,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// MaterialTextures::flags: opacity below alpha_cutoff is a hole, at or above it solid (a cut-out);
+// without it, opacity is stochastic transparency.
+const MATERIAL_CUTOUT: u32 = 1u;
+
+// The textured parameters and surface modifiers of material i (same index as `materials`; uploaded only
+// when some material has one). Each *_texture is an index into `textures` or NO_TEXTURE; a textured
+// parameter is the material's constant (its factor) times the texture's value: albedo (diffuse albedo,
+// mirror tint, plastic base, base colour, Schlick f0), roughness (alpha = (constant roughness x texel)^2),
+// metallic, emission. opacity is the fraction of light the surface stops (times the opacity texture);
+// bump a height map (bump_scale scene units per unit of texel), normal a tangent-space normal map whose
+// x and y are scaled by normal_scale.
+struct MaterialTextures {
+    albedo_texture: u32,
+    roughness_texture: u32,
+    metallic_texture: u32,
+    emission_texture: u32,
+    opacity_texture: u32,
+    bump_texture: u32,
+    normal_texture: u32,
+    flags: u32,
+    opacity: f32,
+    alpha_cutoff: f32,
+    bump_scale: f32,
+    normal_scale: f32,
 }
 
 // A closest hit: which primitive, where along the ray, and for triangles the barycentrics.
@@ -137,10 +161,11 @@ struct Hit {
 @group(0) @binding(8) var<storage, read> mesh_faces: array<MeshFace>;
 @group(0) @binding(9) var<storage, read> mesh_vertices: array<MeshVertex>;
 @group(0) @binding(10) var<storage, read> meshes: array<MeshInfo>;
-// Every texture's texels, RGBA8 (r in the low byte), rows from the top: sRGB-encoded colour or linear
-// data, as its TextureInfo says.
+// Every texture's texels, RGBA8 (r in the low byte) or RGBA f16 (two words), rows from the top:
+// sRGB-encoded colour or linear data, as its TextureInfo says.
 @group(0) @binding(11) var<storage, read> texels: array<u32>;
 @group(0) @binding(16) var<storage, read> textures: array<TextureInfo>;
+@group(0) @binding(17) var<storage, read> material_textures: array<MaterialTextures>;
 
 // The render target: per-pixel running sums, and which samples the current dispatch traces over which
 // pixels. An image too large for one buffer or one dispatch is cut (src/render/mod.rs, "Tiles"): each

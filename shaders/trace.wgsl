@@ -69,7 +69,7 @@ fn trace_aov(kind: u32, o0: vec3<f32>, d0: vec3<f32>, rng: ptr<function, Rng>) -
         let entering = dot(d, sp.n) < 0.0;
         let n = select(-sp.n, sp.n, entering);
         var ns = n;
-        if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
+        if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
             ns = select(-sp.ns, sp.ns, entering);
         }
         var tangent = vec3<f32>(0.0);
@@ -111,7 +111,7 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
 // start on the far side).
 fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 {
     var cos_theta = dot(n, wi);
-    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
+    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
         if sp.shading_normal && cos_theta > 0.0 {
             cos_theta = dot(ns, wi);
         }
@@ -220,6 +220,11 @@ struct CameraSample {
 }
 
 fn camera_sample(px: vec2<u32>, sample: u32) -> CameraSample {
+    if HAS_OPACITY {
+        // The sample's part of the opacity test's hash (opacity.wgsl): rays of different samples with
+        // the same origin and direction (a pinhole camera without a pixel filter) decide independently.
+        opacity_seed = pcg4d(vec4<u32>(px.x, px.y, sample, params.seed)).x;
+    }
     var rng = rng_new_sampler(px.y * params.width + px.x, sample, params.seed, params.sampler);
     let film = film_position(px, &rng);
     // The lens sample is dimension 1 whether or not there is a lens, so that a pinhole-specialised kernel
@@ -315,7 +320,7 @@ fn path_step(path: ptr<function, Path>) -> bool {
             let s = surface_at(o, d, hit);
             var le = material_emission(mat, dot(d, s.n) < 0.0);
             if HAS_EMISSIVE_TEXTURES {
-                le *= s.emission_scale;
+                le *= surface_emission_scale(s);
             }
             var w = 1.0;
             if !(*path).last_delta {
@@ -346,11 +351,10 @@ fn path_step(path: ptr<function, Path>) -> bool {
     // mesh. That loses a little energy at grazing angles, the usual price of shading normals (pbrt-v4
     // §10.1).
     var ns = n;
-    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
+    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
         ns = select(-sp.ns, sp.ns, entering);
     }
-    // Textures: the base colour replaces the material's albedo (diffuse) or tint (mirror); a
-    // metallic-roughness texture scales metallic and roughness (textured_material, scene.wgsl).
+    // The material's textured parameters at the hit (textured_material, scene.wgsl).
     mat = textured_material(mat, sp);
     // The direction anisotropic roughness runs along (zero, and not computed, without anisotropy).
     var tangent = vec3<f32>(0.0);
@@ -382,7 +386,7 @@ fn path_step(path: ptr<function, Path>) -> bool {
     (*path).prev_p = sp.p;
     (*path).prev_sphere = on_sphere;
     (*path).last_delta = delta;
-    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS {
+    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
         // wi must leave on the side the ray came from (reflection) or cross (transmission).
         let reflected = (bs.flags & BSDF_REFLECTION) != 0u;
         if sp.shading_normal && (dot(bs.wi, n) > 0.0) != reflected {

@@ -602,26 +602,44 @@ fn gltf_textures_load_with_their_factors() {
     assert_eq!(emissive.texels[0].to_le_bytes()[..3], [40, 50, 60]);
 
     let gpu = vkpath::kernel::upload::GpuScene::build(&scene);
-    let info = gpu.meshes[0];
+    assert_eq!(gpu.meshes[0].flags, MESH_SMOOTH | MESH_UV);
+    // The mesh's maps are bound to a copy of its material (upload::mesh_material), whose base colour
+    // stays the factor the texture multiplies.
+    let material = gpu.triangles[0].material as usize;
     assert_eq!(
-        info.flags,
-        MESH_SMOOTH
-            | MESH_TEXTURED
-            | MESH_BASE_COLOR_FACTOR
-            | MESH_EMISSIVE_TEXTURED
-            | MESH_METALLIC_ROUGHNESS_TEXTURED
-            | MESH_NORMAL_MAPPED
+        material,
+        scene.materials.len(),
+        "the mesh's own material, after the scene's"
     );
     assert_eq!(
-        info.normal, info.metallic_roughness,
-        "both linear data of image 0"
+        gpu.materials[material].albedo,
+        gpu.materials[m.material as usize].albedo
     );
-    assert_eq!(info.normal_scale, 0.5);
-    let [b, e, r] =
-        [info.base_color, info.emissive, info.metallic_roughness].map(|k| gpu.textures[k as usize]);
-    assert_eq!(gpu.textures.len(), 3);
-    assert_eq!((b.flags, e.flags, r.flags), (TEXTURE_SRGB, TEXTURE_SRGB, 0));
+    let t = gpu.material_textures[material];
+    assert_eq!(t.normal_scale, 0.5);
+    let [b, e, r, g, n] = [
+        t.albedo_texture,
+        t.emission_texture,
+        t.metallic_texture,
+        t.roughness_texture,
+        t.normal_texture,
+    ]
+    .map(|k| gpu.textures[k as usize]);
+    // Base colour and emissive (sRGB), metallic (B), roughness (G) and the normal map (RGB, linear).
+    assert_eq!(gpu.textures.len(), 5);
+    let channel = |c: u32| c << TEXTURE_CHANNEL_SHIFT;
+    assert_eq!(
+        (b.flags, e.flags, r.flags, g.flags, n.flags),
+        (
+            TEXTURE_SRGB,
+            TEXTURE_SRGB,
+            channel(TEXTURE_CHANNEL_B),
+            channel(TEXTURE_CHANNEL_G),
+            0
+        )
+    );
     assert_eq!(b.offset, r.offset, "one image, its texels uploaded once");
+    assert_eq!(b.offset, n.offset);
     assert_eq!((b.width, b.height, e.width, e.height), (2, 2, 1, 1));
     assert_eq!(gpu.texels.len(), 4 + 1);
     assert_eq!(

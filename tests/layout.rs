@@ -585,7 +585,7 @@ fn pass_constants_match_wgsl() {
 #[test]
 fn mesh_structs_match_wgsl() {
     use vkpath::kernel::abi::{
-        GpuBvhNode, GpuMeshFace, GpuMeshInfo, GpuMeshVertex, GpuTextureInfo,
+        GpuBvhNode, GpuMaterialTextures, GpuMeshFace, GpuMeshInfo, GpuMeshVertex, GpuTextureInfo,
     };
     let module = kernel();
     check_struct(
@@ -635,7 +635,7 @@ fn mesh_structs_match_wgsl() {
         "MeshInfo",
         "GpuMeshInfo",
         size_of::<GpuMeshInfo>(),
-        fields!(GpuMeshInfo: base_color, metallic_roughness, emissive, normal, normal_scale, flags, _pad),
+        fields!(GpuMeshInfo: flags, _pad),
     );
     check_storage_array(
         &module,
@@ -649,7 +649,7 @@ fn mesh_structs_match_wgsl() {
         "TextureInfo",
         "GpuTextureInfo",
         size_of::<GpuTextureInfo>(),
-        fields!(GpuTextureInfo: offset, width, height, flags),
+        fields!(GpuTextureInfo: offset, width, height, flags, uv_matrix, uv_offset, _pad),
     );
     check_storage_array(
         &module,
@@ -657,5 +657,32 @@ fn mesh_structs_match_wgsl() {
         "TextureInfo",
         "GpuTextureInfo",
         size_of::<GpuTextureInfo>(),
+    );
+    check_struct(
+        &module,
+        "MaterialTextures",
+        "GpuMaterialTextures",
+        size_of::<GpuMaterialTextures>(),
+        fields!(
+            GpuMaterialTextures: albedo_texture,
+            roughness_texture,
+            metallic_texture,
+            emission_texture,
+            opacity_texture,
+            bump_texture,
+            normal_texture,
+            flags,
+            opacity,
+            alpha_cutoff,
+            bump_scale,
+            normal_scale
+        ),
+    );
+    check_storage_array(
+        &module,
+        "material_textures",
+        "MaterialTextures",
+        "GpuMaterialTextures",
+        size_of::<GpuMaterialTextures>(),
     );
 }

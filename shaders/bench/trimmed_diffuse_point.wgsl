@@ -48,8 +48,7 @@ fn trimmed_path(px: vec2<u32>, sample: u32) -> vec3<f32> {
         let s = spheres[hit.prim_index];
         let sp3 = sphere_surface_point(o, d, hit.t, s.center, s.radius);
         let sn = normalize(sp3.p - s.center);
-        let sp = Surface(sp3.p, sp3.err, sn, s.material, sn, false, vec3<f32>(0.0), false, vec3<f32>(1.0),
-                           vec2<f32>(1.0), false);
+        let sp = Surface(sp3.p, sp3.err, sn, s.material, sn, false, vec2<f32>(0.0));
         let mat = materials[sp.material];
         let n = select(-sp.n, sp.n, dot(d, sp.n) < 0.0);
         // Next-event estimation as trace.wgsl's direct_light computes it for a point light.

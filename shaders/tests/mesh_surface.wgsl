@@ -32,5 +32,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let s = surface_at(o, d, hit);
     out[3u * i] = vec4<f32>(s.n, bitcast<f32>(hit.prim_index));
     out[3u * i + 1u] = vec4<f32>(s.ns, select(0.0, 1.0, s.shading_normal));
-    out[3u * i + 2u] = vec4<f32>(s.albedo, select(0.0, 1.0, s.textured));
+    let textured = material_textures_of(s.material).albedo_texture != NO_TEXTURE;
+    out[3u * i + 2u] = vec4<f32>(textured_material(materials[s.material], s).albedo, select(0.0, 1.0, textured));
 }

@@ -223,25 +223,33 @@ pub struct GpuBvhNode {
 pub const NO_MESH: u32 = u32::MAX;
 /// `GpuMeshInfo::flags`: interpolate the vertex normals.
 pub const MESH_SMOOTH: u32 = 1;
-/// `GpuMeshInfo::flags`: the mesh has a base colour texture (`GpuMeshInfo::base_color`).
-pub const MESH_TEXTURED: u32 = 2;
-/// `GpuMeshInfo::flags`: the base colour texture multiplies the material's albedo (glTF: base colour =
-/// baseColorFactor x texel) instead of replacing it (TOML and OBJ meshes).
-pub const MESH_BASE_COLOR_FACTOR: u32 = 4;
-/// `GpuMeshInfo::flags`: the emission is multiplied by the `emissive` texture.
-pub const MESH_EMISSIVE_TEXTURED: u32 = 8;
-/// `GpuMeshInfo::flags`: metallic and roughness are multiplied per hit by the `metallic_roughness`
-/// texture's B and G channels (glTF's metallicRoughnessTexture).
-pub const MESH_METALLIC_ROUGHNESS_TEXTURED: u32 = 16;
-/// `GpuMeshInfo::flags`: the shading normal is perturbed by the tangent-space `normal` map (glTF's
-/// normalTexture).
-pub const MESH_NORMAL_MAPPED: u32 = 32;
-/// No texture: a `GpuMeshInfo` texture index that is unused.
+/// `GpuMeshInfo::flags`: the mesh's vertices have texture coordinates (a triangle without has its
+/// barycentrics (b1, b2) as uv).
+pub const MESH_UV: u32 = 2;
+/// No texture: a `GpuMaterialTextures` texture index that is unused.
 pub const NO_TEXTURE: u32 = u32::MAX;
-/// `GpuTextureInfo::flags`: the texels hold sRGB-encoded colour, decoded before filtering (base colour
-/// and emissive textures). Without it they are linear data (metallic-roughness, normal maps), read as
-/// they are.
+/// `GpuTextureInfo::flags` (texture.wgsl): the texels hold sRGB-encoded colour, decoded before
+/// filtering. Without it they are linear data (roughness, normal and bump maps), read as they are.
 pub const TEXTURE_SRGB: u32 = 1;
+/// `GpuTextureInfo::flags`: two words per texel, RGBA as four f16 (EXR and HDR images); else one, RGBA8.
+pub const TEXTURE_HALF: u32 = 2;
+/// `GpuTextureInfo::flags`: the nearest texel; else bilinear filtering.
+pub const TEXTURE_NEAREST: u32 = 4;
+/// `GpuTextureInfo::flags`: uv outside [0, 1] clamps to the edge texels; else it repeats.
+pub const TEXTURE_CLAMP: u32 = 8;
+/// `GpuTextureInfo::flags`: uv outside [0, 1] repeats mirrored.
+pub const TEXTURE_MIRROR: u32 = 16;
+/// `GpuTextureInfo::flags` bits 8-10: the channel(s) the texture gives (`TEXTURE_CHANNEL_*`).
+pub const TEXTURE_CHANNEL_SHIFT: u32 = 8;
+pub const TEXTURE_CHANNEL_RGB: u32 = 0;
+pub const TEXTURE_CHANNEL_R: u32 = 1;
+pub const TEXTURE_CHANNEL_G: u32 = 2;
+pub const TEXTURE_CHANNEL_B: u32 = 3;
+pub const TEXTURE_CHANNEL_A: u32 = 4;
+pub const TEXTURE_CHANNEL_LUMINANCE: u32 = 5;
+/// `GpuMaterialTextures::flags`: opacity below `alpha_cutoff` is a hole (a cut-out); without it,
+/// opacity is stochastic transparency.
+pub const MATERIAL_CUTOUT: u32 = 1;
 
 /// Mirrors `MeshFace` in scene_data.wgsl: the shading vertices of triangle i (same index as in
 /// `triangles`) and the mesh it belongs to.
@@ -264,32 +272,93 @@ pub struct GpuMeshVertex {
     pub v: f32,
 }
 
-/// Mirrors `MeshInfo` in scene_data.wgsl: per mesh, its flags and its textures, each an index into
-/// `textures` or [`NO_TEXTURE`].
+/// Mirrors `MeshInfo` in scene_data.wgsl: per mesh, its `MESH_*` flags. (A mesh's textures belong to
+/// its material: [`GpuMaterialTextures`].)
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMeshInfo {
-    pub base_color: u32,
-    pub metallic_roughness: u32,
-    pub emissive: u32,
-    pub normal: u32,
-    /// glTF's normalTexture.scale: the factor of the map's x and y.
-    pub normal_scale: f32,
-    /// `MESH_*` flags.
     pub flags: u32,
-    pub _pad: [u32; 2],
+    pub _pad: [u32; 3],
 }
 
-/// Mirrors `TextureInfo` in scene_data.wgsl: one texture of the texture table, its texels in `texels`
-/// from `offset` on, row-major from the top-left, `width` x `height`.
+/// Mirrors `TextureInfo` in scene_data.wgsl: one texture reference of the texture table: its image's
+/// texels in `texels` from `offset` on, row-major from the top-left, `width` x `height` (one word per
+/// texel, two with [`TEXTURE_HALF`]), read at uv' = M uv + `uv_offset` with M = [[m0, m1], [m2, m3]]
+/// (`uv_matrix`), and the `TEXTURE_*` flags' wrap mode, filter, channel and colour space.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTextureInfo {
     pub offset: u32,
     pub width: u32,
     pub height: u32,
-    /// [`TEXTURE_SRGB`] or 0.
     pub flags: u32,
+    pub uv_matrix: [f32; 4],
+    pub uv_offset: [f32; 2],
+    pub _pad: [u32; 2],
+}
+
+/// Mirrors `MaterialTextures` in scene_data.wgsl: material i's textures (each an index into `textures`
+/// or [`NO_TEXTURE`]) and surface modifiers, parallel to `materials`. A textured parameter is the
+/// material's constant (the reference's factor) times the texture's value.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterialTextures {
+    pub albedo_texture: u32,
+    pub roughness_texture: u32,
+    pub metallic_texture: u32,
+    pub emission_texture: u32,
+    pub opacity_texture: u32,
+    pub bump_texture: u32,
+    pub normal_texture: u32,
+    /// [`MATERIAL_CUTOUT`] or 0.
+    pub flags: u32,
+    /// The fraction of light the surface stops, in [0, 1] (times the opacity texture).
+    pub opacity: f32,
+    pub alpha_cutoff: f32,
+    /// Scene units of height per unit of the bump texture's value.
+    pub bump_scale: f32,
+    /// The factor of the normal map's x and y.
+    pub normal_scale: f32,
+}
+
+impl Default for GpuMaterialTextures {
+    /// No texture, fully opaque.
+    fn default() -> Self {
+        GpuMaterialTextures {
+            albedo_texture: NO_TEXTURE,
+            roughness_texture: NO_TEXTURE,
+            metallic_texture: NO_TEXTURE,
+            emission_texture: NO_TEXTURE,
+            opacity_texture: NO_TEXTURE,
+            bump_texture: NO_TEXTURE,
+            normal_texture: NO_TEXTURE,
+            flags: 0,
+            opacity: 1.0,
+            alpha_cutoff: 0.0,
+            bump_scale: 1.0,
+            normal_scale: 1.0,
+        }
+    }
+}
+
+impl GpuMaterialTextures {
+    /// Every texture index, for checks that go over all of them.
+    pub fn texture_indices(&self) -> [u32; 7] {
+        [
+            self.albedo_texture,
+            self.roughness_texture,
+            self.metallic_texture,
+            self.emission_texture,
+            self.opacity_texture,
+            self.bump_texture,
+            self.normal_texture,
+        ]
+    }
+
+    /// Whether the material has any texture or modifier (else the kernel need not read the entry).
+    pub fn is_plain(&self) -> bool {
+        *self == GpuMaterialTextures::default()
+    }
 }
 
 /// Projections (`GpuParams::camera_kind`, `CAMERA_*` in camera.wgsl).
@@ -361,16 +430,21 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("AOV_DEPTH", AOV_DEPTH),
     ("NO_MESH", NO_MESH),
     ("MESH_SMOOTH", MESH_SMOOTH),
-    ("MESH_TEXTURED", MESH_TEXTURED),
-    ("MESH_BASE_COLOR_FACTOR", MESH_BASE_COLOR_FACTOR),
-    ("MESH_EMISSIVE_TEXTURED", MESH_EMISSIVE_TEXTURED),
-    (
-        "MESH_METALLIC_ROUGHNESS_TEXTURED",
-        MESH_METALLIC_ROUGHNESS_TEXTURED,
-    ),
-    ("MESH_NORMAL_MAPPED", MESH_NORMAL_MAPPED),
+    ("MESH_UV", MESH_UV),
     ("NO_TEXTURE", NO_TEXTURE),
     ("TEXTURE_SRGB", TEXTURE_SRGB),
+    ("TEXTURE_HALF", TEXTURE_HALF),
+    ("TEXTURE_NEAREST", TEXTURE_NEAREST),
+    ("TEXTURE_CLAMP", TEXTURE_CLAMP),
+    ("TEXTURE_MIRROR", TEXTURE_MIRROR),
+    ("TEXTURE_CHANNEL_SHIFT", TEXTURE_CHANNEL_SHIFT),
+    ("TEXTURE_CHANNEL_RGB", TEXTURE_CHANNEL_RGB),
+    ("TEXTURE_CHANNEL_R", TEXTURE_CHANNEL_R),
+    ("TEXTURE_CHANNEL_G", TEXTURE_CHANNEL_G),
+    ("TEXTURE_CHANNEL_B", TEXTURE_CHANNEL_B),
+    ("TEXTURE_CHANNEL_A", TEXTURE_CHANNEL_A),
+    ("TEXTURE_CHANNEL_LUMINANCE", TEXTURE_CHANNEL_LUMINANCE),
+    ("MATERIAL_CUTOUT", MATERIAL_CUTOUT),
     ("ACCUM_LIMBS", ACCUM_LIMBS as u32),
     ("BVH_LEAF", crate::scene::bvh::LEAF),
     ("BVH_LEAF_COUNT_BITS", crate::scene::bvh::LEAF_COUNT_BITS),
@@ -383,8 +457,9 @@ const _: () = assert!(std::mem::size_of::<GpuParams>() == 144);
 const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuMeshFace>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);
-const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 32);
-const _: () = assert!(std::mem::size_of::<GpuTextureInfo>() == 16);
+const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);
+const _: () = assert!(std::mem::size_of::<GpuTextureInfo>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuMaterialTextures>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 80);

@@ -26,6 +26,8 @@ pub enum Feature {
     EmissiveTextures,
     MetallicRoughnessTextures,
     NormalMaps,
+    BumpMaps,
+    Opacity,
     Diffuse,
     Mirror,
     Dielectric,
@@ -82,6 +84,13 @@ fn mesh_flag(g: &GpuScene, flag: u32) -> bool {
     g.meshes.iter().any(|m| m.flags & flag != 0)
 }
 
+/// The textures and modifiers of the materials some sphere or triangle uses.
+fn used_material_textures(g: &GpuScene) -> impl Iterator<Item = &GpuMaterialTextures> {
+    let used = g.spheres.iter().map(|s| s.material);
+    let used = used.chain(g.triangles.iter().map(|t| t.material));
+    used.filter_map(|m| g.material_textures.get(m as usize))
+}
+
 /// The materials some sphere or triangle uses.
 fn used_materials(g: &GpuScene) -> impl Iterator<Item = &GpuMaterial> {
     let used = g.spheres.iter().map(|s| s.material);
@@ -135,11 +144,12 @@ pub const FEATURES: &[FeatureRow] = &[
         reported: true,
     },
     FeatureRow {
+        // Some material's albedo (base colour, tint) is a texture.
         feature: Feature::Textures,
         name: "textures",
         constant: "HAS_TEXTURES",
         group: Group::Other,
-        needed: |g, _| mesh_flag(g, MESH_TEXTURED),
+        needed: |g, _| used_material_textures(g).any(|t| t.albedo_texture != NO_TEXTURE),
         reported: true,
     },
     FeatureRow {
@@ -147,15 +157,19 @@ pub const FEATURES: &[FeatureRow] = &[
         name: "emissive_textures",
         constant: "HAS_EMISSIVE_TEXTURES",
         group: Group::Other,
-        needed: |g, _| mesh_flag(g, MESH_EMISSIVE_TEXTURED),
+        needed: |g, _| used_material_textures(g).any(|t| t.emission_texture != NO_TEXTURE),
         reported: true,
     },
     FeatureRow {
+        // Some material's metallic or roughness is a texture.
         feature: Feature::MetallicRoughnessTextures,
         name: "metallic_roughness_textures",
         constant: "HAS_METALLIC_ROUGHNESS_TEXTURES",
         group: Group::Other,
-        needed: |g, _| mesh_flag(g, MESH_METALLIC_ROUGHNESS_TEXTURED),
+        needed: |g, _| {
+            used_material_textures(g)
+                .any(|t| t.metallic_texture != NO_TEXTURE || t.roughness_texture != NO_TEXTURE)
+        },
         reported: true,
     },
     FeatureRow {
@@ -163,7 +177,29 @@ pub const FEATURES: &[FeatureRow] = &[
         name: "normal_maps",
         constant: "HAS_NORMAL_MAPS",
         group: Group::Other,
-        needed: |g, _| mesh_flag(g, MESH_NORMAL_MAPPED),
+        needed: |g, _| used_material_textures(g).any(|t| t.normal_texture != NO_TEXTURE),
+        reported: true,
+    },
+    FeatureRow {
+        feature: Feature::BumpMaps,
+        name: "bump_maps",
+        constant: "HAS_BUMP_MAPS",
+        group: Group::Other,
+        needed: |g, _| used_material_textures(g).any(|t| t.bump_texture != NO_TEXTURE),
+        reported: true,
+    },
+    FeatureRow {
+        // Some surface lets light through: an opacity below 1, a texture, or a cut-out (opacity.wgsl).
+        // Without it no hit is tested for opacity during traversal.
+        feature: Feature::Opacity,
+        name: "opacity",
+        constant: "HAS_OPACITY",
+        group: Group::Other,
+        needed: |g, _| {
+            used_material_textures(g).any(|t| {
+                t.opacity < 1.0 || t.opacity_texture != NO_TEXTURE || t.flags & MATERIAL_CUTOUT != 0
+            })
+        },
         reported: true,
     },
     FeatureRow {
@@ -325,9 +361,11 @@ pub const FEATURES: &[FeatureRow] = &[
 ];
 
 /// The constants derived from the rows rather than set by one: a single material kind, a single light
-/// kind, and the per-triangle shading data that smooth normals and textures both read.
+/// kind, any material texture or modifier (the hit's texture coordinates, the `material_textures`
+/// buffer), and the per-triangle shading data that smooth normals and texture coordinates read.
 pub const SINGLE_MATERIAL_KIND: &str = "SINGLE_MATERIAL_KIND";
 pub const SINGLE_LIGHT_KIND: &str = "SINGLE_LIGHT_KIND";
+pub const HAS_MATERIAL_TEXTURES: &str = "HAS_MATERIAL_TEXTURES";
 pub const HAS_MESH_SHADING: &str = "HAS_MESH_SHADING";
 
 /// A run-time choice (a `Params` field) that a specialised kernel has as a constant.
@@ -506,16 +544,21 @@ impl FeatureSet {
             .collect();
         out.push((SINGLE_MATERIAL_KIND, b(self.single_material_kind())));
         out.push((SINGLE_LIGHT_KIND, b(self.single_light_kind())));
-        let shading = [
-            Feature::SmoothNormals,
+        let textured = [
             Feature::Textures,
             Feature::EmissiveTextures,
             Feature::MetallicRoughnessTextures,
             Feature::NormalMaps,
+            Feature::BumpMaps,
+            Feature::Opacity,
         ]
         .into_iter()
         .any(|f| self.has(f));
-        out.push((HAS_MESH_SHADING, b(shading)));
+        out.push((HAS_MATERIAL_TEXTURES, b(textured)));
+        out.push((
+            HAS_MESH_SHADING,
+            b(textured || self.has(Feature::SmoothNormals)),
+        ));
         for (k, knob) in KNOBS.iter().enumerate() {
             let value = self.knobs[k];
             out.push((knob.from_params, b(value.is_none())));

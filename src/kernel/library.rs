@@ -36,6 +36,7 @@ pub const MODULES: &[(&str, &str)] = &[
     ),
     ("bvh.wgsl", include_str!("../../shaders/bvh.wgsl")),
     ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
+    ("opacity.wgsl", include_str!("../../shaders/opacity.wgsl")),
     ("scene.wgsl", include_str!("../../shaders/scene.wgsl")),
     ("trace.wgsl", include_str!("../../shaders/trace.wgsl")),
     (

@@ -39,13 +39,16 @@ pub fn compile(source: &str) -> Result<CompiledShader, GpuError> {
     compile_with(source, &[])
 }
 
+/// What the kernels may use beyond WGSL's core: `unpack2x16float` (f16 texels of EXR and HDR textures,
+/// texture.wgsl), which naga gates behind this capability for the backends that lack it; in SPIR-V it is
+/// GLSL.std.450's UnpackHalf2x16, which every Vulkan implementation has.
+pub const CAPABILITIES: naga::valid::Capabilities =
+    naga::valid::Capabilities::SHADER_FLOAT16_IN_FLOAT32;
+
 fn validate(module: &naga::Module) -> Result<naga::valid::ModuleInfo, GpuError> {
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::empty(),
-    )
-    .validate(module)
-    .map_err(|e| GpuError::Shader(format!("{:?}", e.into_inner())))
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), CAPABILITIES)
+        .validate(module)
+        .map_err(|e| GpuError::Shader(format!("{:?}", e.into_inner())))
 }
 
 /// Parses WGSL, sets the named `override` constants, folds them (naga's `process_overrides`), removes

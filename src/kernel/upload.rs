@@ -15,12 +15,14 @@ use super::abi::*;
 use super::alias;
 use crate::scene::bvh::{self, Bvh};
 use crate::scene::environment::channel_mean;
+use crate::scene::texture::{Channel, TextureFilter, Wrap};
 use crate::scene::{
-    Bsdf, ConductorFresnel, Emission, Filter, Light, LightSampling, Material, Projection,
-    Roughness, Sampler, Scene,
+    Bsdf, ConductorFresnel, Emission, Filter, Light, LightSampling, Material, MaterialTextures,
+    Mesh, Projection, Roughness, Sampler, Scene, Texture, TextureRef,
 };
 use glam::Vec3;
 use std::f32::consts::PI;
+use std::sync::Arc;
 
 /// Scenes with at most this many triangles test them all in a loop instead of walking a BVH: a walk's
 /// fixed costs (the traversal stack, two box tests per node) exceed a few triangle tests. Measured on
@@ -43,10 +45,15 @@ pub struct GpuScene {
     pub mesh_faces: Vec<GpuMeshFace>,
     pub mesh_vertices: Vec<GpuMeshVertex>,
     pub meshes: Vec<GpuMeshInfo>,
-    /// Every texture's texels, RGBA8 (sRGB colour or linear data), one after the other.
+    /// Every image's texels, RGBA8 or RGBA f16, one image after the other, each uploaded once however
+    /// many texture references read it.
     pub texels: Vec<u32>,
-    /// The texture table (`GpuMeshInfo`'s texture indices): where each texture's texels are.
+    /// The texture table (`GpuMaterialTextures`' indices): each texture reference, where its image's
+    /// texels are and how it reads them.
     pub textures: Vec<GpuTextureInfo>,
+    /// Per material (parallel to `materials`), its textures and surface modifiers; empty when no
+    /// material has any (the kernel then never reads it).
+    pub material_textures: Vec<GpuMaterialTextures>,
     /// The emitting triangles, with the alias table that picks them (LIGHT_TRIANGLES).
     pub light_triangles: Vec<GpuLightTriangle>,
     /// The environment map's RGB radiance, three floats per pixel, rows from the top.
@@ -175,6 +182,39 @@ pub fn fresnel_diffuse_reflectance(eta: f64) -> f64 {
     c_crit * c_crit + 2.0 * sum
 }
 
+/// The images whose texels are uploaded already, and where they start in `texels`.
+#[derive(Default)]
+struct ImageTable {
+    offsets: Vec<(*const Texture, u32)>,
+}
+
+/// A texture reference's `TEXTURE_*` flags.
+fn texture_flags(r: &TextureRef) -> u32 {
+    let mut flags = match r.channel {
+        Channel::Rgb => TEXTURE_CHANNEL_RGB,
+        Channel::R => TEXTURE_CHANNEL_R,
+        Channel::G => TEXTURE_CHANNEL_G,
+        Channel::B => TEXTURE_CHANNEL_B,
+        Channel::A => TEXTURE_CHANNEL_A,
+        Channel::Luminance => TEXTURE_CHANNEL_LUMINANCE,
+    } << TEXTURE_CHANNEL_SHIFT;
+    if r.srgb {
+        flags |= TEXTURE_SRGB;
+    }
+    if r.image.half {
+        flags |= TEXTURE_HALF;
+    }
+    if r.filter == TextureFilter::Nearest {
+        flags |= TEXTURE_NEAREST;
+    }
+    flags |= match r.wrap {
+        Wrap::Repeat => 0,
+        Wrap::Clamp => TEXTURE_CLAMP,
+        Wrap::Mirror => TEXTURE_MIRROR,
+    };
+    flags
+}
+
 /// Whether a material emits at all.
 fn emits(m: &GpuMaterial) -> bool {
     m.emission.iter().any(|&c| c > 0.0)
@@ -217,6 +257,11 @@ impl GpuScene {
             ..Default::default()
         };
         g.materials = scene.materials.iter().map(gpu_material).collect();
+        let mut images = ImageTable::default();
+        for m in &scene.materials {
+            let entry = g.material_entry(&mut images, &m.textures);
+            g.material_textures.push(entry);
+        }
         for s in &scene.spheres {
             let material = &g.materials[s.material as usize];
             if emits(material) {
@@ -236,7 +281,7 @@ impl GpuScene {
                 _pad: [0; 3],
             });
         }
-        g.add_triangles(scene);
+        g.add_triangles(scene, &mut images);
         g.add_triangle_lights();
         for l in &scene.lights {
             match *l {
@@ -313,8 +358,136 @@ impl GpuScene {
             }
         }
         g.add_environment(scene);
+        // Material textures are read only when some material has one (or a modifier); the materials
+        // added since (sphere lights') have none.
+        if g.material_textures
+            .iter()
+            .all(GpuMaterialTextures::is_plain)
+        {
+            g.material_textures.clear();
+        } else {
+            g.material_textures
+                .resize(g.materials.len(), GpuMaterialTextures::default());
+        }
         g.stats.scene_bytes = g.bytes();
         g
+    }
+
+    /// A texture reference's entry in the texture table (an equal entry is shared), its image's texels
+    /// uploaded once.
+    fn add_texture(&mut self, images: &mut ImageTable, r: &TextureRef) -> u32 {
+        let key = Arc::as_ptr(&r.image);
+        let offset = match images.offsets.iter().find(|(k, _)| *k == key) {
+            Some(&(_, offset)) => offset,
+            None => {
+                let offset = self.texels.len() as u32;
+                self.texels.extend_from_slice(&r.image.texels);
+                images.offsets.push((key, offset));
+                offset
+            }
+        };
+        let entry = GpuTextureInfo {
+            offset,
+            width: r.image.width,
+            height: r.image.height,
+            flags: texture_flags(r),
+            uv_matrix: r.uv_matrix(),
+            uv_offset: r.offset,
+            _pad: [0; 2],
+        };
+        if let Some(i) = self.textures.iter().position(|t| *t == entry) {
+            return i as u32;
+        }
+        self.textures.push(entry);
+        (self.textures.len() - 1) as u32
+    }
+
+    /// A material's textures and modifiers as the kernel reads them.
+    fn material_entry(
+        &mut self,
+        images: &mut ImageTable,
+        t: &MaterialTextures,
+    ) -> GpuMaterialTextures {
+        let mut index = |r: &Option<TextureRef>| {
+            r.as_ref()
+                .map_or(NO_TEXTURE, |r| self.add_texture(images, r))
+        };
+        let mut e = GpuMaterialTextures {
+            albedo_texture: index(&t.albedo),
+            roughness_texture: index(&t.roughness),
+            metallic_texture: index(&t.metallic),
+            emission_texture: index(&t.emission),
+            opacity_texture: index(&t.opacity),
+            opacity: t.opacity_value,
+            ..GpuMaterialTextures::default()
+        };
+        if let Some(cutoff) = t.alpha_cutoff {
+            e.flags |= MATERIAL_CUTOUT;
+            e.alpha_cutoff = cutoff;
+        }
+        if let Some((r, scale)) = &t.bump {
+            e.bump_texture = self.add_texture(images, r);
+            e.bump_scale = *scale;
+        }
+        if let Some((r, scale)) = &t.normal_map {
+            e.normal_texture = self.add_texture(images, r);
+            e.normal_scale = *scale;
+        }
+        e
+    }
+
+    /// The material a mesh's triangles use: its own, or, when the mesh has texture keys of its own
+    /// (`texture`, `emission_texture`, `metallic_roughness_texture`, `normal_map`: docs/scene-format.md,
+    /// `[[mesh]]`), a copy of it with those textures bound to its parameters: `texture` is the albedo
+    /// (base colour, tint), replacing the constant, or multiplying it for a glTF base colour
+    /// (`maps.base_color_factor`), and on an emitting material (TOML, OBJ) it also multiplies the
+    /// emission; `emission_texture` multiplies the emission; `metallic_roughness_texture` multiplies
+    /// metallic by its B channel and roughness by its G channel (glTF 2.0 §3.9.2); `normal_map` is the
+    /// normal map.
+    fn mesh_material(&mut self, images: &mut ImageTable, scene: &Scene, m: &Mesh) -> u32 {
+        let maps = &m.maps;
+        if m.texture.is_none()
+            && maps.emissive.is_none()
+            && maps.metallic_roughness.is_none()
+            && maps.normal.is_none()
+        {
+            return m.material;
+        }
+        let base = m.material as usize;
+        let mut material = self.materials[base];
+        let mut entry = self.material_textures[base];
+        let mut plain = |g: &mut GpuScene, tex: &Arc<Texture>, colour: bool, channel: Channel| {
+            g.add_texture(
+                images,
+                &TextureRef::plain(tex.clone(), colour).with_channel(channel),
+            )
+        };
+        if let Some(tex) = &m.texture {
+            if !maps.base_color_factor {
+                material.albedo = [1.0; 3];
+            }
+            entry.albedo_texture = plain(self, tex, true, Channel::Rgb);
+        }
+        let emits = scene.materials[base].emission.is_some();
+        let emissive = match (&maps.emissive, &m.texture) {
+            (Some(e), _) => Some(e),
+            (None, Some(t)) if emits && !maps.base_color_factor => Some(t),
+            _ => None,
+        };
+        if let Some(tex) = emissive {
+            entry.emission_texture = plain(self, tex, true, Channel::Rgb);
+        }
+        if let Some(tex) = &maps.metallic_roughness {
+            entry.metallic_texture = plain(self, tex, false, Channel::B);
+            entry.roughness_texture = plain(self, tex, false, Channel::G);
+        }
+        if let Some(tex) = &maps.normal {
+            entry.normal_texture = plain(self, tex, false, Channel::Rgb);
+            entry.normal_scale = maps.normal_scale;
+        }
+        self.materials.push(material);
+        self.material_textures.push(entry);
+        (self.materials.len() - 1) as u32
     }
 
     /// The emitting triangles as one light, with their alias table.
@@ -386,7 +559,7 @@ impl GpuScene {
     }
 
     /// All triangles in BVH order, with the BVH and the meshes' shading data.
-    fn add_triangles(&mut self, scene: &Scene) {
+    fn add_triangles(&mut self, scene: &Scene, images: &mut ImageTable) {
         let total = scene.triangles.len()
             + scene
                 .meshes
@@ -404,51 +577,9 @@ impl GpuScene {
             corners.push(t.vertices);
             materials.push(t.material);
         }
-        // The texture table: one entry per (image, colour or data) pair, an image's texels uploaded once
-        // however many meshes and entries share it.
-        let mut texel_offsets: Vec<(*const crate::scene::Texture, u32)> = Vec::new();
-        let mut table: Vec<(*const crate::scene::Texture, u32, u32)> = Vec::new();
-        let mut texture_index = |tex: &std::sync::Arc<crate::scene::Texture>, flags: u32| -> u32 {
-            let key = std::sync::Arc::as_ptr(tex);
-            if let Some(&(_, _, index)) = table.iter().find(|&&(k, f, _)| k == key && f == flags) {
-                return index;
-            }
-            let offset = match texel_offsets.iter().find(|(k, _)| *k == key) {
-                Some(&(_, offset)) => offset,
-                None => {
-                    let offset = self.texels.len() as u32;
-                    self.texels.extend_from_slice(&tex.texels);
-                    texel_offsets.push((key, offset));
-                    offset
-                }
-            };
-            let index = self.textures.len() as u32;
-            self.textures.push(GpuTextureInfo {
-                offset,
-                width: tex.width,
-                height: tex.height,
-                flags,
-            });
-            table.push((key, flags, index));
-            index
-        };
         for m in &scene.meshes {
-            // A TOML or OBJ mesh's texture also multiplies its material's emission; a glTF one's
-            // emission has its own texture (`maps.emissive`).
-            let emits = scene
-                .materials
-                .get(m.material as usize)
-                .is_some_and(|mat| mat.emission.is_some());
-            let emissive = match (&m.maps.emissive, &m.texture) {
-                (Some(e), _) => Some(e),
-                (None, Some(t)) if emits && !m.maps.base_color_factor => Some(t),
-                _ => None,
-            };
-            let shaded = !m.normals.is_empty()
-                || m.texture.is_some()
-                || emissive.is_some()
-                || m.maps.metallic_roughness.is_some()
-                || m.maps.normal.is_some();
+            let material = self.mesh_material(images, scene, m);
+            let shaded = !m.normals.is_empty() || !m.uvs.is_empty();
             if shaded && faces.is_empty() {
                 faces.resize(corners.len(), no_face);
             }
@@ -456,7 +587,7 @@ impl GpuScene {
             let first_vertex = self.mesh_vertices.len() as u32;
             for t in &m.triangles {
                 corners.push(t.map(|i| m.positions[i as usize]));
-                materials.push(m.material);
+                materials.push(material);
                 if shaded {
                     faces.push(GpuMeshFace {
                         vertices: t.map(|i| first_vertex + i),
@@ -469,39 +600,17 @@ impl GpuScene {
             if !shaded {
                 continue;
             }
-            let mut info = GpuMeshInfo {
-                base_color: NO_TEXTURE,
-                metallic_roughness: NO_TEXTURE,
-                emissive: NO_TEXTURE,
-                normal: NO_TEXTURE,
-                normal_scale: 1.0,
-                flags: 0,
-                _pad: [0; 2],
-            };
+            let mut flags = 0;
             if !m.normals.is_empty() {
-                info.flags |= MESH_SMOOTH;
+                flags |= MESH_SMOOTH;
             }
-            if let Some(tex) = &m.texture {
-                info.flags |= MESH_TEXTURED;
-                if m.maps.base_color_factor {
-                    info.flags |= MESH_BASE_COLOR_FACTOR;
-                }
-                info.base_color = texture_index(tex, TEXTURE_SRGB);
+            if !m.uvs.is_empty() {
+                flags |= MESH_UV;
             }
-            if let Some(tex) = emissive {
-                info.flags |= MESH_EMISSIVE_TEXTURED;
-                info.emissive = texture_index(tex, TEXTURE_SRGB);
-            }
-            if let Some(tex) = &m.maps.metallic_roughness {
-                info.flags |= MESH_METALLIC_ROUGHNESS_TEXTURED;
-                info.metallic_roughness = texture_index(tex, 0);
-            }
-            if let Some(tex) = &m.maps.normal {
-                info.flags |= MESH_NORMAL_MAPPED;
-                info.normal = texture_index(tex, 0);
-                info.normal_scale = m.maps.normal_scale;
-            }
-            self.meshes.push(info);
+            self.meshes.push(GpuMeshInfo {
+                flags,
+                _pad: [0; 3],
+            });
             for k in 0..m.positions.len() {
                 let n = m.normals.get(k).copied().unwrap_or(Vec3::ZERO);
                 let uv = m.uvs.get(k).copied().unwrap_or([0.0, 0.0]);
@@ -579,6 +688,8 @@ impl GpuScene {
             + b(&self.mesh_vertices)
             + b(&self.meshes)
             + b(&self.texels)
+            + b(&self.textures)
+            + b(&self.material_textures)
             + b(&self.light_triangles)
             + b(&self.env_texels)
             + b(&self.env_cdf)

@@ -92,6 +92,7 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
         meshes,
         texels,
         textures,
+        material_textures,
         light_triangles,
         env_texels,
         env_cdf: _,           // follows from env_texels
@@ -125,6 +126,10 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
     h.field("textures", bytemuck::cast_slice(textures));
     h.field("light_triangles", bytemuck::cast_slice(light_triangles));
     h.field("env_texels", bytemuck::cast_slice(env_texels));
+    // (Only when present, so that scenes without material textures keep the identity they had.)
+    if !material_textures.is_empty() {
+        h.field("material_textures", bytemuck::cast_slice(material_textures));
+    }
     h.0
 }
 

@@ -338,6 +338,12 @@ fn upload_scene(
     if kernel.uses("textures") {
         bound.push(small("textures", bytemuck::cast_slice(&gpu.textures))?);
     }
+    if kernel.uses("material_textures") {
+        bound.push(small(
+            "material_textures",
+            bytemuck::cast_slice(&gpu.material_textures),
+        )?);
+    }
     let big: [(&'static str, &[u8]); 8] = [
         ("triangles", bytemuck::cast_slice(&gpu.triangles)),
         ("bvh_nodes", bytemuck::cast_slice(&gpu.bvh_nodes)),
@@ -960,6 +966,7 @@ fn check_device_memory(
         meshes,
         texels,
         textures,
+        material_textures,
         light_triangles,
         env_texels,
         env_cdf,
@@ -967,7 +974,7 @@ fn check_device_memory(
         triangle_light: _,
         stats: _,
     } = gpu;
-    let arrays: [(&str, u64); 13] = [
+    let arrays: [(&str, u64); 14] = [
         ("spheres", std::mem::size_of_val(spheres.as_slice()) as u64),
         (
             "triangles",
@@ -994,6 +1001,10 @@ fn check_device_memory(
         (
             "texture table",
             std::mem::size_of_val(textures.as_slice()) as u64,
+        ),
+        (
+            "material textures",
+            std::mem::size_of_val(material_textures.as_slice()) as u64,
         ),
         (
             "texture texels",

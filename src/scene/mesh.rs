@@ -61,15 +61,31 @@ pub struct MeshMaps {
     pub normal_scale: f32,
 }
 
-/// An 8-bit sRGB-encoded RGBA image, rows from the top, as the shader samples it.
-#[derive(Clone, Debug, PartialEq)]
+/// An RGBA image, rows from the top, as the shader samples it (texture.wgsl): 8 bits per channel
+/// (PNG, JPEG: sRGB-encoded colour or linear data, as a texture reference says), or f16 (EXR, HDR:
+/// linear values).
+#[derive(Clone, PartialEq)]
 pub struct Texture {
     pub path: PathBuf,
     pub width: u32,
     pub height: u32,
-    /// `r | g << 8 | b << 16 | a << 24`, row-major from the top-left texel (WGSL's `unpack4x8unorm`
-    /// order). The sRGB transfer curve is undone in the shader, per texel, before filtering.
+    /// Row-major from the top-left texel. 8-bit: one word per texel, `r | g << 8 | b << 16 | a << 24`
+    /// (WGSL's `unpack4x8unorm` order). `half`: two words per texel, `r | g << 16` and `b | a << 16`, each
+    /// an IEEE binary16 (WGSL's `unpack2x16float` order).
     pub texels: Vec<u32>,
+    pub half: bool,
+}
+
+impl std::fmt::Debug for Texture {
+    /// The file, size and format; not the texels (millions of them).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Texture")
+            .field("path", &self.path)
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("half", &self.half)
+            .finish_non_exhaustive()
+    }
 }
 
 /// A mesh as the OBJ file gives it, in the file's own coordinates.
@@ -670,38 +686,39 @@ fn decode_texture(bytes: &[u8], path: &Path) -> Result<Texture, String> {
     let decoded = reader()?
         .decode()
         .map_err(|e| format!("cannot decode the texture {}: {e}", path.display()))?;
-    // PNG and JPEG hold sRGB-encoded values, as the shader expects. EXR and HDR decode to floats of
-    // linear radiance or reflectance: they are encoded to 8-bit sRGB here (clipped to [0, 1], where an
-    // albedo lies), so that the shader's decoding gives the linear values back (to 8-bit sRGB precision).
-    let rgba = match decoded {
+    // PNG and JPEG hold 8 bits per channel, RGBA8 on the device. EXR and HDR decode to floats (linear
+    // radiance, reflectance or heights): kept as RGBA f16 (two words per texel), unclipped, so that an
+    // emission or height map keeps its range. (Non-finite values become 0; f16 saturates at 65504.)
+    let (texels, half) = match decoded {
         image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_) => {
             let linear = decoded.to_rgba32f();
-            let encode = |v: f32| {
-                let v = if v.is_finite() {
-                    v.clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                (crate::film::srgb_encode(v) * 255.0).round() as u8
+            let h = |v: f32| {
+                let v = if v.is_finite() { v } else { 0.0 };
+                u32::from(half::f16::from_f32(v).to_bits())
             };
-            image::RgbaImage::from_fn(width, height, |x, y| {
-                let p = linear.get_pixel(x, y).0;
-                image::Rgba([
-                    encode(p[0]),
-                    encode(p[1]),
-                    encode(p[2]),
-                    (p[3].clamp(0.0, 1.0) * 255.0).round() as u8,
-                ])
-            })
+            let texels = linear
+                .pixels()
+                .flat_map(|p| {
+                    let [r, g, b, a] = p.0;
+                    [h(r) | h(g) << 16, h(b) | h(a) << 16]
+                })
+                .collect();
+            (texels, true)
         }
-        other => other.to_rgba8(),
+        other => {
+            let rgba = other.to_rgba8();
+            (
+                rgba.pixels().map(|p| u32::from_le_bytes(p.0)).collect(),
+                false,
+            )
+        }
     };
-    let texels = rgba.pixels().map(|p| u32::from_le_bytes(p.0)).collect();
     Ok(Texture {
         path: path.to_path_buf(),
         width,
         height,
         texels,
+        half,
     })
 }
 
@@ -709,25 +726,24 @@ fn decode_texture(bytes: &[u8], path: &Path) -> Result<Texture, String> {
 mod tests {
     use super::*;
 
-    /// JPEG textures are read as sRGB like PNG; EXR and HDR ones hold linear values, which are encoded to
-    /// 8-bit sRGB on loading (so the shader's decoding returns them), clipped to [0, 1].
+    /// JPEG textures are read as 8-bit texels like PNG; EXR and HDR ones keep their linear values as
+    /// f16, unclipped (1.5 stays 1.5).
     #[test]
-    fn jpeg_exr_and_hdr_textures_load_as_srgb_texels() {
+    fn jpeg_textures_load_as_8_bit_and_exr_and_hdr_as_half_floats() {
         let dir = tempfile::tempdir().unwrap();
-        // (Values HDR's shared-exponent RGBE holds exactly: multiples of 2^-7 below 2.)
+        // (Values HDR's shared-exponent RGBE and f16 both hold exactly: multiples of 2^-7 below 2.)
         let linear = [0.5f32, 0.0625, 1.5];
         let float = image::Rgb32FImage::from_fn(4, 2, |_, _| image::Rgb(linear));
         for ext in ["exr", "hdr"] {
             let path = dir.path().join(format!("t.{ext}"));
             float.save(&path).unwrap();
             let t = load_texture(&path).unwrap_or_else(|e| panic!("{ext}: {e}"));
-            assert_eq!((t.width, t.height), (4, 2));
-            let [r, g, b, a] = t.texels[5].to_le_bytes();
-            let want = |v: f32| (crate::film::srgb_encode(v.min(1.0)) * 255.0).round() as u8;
-            for (got, v) in [(r, linear[0]), (g, linear[1]), (b, linear[2])] {
-                assert!(got.abs_diff(want(v)) <= 1, "{ext}: {got} vs {}", want(v));
-            }
-            assert_eq!(a, 255);
+            assert_eq!((t.width, t.height, t.half), (4, 2, true));
+            assert_eq!(t.texels.len(), 16);
+            let f = |bits: u32| half::f16::from_bits(bits as u16).to_f32();
+            let (rg, ba) = (t.texels[10], t.texels[11]); // texel 5
+            let got = [f(rg & 0xffff), f(rg >> 16), f(ba & 0xffff), f(ba >> 16)];
+            assert_eq!(got, [linear[0], linear[1], linear[2], 1.0], "{ext}");
         }
         let srgb = image::RgbImage::from_fn(8, 8, |_, _| image::Rgb([200, 100, 50]));
         let path = dir.path().join("t.jpg");

@@ -13,6 +13,7 @@ pub mod mitsuba;
 mod parse;
 pub mod ply;
 pub mod shapes;
+pub mod texture;
 pub mod toml_text;
 
 use glam::Vec3;
@@ -21,6 +22,7 @@ use std::path::{Path, PathBuf};
 pub use environment::{Environment, EnvironmentMap};
 pub use mesh::{Mesh, Texture};
 pub use parse::SceneError;
+pub use texture::{MaterialTextures, TextureRef};
 
 /// The course's box of spheres, embedded so that `vkpath render` works with no file at all.
 pub const DEFAULT_SCENE_TOML: &str = include_str!("../../scenes/course.toml");
@@ -210,20 +212,38 @@ pub struct RenderSettings {
     pub clamp: Option<f32>,
 }
 
-/// A material: how its surface scatters light, and what it emits.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// A material: how its surface scatters light, and what it emits; its parameters' textures and its
+/// surface modifiers (opacity, bump and normal maps).
+#[derive(Clone, PartialEq)]
 pub struct Material {
+    /// The constant parameters (each the factor of its texture, when it has one).
     pub bsdf: Bsdf,
     /// `None`: the surface emits nothing.
     pub emission: Option<Emission>,
+    pub textures: MaterialTextures,
+}
+
+impl std::fmt::Debug for Material {
+    /// As derived, with `textures` only when there are any (so that a material without keeps the
+    /// form render::identity hashes).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let mut d = f.debug_struct("Material");
+        d.field("bsdf", &self.bsdf)
+            .field("emission", &self.emission);
+        if !self.textures.is_plain() {
+            d.field("textures", &self.textures);
+        }
+        d.finish()
+    }
 }
 
 impl From<Bsdf> for Material {
-    /// A material that does not emit.
+    /// A material that does not emit, without textures.
     fn from(bsdf: Bsdf) -> Material {
         Material {
             bsdf,
             emission: None,
+            textures: MaterialTextures::default(),
         }
     }
 }

@@ -18,6 +18,7 @@
 
 use super::environment::{self, Environment};
 use super::mesh::{self, Mesh, MeshMaps, ObjMesh, Placement, Texture};
+use super::texture::{MaterialTextures, TextureRef};
 use super::{
     Bsdf, CONDUCTOR_PRESETS, Camera, ConductorFresnel, Emission, Filter, Gamma, ImageSettings,
     Light, LightSampling, Material, Projection, RenderSettings, Roughness, Sampler, Scene, Sphere,
@@ -333,7 +334,14 @@ fn mtl_material(m: &mesh::FileMaterial) -> (Material, bool) {
             radiance,
             two_sided: false,
         });
-    (Material { bsdf, emission }, clipped)
+    (
+        Material {
+            bsdf,
+            emission,
+            textures: MaterialTextures::default(),
+        },
+        clipped,
+    )
 }
 
 /// One flat struct for every material type rather than a serde-tagged enum: a tagged enum buffers its
@@ -344,24 +352,29 @@ fn mtl_material(m: &mesh::FileMaterial) -> (Material, bool) {
 struct RawMaterial {
     #[serde(rename = "type")]
     kind: Spanned<String>,
-    albedo: Option<Spanned<RawVec3>>,
-    tint: Option<Spanned<RawVec3>>,
+    albedo: Option<Spanned<RawParam<RawVec3>>>,
+    tint: Option<Spanned<RawParam<RawVec3>>>,
     ior: Option<Spanned<f32>>,
     /// `conductor`: a named metal, or its complex index of refraction, or a base colour (Schlick).
     preset: Option<Spanned<String>>,
     eta: Option<Spanned<RawVec3>>,
     k: Option<Spanned<RawVec3>>,
-    base_color: Option<Spanned<RawVec3>>,
-    /// The glossy types: perceptual roughness, one number or [along u, along v].
+    base_color: Option<Spanned<RawParam<RawVec3>>>,
+    /// The glossy types: perceptual roughness, one number or [along u, along v], or a texture.
     roughness: Option<Spanned<RawRoughness>>,
     /// `metallic_roughness`.
-    metallic: Option<Spanned<f32>>,
+    metallic: Option<Spanned<RawParam<f32>>>,
     /// `emitter`: its radiance, and whether both faces emit.
-    radiance: Option<Spanned<RawVec3>>,
+    radiance: Option<Spanned<RawParam<RawVec3>>>,
     two_sided: Option<Spanned<bool>>,
     /// Any other type: what it emits besides scattering.
-    emission: Option<Spanned<RawVec3>>,
+    emission: Option<Spanned<RawParam<RawVec3>>>,
     two_sided_emission: Option<Spanned<bool>>,
+    /// Any type: the surface modifiers.
+    opacity: Option<Spanned<RawParam<f32>>>,
+    alpha_cutoff: Option<Spanned<f32>>,
+    bump: Option<Spanned<RawModifier>>,
+    normal_map: Option<Spanned<RawModifier>>,
 }
 
 #[derive(Deserialize)]
@@ -433,57 +446,217 @@ impl<'de> Deserialize<'de> for RawVec3 {
     }
 }
 
-/// `roughness` is one number (isotropic) or two, [along the tangent, along the bitangent].
+/// A texture reference (docs/scene-format.md, "Textured parameters"): an inline table in place of a
+/// parameter's constant, or a surface modifier (`bump`, `normal_map`, where `scale` is the modifier's
+/// number and the uv scale is `uv_scale`).
+#[derive(Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTextureRef {
+    texture: Spanned<String>,
+    channel: Option<Spanned<String>>,
+    color_space: Option<Spanned<String>>,
+    filter: Option<Spanned<String>>,
+    wrap: Option<Spanned<String>>,
+    /// The uv scale ([su, sv]); in `bump` and `normal_map` the modifier's scale (a number).
+    scale: Option<Spanned<RawScale>>,
+    uv_scale: Option<Spanned<RawVec2>>,
+    offset: Option<Spanned<RawVec2>>,
+    rotation: Option<Spanned<f32>>,
+    factor: Option<Spanned<RawFactor>>,
+}
+
+/// A texture reference's `scale`: a uv scale [su, sv], or (bump and normal maps) one number.
+#[derive(Clone)]
+enum RawScale {
+    Uv(RawVec2),
+    Number(f32),
+}
+
+/// A texture reference's `factor`: one number, or a colour [r, g, b].
+#[derive(Clone)]
+enum RawFactor {
+    Number(f32),
+    Color(RawVec3),
+}
+
+/// A parameter that is a constant `T` (a number or an array) or a texture reference (a table).
+enum RawParam<T> {
+    Constant(T),
+    Texture(Box<RawTextureRef>),
+}
+
+/// Numbers, collected from a TOML array.
+fn numbers<'de, A: serde::de::SeqAccess<'de>>(mut seq: A) -> Result<Vec<f32>, A::Error> {
+    let mut numbers = Vec::new();
+    while let Some(x) = seq.next_element::<f32>()? {
+        numbers.push(x);
+    }
+    Ok(numbers)
+}
+
+/// What a visitor of a number-or-array-or-table value does with each form; `expecting` names the forms.
+trait Forms: Sized {
+    const EXPECTING: &'static str;
+    fn number<E: serde::de::Error>(_: f32) -> Result<Self, E> {
+        Err(E::custom(format!("expected {}", Self::EXPECTING)))
+    }
+    fn numbers<E: serde::de::Error>(_: Vec<f32>) -> Result<Self, E> {
+        Err(E::custom(format!("expected {}", Self::EXPECTING)))
+    }
+    fn texture<E: serde::de::Error>(_: RawTextureRef) -> Result<Self, E> {
+        Err(E::custom(format!("expected {}", Self::EXPECTING)))
+    }
+}
+
+struct FormsVisitor<T>(std::marker::PhantomData<T>);
+
+impl<'de, T: Forms> Visitor<'de> for FormsVisitor<T> {
+    type Value = T;
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(T::EXPECTING)
+    }
+    fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<T, E> {
+        T::number(v as f32)
+    }
+    fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<T, E> {
+        T::number(v as f32)
+    }
+    fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<T, E> {
+        T::number(v as f32)
+    }
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, seq: A) -> Result<T, A::Error> {
+        T::numbers(numbers(seq)?)
+    }
+    fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<T, A::Error> {
+        let raw = RawTextureRef::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+        T::texture(raw)
+    }
+}
+
+/// Deserialize through [`Forms`].
+macro_rules! deserialize_forms {
+    ($t:ty) => {
+        impl<'de> Deserialize<'de> for $t {
+            fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+                deserializer.deserialize_any(FormsVisitor::<$t>(std::marker::PhantomData))
+            }
+        }
+    };
+}
+
+fn length_error<E: serde::de::Error>(n: usize, what: &'static str) -> E {
+    E::invalid_length(n, &what)
+}
+
+/// Two numbers ([u, v]).
 #[derive(Clone, Copy)]
+struct RawVec2([f32; 2]);
+
+impl Forms for RawVec2 {
+    const EXPECTING: &'static str = "an array of 2 numbers";
+    fn numbers<E: serde::de::Error>(v: Vec<f32>) -> Result<Self, E> {
+        <[f32; 2]>::try_from(v.as_slice())
+            .map(RawVec2)
+            .map_err(|_| length_error(v.len(), "an array of 2 numbers"))
+    }
+}
+deserialize_forms!(RawVec2);
+
+impl Forms for RawScale {
+    const EXPECTING: &'static str = "a uv scale [su, sv] (or, for bump and normal_map, a number)";
+    fn number<E: serde::de::Error>(v: f32) -> Result<Self, E> {
+        Ok(RawScale::Number(v))
+    }
+    fn numbers<E: serde::de::Error>(v: Vec<f32>) -> Result<Self, E> {
+        RawVec2::numbers(v).map(RawScale::Uv)
+    }
+}
+deserialize_forms!(RawScale);
+
+impl Forms for RawFactor {
+    const EXPECTING: &'static str = "a number or an array of 3 numbers [r, g, b]";
+    fn number<E: serde::de::Error>(v: f32) -> Result<Self, E> {
+        Ok(RawFactor::Number(v))
+    }
+    fn numbers<E: serde::de::Error>(v: Vec<f32>) -> Result<Self, E> {
+        <[f32; 3]>::try_from(v.as_slice())
+            .map(|c| RawFactor::Color(RawVec3(c)))
+            .map_err(|_| length_error(v.len(), "an array of 3 numbers"))
+    }
+}
+deserialize_forms!(RawFactor);
+
+impl Forms for RawParam<RawVec3> {
+    const EXPECTING: &'static str =
+        "an array of 3 numbers [r, g, b] or a texture table { texture = \"file\", ... }";
+    fn numbers<E: serde::de::Error>(v: Vec<f32>) -> Result<Self, E> {
+        <[f32; 3]>::try_from(v.as_slice())
+            .map(|c| RawParam::Constant(RawVec3(c)))
+            .map_err(|_| length_error(v.len(), "an array of 3 numbers"))
+    }
+    fn texture<E: serde::de::Error>(t: RawTextureRef) -> Result<Self, E> {
+        Ok(RawParam::Texture(Box::new(t)))
+    }
+}
+deserialize_forms!(RawParam<RawVec3>);
+
+impl Forms for RawParam<f32> {
+    const EXPECTING: &'static str = "a number or a texture table { texture = \"file\", ... }";
+    fn number<E: serde::de::Error>(v: f32) -> Result<Self, E> {
+        Ok(RawParam::Constant(v))
+    }
+    fn texture<E: serde::de::Error>(t: RawTextureRef) -> Result<Self, E> {
+        Ok(RawParam::Texture(Box::new(t)))
+    }
+}
+deserialize_forms!(RawParam<f32>);
+
+impl Forms for RawTextureRef {
+    const EXPECTING: &'static str = "a texture table { texture = \"file\", ... }";
+    fn texture<E: serde::de::Error>(t: RawTextureRef) -> Result<Self, E> {
+        Ok(t)
+    }
+}
+
+/// A surface modifier's table (`bump`, `normal_map`).
+struct RawModifier(RawTextureRef);
+
+impl<'de> Deserialize<'de> for RawModifier {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        deserializer
+            .deserialize_any(FormsVisitor::<RawTextureRef>(std::marker::PhantomData))
+            .map(RawModifier)
+    }
+}
+
+/// `roughness` is one number (isotropic) or two, [along the tangent, along the bitangent], or a texture
+/// (both axes).
 enum RawRoughness {
     Isotropic(f32),
     Anisotropic(f32, f32),
+    Texture(Box<RawTextureRef>),
 }
 
-impl<'de> Deserialize<'de> for RawRoughness {
-    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
-        struct RoughnessVisitor;
-
-        impl<'de> Visitor<'de> for RoughnessVisitor {
-            type Value = RawRoughness;
-
-            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                f.write_str("a number in [0, 1] or an array of 2 (along u, along v)")
-            }
-
-            fn visit_f64<E>(self, v: f64) -> Result<RawRoughness, E> {
-                Ok(RawRoughness::Isotropic(v as f32))
-            }
-
-            fn visit_i64<E>(self, v: i64) -> Result<RawRoughness, E> {
-                Ok(RawRoughness::Isotropic(v as f32))
-            }
-
-            fn visit_u64<E>(self, v: u64) -> Result<RawRoughness, E> {
-                Ok(RawRoughness::Isotropic(v as f32))
-            }
-
-            fn visit_seq<A: serde::de::SeqAccess<'de>>(
-                self,
-                mut seq: A,
-            ) -> Result<RawRoughness, A::Error> {
-                let mut numbers = Vec::new();
-                while let Some(x) = seq.next_element::<f32>()? {
-                    numbers.push(x);
-                }
-                match numbers[..] {
-                    [u, v] => Ok(RawRoughness::Anisotropic(u, v)),
-                    _ => Err(serde::de::Error::invalid_length(
-                        numbers.len(),
-                        &"an array of 2 numbers (along u, along v)",
-                    )),
-                }
-            }
+impl Forms for RawRoughness {
+    const EXPECTING: &'static str =
+        "a number in [0, 1], an array of 2 (along u, along v) or a texture table";
+    fn number<E: serde::de::Error>(v: f32) -> Result<Self, E> {
+        Ok(RawRoughness::Isotropic(v))
+    }
+    fn numbers<E: serde::de::Error>(v: Vec<f32>) -> Result<Self, E> {
+        match v[..] {
+            [u, v] => Ok(RawRoughness::Anisotropic(u, v)),
+            _ => Err(length_error(
+                v.len(),
+                "an array of 2 numbers (along u, along v)",
+            )),
         }
-
-        deserializer.deserialize_any(RoughnessVisitor)
+    }
+    fn texture<E: serde::de::Error>(t: RawTextureRef) -> Result<Self, E> {
+        Ok(RawRoughness::Texture(Box::new(t)))
     }
 }
+deserialize_forms!(RawRoughness);
 
 /// `gamma` is either a number or a name; which names are valid is decided in `Checker::image` so that
 /// the error can list them.
@@ -568,10 +741,16 @@ impl Checker<'_> {
         // TOML has already rejected duplicate names, so sorting by position is a total order.
         let mut named: Vec<_> = raw.materials.iter().collect();
         named.sort_by_key(|(name, _)| name.span().start);
+        // Relative model and image paths are relative to the scene file (to the working directory for the
+        // embedded scene). A file used by several meshes or materials is read once.
+        let mut files = Files {
+            base,
+            loaded: LoadedFiles::default(),
+        };
         let mut materials = Vec::with_capacity(named.len());
         let mut material_names = Vec::with_capacity(named.len());
         for (name, material) in named {
-            materials.push(self.material(name.get_ref(), material)?);
+            materials.push(self.material(name.get_ref(), material, &mut files)?);
             material_names.push(name.get_ref().clone());
         }
 
@@ -583,14 +762,18 @@ impl Checker<'_> {
         for (i, triangle) in raw.triangle.iter().enumerate() {
             triangles.push(self.triangle(i, triangle.get_ref(), &material_names)?);
         }
-        // Relative model paths are relative to the scene file (to the working directory for the embedded
-        // scene). A file used by several meshes is read once.
-        let mut files = LoadedFiles::default();
         let mut meshes = Vec::with_capacity(raw.mesh.len());
         let mut total = triangles.len();
         let mut warnings = Vec::new();
         for (i, mesh) in raw.mesh.iter().enumerate() {
-            let table = self.mesh(i, mesh, &material_names, &materials, base, &mut files)?;
+            let table = self.mesh(
+                i,
+                mesh,
+                &material_names,
+                &materials,
+                base,
+                &mut files.loaded,
+            )?;
             total += table
                 .meshes
                 .iter()
@@ -1073,22 +1256,35 @@ impl Checker<'_> {
         Ok((settings, background))
     }
 
-    fn material(&self, name: &str, raw: &Spanned<RawMaterial>) -> Result<Material, SceneError> {
+    fn material(
+        &self,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+        files: &mut Files,
+    ) -> Result<Material, SceneError> {
         let m = raw.get_ref();
         let key = |field: &str| format!("materials.{name}.{field}");
         let kind = m.kind.get_ref().as_str();
-        let radiance = |v: &Spanned<RawVec3>, field: &str| {
-            self.vec3_unless(
+        let mut textures = MaterialTextures::default();
+        let radiance = |v: &Spanned<RawParam<RawVec3>>,
+                        field: &str,
+                        files: &mut Files,
+                        slot: &mut Option<TextureRef>| {
+            self.color_param(
                 v,
                 &key(field),
                 |r| r.min_element() < 0.0,
                 "emitted radiance cannot be negative",
                 "Give a linear RGB radiance in W sr^-1 m^-2 with components >= 0.",
+                files,
+                slot,
             )
         };
         // Each type allows only some of the optional keys; a key for another type is treated like any
-        // unknown key rather than silently ignored. Every type but `emitter` may also emit.
+        // unknown key rather than silently ignored. Every type but `emitter` may also emit; every type
+        // takes the surface modifiers.
         const EMISSION: [&str; 2] = ["emission", "two_sided_emission"];
+        const MODIFIERS: [&str; 4] = ["opacity", "alpha_cutoff", "bump", "normal_map"];
         let (allowed, bsdf): (&[&str], _) = match kind {
             "diffuse" => {
                 let albedo = self.required(
@@ -1097,12 +1293,14 @@ impl Checker<'_> {
                     &key("albedo"),
                     "a diffuse material needs an albedo",
                 )?;
-                let albedo = self.vec3_unless(
+                let albedo = self.color_param(
                     albedo,
                     &key("albedo"),
                     |a| !in_unit_range(a),
                     "every albedo component must be in [0, 1]",
                     "Albedo is the fraction of light reflected per channel; energy conservation needs it in [0, 1].",
+                    files,
+                    &mut textures.albedo,
                 )?;
                 (
                     &["albedo", EMISSION[0], EMISSION[1]],
@@ -1110,15 +1308,18 @@ impl Checker<'_> {
                 )
             }
             "mirror" => {
-                let tint = m.tint.as_ref().map_or(Ok(Vec3::ONE), |t| {
-                    self.vec3_unless(
+                let tint = match &m.tint {
+                    None => Vec3::ONE,
+                    Some(t) => self.color_param(
                         t,
                         &key("tint"),
                         |t| !in_unit_range(t),
                         "every tint component must be in [0, 1]",
                         "The tint scales reflected light per channel; leave it out for a perfect white mirror.",
-                    )
-                })?;
+                        files,
+                        &mut textures.albedo,
+                    )?,
+                };
                 (&["tint", EMISSION[0], EMISSION[1]], Bsdf::Mirror { tint })
             }
             "dielectric" => {
@@ -1129,7 +1330,12 @@ impl Checker<'_> {
                     "a dielectric material needs an ior",
                 )?;
                 let ior = self.ior(ior, &key("ior"))?;
-                let roughness = self.roughness(&m.roughness, &key("roughness"))?;
+                let roughness = self.roughness(
+                    &m.roughness,
+                    &key("roughness"),
+                    files,
+                    &mut textures.roughness,
+                )?;
                 (
                     &["ior", "roughness", EMISSION[0], EMISSION[1]],
                     Bsdf::Dielectric { ior, roughness },
@@ -1146,8 +1352,13 @@ impl Checker<'_> {
                     EMISSION[1],
                 ],
                 Bsdf::Conductor {
-                    fresnel: self.conductor_fresnel(name, raw)?,
-                    roughness: self.roughness(&m.roughness, &key("roughness"))?,
+                    fresnel: self.conductor_fresnel(name, raw, files, &mut textures.albedo)?,
+                    roughness: self.roughness(
+                        &m.roughness,
+                        &key("roughness"),
+                        files,
+                        &mut textures.roughness,
+                    )?,
                 },
             ),
             "plastic" => {
@@ -1157,12 +1368,18 @@ impl Checker<'_> {
                     &key("albedo"),
                     "a plastic material needs an albedo (the colour of its diffuse base)",
                 )?;
-                let albedo = self.unit_color(albedo, &key("albedo"))?;
+                let albedo =
+                    self.unit_color(albedo, &key("albedo"), files, &mut textures.albedo)?;
                 let ior = match &m.ior {
                     Some(ior) => self.ior(ior, &key("ior"))?,
                     None => PLASTIC_DEFAULT_IOR,
                 };
-                let roughness = self.roughness(&m.roughness, &key("roughness"))?;
+                let roughness = self.roughness(
+                    &m.roughness,
+                    &key("roughness"),
+                    files,
+                    &mut textures.roughness,
+                )?;
                 (
                     &["albedo", "ior", "roughness", EMISSION[0], EMISSION[1]],
                     Bsdf::Plastic {
@@ -1174,23 +1391,32 @@ impl Checker<'_> {
             }
             "metallic_roughness" => {
                 let base_color = match &m.base_color {
-                    Some(c) => self.unit_color(c, &key("base_color"))?,
+                    Some(c) => {
+                        self.unit_color(c, &key("base_color"), files, &mut textures.albedo)?
+                    }
                     None => Vec3::ONE,
                 };
                 let metallic = match &m.metallic {
-                    Some(v) => self.number_unless(
+                    Some(v) => self.scalar_param(
                         v,
                         &key("metallic"),
                         |x| !(0.0..=1.0).contains(&x),
                         "metallic must be in [0, 1]",
                         "0 is a dielectric (plastic-like), 1 a metal; glTF's default is 1.",
+                        files,
+                        &mut textures.metallic,
                     )?,
                     None => 1.0,
                 };
                 // glTF's default roughness is 1.
                 let roughness = match &m.roughness {
                     None => 1.0,
-                    Some(r) => match self.roughness(&m.roughness, &key("roughness"))? {
+                    Some(r) => match self.roughness(
+                        &m.roughness,
+                        &key("roughness"),
+                        files,
+                        &mut textures.roughness,
+                    )? {
                         Roughness { u, v } if u == v => u,
                         _ => {
                             return Err(self.error(
@@ -1247,9 +1473,10 @@ impl Checker<'_> {
                 m.two_sided_emission.as_ref().map(Spanned::span),
             ),
         ];
+        let allowed: Vec<&str> = allowed.iter().chain(MODIFIERS.iter()).copied().collect();
         self.reject_foreign_keys(
             &present,
-            allowed,
+            &allowed,
             &format!("materials.{name}"),
             &format!("a {kind} material"),
         )?;
@@ -1261,13 +1488,13 @@ impl Checker<'_> {
                 "an emitter material needs a radiance",
             )?;
             Some(Emission {
-                radiance: radiance(r, "radiance")?,
+                radiance: radiance(r, "radiance", files, &mut textures.emission)?,
                 two_sided: m.two_sided.as_ref().is_some_and(|t| *t.get_ref()),
             })
         } else {
             match (&m.emission, &m.two_sided_emission) {
                 (Some(e), two_sided) => Some(Emission {
-                    radiance: radiance(e, "emission")?,
+                    radiance: radiance(e, "emission", files, &mut textures.emission)?,
                     two_sided: two_sided.as_ref().is_some_and(|t| *t.get_ref()),
                 }),
                 (None, Some(t)) => {
@@ -1281,7 +1508,264 @@ impl Checker<'_> {
                 (None, None) => None,
             }
         };
-        Ok(Material { bsdf, emission })
+        self.modifiers(name, m, files, &mut textures)?;
+        Ok(Material {
+            bsdf,
+            emission,
+            textures,
+        })
+    }
+
+    /// The surface modifiers any material takes: `opacity` (a number in [0, 1] or a texture),
+    /// `alpha_cutoff` (in [0, 1]: a cut-out), `bump` and `normal_map` (texture tables whose `scale` is a
+    /// number: height in scene units per unit of texel, and the factor of the normal's x and y).
+    fn modifiers(
+        &self,
+        name: &str,
+        m: &RawMaterial,
+        files: &mut Files,
+        textures: &mut MaterialTextures,
+    ) -> Result<(), SceneError> {
+        let key = |field: &str| format!("materials.{name}.{field}");
+        if let Some(o) = &m.opacity {
+            textures.opacity_value = self.scalar_param(
+                o,
+                &key("opacity"),
+                |x| !(0.0..=1.0).contains(&x),
+                "opacity must be in [0, 1]",
+                "Opacity is the fraction of light the surface stops: 1 is opaque (the default), 0 invisible.",
+                files,
+                &mut textures.opacity,
+            )?;
+        }
+        if let Some(c) = &m.alpha_cutoff {
+            textures.alpha_cutoff = Some(self.number_unless(
+                c,
+                &key("alpha_cutoff"),
+                |x| !(0.0..=1.0).contains(&x),
+                "alpha_cutoff must be in [0, 1]",
+                "Opacity below the cutoff is a hole, at or above it solid (glTF's alphaMode MASK; 0.5 is its default).",
+            )?);
+        }
+        for (field, raw, slot) in [
+            ("bump", &m.bump, &mut textures.bump),
+            ("normal_map", &m.normal_map, &mut textures.normal_map),
+        ] {
+            let Some(raw) = raw else { continue };
+            let t = Spanned::new(raw.span(), &raw.get_ref().0);
+            let (r, scale) = self.texture_ref(&t, &key(field), false, true, files)?;
+            *slot = Some((r, scale.unwrap_or(1.0)));
+        }
+        Ok(())
+    }
+
+    /// A colour parameter: its constant (checked by `bad`), or a texture reference, recorded in `slot`,
+    /// whose factor (default white, checked the same way) becomes the constant.
+    #[allow(clippy::too_many_arguments)]
+    fn color_param(
+        &self,
+        v: &Spanned<RawParam<RawVec3>>,
+        key: &str,
+        bad: impl Fn(Vec3) -> bool,
+        problem: &str,
+        hint: &str,
+        files: &mut Files,
+        slot: &mut Option<TextureRef>,
+    ) -> Result<Vec3, SceneError> {
+        match v.get_ref() {
+            RawParam::Constant(c) => {
+                self.vec3_unless(&Spanned::new(v.span(), *c), key, bad, problem, hint)
+            }
+            RawParam::Texture(t) => {
+                let (r, _) =
+                    self.texture_ref(&Spanned::new(v.span(), &**t), key, true, false, files)?;
+                let factor = match &t.factor {
+                    None => Vec3::ONE,
+                    Some(f) => {
+                        let c = match f.get_ref() {
+                            RawFactor::Number(x) => RawVec3([*x; 3]),
+                            RawFactor::Color(c) => *c,
+                        };
+                        let fkey = format!("{key}.factor");
+                        self.vec3_unless(&Spanned::new(f.span(), c), &fkey, bad, problem, hint)?
+                    }
+                };
+                *slot = Some(r);
+                Ok(factor)
+            }
+        }
+    }
+
+    /// A scalar parameter: its constant (checked by `bad`), or a texture reference, recorded in `slot`,
+    /// whose factor (a number, default 1, checked the same way) becomes the constant.
+    #[allow(clippy::too_many_arguments)]
+    fn scalar_param(
+        &self,
+        v: &Spanned<RawParam<f32>>,
+        key: &str,
+        bad: impl Fn(f32) -> bool,
+        problem: &str,
+        hint: &str,
+        files: &mut Files,
+        slot: &mut Option<TextureRef>,
+    ) -> Result<f32, SceneError> {
+        match v.get_ref() {
+            RawParam::Constant(x) => {
+                self.number_unless(&Spanned::new(v.span(), *x), key, bad, problem, hint)
+            }
+            RawParam::Texture(t) => {
+                let (r, _) =
+                    self.texture_ref(&Spanned::new(v.span(), &**t), key, false, false, files)?;
+                let factor = match &t.factor {
+                    None => 1.0,
+                    Some(f) => match f.get_ref() {
+                        RawFactor::Number(x) => {
+                            let fkey = format!("{key}.factor");
+                            self.number_unless(
+                                &Spanned::new(f.span(), *x),
+                                &fkey,
+                                bad,
+                                problem,
+                                hint,
+                            )?
+                        }
+                        RawFactor::Color(_) => {
+                            return Err(self.error(
+                                f.span(),
+                                &format!("{key}.factor"),
+                                "the factor of a scalar parameter is one number",
+                                "Give `factor = 0.5`, say; [r, g, b] factors are for colours.",
+                            ));
+                        }
+                    },
+                };
+                *slot = Some(r);
+                Ok(factor)
+            }
+        }
+    }
+
+    /// A texture reference: the image (relative to the scene file, read once however many references
+    /// name it) and how it is read; with `modifier` (bump, normal_map), also the modifier's `scale`.
+    fn texture_ref(
+        &self,
+        raw: &Spanned<&RawTextureRef>,
+        key: &str,
+        colour: bool,
+        modifier: bool,
+        files: &mut Files,
+    ) -> Result<(TextureRef, Option<f32>), SceneError> {
+        use super::texture::{Channel, TextureFilter, Wrap};
+        let t = *raw.get_ref();
+        let sub = |field: &str| format!("{key}.{field}");
+        let image = self.mesh_texture(
+            &t.texture,
+            &sub("texture"),
+            files.base,
+            &mut files.loaded,
+            "The path is relative to the scene file; PNG, JPEG, EXR and HDR images are read.",
+        )?;
+        let mut r = TextureRef::plain(image, colour);
+        if !colour {
+            r.channel = Channel::R;
+        }
+        let choose = |v: &Option<Spanned<String>>, field: &str, names: &[&str]| {
+            let Some(v) = v else { return Ok(None) };
+            let given = v.get_ref().as_str();
+            match names.iter().position(|n| *n == given) {
+                Some(i) => Ok(Some(i)),
+                None => Err(self.error(
+                    v.span(),
+                    &sub(field),
+                    format!("unknown {field} \"{given}\""),
+                    format!(
+                        "Use one of {}.",
+                        names
+                            .iter()
+                            .map(|n| format!("\"{n}\""))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )),
+            }
+        };
+        let names: Vec<&str> = Channel::ALL.iter().map(|(_, n)| *n).collect();
+        if let Some(i) = choose(&t.channel, "channel", &names)? {
+            r.channel = Channel::ALL[i].0;
+        }
+        if let Some(i) = choose(&t.color_space, "color_space", &["srgb", "linear"])? {
+            r.srgb = i == 0;
+        }
+        if let Some(i) = choose(&t.filter, "filter", &["bilinear", "nearest"])? {
+            r.filter = [TextureFilter::Bilinear, TextureFilter::Nearest][i];
+        }
+        if let Some(i) = choose(&t.wrap, "wrap", &["repeat", "clamp", "mirror"])? {
+            r.wrap = [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror][i];
+        }
+        let vec2 = |v: &Spanned<RawVec2>, field: &str| -> Result<[f32; 2], SceneError> {
+            let [a, b] = v.get_ref().0;
+            if !(a.is_finite() && b.is_finite()) {
+                return Err(self.not_finite(v.span(), &sub(field), &format!("[{a}, {b}]")));
+            }
+            Ok([a, b])
+        };
+        let mut modifier_scale = None;
+        if let Some(sc) = &t.scale {
+            match sc.get_ref() {
+                RawScale::Uv(uv) if !modifier => {
+                    r.scale = vec2(&Spanned::new(sc.span(), *uv), "scale")?
+                }
+                RawScale::Number(x) if modifier => {
+                    modifier_scale = Some(self.number(&Spanned::new(sc.span(), *x), &sub("scale"))?)
+                }
+                _ if modifier => {
+                    return Err(self.error(
+                        sc.span(),
+                        &sub("scale"),
+                        "a bump or normal map's scale is one number",
+                        "`scale` is the bump map's height per unit of texel (scene units), or the normal map's \
+                         factor of x and y; the uv scale of a modifier's texture is `uv_scale = [su, sv]`.",
+                    ));
+                }
+                _ => {
+                    return Err(self.error(
+                        sc.span(),
+                        &sub("scale"),
+                        "a texture's scale is an array [su, sv]",
+                        "uv' = R(rotation) (scale * uv) + offset; give `scale = [4.0, 4.0]` to repeat the image 4 times each way.",
+                    ));
+                }
+            }
+        }
+        if let Some(uv) = &t.uv_scale {
+            if !modifier {
+                return Err(self.error(
+                    uv.span(),
+                    &sub("uv_scale"),
+                    "uv_scale is for bump and normal maps, whose `scale` is a number",
+                    "A parameter's texture takes its uv scale as `scale = [su, sv]`.",
+                ));
+            }
+            r.scale = vec2(uv, "uv_scale")?;
+        }
+        if let Some(o) = &t.offset {
+            r.offset = vec2(o, "offset")?;
+        }
+        if let Some(rot) = &t.rotation {
+            r.rotation_deg = self.number(rot, &sub("rotation"))?;
+        }
+        if modifier {
+            if let Some(f) = &t.factor {
+                return Err(self.error(
+                    f.span(),
+                    &sub("factor"),
+                    "a bump or normal map takes `scale`, not `factor`",
+                    "Give the bump height per unit of texel (or the normal map's strength) as `scale`.",
+                ));
+            }
+        }
+        let _ = raw.span();
+        Ok((r, modifier_scale))
     }
 
     /// An index of refraction: finite and > 0.
@@ -1295,29 +1779,53 @@ impl Checker<'_> {
         )
     }
 
-    /// A colour whose components are reflectances, in [0, 1].
-    fn unit_color(&self, c: &Spanned<RawVec3>, key: &str) -> Result<Vec3, SceneError> {
-        self.vec3_unless(
+    /// A colour whose components are reflectances, in [0, 1] (or a texture, whose factor is).
+    fn unit_color(
+        &self,
+        c: &Spanned<RawParam<RawVec3>>,
+        key: &str,
+        files: &mut Files,
+        slot: &mut Option<TextureRef>,
+    ) -> Result<Vec3, SceneError> {
+        self.color_param(
             c,
             key,
             |a| !in_unit_range(a),
             "every component must be in [0, 1]",
             "A reflectance is the fraction of light reflected per channel; energy conservation needs it in [0, 1].",
+            files,
+            slot,
         )
     }
 
-    /// `roughness`: absent (smooth), one number or two, each in [0, 1].
+    /// `roughness`: absent (smooth), one number or two, each in [0, 1], or a texture (both axes; its
+    /// factor, default 1, is the constant).
     fn roughness(
         &self,
         raw: &Option<Spanned<RawRoughness>>,
         key: &str,
+        files: &mut Files,
+        slot: &mut Option<TextureRef>,
     ) -> Result<Roughness, SceneError> {
         let Some(r) = raw else {
             return Ok(Roughness::SMOOTH);
         };
-        let (u, v) = match *r.get_ref() {
-            RawRoughness::Isotropic(x) => (x, x),
-            RawRoughness::Anisotropic(u, v) => (u, v),
+        let (u, v) = match r.get_ref() {
+            RawRoughness::Isotropic(x) => (*x, *x),
+            RawRoughness::Anisotropic(u, v) => (*u, *v),
+            RawRoughness::Texture(t) => {
+                let param = Spanned::new(r.span(), RawParam::<f32>::Texture(t.clone()));
+                let x = self.scalar_param(
+                    &param,
+                    key,
+                    |x| !(0.0..=1.0).contains(&x),
+                    "roughness must be in [0, 1]",
+                    "The texture's value times its factor is the roughness: 0 smooth, 1 the roughest.",
+                    files,
+                    slot,
+                )?;
+                (x, x)
+            }
         };
         for x in [u, v] {
             if !x.is_finite() {
@@ -1341,6 +1849,8 @@ impl Checker<'_> {
         &self,
         name: &str,
         raw: &Spanned<RawMaterial>,
+        files: &mut Files,
+        slot: &mut Option<TextureRef>,
     ) -> Result<ConductorFresnel, SceneError> {
         let m = raw.get_ref();
         let key = |field: &str| format!("materials.{name}.{field}");
@@ -1387,7 +1897,7 @@ impl Checker<'_> {
                 Ok(ConductorFresnel::Complex { eta, k })
             }
             (None, None, None, Some(c)) => Ok(ConductorFresnel::Schlick {
-                f0: self.unit_color(c, &key("base_color"))?,
+                f0: self.unit_color(c, &key("base_color"), files, slot)?,
             }),
             (None, Some(_), None, None) => Err(self.error(
                 m.eta.as_ref().map_or(0..0, Spanned::span),
@@ -1549,6 +2059,7 @@ impl Checker<'_> {
                     Some(Material {
                         bsdf: Bsdf::Dielectric { .. },
                         emission: None,
+                        ..
                     }) => Some("a dielectric that does not emit"),
                     Some(Material {
                         bsdf:
@@ -1557,6 +2068,7 @@ impl Checker<'_> {
                                 ..
                             },
                         emission: None,
+                        ..
                     }) => Some("a conductor given by its index of refraction that does not emit"),
                     _ => None,
                 };
@@ -1679,7 +2191,11 @@ impl Checker<'_> {
         };
         let place =
             |obj: &ObjMesh, material: u32, texture: Option<Arc<Texture>>, maps: MeshMaps| {
+                // (Texture coordinates are kept for the material's own textures too.)
                 let textured = texture.is_some()
+                    || !materials
+                        .get(material as usize)
+                        .is_none_or(|m| m.textures.is_plain())
                     || maps.emissive.is_some()
                     || maps.metallic_roughness.is_some()
                     || maps.normal.is_some();
@@ -2316,6 +2832,13 @@ impl Checker<'_> {
 struct LoadedFiles {
     objs: HashMap<PathBuf, Arc<ObjMesh>>,
     textures: HashMap<PathBuf, Arc<Texture>>,
+}
+
+/// The files a scene reads besides itself (meshes, images), relative to `base` (the scene file's
+/// directory), each read once however many keys name it.
+struct Files<'a> {
+    base: &'a Path,
+    loaded: LoadedFiles,
 }
 
 fn in_unit_range(v: Vec3) -> bool {

@@ -1,0 +1,496 @@
+//! Textured material parameters and surface modifiers (docs/scene-format.md, "Textured parameters"),
+//! rendered and held against independent expectations: texture lookups against an f64 CPU
+//! implementation of the filter, wrap modes, uv transform and sRGB decoding; a constant texture against
+//! the constant; a roughness checkerboard against the mix of its two constant furnaces; a bump map of
+//! constant slope against the analytic shading of the tilted plane; cut-outs and stochastic opacity
+//! against the fractions of light they let through, for camera and shadow rays.
+//!
+//! The lookups are seen directly: an emitter whose radiance is the texture, under an orthographic camera
+//! without a pixel filter (every sample through the pixel centre), so that each pixel is one lookup at a
+//! known uv.
+
+mod common;
+
+use common::{mean_and_se, render_passes};
+use std::path::{Path, PathBuf};
+use vkpath::Scene;
+use vkpath::render::RenderOptions;
+
+/// A scene's TOML in `dir` (so that its texture paths are relative to it).
+fn scene_in(dir: &Path, toml: &str) -> Scene {
+    Scene::from_toml_str(toml, Some(&dir.join("scene.toml")))
+        .unwrap_or_else(|e| panic!("test scene is invalid: {e}"))
+}
+
+fn render(scene: &Scene, generic: bool) -> vkpath::Film {
+    let options = RenderOptions {
+        generic,
+        ..RenderOptions::default()
+    };
+    render_passes(scene, &options, 1, scene.render.samples)
+}
+
+/// The unit square z = 0 as an OBJ whose uvs are its (x, y), front face +z.
+fn write_square(dir: &Path) -> PathBuf {
+    let path = dir.join("square.obj");
+    std::fs::write(
+        &path,
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n",
+    )
+    .unwrap();
+    path
+}
+
+/// An orthographic view of the unit square from +z, `n` x `n` pixels exactly covering it, pixel centres
+/// only: pixel (i, j) sees (x, y) = ((i + 1/2) / n, 1 - (j + 1/2) / n).
+fn square_view(n: u32, spp: u32, bounces: u32) -> String {
+    format!(
+        "[camera]\ntype = \"orthographic\"\nposition = [0.5, 0.5, 1.0]\nlook_at = [0.5, 0.5, 0.0]\nextent = 1.0\n\
+         [image]\nwidth = {n}\nheight = {n}\n\
+         [render]\nsamples = {spp}\nmax_bounces = {bounces}\nfilter = \"none\"\n"
+    )
+}
+
+fn srgb_decode(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// An f64 texture lookup: the image `texels` (w x h RGBA8, rows from the top) at uv, after the uv
+/// transform, wrapped and filtered as texture.wgsl documents.
+struct CpuTexture {
+    w: usize,
+    h: usize,
+    texels: Vec<[u8; 4]>,
+    srgb: bool,
+}
+
+impl CpuTexture {
+    fn texel(&self, x: usize, y: usize) -> [f64; 3] {
+        let t = self.texels[y * self.w + x];
+        [0, 1, 2].map(|k| {
+            let c = f64::from(t[k]) / 255.0;
+            if self.srgb { srgb_decode(c) } else { c }
+        })
+    }
+
+    fn wrap(u: f64, wrap: &str) -> f64 {
+        match wrap {
+            "clamp" => u.clamp(0.0, 1.0),
+            "mirror" => {
+                let t = u.rem_euclid(2.0);
+                if t > 1.0 { 2.0 - t } else { t }
+            }
+            _ => u.rem_euclid(1.0),
+        }
+    }
+
+    fn index(i: i64, n: usize, wrap: &str) -> usize {
+        match wrap {
+            "repeat" => i.rem_euclid(n as i64) as usize,
+            _ => i.clamp(0, n as i64 - 1) as usize,
+        }
+    }
+
+    fn lookup(&self, uv: [f64; 2], wrap: &str, nearest: bool) -> [f64; 3] {
+        let (u, v) = (Self::wrap(uv[0], wrap), Self::wrap(uv[1], wrap));
+        if nearest {
+            let x = ((u * self.w as f64) as usize).min(self.w - 1);
+            let y = (((1.0 - v) * self.h as f64) as usize).min(self.h - 1);
+            return self.texel(x, y);
+        }
+        let x = u * self.w as f64 - 0.5;
+        let y = (1.0 - v) * self.h as f64 - 0.5;
+        let (xf, yf) = (x.floor(), y.floor());
+        let (fx, fy) = (x - xf, y - yf);
+        let (x0, x1) = (
+            Self::index(xf as i64, self.w, wrap),
+            Self::index(xf as i64 + 1, self.w, wrap),
+        );
+        let (y0, y1) = (
+            Self::index(yf as i64, self.h, wrap),
+            Self::index(yf as i64 + 1, self.h, wrap),
+        );
+        let (a, b, c, d) = (
+            self.texel(x0, y0),
+            self.texel(x1, y0),
+            self.texel(x0, y1),
+            self.texel(x1, y1),
+        );
+        [0, 1, 2].map(|k| {
+            (1.0 - fx) * (1.0 - fy) * a[k]
+                + fx * (1.0 - fy) * b[k]
+                + (1.0 - fx) * fy * c[k]
+                + fx * fy * d[k]
+        })
+    }
+}
+
+/// A 5 x 3 image of fixed pseudo-random texels, saved as PNG.
+fn test_image(dir: &Path) -> CpuTexture {
+    let (w, h) = (5usize, 3usize);
+    let mut state = 12345u32;
+    let texels: Vec<[u8; 4]> = (0..w * h)
+        .map(|_| {
+            [0; 4].map(|_| {
+                state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                (state >> 24) as u8
+            })
+        })
+        .collect();
+    let img = image::RgbaImage::from_fn(w as u32, h as u32, |x, y| {
+        image::Rgba(texels[y as usize * w + x as usize])
+    });
+    img.save(dir.join("t.png")).unwrap();
+    CpuTexture {
+        w,
+        h,
+        texels,
+        srgb: true,
+    }
+}
+
+/// Every pixel of an emitter whose radiance is the texture equals the f64 lookup at the pixel's uv:
+/// bilinear with each wrap mode (the uv transform maps the square to [-0.7, 1.7]^2 rotated, so that
+/// every wrap is exercised), nearest, sRGB and linear decoding, a factor. Tolerance: f32 rounding of
+/// the transform, weights and decoding (relative 2e-5, plus the 8-bit texel's 1e-6 absolute).
+#[test]
+fn texture_lookups_match_an_f64_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    let mut tex = test_image(dir.path());
+    let n = 24u32;
+    let rot = 30.0f64;
+    let (s, c) = rot.to_radians().sin_cos();
+    let (scale, offset) = ([2.4f64, 1.7f64], [-0.7f64, 0.3f64]);
+    for (wrap, filter, space, factor) in [
+        ("repeat", "bilinear", "srgb", 1.0),
+        ("clamp", "bilinear", "srgb", 1.0),
+        ("mirror", "bilinear", "linear", 0.5),
+        ("repeat", "nearest", "srgb", 2.0),
+    ] {
+        let toml = format!(
+            "{}[materials]\nlamp = {{ type = \"emitter\", radiance = {{ texture = \"t.png\", wrap = \"{wrap}\", \
+             filter = \"{filter}\", color_space = \"{space}\", factor = {factor}, scale = [{}, {}], \
+             offset = [{}, {}], rotation = {rot} }} }}\n[[mesh]]\nobj = \"square.obj\"\nmaterial = \"lamp\"\n",
+            square_view(n, 1, 0),
+            scale[0],
+            scale[1],
+            offset[0],
+            offset[1]
+        );
+        let scene = scene_in(dir.path(), &toml);
+        let film = render(&scene, false);
+        tex.srgb = space == "srgb";
+        let mut worst = 0.0f64;
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y) = (
+                    (f64::from(i) + 0.5) / f64::from(n),
+                    1.0 - (f64::from(j) + 0.5) / f64::from(n),
+                );
+                let (su, sv) = (scale[0] * x, scale[1] * y);
+                let uv = [c * su - s * sv + offset[0], s * su + c * sv + offset[1]];
+                let want = tex.lookup(uv, wrap, filter == "nearest");
+                let got = film.pixel(i, j);
+                for k in 0..3 {
+                    let w = factor * want[k];
+                    let err = (f64::from(got[k]) - w).abs();
+                    worst = worst.max(err / (w.abs() + 1e-3));
+                    assert!(
+                        err <= 2e-5 * w.abs() + 1e-6,
+                        "{wrap}/{filter}/{space}: pixel ({i}, {j}) channel {k}: {} vs {w}",
+                        got[k]
+                    );
+                }
+            }
+        }
+        eprintln!("{wrap}/{filter}/{space}: worst relative error {worst:.2e}");
+    }
+}
+
+/// A one-texel texture of value c renders the same bits as the constant c, specialised and generic, on a
+/// plastic lit by a sun (albedo and roughness both from it): an f16 texel (EXR) holds c = 0.625 exactly,
+/// and the nearest filter returns it unweighted. (Bilinear weights of one texel sum to 1 only up to
+/// rounding.)
+#[test]
+fn a_constant_texture_renders_the_constant() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    let value = 0.625f32;
+    image::Rgba32FImage::from_pixel(1, 1, image::Rgba([value, value, value, 1.0]))
+        .save(dir.path().join("c.exr"))
+        .unwrap();
+    let light =
+        "[[light]]\ntype = \"directional\"\ndirection = [-0.3, -0.2, -1.0]\nirradiance = 3.0\n";
+    let mesh = "[[mesh]]\nobj = \"square.obj\"\nmaterial = \"m\"\n";
+    let constant = format!(
+        "{}[materials]\nm = {{ type = \"plastic\", albedo = [{value:?}, {value:?}, {value:?}], roughness = {value:?} }}\n{mesh}{light}",
+        square_view(16, 4, 2)
+    );
+    let textured = format!(
+        "{}[materials]\nm = {{ type = \"plastic\", albedo = {{ texture = \"c.exr\", filter = \"nearest\" }}, \
+         roughness = {{ texture = \"c.exr\", filter = \"nearest\" }} }}\n{mesh}{light}",
+        square_view(16, 4, 2)
+    );
+    for generic in [false, true] {
+        let a = render(&scene_in(dir.path(), &constant), generic);
+        let b = render(&scene_in(dir.path(), &textured), generic);
+        assert!(a.mean.iter().any(|p| p[1] > 0.01), "the plane is lit");
+        assert_eq!(a.mean, b.mean, "generic {generic}");
+    }
+}
+
+/// Roughness from a texture: a furnace (a white Schlick conductor, f0 = 1, under a uniform environment
+/// of radiance 1, one bounce) whose roughness is a 2 x 2 checkerboard of r1 and r2 (nearest filter, the
+/// texel edges on pixel edges) renders, pixel for pixel, either the r1 furnace or the r2 one, and its
+/// image mean is the area-weighted mix of the two (half each), to f32 rounding.
+#[test]
+fn a_roughness_checkerboard_mixes_the_two_constant_furnaces() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    // (f16 texels, exact: the textured alpha 1 x r^2 is then the constant's r^2 to the bit.)
+    let (r1, r2) = (0.25f32, 0.875f32);
+    let img = image::Rgba32FImage::from_fn(2, 2, |x, y| {
+        let r = if (x + y) % 2 == 0 { r1 } else { r2 };
+        image::Rgba([r, r, r, 1.0])
+    });
+    img.save(dir.path().join("checker.exr")).unwrap();
+    let base = |roughness: &str| {
+        format!(
+            "{}[environment]\nradiance = [1.0, 1.0, 1.0]\n[materials]\nm = {{ type = \"conductor\", base_color = [1.0, 1.0, 1.0], \
+             roughness = {roughness} }}\n[[mesh]]\nobj = \"square.obj\"\nmaterial = \"m\"\n",
+            square_view(16, 16, 1)
+        )
+    };
+    let f1 = render(&scene_in(dir.path(), &base(&format!("{r1:?}"))), false);
+    let f2 = render(&scene_in(dir.path(), &base(&format!("{r2:?}"))), false);
+    let ft = render(
+        &scene_in(
+            dir.path(),
+            &base("{ texture = \"checker.exr\", filter = \"nearest\" }"),
+        ),
+        false,
+    );
+    let (m1, m2, mt) = (f1.average(), f2.average(), ft.average());
+    assert!(
+        (m1 - m2).abs() > 0.01,
+        "the two roughnesses differ: {m1} {m2}"
+    );
+    let mix = 0.5 * (m1 + m2);
+    assert!((mt - mix).abs() <= 1e-5 * mix, "{mt} vs {mix}");
+    for j in 0..16u32 {
+        for i in 0..16u32 {
+            // Texel (x, y) of the 2 x 2 image covers pixels [8x, 8x + 8) x [8y, 8y + 8) (rows from the top).
+            let want = if (i / 8 + j / 8) % 2 == 0 { &f1 } else { &f2 };
+            assert_eq!(ft.pixel(i, j), want.pixel(i, j), "pixel ({i}, {j})");
+        }
+    }
+}
+
+/// Bump: a height texture of constant slope on the plane z = 0 (a ramp across u: texel k of 256 holds
+/// k / 255, so between texel centres h(u) = scale (256 u - 1/2) / 255, clamped at the edges) shades like
+/// the plane tilted by that slope: the shading normal is (-g, 0, 1) / |(-g, 0, 1)|, g = dh/du =
+/// scale 256 / 255, and a diffuse surface of albedo a under a sun of irradiance E along l reflects
+/// a E max(0, n.l) / pi (the course's formula with the tilted normal), computed here in f64.
+#[test]
+fn a_bump_map_of_constant_slope_shades_like_the_tilted_plane() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    let img = image::RgbaImage::from_fn(256, 4, |x, _| {
+        let k = x as u8;
+        image::Rgba([k, k, k, 255])
+    });
+    img.save(dir.path().join("ramp.png")).unwrap();
+    let (a, e) = (0.6f64, 2.0f64);
+    let l = common::vec::normalize([0.5, 0.1, 1.0]);
+    let n = 32u32;
+    for scale in [0.25f64, -0.6] {
+        let toml = format!(
+            "{}[materials]\nm = {{ type = \"diffuse\", albedo = [{a}, {a}, {a}], bump = {{ texture = \"ramp.png\", \
+             scale = {scale}, wrap = \"clamp\" }} }}\n[[mesh]]\nobj = \"square.obj\"\nmaterial = \"m\"\n\
+             [[light]]\ntype = \"directional\"\ndirection = [{}, {}, {}]\nirradiance = {e}\n",
+            square_view(n, 1, 1),
+            -l[0],
+            -l[1],
+            -l[2]
+        );
+        let film = render(&scene_in(dir.path(), &toml), false);
+        let g = scale * 256.0 / 255.0;
+        let normal = common::vec::normalize([-g, 0.0, 1.0]);
+        let want = a * e * common::vec::dot(normal, l).max(0.0) / std::f64::consts::PI;
+        // Pixels whose central differences stay inside the ramp (u in [1.5/256, 1 - 1.5/256]).
+        for j in 0..n {
+            for i in 1..n - 1 {
+                let got = f64::from(film.pixel(i, j)[0]);
+                assert!(
+                    (got - want).abs() <= 2e-4 * want,
+                    "scale {scale}, pixel ({i}, {j}): {got} vs {want}"
+                );
+            }
+        }
+        // And not the flat plane's shading.
+        let flat = a * e * l[2] / std::f64::consts::PI;
+        assert!((want - flat).abs() > 0.02 * flat);
+    }
+}
+
+/// A cut-out: an occluder of albedo 0 in front of an emitter of radiance 1, cut out by a 2 x 2 checker
+/// mask (opacity 0 and 1, nearest, alpha_cutoff 0.5) whose texel edges fall on pixel edges, lets
+/// through exactly half the light (the area fraction of the holes); the holes are where the mask's
+/// zeros are.
+#[test]
+fn a_cut_out_transmits_its_area_fraction() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    let img = image::RgbaImage::from_fn(2, 2, |x, y| {
+        let a = if (x + y) % 2 == 0 { 0 } else { 255 };
+        image::Rgba([255, 255, 255, a])
+    });
+    img.save(dir.path().join("mask.png")).unwrap();
+    // The emitter: a large triangle behind the square, facing +z.
+    let toml = format!(
+        "{}[materials]\nblack = {{ type = \"diffuse\", albedo = [0.0, 0.0, 0.0], opacity = {{ texture = \"mask.png\", \
+         channel = \"a\", filter = \"nearest\" }}, alpha_cutoff = 0.5 }}\nlamp = {{ type = \"emitter\", radiance = [1.0, 1.0, 1.0] }}\n\
+         [[mesh]]\nobj = \"square.obj\"\nmaterial = \"black\"\n\
+         [[triangle]]\nvertices = [[-5.0, -5.0, -1.0], [5.0, -5.0, -1.0], [0.0, 5.0, -1.0]]\nmaterial = \"lamp\"\n",
+        square_view(16, 2, 1)
+    );
+    let film = render(&scene_in(dir.path(), &toml), false);
+    assert_eq!(film.average(), 0.5);
+    assert_eq!(film.pixel(0, 0), [1.0; 3], "texel (0, 0) is a hole");
+    assert_eq!(film.pixel(15, 0), [0.0; 3]);
+}
+
+/// Stochastic transparency (no alpha_cutoff): an occluder of opacity 0.3 lets 0.7 of the light through,
+/// within the noise of the Bernoulli choices: for camera rays (an emitter seen through it) and for
+/// shadow rays (a floor under a sun, seen from above past the occluder's edge: the occluder covers the
+/// floor's lit half from the sun only). 4 standard errors.
+#[test]
+fn stochastic_opacity_transmits_one_minus_opacity() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    // Camera rays.
+    let toml = format!(
+        "{}[materials]\nveil = {{ type = \"diffuse\", albedo = [0.0, 0.0, 0.0], opacity = 0.3 }}\n\
+         lamp = {{ type = \"emitter\", radiance = [1.0, 1.0, 1.0] }}\n\
+         [[mesh]]\nobj = \"square.obj\"\nmaterial = \"veil\"\n\
+         [[triangle]]\nvertices = [[-5.0, -5.0, -1.0], [5.0, -5.0, -1.0], [0.0, 5.0, -1.0]]\nmaterial = \"lamp\"\n",
+        square_view(32, 16, 1)
+    );
+    let film = render(&scene_in(dir.path(), &toml), false);
+    let (mean, se) = mean_and_se(&film);
+    assert!(se > 0.0 && se < 0.01, "se {se}");
+    assert!((mean - 0.7).abs() < 4.0 * se, "camera rays: {mean} +- {se}");
+
+    // Shadow rays: the floor z = 0 lit by a sun straight down (-z), under a veil at z = 0.5 that the
+    // camera, looking straight down too, sees through... so the camera sees the veil as well: give the
+    // veil a camera-invisible place instead. The sun comes in along (1, 0, -1) / sqrt 2; the veil is the
+    // square x in [-1, 0] lifted to z = 0.5... whose shadow falls on x in [-0.5, 0.5]: the camera sees
+    // the floor's x in [0, 1] half, of which [0, 0.5] is in the veil's shadow.
+    let veil = dir.path().join("veil.obj");
+    std::fs::write(
+        &veil,
+        "v -1 -1 0.5\nv 0 -1 0.5\nv 0 2 0.5\nv -1 2 0.5\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let n = 32u32;
+    let toml = format!(
+        "{}[materials]\nveil = {{ type = \"diffuse\", albedo = [0.0, 0.0, 0.0], opacity = 0.3 }}\n\
+         floor = {{ type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }}\n\
+         [[mesh]]\nobj = \"square.obj\"\nmaterial = \"floor\"\n[[mesh]]\nobj = \"veil.obj\"\nmaterial = \"veil\"\n\
+         [[light]]\ntype = \"directional\"\ndirection = [1.0, 0.0, -1.0]\nirradiance = 2.0\n",
+        square_view(n, 16, 1)
+    );
+    let film = render(&scene_in(dir.path(), &toml), false);
+    let lit = 0.5 * 2.0 * std::f64::consts::FRAC_1_SQRT_2 / std::f64::consts::PI;
+    let (mut shadow_sum, mut shadow_var, mut count) = (0.0, 0.0, 0.0);
+    for j in 0..n {
+        for i in 0..n {
+            let x = (f64::from(i) + 0.5) / f64::from(n);
+            let p = f64::from(film.pixel(i, j)[1]);
+            if x < 0.5 - 1e-9 {
+                shadow_sum += p;
+                shadow_var += f64::from(film.variance[(j * n + i) as usize][1]);
+                count += 1.0;
+            } else {
+                assert!(
+                    (p - lit).abs() < 1e-5 * lit,
+                    "unshadowed pixel ({i}, {j}): {p} vs {lit}"
+                );
+            }
+        }
+    }
+    let mean = shadow_sum / count;
+    let se = shadow_var.sqrt() / count;
+    assert!(se > 0.0, "the veil's shadow is noisy");
+    assert!(
+        (mean - 0.7 * lit).abs() < 4.0 * se,
+        "shadow rays: {mean} +- {se} vs {}",
+        0.7 * lit
+    );
+}
+
+/// Texture keys are checked like every other key: each bad value names its key and line.
+#[test]
+fn bad_texture_references_are_refused_by_key() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    image::RgbaImage::from_pixel(1, 1, image::Rgba([1, 2, 3, 4]))
+        .save(dir.path().join("c.png"))
+        .unwrap();
+    let cases = [
+        (
+            "albedo = { texture = \"c.png\", wrap = \"tile\" }",
+            "materials.m.albedo.wrap",
+        ),
+        (
+            "albedo = { texture = \"c.png\", channel = \"x\" }",
+            "materials.m.albedo.channel",
+        ),
+        (
+            "albedo = { texture = \"missing.png\" }",
+            "materials.m.albedo.texture",
+        ),
+        (
+            "albedo = { texture = \"c.png\", factor = 1.5 }",
+            "materials.m.albedo.factor",
+        ),
+        (
+            "albedo = { texture = \"c.png\", scale = 2.0 }",
+            "materials.m.albedo.scale",
+        ),
+        ("albedo = { texture = \"c.png\", bogus = 1 }", "bogus"),
+        (
+            "albedo = [0.5, 0.5, 0.5], opacity = 1.5",
+            "materials.m.opacity",
+        ),
+        (
+            "albedo = [0.5, 0.5, 0.5], alpha_cutoff = -0.1",
+            "materials.m.alpha_cutoff",
+        ),
+        (
+            "albedo = [0.5, 0.5, 0.5], bump = { texture = \"c.png\", scale = [1.0, 1.0] }",
+            "materials.m.bump.scale",
+        ),
+        (
+            "albedo = [0.5, 0.5, 0.5], bump = { texture = \"c.png\", factor = 2.0 }",
+            "materials.m.bump.factor",
+        ),
+    ];
+    for (material, key) in cases {
+        let toml = format!(
+            "{}[materials]\nm = {{ type = \"diffuse\", {material} }}\n[[mesh]]\nobj = \"square.obj\"\nmaterial = \"m\"\n",
+            square_view(4, 1, 1)
+        );
+        let e = Scene::from_toml_str(&toml, Some(&dir.path().join("scene.toml")))
+            .err()
+            .unwrap_or_else(|| panic!("{material}: accepted"));
+        let msg = e.to_string();
+        assert!(msg.contains(key), "{material}: {msg}");
+        assert!(msg.contains("line"), "{material}: {msg}");
+    }
+}
