@@ -1754,17 +1754,14 @@ impl Checker<'_> {
         if let Some(rot) = &t.rotation {
             r.rotation_deg = self.number(rot, &sub("rotation"))?;
         }
-        if modifier {
-            if let Some(f) = &t.factor {
-                return Err(self.error(
-                    f.span(),
-                    &sub("factor"),
-                    "a bump or normal map takes `scale`, not `factor`",
-                    "Give the bump height per unit of texel (or the normal map's strength) as `scale`.",
-                ));
-            }
+        if let (true, Some(f)) = (modifier, &t.factor) {
+            return Err(self.error(
+                f.span(),
+                &sub("factor"),
+                "a bump or normal map takes `scale`, not `factor`",
+                "Give the bump height per unit of texel (or the normal map's strength) as `scale`.",
+            ));
         }
-        let _ = raw.span();
         Ok((r, modifier_scale))
     }
 
