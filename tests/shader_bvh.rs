@@ -95,6 +95,13 @@ impl SceneKernel {
                 "textures",
                 s("textures", bytemuck::cast_slice(&gpu.textures)),
             ),
+            (
+                "material_textures",
+                s(
+                    "material_textures",
+                    bytemuck::cast_slice(&gpu.material_textures),
+                ),
+            ),
         ];
         let k = SceneKernel {
             ctx,

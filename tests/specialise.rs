@@ -239,7 +239,7 @@ fn trimmed_kernel_renders_the_same_image() {
 
 /// Mesh textures are features like the others: a quad with a base colour texture needs `textures` only;
 /// on an emitting material the texture also multiplies the emission (`emissive_textures`); the code of
-/// an absent texture feature is pruned (the kernel with it switched on is larger).
+/// an absent texture feature or surface modifier is pruned (the kernel with it switched on is larger).
 #[test]
 fn texture_features_follow_the_scene_and_prune() {
     let dir = tempfile::tempdir().unwrap();
@@ -281,10 +281,16 @@ fn texture_features_follow_the_scene_and_prune() {
     assert!(!lamp.has(F::MetallicRoughnessTextures));
 
     let words = |f: &FeatureSet| kernel_for(f).unwrap().spirv.len();
+    // An emissive texture's code sits where emission is seen (HAS_EMISSION), so it is measured on the
+    // emitting scene.
+    let mut lamp_untextured = lamp;
+    lamp_untextured.set(F::EmissiveTextures, false);
+    assert!(words(&lamp_untextured) < words(&lamp));
     for name in [
-        "emissive_textures",
         "metallic_roughness_textures",
         "normal_maps",
+        "bump_maps",
+        "opacity",
     ] {
         let mut with = plain;
         with.enable(name);
