@@ -200,28 +200,49 @@ fn surface_derivatives(hit: Hit, s: Surface) -> SurfaceDerivatives {
     }
     if HAS_TRIANGLES {
         if hit.prim_kind == PRIM_TRIANGLE {
-            let tri = triangles[hit.prim_index];
-            // Without vertex uvs, the vertices are at uv (0, 0), (1, 0), (0, 1) (triangle_uv).
-            var duv02 = vec2<f32>(0.0, -1.0);
-            var duv12 = vec2<f32>(1.0, -1.0);
-            if HAS_MESH_SHADING {
-                let face = triangle_face(hit.prim_index);
-                if face_has_uv(face) {
-                    let a = mesh_vertices[face.vertices.x];
-                    let b = mesh_vertices[face.vertices.y];
-                    let c = mesh_vertices[face.vertices.z];
-                    duv02 = vec2<f32>(a.u - c.u, a.v - c.v);
-                    duv12 = vec2<f32>(b.u - c.u, b.v - c.v);
-                }
-            }
-            let det = duv02.x * duv12.y - duv02.y * duv12.x;
-            if det != 0.0 {
-                let dp02 = tri.v0 - tri.v2;
-                let dp12 = tri.v1 - tri.v2;
-                out.dpdu = (duv12.y * dp02 - duv02.y * dp12) / det;
-                out.dpdv = (duv02.x * dp12 - duv12.x * dp02) / det;
-            }
+            out = triangle_derivatives(triangles[hit.prim_index], triangle_uv_deltas(hit.prim_index));
         }
+    }
+    return out;
+}
+
+// Triangle i's uv differences uv_0 - uv_2 and uv_1 - uv_2, and whether they are its vertices' own
+// (without, the vertices are at uv (0, 0), (1, 0), (0, 1): triangle_uv).
+struct TriangleUvDeltas {
+    d02: vec2<f32>,
+    d12: vec2<f32>,
+    from_vertices: bool,
+}
+
+fn triangle_uv_deltas(i: u32) -> TriangleUvDeltas {
+    var out = TriangleUvDeltas(vec2<f32>(0.0, -1.0), vec2<f32>(1.0, -1.0), false);
+    if HAS_MESH_SHADING {
+        let face = triangle_face(i);
+        if face_has_uv(face) {
+            let a = mesh_vertices[face.vertices.x];
+            let b = mesh_vertices[face.vertices.y];
+            let c = mesh_vertices[face.vertices.z];
+            out = TriangleUvDeltas(vec2<f32>(a.u - c.u, a.v - c.v), vec2<f32>(b.u - c.u, b.v - c.v), true);
+        }
+    }
+    return out;
+}
+
+// det of the uv differences' 2 x 2 system (zero: degenerate uvs, no derivatives).
+fn uv_deltas_det(uv: TriangleUvDeltas) -> f32 {
+    return uv.d02.x * uv.d12.y - uv.d02.y * uv.d12.x;
+}
+
+// dp/du and dp/dv of a triangle with uv differences `uv`, by Cramer's rule (surface_derivatives); zero
+// when the uvs are degenerate.
+fn triangle_derivatives(tri: Triangle, uv: TriangleUvDeltas) -> SurfaceDerivatives {
+    var out = SurfaceDerivatives(vec3<f32>(0.0), vec3<f32>(0.0));
+    let det = uv_deltas_det(uv);
+    if det != 0.0 {
+        let dp02 = tri.v0 - tri.v2;
+        let dp12 = tri.v1 - tri.v2;
+        out.dpdu = (uv.d12.y * dp02 - uv.d02.y * dp12) / det;
+        out.dpdv = (uv.d02.x * dp12 - uv.d12.x * dp02) / det;
     }
     return out;
 }
@@ -393,20 +414,11 @@ fn surface_tangent(hit: Hit, n: vec3<f32>) -> vec3<f32> {
         if hit.prim_kind == PRIM_TRIANGLE {
             let tri = triangles[hit.prim_index];
             t = tri.v1 - tri.v0;
-            if HAS_MESH_SHADING {
-                let face = triangle_face(hit.prim_index);
-                if face_has_uv(face) {
-                    let a = mesh_vertices[face.vertices.x];
-                    let b = mesh_vertices[face.vertices.y];
-                    let c = mesh_vertices[face.vertices.z];
-                    // p - p2 = (u - u2) dp/du + (v - v2) dp/dv at the vertices 0 and 1, solved for dp/du.
-                    let duv02 = vec2<f32>(a.u - c.u, a.v - c.v);
-                    let duv12 = vec2<f32>(b.u - c.u, b.v - c.v);
-                    let det = duv02.x * duv12.y - duv02.y * duv12.x;
-                    let dpdu = (duv12.y * (tri.v0 - tri.v2) - duv02.y * (tri.v1 - tri.v2)) / det;
-                    if abs(det) > 1e-12 && dot(dpdu, dpdu) > 0.0 {
-                        t = dpdu;
-                    }
+            let uv = triangle_uv_deltas(hit.prim_index);
+            if uv.from_vertices {
+                let dpdu = triangle_derivatives(tri, uv).dpdu;
+                if abs(uv_deltas_det(uv)) > 1e-12 && dot(dpdu, dpdu) > 0.0 {
+                    t = dpdu;
                 }
             }
         }

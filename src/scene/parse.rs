@@ -1552,8 +1552,7 @@ impl Checker<'_> {
             ("normal_map", &m.normal_map, &mut textures.normal_map),
         ] {
             let Some(raw) = raw else { continue };
-            let t = Spanned::new(raw.span(), &raw.get_ref().0);
-            let (r, scale) = self.texture_ref(&t, &key(field), false, true, files)?;
+            let (r, scale) = self.texture_ref(&raw.get_ref().0, &key(field), false, true, files)?;
             *slot = Some((r, scale.unwrap_or(1.0)));
         }
         Ok(())
@@ -1577,8 +1576,7 @@ impl Checker<'_> {
                 self.vec3_unless(&Spanned::new(v.span(), *c), key, bad, problem, hint)
             }
             RawParam::Texture(t) => {
-                let (r, _) =
-                    self.texture_ref(&Spanned::new(v.span(), &**t), key, true, false, files)?;
+                let (r, _) = self.texture_ref(t, key, true, false, files)?;
                 let factor = match &t.factor {
                     None => Vec3::ONE,
                     Some(f) => {
@@ -1614,8 +1612,7 @@ impl Checker<'_> {
                 self.number_unless(&Spanned::new(v.span(), *x), key, bad, problem, hint)
             }
             RawParam::Texture(t) => {
-                let (r, _) =
-                    self.texture_ref(&Spanned::new(v.span(), &**t), key, false, false, files)?;
+                let (r, _) = self.texture_ref(t, key, false, false, files)?;
                 let factor = match &t.factor {
                     None => 1.0,
                     Some(f) => match f.get_ref() {
@@ -1649,14 +1646,13 @@ impl Checker<'_> {
     /// name it) and how it is read; with `modifier` (bump, normal_map), also the modifier's `scale`.
     fn texture_ref(
         &self,
-        raw: &Spanned<&RawTextureRef>,
+        t: &RawTextureRef,
         key: &str,
         colour: bool,
         modifier: bool,
         files: &mut Files,
     ) -> Result<(TextureRef, Option<f32>), SceneError> {
         use super::texture::{Channel, TextureFilter, Wrap};
-        let t = *raw.get_ref();
         let sub = |field: &str| format!("{key}.{field}");
         let image = self.mesh_texture(
             &t.texture,
