@@ -96,23 +96,31 @@ fn bsdf_absorbed() -> BsdfSample {
 }
 
 // --- Diffuse (Lambert) -----------------------------------------------------------------------------
-// f = albedo / pi on the hemisphere of ns. Sampled cosine-weighted, pdf = cos(theta_i) / pi, so that
-// f cos / pdf = albedo: the weight does not depend on the direction.
+// f = albedo / pi when wo and wi both lie strictly above the surface (on ns's side), 0 otherwise: the
+// condition is symmetric in wo and wi, so f is reciprocal even at the horizon (Mitsuba 3's `diffuse`
+// tests both cosines likewise). Sampled cosine-weighted, pdf = cos(theta_i) / pi, so that
+// f cos / pdf = albedo: the weight does not depend on the direction. Seen from below or along the
+// surface (wo.ns <= 0, possible with a shading normal) it reflects nothing: the sample is absorbed (after
+// drawing its two numbers) and the pdf is 0.
 
 fn diffuse_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, rng: ptr<function, Rng>) -> BsdfSample {
     let wi = sample_cosine_hemisphere(ns, rng_next2(rng));
-    return BsdfSample(wi, mat.albedo, cosine_hemisphere_pdf(dot(wi, ns)), BSDF_REFLECTION);
+    var s = BsdfSample(wi, mat.albedo, cosine_hemisphere_pdf(dot(wi, ns)), BSDF_REFLECTION);
+    if dot(wo, ns) <= 0.0 {
+        s = bsdf_absorbed();
+    }
+    return s;
 }
 
 fn diffuse_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>) -> vec3<f32> {
-    if dot(wi, ns) <= 0.0 {
+    if dot(wi, ns) <= 0.0 || dot(wo, ns) <= 0.0 {
         return vec3<f32>(0.0);
     }
     return mat.albedo * INV_PI;
 }
 
 fn diffuse_pdf(wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>) -> f32 {
-    return cosine_hemisphere_pdf(dot(wi, ns));
+    return select(cosine_hemisphere_pdf(dot(wi, ns)), 0.0, dot(wo, ns) <= 0.0);
 }
 
 // --- Mirror ----------------------------------------------------------------------------------------

@@ -131,6 +131,12 @@ fn conductor(preset: &str, roughness: Roughness) -> GpuMaterial {
     })
 }
 
+fn diffuse(albedo: f32) -> GpuMaterial {
+    material(Bsdf::Diffuse {
+        albedo: Vec3::splat(albedo),
+    })
+}
+
 fn white_conductor(r: f32) -> GpuMaterial {
     material(Bsdf::Conductor {
         fresnel: ConductorFresnel::Schlick { f0: Vec3::ONE },
@@ -493,6 +499,7 @@ fn two_lobe_samplers_match_their_own_pdf() {
 #[test]
 fn sample_eval_pdf_agree_and_reciprocity() {
     let materials = [
+        ("diffuse", diffuse(0.7)),
         ("gold r 0.4", conductor("gold", Roughness::isotropic(0.4))),
         (
             "silver [0.1, 0.5]",
@@ -558,6 +565,53 @@ fn sample_eval_pdf_agree_and_reciprocity() {
                 }
             }
         }
+    }
+}
+
+/// Reciprocity and sidedness exactly at the horizon, for every material with a non-delta lobe: with
+/// ns = +z, wo = (0.28, 0.96, 0) lies in the tangent plane (cos 0) and wi = (-0.6, 0, 0.8) above it.
+/// f(wo, wi) must equal f(wi, wo), and both are 0 (a direction along the surface neither gives nor
+/// receives light; the convention of pbrt-v4 and Mitsuba 3); so is the pdf of sampling either from the
+/// other, and a sample seen from the horizon is absorbed. (The diffuse BSDF once tested only wi's side:
+/// albedo / pi one way, 0 the other.)
+#[test]
+fn every_bsdf_is_reciprocal_and_one_sided_at_the_horizon() {
+    let materials = [
+        ("diffuse", diffuse(0.7)),
+        ("gold r 0.4", conductor("gold", Roughness::isotropic(0.4))),
+        ("white conductor r 0.3", white_conductor(0.3)),
+        ("glass r 0.5", rough_glass(1.5, 0.5)),
+        ("plastic r 0.2", plastic(0.7, 0.2)),
+        ("plastic r 0", plastic(0.7, 0.0)),
+        ("gltf r 0.6", gltf([0.8, 0.3, 0.1], 0.3, 0.6)),
+    ];
+    let ns = [0.0, 0.0, 1.0];
+    let horizon = [0.28, 0.96, 0.0];
+    let above = [-0.6, 0.0, 0.8];
+    for (what, mat) in materials {
+        let case = |wo: V3, q: V3| Case {
+            mat,
+            wo: v4(wo, 1.0),
+            ns: v4(ns, 3.0),
+            t: v4([1.0, 0.0, 0.0], 0.0),
+            q: v4(q, 0.0),
+        };
+        let out = gpu(&[case(horizon, above), case(above, horizon)]);
+        for (o, way) in out.iter().zip(["wo on the horizon", "wi on the horizon"]) {
+            let (f, back) = (o.aq, o.r);
+            for c in 0..3 {
+                assert_eq!(
+                    f[c], back[c],
+                    "{what}, {way}: f(wo, wi) {f:?} but f(wi, wo) {back:?}"
+                );
+                assert_eq!(f[c], 0.0, "{what}, {way}: f = {f:?} along the surface");
+            }
+            assert_eq!((o.aq[3], o.rp[0]), (0.0, 0.0), "{what}, {way}: pdfs");
+        }
+        assert_eq!(
+            out[0].w[3], 0.0,
+            "{what}: a sample seen from the horizon is absorbed"
+        );
     }
 }
 
