@@ -251,7 +251,7 @@ fn mesa_version(info: &str) -> Option<[u32; 2]> {
 }
 
 /// The oldest Mesa whose lavapipe vkpath runs at full speed: Mesa 24 and 25 run the same kernels, to
-/// the same bits, 1.4-3x faster than Mesa 22.3 on the course scenes (README, "Performance").
+/// the same bits, 1.4-3x faster than Mesa 22.3 on the course scenes (docs/performance.md).
 pub const FAST_LAVAPIPE_MESA: u32 = 24;
 
 impl DeviceInfo {

@@ -142,7 +142,7 @@ pub enum Filter {
 /// Where a path's random numbers come from (`render.sampler`). Both are pure functions of (pixel, sample
 /// index, dimension, seed), so passes, tiles and sample ranges split either exactly (rng.wgsl).
 /// The default is Sobol': on every course scene it reaches a given error sooner than independent numbers
-/// at the same speed (README, "Speed vs accuracy").
+/// at the same speed (docs/speed-vs-accuracy.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Sampler {
     /// Independent uniform numbers from a hash (PCG4D).
