@@ -51,7 +51,7 @@ const MATERIAL_SCHLICK: u32 = 2u;
 // One material's parameters, as uploaded (`materials` in scene_data.wgsl; GpuMaterial in Rust). What a
 // field means depends on the kind; unused fields are zero.
 struct Material {
-    albedo: vec3<f32>, // diffuse albedo, mirror tint, plastic base, glTF base colour, Schlick f0
+    albedo: vec3<f32>, // diffuse albedo, mirror tint, plastic base, glTF base colour, Schlick f0, conductor tint
     kind: u32,
     emission: vec3<f32>, // emitted radiance, W sr^-1 m^-2 (any kind may emit; zero: it does not)
     ior: f32, // dielectrics and plastic: index of refraction inside over outside
@@ -249,11 +249,15 @@ fn ggx_reflection(wo: vec3<f32>, wi: vec3<f32>, alpha: vec2<f32>) -> GgxReflecti
 // refraction eta + i k per channel (fresnel_conductor) or, with MATERIAL_SCHLICK, Schlick's form from a
 // base colour f0. alpha below SMOOTH_ALPHA: a perfect mirror whose tint is F(cos_o).
 
+// The reflectance times the tint (the material's `tint`, Mitsuba's specular_reflectance): held in
+// `eta` for Schlick's form (whose f0 is in `albedo`), in `albedo` for the complex index's (whose eta and
+// k fill their own fields). A textured albedo therefore tints a complex conductor and is the base colour
+// of a Schlick one.
 fn conductor_fresnel(mat: Material, cos_theta: f32) -> vec3<f32> {
     if (mat.flags & MATERIAL_SCHLICK) != 0u {
-        return fresnel_schlick(cos_theta, mat.albedo);
+        return fresnel_schlick(cos_theta, mat.albedo) * mat.eta;
     }
-    return fresnel_conductor(cos_theta, mat.eta, mat.k);
+    return fresnel_conductor(cos_theta, mat.eta, mat.k) * mat.albedo;
 }
 
 fn conductor_sample(mat: Material, wo_w: vec3<f32>, fr: Frame, rng: ptr<function, Rng>) -> BsdfSample {

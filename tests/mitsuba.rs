@@ -322,6 +322,7 @@ fn bsdfs_and_emitters_map_to_materials_and_lights() {
     let Bsdf::Conductor {
         fresnel: ConductorFresnel::Complex { eta, .. },
         roughness,
+        ..
     } = bsdf(1)
     else {
         panic!("{:?}", bsdf(1))
@@ -336,6 +337,7 @@ fn bsdfs_and_emitters_map_to_materials_and_lights() {
                 k: Vec3::new(3.9, 2.4, 2.1)
             },
             roughness: Roughness::isotropic(0.3), // sqrt(alpha)
+            tint: Vec3::ONE,
         }
     );
     assert_eq!(
@@ -799,6 +801,7 @@ fn the_xml_mitsuba_writes_from_a_dict_is_read() {
                 k: Vec3::new(3.9, 2.4, 2.1)
             },
             roughness: Roughness::isotropic(0.2),
+            tint: Vec3::ONE,
         }
     );
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
@@ -1099,4 +1102,39 @@ proptest! {
             }
         }
     }
+}
+
+/// `specular_reflectance` on a conductor is vkpath's conductor tint (Bitterli's veach-mis and staircase
+/// give their rough conductors one), and a rough conductor of material "none" (reflectance 1) is a
+/// conductor whose Schlick f0 is 1, exactly reflectance 1.
+#[test]
+fn conductor_specular_reflectance_is_the_tint() {
+    let s = load(
+        r#"
+        <shape type="sphere"><bsdf type="roughconductor"><string name="material" value="Au"/>
+            <string name="distribution" value="ggx"/><float name="alpha" value="0.04"/><rgb name="specular_reflectance" value="0.3, 0.3, 0.3"/></bsdf></shape>
+        <shape type="sphere"><bsdf type="roughconductor"><string name="distribution" value="ggx"/>
+            <float name="alpha" value="0.09"/><rgb name="specular_reflectance" value="0.5, 0.6, 0.7"/></bsdf></shape>
+        "#,
+    );
+    let bsdf = |i: usize| s.materials[s.spheres[i].material as usize].bsdf;
+    let Bsdf::Conductor {
+        fresnel: ConductorFresnel::Complex { eta, .. },
+        roughness,
+        tint,
+    } = bsdf(0)
+    else {
+        panic!("{:?}", bsdf(0))
+    };
+    assert!((eta.x - 0.143_036).abs() < 1e-6, "the gold preset");
+    assert!((roughness.u - 0.2).abs() < 1e-6);
+    assert_eq!(tint, Vec3::splat(0.3));
+    assert_eq!(
+        bsdf(1),
+        Bsdf::Conductor {
+            fresnel: ConductorFresnel::Schlick { f0: Vec3::ONE },
+            roughness: Roughness::isotropic(0.3),
+            tint: Vec3::new(0.5, 0.6, 0.7),
+        }
+    );
 }

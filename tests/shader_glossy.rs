@@ -128,6 +128,7 @@ fn conductor(preset: &str, roughness: Roughness) -> GpuMaterial {
             k: Vec3::from_array(*k),
         },
         roughness,
+        tint: Vec3::ONE,
     })
 }
 
@@ -141,6 +142,7 @@ fn white_conductor(r: f32) -> GpuMaterial {
     material(Bsdf::Conductor {
         fresnel: ConductorFresnel::Schlick { f0: Vec3::ONE },
         roughness: Roughness::isotropic(r),
+        tint: Vec3::ONE,
     })
 }
 

@@ -122,14 +122,15 @@ pub const BSDF_DELTA: u32 = 4;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
-    /// Diffuse albedo, mirror tint, plastic base, glTF base colour or a Schlick conductor's f0.
+    /// Diffuse albedo, mirror tint, plastic base, glTF base colour or a Schlick conductor's f0; a
+    /// conductor's tint beside eta and k.
     pub albedo: [f32; 3],
     pub kind: u32,
     /// Emitted radiance (W sr^-1 m^-2), zero for a material that does not emit.
     pub emission: [f32; 3],
     /// Dielectrics and plastic: index of refraction inside over outside.
     pub ior: f32,
-    /// Conductors: the complex index of refraction eta + i k, per channel.
+    /// Conductors: the complex index of refraction eta + i k, per channel; a Schlick conductor's tint.
     pub eta: [f32; 3],
     /// GGX alpha (= roughness^2) along the tangent.
     pub alpha_x: f32,

@@ -90,13 +90,21 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             };
             g.ior = ior;
         }
-        Bsdf::Conductor { fresnel, roughness } => {
+        Bsdf::Conductor {
+            fresnel,
+            roughness,
+            tint,
+        } => {
             g.kind = MAT_CONDUCTOR;
             set_alpha(&mut g, roughness);
+            // The tint goes where the Fresnel model leaves room: `albedo` beside eta and k, `eta` beside
+            // Schlick's f0 (in `albedo`), which has no index of refraction (bsdf.wgsl, conductor_fresnel).
             match fresnel {
-                ConductorFresnel::Complex { eta, k } => (g.eta, g.k) = (eta.into(), k.into()),
+                ConductorFresnel::Complex { eta, k } => {
+                    (g.eta, g.k, g.albedo) = (eta.into(), k.into(), tint.into())
+                }
                 ConductorFresnel::Schlick { f0 } => {
-                    g.albedo = f0.into();
+                    (g.albedo, g.eta) = (f0.into(), tint.into());
                     g.flags |= MATERIAL_SCHLICK;
                 }
             }
@@ -462,7 +470,16 @@ impl GpuScene {
                 &TextureRef::plain(tex.clone(), colour).with_channel(channel),
             )
         };
-        if let Some(tex) = &m.texture {
+        // (A conductor given by eta and k has no colour for `texture` to replace: its albedo is its tint,
+        // which the texture leaves alone; the texture then only multiplies its emission.)
+        let tint_only = matches!(
+            scene.materials[base].bsdf,
+            Bsdf::Conductor {
+                fresnel: ConductorFresnel::Complex { .. },
+                ..
+            }
+        );
+        if let (Some(tex), false) = (&m.texture, tint_only) {
             if !maps.base_color_factor {
                 material.albedo = [1.0; 3];
             }
@@ -793,6 +810,7 @@ mod tests {
         let metal = gpu_material(&Material::from(Bsdf::Conductor {
             fresnel: ConductorFresnel::Schlick { f0: Vec3::ONE },
             roughness: Roughness { u: 0.1, v: 0.5 },
+            tint: Vec3::ONE,
         }));
         assert_eq!(metal.kind, MAT_CONDUCTOR);
         assert_eq!(metal.flags & MATERIAL_SCHLICK, MATERIAL_SCHLICK);

@@ -2238,20 +2238,17 @@ impl Tr<'_> {
                                 lines.push(at(format!("tint = {}", vec3(tint))));
                             }
                             None => {
-                                return Err(mloc.error(
-                                    "a rough conductor with material \"none\" (reflectance 1): vkpath's rough conductors take a preset or eta and k",
-                                    "Give a material (Au, Ag, Cu, Al) or eta and k.",
-                                ));
+                                // Reflectance 1, rough: Schlick's form with f0 = 1 is exactly 1.
+                                lines.push(at("type = \"conductor\"".into()));
+                                lines.push(at("base_color = [1.0, 1.0, 1.0]".into()));
                             }
                         }
                     }
                 }
                 let is_mirror = lines.iter().any(|(l, _)| l == "type = \"mirror\"");
                 if !is_mirror && tint != DVec3::ONE {
-                    return Err(obj.loc.error(
-                        "specular_reflectance other than 1 on a conductor: vkpath's conductors have no tint",
-                        "Remove specular_reflectance (or use material \"none\", a tinted mirror).",
-                    ));
+                    // specular_reflectance multiplies the Fresnel reflectance: vkpath's conductor tint.
+                    lines.push(at(format!("tint = {}", vec3(tint))));
                 }
                 if let Some(r) = rough {
                     lines.push(at(format!("roughness = {}", num(r))));

@@ -262,10 +262,12 @@ pub enum Bsdf {
         ior: f32,
         roughness: Roughness,
     },
-    /// A metal: GGX reflection (a mirror at roughness 0) with a conductor's Fresnel reflectance.
+    /// A metal: GGX reflection (a mirror at roughness 0) with a conductor's Fresnel reflectance, times
+    /// `tint` (Mitsuba's specular_reflectance; white by default).
     Conductor {
         fresnel: ConductorFresnel,
         roughness: Roughness,
+        tint: Vec3,
     },
     /// A diffuse base of `albedo` under a dielectric coat of index `ior` (shaders/bsdf.wgsl).
     Plastic {

@@ -1341,26 +1341,48 @@ impl Checker<'_> {
                     Bsdf::Dielectric { ior, roughness },
                 )
             }
-            "conductor" => (
-                &[
-                    "preset",
-                    "eta",
-                    "k",
-                    "base_color",
-                    "roughness",
-                    EMISSION[0],
-                    EMISSION[1],
-                ],
-                Bsdf::Conductor {
-                    fresnel: self.conductor_fresnel(name, raw, files, &mut textures.albedo)?,
-                    roughness: self.roughness(
-                        &m.roughness,
-                        &key("roughness"),
-                        files,
-                        &mut textures.roughness,
-                    )?,
-                },
-            ),
+            "conductor" => {
+                let fresnel = self.conductor_fresnel(name, raw, files, &mut textures.albedo)?;
+                // The tint multiplies the Fresnel reflectance (Mitsuba's specular_reflectance). A
+                // textured tint is the albedo slot, which a Schlick conductor's base colour holds.
+                let tint = match &m.tint {
+                    None => Vec3::ONE,
+                    Some(t) => {
+                        let schlick = matches!(fresnel, ConductorFresnel::Schlick { .. });
+                        if schlick && matches!(t.get_ref(), RawParam::Texture(_)) {
+                            return Err(self.error(
+                                t.span(),
+                                &key("tint"),
+                                "a conductor with base_color cannot also have a textured tint",
+                                "Give the tint as a constant [r, g, b], or texture the base_color instead                                  (the tint multiplies it).",
+                            ));
+                        }
+                        self.unit_color(t, &key("tint"), files, &mut textures.albedo)?
+                    }
+                };
+                (
+                    &[
+                        "preset",
+                        "eta",
+                        "k",
+                        "base_color",
+                        "roughness",
+                        "tint",
+                        EMISSION[0],
+                        EMISSION[1],
+                    ],
+                    Bsdf::Conductor {
+                        fresnel,
+                        roughness: self.roughness(
+                            &m.roughness,
+                            &key("roughness"),
+                            files,
+                            &mut textures.roughness,
+                        )?,
+                        tint,
+                    },
+                )
+            }
             "plastic" => {
                 let albedo = self.required(
                     &m.albedo,
