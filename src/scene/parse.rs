@@ -1574,7 +1574,12 @@ impl Checker<'_> {
             ("normal_map", &m.normal_map, &mut textures.normal_map),
         ] {
             let Some(raw) = raw else { continue };
-            let (r, scale) = self.texture_ref(&raw.get_ref().0, &key(field), false, true, files)?;
+            let t = &raw.get_ref().0;
+            let (mut r, scale) = self.texture_ref(t, &key(field), false, true, files)?;
+            // A normal map is a vector: all three channels (a height map, like a scalar, reads "r").
+            if field == "normal_map" && t.channel.is_none() {
+                r.channel = super::texture::Channel::Rgb;
+            }
             *slot = Some((r, scale.unwrap_or(1.0)));
         }
         Ok(())
