@@ -30,18 +30,11 @@ override HAS_BUMP_MAPS: bool = true;
 override HAS_OPACITY: bool = true;
 override HAS_MATERIAL_TEXTURES: bool = true;
 override HAS_MESH_SHADING: bool = true;
-// Materials (bsdf.wgsl).
-override HAS_DIFFUSE: bool = true;
-override HAS_MIRROR: bool = true;
-override HAS_DIELECTRIC: bool = true;
-override HAS_CONDUCTOR: bool = true; // metals: GGX or smooth, complex-index or Schlick Fresnel
-override HAS_ROUGH_DIELECTRIC: bool = true; // rough glass (Walter et al. 2007)
-override HAS_PLASTIC: bool = true; // a diffuse base under a dielectric coat
-override HAS_METALLIC_ROUGHNESS: bool = true; // glTF 2.0's material
+// Materials: one override per material kind, HAS_<KIND>, generated with the kinds (bsdf_kinds.wgsl,
+// from the registry src/scene/bsdfs.rs).
 // Some glossy material has a different roughness along the tangent and the bitangent: the integrator
 // then computes a tangent per hit (surface_tangent, scene.wgsl).
 override HAS_ANISOTROPY: bool = true;
-override HAS_EMITTERS: bool = true; // the `emitter` material: black, it only emits
 override HAS_EMISSION: bool = true; // some surface emits (an emitter, or any material with `emission`)
 // Lights (lights.wgsl).
 override HAS_POINT_LIGHTS: bool = true;

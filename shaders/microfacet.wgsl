@@ -1,5 +1,5 @@
 // microfacet.wgsl: the GGX (Trowbridge–Reitz) microfacet distribution and the Fresnel terms of the glossy
-// materials (bsdf.wgsl): the normal distribution D, Smith's masking-shadowing G1 and G2, sampling by the
+// materials (bsdfs/): the normal distribution D, Smith's masking-shadowing G1 and G2, sampling by the
 // distribution of visible normals, and Fresnel for conductors (complex index) and Schlick's form.
 //
 // requires: sampling.wgsl

@@ -453,12 +453,32 @@ fn shared_constants_match_wgsl() {
     for &(name, value) in vkpath::kernel::abi::SHARED_CONSTANTS {
         assert_eq!(constant(name), value, "{name}: WGSL vs src/kernel/abi.rs");
     }
-    // Every kind-like WGSL constant is in the table: a new MAT_*/LIGHT_* in the shader without its Rust
-    // twin fails here.
+    // The material kinds are generated from the registry: each row's MAT_* is its index, and every
+    // MAT_* of the kernel is a row (MATERIAL_* flags are shared constants above).
+    for (i, k) in vkpath::scene::bsdfs::BSDFS.iter().enumerate() {
+        assert_eq!(constant(&k.constant()), i as u32, "{}", k.constant());
+    }
+    // Every other kind-like WGSL constant is in the table: a new LIGHT_* in the shader without its
+    // Rust twin fails here.
     for (_, c) in module.constants.iter() {
         let name = c.name.as_deref().unwrap_or("");
+        if name.starts_with("MAT_") {
+            assert!(
+                vkpath::scene::bsdfs::BSDFS
+                    .iter()
+                    .any(|k| k.constant() == name),
+                "WGSL constant {name} is not a kind of the material registry"
+            );
+            continue;
+        }
         let shared = [
-            "MAT_", "BSDF_", "LIGHT_", "CAMERA_", "FILTER_", "SAMPLER_", "MESH_",
+            "BSDF_",
+            "LIGHT_",
+            "CAMERA_",
+            "FILTER_",
+            "SAMPLER_",
+            "MESH_",
+            "MATERIAL_",
         ];
         if shared.iter().any(|p| name.starts_with(p)) {
             assert!(

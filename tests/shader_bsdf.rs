@@ -1,4 +1,4 @@
-//! The materials of shaders/bsdf.wgsl, read back from the GPU.
+//! The materials of shaders/bsdfs/, read back from the GPU.
 //!
 //! * The BSDF interface (end of this file): each material's `sample` against its own `eval` and `pdf`
 //!   (weight = f cos / pdf, pdf(sampled wi) = the pdf it reported), a chi-square of the diffuse sampler's

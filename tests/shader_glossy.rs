@@ -1,4 +1,4 @@
-//! The glossy materials of shaders/bsdf.wgsl (conductor, rough dielectric, plastic, metallic_roughness),
+//! The glossy materials of shaders/bsdfs/ (conductor, rough dielectric, plastic, metallic_roughness),
 //! read back from the GPU through the BSDF interface the integrator calls (shaders/tests/glossy_sample.wgsl),
 //! with materials built by the host's own upload (`upload::gpu_material`).
 //!
@@ -19,99 +19,15 @@
 
 mod common;
 
-use common::stats::{GAUSS_LEGENDRE_4, assert_fits, chi2};
-use common::vec::{V3, basis, dot, from_angles, normalize, xyz};
+use common::bsdf::*;
+use common::stats::GAUSS_LEGENDRE_4;
+use common::vec::{V3, dot, from_angles, normalize};
 use glam::Vec3;
-use vkpath::gpu::testing;
 use vkpath::kernel::abi::{
     BSDF_DELTA, BSDF_REFLECTION, BSDF_TRANSMISSION, GpuMaterial, MAT_ROUGH_DIELECTRIC,
 };
 use vkpath::kernel::upload::gpu_material;
 use vkpath::scene::{Bsdf, CONDUCTOR_PRESETS, ConductorFresnel, Material, Roughness};
-
-const KERNEL: &str = include_str!("../shaders/tests/glossy_sample.wgsl");
-
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Case {
-    mat: GpuMaterial,
-    wo: [f32; 4],
-    ns: [f32; 4],
-    t: [f32; 4],
-    q: [f32; 4],
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct Out {
-    s: [f32; 4],
-    w: [f32; 4],
-    at: [f32; 4],
-    aq: [f32; 4],
-    r: [f32; 4],
-    rp: [f32; 4],
-}
-
-fn v4(v: V3, w: f32) -> [f32; 4] {
-    [v[0] as f32, v[1] as f32, v[2] as f32, w]
-}
-
-/// Runs the kernel on `cases`, in batches of 2^18 (a case is 144 bytes; a storage buffer may be limited to
-/// 128 MiB).
-fn gpu(cases: &[Case]) -> Vec<Out> {
-    let mut out = Vec::with_capacity(cases.len());
-    for batch in cases.chunks(1 << 18) {
-        let o: Vec<Out> =
-            testing::run_kernel(&testing::context(), KERNEL, batch, batch.len()).expect("kernel");
-        out.extend(o);
-    }
-    let errors = testing::context().validation_errors();
-    assert!(errors.is_empty(), "validation errors: {errors:?}");
-    out
-}
-
-/// One material seen from one direction.
-#[derive(Clone, Copy)]
-struct Setup {
-    mat: GpuMaterial,
-    wo: V3,
-    ns: V3,
-    tangent: V3,
-    entering: bool,
-}
-
-impl Setup {
-    fn new(mat: GpuMaterial, cos_o: f64) -> Setup {
-        let ns = normalize([0.3, -0.5, 0.81]);
-        Setup {
-            mat,
-            wo: from_angles(ns, cos_o, 1.0),
-            ns,
-            tangent: basis(ns).0,
-            entering: true,
-        }
-    }
-
-    fn case(&self, seed: u32, q: V3) -> Case {
-        Case {
-            mat: self.mat,
-            wo: v4(self.wo, self.entering as u32 as f32),
-            ns: v4(self.ns, seed as f32),
-            t: v4(self.tangent, 0.0),
-            q: v4(q, 0.0),
-        }
-    }
-
-    fn samples(&self, seed: u32, n: usize) -> Vec<Out> {
-        gpu(&vec![self.case(seed, self.ns); n])
-    }
-
-    /// The mirror direction of wo about ns.
-    fn mirror(&self) -> V3 {
-        let c = dot(self.wo, self.ns);
-        std::array::from_fn(|k| 2.0 * c * self.ns[k] - self.wo[k])
-    }
-}
 
 fn material(bsdf: Bsdf) -> GpuMaterial {
     gpu_material(&Material::from(bsdf))
@@ -167,237 +83,6 @@ fn gltf(base: [f32; 3], metallic: f32, r: f32) -> GpuMaterial {
         metallic,
         roughness: r,
     })
-}
-
-// --- Chi-square ------------------------------------------------------------------------------------
-
-/// Bins over the whole sphere of directions, in polar coordinates (theta, phi) about a centre c: the
-/// polar coordinate is s = ln(1 + (1 - cos theta) / sigma^2) / ln(1 + 2 / sigma^2) in [0, 1], which
-/// spreads the rings over a lobe of angular width about sigma round c and still covers the sphere
-/// (sigma = 1: nearly uniform in cos theta). cos theta = 1 - sigma^2 (e^{s L} - 1) with
-/// L = ln(1 + 2 / sigma^2), so d omega = sigma^2 L e^{s L} ds dphi.
-///
-/// Two other mappings, about c = ns, make the horizon a ring boundary (with an even ring count), so that
-/// no bin straddles the discontinuity of a lobe's pdf there (Gauss–Legendre integrates smooth integrands
-/// only): `sigma = 0`, rings uniform in theta (`Bins::polar`, for lobes that reach the horizon), and
-/// `sigma < 0`, rings uniform in sqrt|cos theta| on each hemisphere, cos theta = (1 - 2s)^2 above and
-/// edge - (1 + edge) (2s - 1)^2 below (`Bins::horizon`, for grazing incidence): finest next to the horizon
-/// (and the edge), where a grazing lobe peaks (the integrand, pdf x d(-cos)/ds, then vanishes there).
-struct Bins {
-    c: V3,
-    sigma: f64,
-    /// `Bins::horizon` only: where the lower hemisphere's rings start (cos theta <= edge <= 0); the band
-    /// (edge, 0) is one boundary, not binned (see `Bins::transmission`).
-    edge: f64,
-    rings: usize,
-    sectors: usize,
-}
-
-impl Bins {
-    fn polar(c: V3, rings: usize, sectors: usize) -> Bins {
-        Bins {
-            c,
-            sigma: 0.0,
-            edge: 0.0,
-            rings,
-            sectors,
-        }
-    }
-
-    fn horizon(c: V3, rings: usize, sectors: usize) -> Bins {
-        Bins {
-            c,
-            sigma: -1.0,
-            edge: 0.0,
-            rings,
-            sectors,
-        }
-    }
-
-    /// Horizon bins for a dielectric seen from wo. Refraction through a microfacet h gives
-    /// wi = -wo / eta + (cos_oh / eta - cos_t) h, whose z is -cos_o / eta + (cos_oh / eta - cos_t) h.z; for
-    /// eta > 1 the bracket is negative and h.z >= 0, so wi.z <= -cos_o / eta (equality through
-    /// microfacets at the horizon): the transmitted density stops there, a discontinuity that the lower
-    /// hemisphere's rings start at (finest next to it). For eta < 1 there is no such edge.
-    fn transmission(c: V3, cos_o: f64, eta: f64, rings: usize, sectors: usize) -> Bins {
-        Bins {
-            edge: if eta > 1.0 { -cos_o / eta } else { 0.0 },
-            ..Bins::horizon(c, rings, sectors)
-        }
-    }
-
-    fn l(&self) -> f64 {
-        (1.0 + 2.0 / (self.sigma * self.sigma)).ln()
-    }
-
-    /// The polar coordinate in [0, 1] of a direction whose cosine to c is `cos`.
-    fn s_of(&self, cos: f64) -> f64 {
-        if self.sigma == 0.0 {
-            return cos.clamp(-1.0, 1.0).acos() / std::f64::consts::PI;
-        }
-        if self.sigma < 0.0 {
-            let c = cos.clamp(-1.0, 1.0);
-            if c >= 0.0 {
-                return 0.5 * (1.0 - c.sqrt());
-            }
-            let y = ((self.edge - c).max(0.0) / (1.0 + self.edge)).sqrt();
-            return 0.5 * (1.0 + y);
-        }
-        let one_minus_cos = (1.0 - cos).clamp(0.0, 2.0);
-        (1.0 + one_minus_cos / (self.sigma * self.sigma)).ln() / self.l()
-    }
-
-    /// cos theta at polar coordinate s, and d(-cos theta)/ds.
-    fn cos_of(&self, s: f64) -> (f64, f64) {
-        if self.sigma == 0.0 {
-            let theta = s * std::f64::consts::PI;
-            return (theta.cos(), std::f64::consts::PI * theta.sin());
-        }
-        if self.sigma < 0.0 {
-            if s < 0.5 {
-                let x = 1.0 - 2.0 * s;
-                return (x * x, 4.0 * x);
-            }
-            let y = 2.0 * s - 1.0;
-            let e = self.edge;
-            return (e - (1.0 + e) * y * y, 4.0 * (1.0 + e) * y);
-        }
-        let (l, s2) = (self.l(), self.sigma * self.sigma);
-        (
-            (1.0 - s2 * ((s * l).exp() - 1.0)).clamp(-1.0, 1.0),
-            s2 * l * (s * l).exp(),
-        )
-    }
-
-    fn cell(&self, w: V3) -> usize {
-        let (t, b) = basis(self.c);
-        let s = self.s_of(dot(w, self.c));
-        let phi = dot(w, b)
-            .atan2(dot(w, t))
-            .rem_euclid(2.0 * std::f64::consts::PI);
-        let i = ((s * self.rings as f64) as usize).min(self.rings - 1);
-        let j = ((phi / (2.0 * std::f64::consts::PI) * self.sectors as f64) as usize)
-            .min(self.sectors - 1);
-        i * self.sectors + j
-    }
-
-    /// Every cell's quadrature nodes: (direction, weight d omega), 16 per cell, in cell order.
-    fn nodes(&self) -> Vec<(V3, f64)> {
-        let ds = 1.0 / self.rings as f64;
-        let dphi = 2.0 * std::f64::consts::PI / self.sectors as f64;
-        let mut nodes = Vec::with_capacity(self.rings * self.sectors * 16);
-        for i in 0..self.rings {
-            for j in 0..self.sectors {
-                for &(x, wx) in &GAUSS_LEGENDRE_4 {
-                    for &(y, wy) in &GAUSS_LEGENDRE_4 {
-                        let s = (i as f64 + 0.5 * (x + 1.0)) * ds;
-                        let phi = (j as f64 + 0.5 * (y + 1.0)) * dphi;
-                        let (cos, jac) = self.cos_of(s);
-                        let w = 0.25 * wx * wy * ds * dphi * jac;
-                        nodes.push((from_angles(self.c, cos, phi), w));
-                    }
-                }
-            }
-        }
-        nodes
-    }
-}
-
-/// The chi-square of `setup`'s sampler against its own pdf, over `bins` (plus a cell for absorbed
-/// samples and one for delta samples). Returns the statistic's p-value.
-fn chi2_sampler(what: &str, setup: &Setup, bins: &Bins, seed: u32) -> f64 {
-    const N: usize = 1 << 18;
-    let cells = bins.rings * bins.sectors;
-    let (absorbed, delta) = (cells, cells + 1);
-    let out = setup.samples(seed, N);
-    let mut observed = vec![0.0; cells + 2];
-    let mut p_delta = 0.0;
-    for o in &out {
-        let flags = o.w[3] as u32;
-        let cell = if flags == 0 {
-            absorbed
-        } else if flags & BSDF_DELTA != 0 {
-            p_delta = o.s[3] as f64; // the lobe's probability (it depends on wo only)
-            delta
-        } else {
-            bins.cell(xyz(o.s))
-        };
-        observed[cell] += 1.0;
-    }
-    let nodes = bins.nodes();
-    let queries: Vec<Case> = nodes.iter().map(|(q, _)| setup.case(0, *q)).collect();
-    let pdfs = gpu(&queries);
-    let mut expected = vec![0.0; cells + 2];
-    for (n, ((_, weight), o)) in nodes.iter().zip(&pdfs).enumerate() {
-        let pdf = o.aq[3] as f64;
-        assert!(pdf.is_finite() && pdf >= 0.0, "{what}: pdf {pdf}");
-        expected[n / 16] += weight * pdf;
-    }
-    let total: f64 = expected[..cells].iter().sum();
-    assert!(
-        total + p_delta <= 1.0 + 2e-3,
-        "{what}: the pdf integrates to {total} (+ delta {p_delta}), more than 1"
-    );
-    expected[delta] = p_delta;
-    expected[absorbed] = (1.0 - total - p_delta).max(0.0);
-    let scaled: Vec<f64> = expected.iter().map(|p| p * N as f64).collect();
-    // GLOSSY_DEBUG=1: print the absorbed cell and the worst cells (for investigating a failure).
-    if std::env::var("GLOSSY_DEBUG").is_ok() {
-        eprintln!(
-            "absorbed: observed {} expected {}",
-            observed[absorbed], scaled[absorbed]
-        );
-        for ring in 0..bins.rings {
-            let o: f64 = observed[ring * bins.sectors..(ring + 1) * bins.sectors]
-                .iter()
-                .sum();
-            let e: f64 = scaled[ring * bins.sectors..(ring + 1) * bins.sectors]
-                .iter()
-                .sum();
-            eprintln!("ring {ring}: observed {o} expected {e:.1}");
-        }
-        let mut worst: Vec<(f64, usize)> = (0..cells)
-            .map(|c| ((observed[c] - scaled[c]).powi(2) / scaled[c].max(1e-9), c))
-            .collect();
-        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
-        for &(x, c) in &worst[..8] {
-            eprintln!(
-                "cell ring {} sector {}: observed {} expected {:.1} (chi {x:.0})",
-                c / bins.sectors,
-                c % bins.sectors,
-                observed[c],
-                scaled[c]
-            );
-        }
-    }
-    let t = chi2(&observed, &scaled);
-    assert_fits(
-        &format!("{what} (pdf integral {total:.4}, delta {p_delta:.4})"),
-        &t,
-    );
-    t.p_value()
-}
-
-/// Bins for a reflection lobe of GGX alpha `alpha` seen from cos_o: around the mirror direction, rings
-/// about alpha wide (the reflected lobe is about 2 alpha wide); where the lobe reaches the horizon
-/// (grazing incidence, or a wide lobe), polar bins about ns.
-fn reflection_bins(setup: &Setup, alpha: f64, cos_o: f64) -> Bins {
-    if cos_o < 0.2 {
-        // Near the horizon the lobe is a few degrees wide in both theta and phi: rings finest at the
-        // horizon, 0.7-degree sectors.
-        return Bins::horizon(setup.ns, 128, 512);
-    }
-    if alpha > 0.15 {
-        // A wide lobe reaches the horizon from any angle.
-        return Bins::polar(setup.ns, 64, 64);
-    }
-    Bins {
-        c: setup.mirror(),
-        sigma: alpha.clamp(0.005, 1.0),
-        edge: 0.0,
-        rings: 32,
-        sectors: 24,
-    }
 }
 
 const ANGLES: [f64; 3] = [0.9, 0.4, 0.05]; // cos theta_o: near normal, oblique, grazing (87 degrees)
@@ -495,9 +180,7 @@ fn two_lobe_samplers_match_their_own_pdf() {
 
 // --- Consistency of sample, eval and pdf ------------------------------------------------------------
 
-/// For every material and a spread of query directions: each sample's weight is f cos / pdf and its
-/// pdf is bsdf_pdf(wi); f is reciprocal for reflection (f(wo, q) = f(q, wo)) and obeys
-/// f(wo, q) = eta^2 f(q, wo) for transmission, eta = n_t / n_i seen from wo.
+/// Every material through the shared adapter's checks (tests/common/bsdf.rs).
 #[test]
 fn sample_eval_pdf_agree_and_reciprocity() {
     let materials = [
@@ -513,69 +196,10 @@ fn sample_eval_pdf_agree_and_reciprocity() {
         ("gltf r 0.6", gltf([0.8, 0.3, 0.1], 0.3, 0.6)),
     ];
     for (what, mat) in materials {
-        for entering in [true, false] {
-            let mut setup = Setup::new(mat, 0.6);
-            setup.entering = entering;
-            let ior = mat.ior as f64;
-            let eta = if entering { ior } else { 1.0 / ior };
-            let qs: Vec<V3> = (0..4096)
-                .map(|i| {
-                    let c = -1.0 + 2.0 * ((i * 37 % 4096) as f64 + 0.5) / 4096.0;
-                    from_angles(setup.ns, c, i as f64 * 0.7)
-                })
-                .collect();
-            let cases: Vec<Case> = qs.iter().map(|&q| setup.case(11, q)).collect();
-            let out = gpu(&cases);
-            for (q, o) in qs.iter().zip(&out) {
-                let flags = o.w[3] as u32;
-                if flags != 0 && flags & BSDF_DELTA == 0 {
-                    let wi = xyz(o.s);
-                    let cos = dot(wi, setup.ns).abs();
-                    let pdf = o.s[3] as f64;
-                    let rel = |a: f64, b: f64| (a - b).abs() / a.abs().max(b.abs()).max(1e-30);
-                    assert!(
-                        rel(pdf, o.at[3] as f64) < 1e-4,
-                        "{what}: sampled pdf {pdf} vs bsdf_pdf {}",
-                        o.at[3]
-                    );
-                    for c in 0..3 {
-                        let want = o.at[c] as f64 * cos / pdf;
-                        assert!(
-                            rel(want, o.w[c] as f64) < 1e-3 || cos < 1e-4,
-                            "{what}: weight {} vs f cos / pdf {want} ({o:?})",
-                            o.w[c]
-                        );
-                    }
-                }
-                let above = dot(*q, setup.ns) > 1e-3;
-                let below = dot(*q, setup.ns) < -1e-3;
-                let (f, back) = (o.aq[0] as f64, o.r[0] as f64);
-                assert!(f.is_finite() && f >= 0.0, "{what}: f = {f}");
-                if above {
-                    assert!(
-                        (f - back).abs() <= 1e-4 * f.max(back) + 1e-7,
-                        "{what}: reflection not reciprocal: f(wo, q) = {f}, f(q, wo) = {back}"
-                    );
-                } else if below && o.rp[1] == 1.0 {
-                    // (Near the critical angle 1 - F has an infinite derivative: f32 rounding of the
-                    // cosines moves the tiny values there by a few percent, hence the absolute term.)
-                    let want = eta * eta * back;
-                    assert!(
-                        (f - want).abs() <= 1e-3 * f.max(want) + 1e-5,
-                        "{what}: f_t(wo, q) = {f} but eta^2 f_t(q, wo) = {want} (eta {eta})"
-                    );
-                }
-            }
-        }
+        assert_sample_eval_pdf_agree(what, mat);
     }
 }
 
-/// Reciprocity and sidedness exactly at the horizon, for every material with a non-delta lobe: with
-/// ns = +z, wo = (0.28, 0.96, 0) lies in the tangent plane (cos 0) and wi = (-0.6, 0, 0.8) above it.
-/// f(wo, wi) must equal f(wi, wo), and both are 0 (a direction along the surface neither gives nor
-/// receives light; the convention of pbrt-v4 and Mitsuba 3); so is the pdf of sampling either from the
-/// other, and a sample seen from the horizon is absorbed. (The diffuse BSDF once tested only wi's side:
-/// albedo / pi one way, 0 the other.)
 #[test]
 fn every_bsdf_is_reciprocal_and_one_sided_at_the_horizon() {
     let materials = [
@@ -587,33 +211,8 @@ fn every_bsdf_is_reciprocal_and_one_sided_at_the_horizon() {
         ("plastic r 0", plastic(0.7, 0.0)),
         ("gltf r 0.6", gltf([0.8, 0.3, 0.1], 0.3, 0.6)),
     ];
-    let ns = [0.0, 0.0, 1.0];
-    let horizon = [0.28, 0.96, 0.0];
-    let above = [-0.6, 0.0, 0.8];
     for (what, mat) in materials {
-        let case = |wo: V3, q: V3| Case {
-            mat,
-            wo: v4(wo, 1.0),
-            ns: v4(ns, 3.0),
-            t: v4([1.0, 0.0, 0.0], 0.0),
-            q: v4(q, 0.0),
-        };
-        let out = gpu(&[case(horizon, above), case(above, horizon)]);
-        for (o, way) in out.iter().zip(["wo on the horizon", "wi on the horizon"]) {
-            let (f, back) = (o.aq, o.r);
-            for c in 0..3 {
-                assert_eq!(
-                    f[c], back[c],
-                    "{what}, {way}: f(wo, wi) {f:?} but f(wi, wo) {back:?}"
-                );
-                assert_eq!(f[c], 0.0, "{what}, {way}: f = {f:?} along the surface");
-            }
-            assert_eq!((o.aq[3], o.rp[0]), (0.0, 0.0), "{what}, {way}: pdfs");
-        }
-        assert_eq!(
-            out[0].w[3], 0.0,
-            "{what}: a sample seen from the horizon is absorbed"
-        );
+        assert_reciprocal_and_one_sided_at_the_horizon(what, mat);
     }
 }
 

@@ -4,6 +4,7 @@
 mod common;
 
 use common::*;
+use vkpath::kernel::abi::{MAT_DIELECTRIC, MAT_DIFFUSE, MAT_EMITTER, MAT_MIRROR};
 use vkpath::kernel::features::{Feature as F, FeatureSet};
 use vkpath::render::{RenderOptions, kernel_for};
 
@@ -96,11 +97,15 @@ fn absent_features_leave_no_code() {
     let gpu = vkpath::kernel::upload::GpuScene::build(&s);
     let params = vkpath::kernel::upload::params_for(&s, RenderOptions::default().roulette_depth);
     let features = FeatureSet::of(&gpu, &params);
-    assert!(features.has(F::Spheres) && features.has(F::Diffuse) && features.has(F::PointLights));
+    assert!(
+        features.has(F::Spheres)
+            && features.has(F::Material(MAT_DIFFUSE))
+            && features.has(F::PointLights)
+    );
     assert!(
         !features.has(F::Triangles)
-            && !features.has(F::Mirror)
-            && !features.has(F::Dielectric)
+            && !features.has(F::Material(MAT_MIRROR))
+            && !features.has(F::Material(MAT_DIELECTRIC))
             && !features.has(F::SphereLights)
             && !features.has(F::Lens)
     );
@@ -184,7 +189,10 @@ material = "white"
         )
     };
     let f = features(base, 3);
-    assert!(!f.has(F::Dielectric), "glass is defined but unused");
+    assert!(
+        !f.has(F::Material(MAT_DIELECTRIC)),
+        "glass is defined but unused"
+    );
     assert!(
         !f.has(F::Roulette),
         "roulette from depth 3 never triggers with max_bounces = 2"
@@ -194,7 +202,7 @@ material = "white"
             && !f.has(F::Environment)
             && !f.has(F::PointLights)
             && !f.has(F::SphereLights)
-            && !f.has(F::Emitters)
+            && !f.has(F::Material(MAT_EMITTER))
     );
     assert_eq!(f.knob("filter"), Some(2), "gaussian by default");
     assert!(features(base, 2).has(F::Roulette));
@@ -207,7 +215,7 @@ material = "white"
         f.has(F::Lens)
             && f.has(F::Environment)
             && f.has(F::SphereLights)
-            && f.has(F::Emitters)
+            && f.has(F::Material(MAT_EMITTER))
             && !f.has(F::PointLights)
     );
 }

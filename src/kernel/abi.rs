@@ -6,6 +6,7 @@
 //! The compile-time asserts below pin the sizes; `tests/layout.rs` holds every field offset against the
 //! layout naga reflects from the WGSL.
 
+use crate::scene::bsdfs;
 use bytemuck::{Pod, Zeroable};
 
 /// Per-render constants (uniform buffer `params`). Mirrors `Params` in scene_data.wgsl.
@@ -92,15 +93,16 @@ pub struct GpuTriangle {
     pub _pad1: u32,
 }
 
-/// Material kinds (`MAT_*` in bsdf.wgsl).
-pub const MAT_DIFFUSE: u32 = 0;
-pub const MAT_MIRROR: u32 = 1;
-pub const MAT_DIELECTRIC: u32 = 2;
-pub const MAT_EMITTER: u32 = 3;
-pub const MAT_CONDUCTOR: u32 = 4;
-pub const MAT_ROUGH_DIELECTRIC: u32 = 5;
-pub const MAT_PLASTIC: u32 = 6;
-pub const MAT_METALLIC_ROUGHNESS: u32 = 7;
+/// The material kinds the host uploads by name (`GpuMaterial::kind`): their rows' indices in the registry
+/// (`scene::bsdfs`), which also numbers the generated WGSL constants.
+pub const MAT_DIFFUSE: u32 = bsdfs::kind("diffuse");
+pub const MAT_MIRROR: u32 = bsdfs::kind("mirror");
+pub const MAT_DIELECTRIC: u32 = bsdfs::kind("dielectric");
+pub const MAT_EMITTER: u32 = bsdfs::kind("emitter");
+pub const MAT_CONDUCTOR: u32 = bsdfs::kind("conductor");
+pub const MAT_ROUGH_DIELECTRIC: u32 = bsdfs::kind("rough_dielectric");
+pub const MAT_PLASTIC: u32 = bsdfs::kind("plastic");
+pub const MAT_METALLIC_ROUGHNESS: u32 = bsdfs::kind("metallic_roughness");
 
 /// `GpuMaterial::flags`: the material emits from both faces (else only from the front: the side its
 /// geometric normal faces).
@@ -118,7 +120,7 @@ pub const BSDF_REFLECTION: u32 = 1;
 pub const BSDF_TRANSMISSION: u32 = 2;
 pub const BSDF_DELTA: u32 = 4;
 
-/// Mirrors `Material` in bsdf.wgsl.
+/// Mirrors `Material` in bsdfs/common.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -393,16 +395,9 @@ pub const AOV_DEPTH: u32 = 3;
 pub const SAMPLE_FAULT_COUNTERS: usize = 2;
 
 /// Every integer constant the host and the WGSL share, by its name in both: `tests/layout.rs` checks each
-/// against the value naga parses from the production kernel.
+/// against the value naga parses from the production kernel. (The `MAT_*` kinds are generated into the
+/// WGSL from the registry, `scene::bsdfs`, and checked against it there.)
 pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
-    ("MAT_DIFFUSE", MAT_DIFFUSE),
-    ("MAT_MIRROR", MAT_MIRROR),
-    ("MAT_DIELECTRIC", MAT_DIELECTRIC),
-    ("MAT_EMITTER", MAT_EMITTER),
-    ("MAT_CONDUCTOR", MAT_CONDUCTOR),
-    ("MAT_ROUGH_DIELECTRIC", MAT_ROUGH_DIELECTRIC),
-    ("MAT_PLASTIC", MAT_PLASTIC),
-    ("MAT_METALLIC_ROUGHNESS", MAT_METALLIC_ROUGHNESS),
     ("MATERIAL_TWO_SIDED_EMISSION", MATERIAL_TWO_SIDED_EMISSION),
     ("MATERIAL_SCHLICK", MATERIAL_SCHLICK),
     ("BSDF_REFLECTION", BSDF_REFLECTION),

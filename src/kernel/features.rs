@@ -1,7 +1,7 @@
 //! The feature set of a scene: which parts of the kernel it needs. The renderer specialises the kernel
 //! for it (shaders/features.wgsl), so that a scene pays only for what it uses.
 //!
-//! One table, [`FEATURES`], has a row per feature: its name (in reports and `vkpath bench
+//! One table, [`features()`], has a row per feature: its name (in reports and `vkpath bench
 //! specialisation`), the WGSL `override` constant it sets, and whether a scene needs it. Everything else
 //! follows from the table: [`FeatureSet::generic`], [`FeatureSet::of`], the pipeline constants,
 //! [`FeatureSet::absent`], [`FeatureSet::enable`] and the kernel's name. The three run-time knobs (pixel
@@ -10,11 +10,15 @@
 //! the overrides the WGSL declares, both ways.
 //!
 //! Adding a feature: a row here and its `override` in features.wgsl (the test fails until both exist).
+//! The material kinds' rows are not written here: each row of the material registry (`scene::bsdfs`)
+//! is one, with its override generated beside the kind's constant (bsdf_kinds.wgsl).
 
 use super::abi::*;
 use super::upload::GpuScene;
+use crate::scene::bsdfs;
+use std::sync::LazyLock;
 
-/// A feature of the kernel; the discriminant is the row's index in [`FEATURES`].
+/// A feature of the kernel: a row of [`features()`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Feature {
     Spheres,
@@ -28,15 +32,7 @@ pub enum Feature {
     NormalMaps,
     BumpMaps,
     Opacity,
-    Diffuse,
-    Mirror,
-    Dielectric,
-    Conductor,
-    RoughDielectric,
-    Plastic,
-    MetallicRoughness,
     Anisotropy,
-    Emitters,
     Emission,
     PointLights,
     SphereLights,
@@ -47,6 +43,8 @@ pub enum Feature {
     Lens,
     Orthographic,
     Roulette,
+    /// A material kind (`MAT_*`), a row of the registry (`scene::bsdfs`).
+    Material(u32),
 }
 
 /// What decides whether a scene needs a feature.
@@ -98,8 +96,8 @@ fn used_materials(g: &GpuScene) -> impl Iterator<Item = &GpuMaterial> {
     used.filter_map(|m| g.materials.get(m as usize))
 }
 
-/// The feature table.
-pub const FEATURES: &[FeatureRow] = &[
+/// The rows before the material kinds'.
+const BEFORE_MATERIALS: &[FeatureRow] = &[
     FeatureRow {
         feature: Feature::Spheres,
         name: "spheres",
@@ -202,62 +200,10 @@ pub const FEATURES: &[FeatureRow] = &[
         },
         reported: true,
     },
-    FeatureRow {
-        feature: Feature::Diffuse,
-        name: "diffuse",
-        constant: "HAS_DIFFUSE",
-        group: Group::Material(MAT_DIFFUSE),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::Mirror,
-        name: "mirror",
-        constant: "HAS_MIRROR",
-        group: Group::Material(MAT_MIRROR),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::Dielectric,
-        name: "dielectric",
-        constant: "HAS_DIELECTRIC",
-        group: Group::Material(MAT_DIELECTRIC),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::Conductor,
-        name: "conductor",
-        constant: "HAS_CONDUCTOR",
-        group: Group::Material(MAT_CONDUCTOR),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::RoughDielectric,
-        name: "rough_dielectric",
-        constant: "HAS_ROUGH_DIELECTRIC",
-        group: Group::Material(MAT_ROUGH_DIELECTRIC),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::Plastic,
-        name: "plastic",
-        constant: "HAS_PLASTIC",
-        group: Group::Material(MAT_PLASTIC),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::MetallicRoughness,
-        name: "metallic_roughness",
-        constant: "HAS_METALLIC_ROUGHNESS",
-        group: Group::Material(MAT_METALLIC_ROUGHNESS),
-        needed: by_group,
-        reported: true,
-    },
+];
+
+/// The rows after the material kinds'.
+const AFTER_MATERIALS: &[FeatureRow] = &[
     FeatureRow {
         // A material some object uses has a different roughness along the tangent and the bitangent.
         feature: Feature::Anisotropy,
@@ -265,14 +211,6 @@ pub const FEATURES: &[FeatureRow] = &[
         constant: "HAS_ANISOTROPY",
         group: Group::Other,
         needed: |g, _| used_materials(g).any(|m| m.alpha_x != m.alpha_y),
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::Emitters,
-        name: "emitters",
-        constant: "HAS_EMITTERS",
-        group: Group::Material(MAT_EMITTER),
-        needed: by_group,
         reported: true,
     },
     FeatureRow {
@@ -360,6 +298,43 @@ pub const FEATURES: &[FeatureRow] = &[
     },
 ];
 
+/// The feature table: the rows above, with a row per material kind of the registry (`scene::bsdfs`)
+/// between them. A feature's bit in a [`FeatureSet`] is its row's index.
+pub fn features() -> &'static [FeatureRow] {
+    static ROWS: LazyLock<Vec<FeatureRow>> = LazyLock::new(|| {
+        let materials = bsdfs::BSDFS.iter().enumerate().map(|(i, k)| FeatureRow {
+            feature: Feature::Material(i as u32),
+            name: k.feature,
+            // Leaked once: the table lives as long as the program.
+            constant: k.feature_constant().leak(),
+            group: Group::Material(i as u32),
+            needed: by_group,
+            reported: true,
+        });
+        let rows: Vec<FeatureRow> = BEFORE_MATERIALS
+            .iter()
+            .map(FeatureRow::copy)
+            .chain(materials)
+            .chain(AFTER_MATERIALS.iter().map(FeatureRow::copy))
+            .collect();
+        assert!(rows.len() <= 64, "a FeatureSet holds 64 features");
+        rows
+    });
+    &ROWS
+}
+
+impl FeatureRow {
+    fn copy(&self) -> FeatureRow {
+        FeatureRow { ..*self }
+    }
+
+    /// The row's bit in a [`FeatureSet`].
+    fn bit(f: Feature) -> u64 {
+        let i = features().iter().position(|r| r.feature == f);
+        1 << i.expect("every feature has a row")
+    }
+}
+
 /// The constants derived from the rows rather than set by one: a single material kind, a single light
 /// kind, any material texture or modifier (the hit's texture coordinates, the `material_textures`
 /// buffer), and the per-triangle shading data that smooth normals and texture coordinates read.
@@ -438,29 +413,19 @@ pub const KNOBS: &[KnobRow] = &[
     },
 ];
 
-/// The features a kernel keeps (a bit per [`FEATURES`] row), and the knobs it has as constants
+/// The features a kernel keeps (a bit per [`features()`] row), and the knobs it has as constants
 /// (`None`: read at run time, as the generic kernel does).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct FeatureSet {
-    on: u32,
+    on: u64,
     knobs: [Option<u32>; KNOBS.len()],
 }
-
-const _: () = assert!(FEATURES.len() <= 32);
-const _: () = {
-    // Row i is Feature i: `FeatureSet::has` indexes the table by the discriminant.
-    let mut i = 0;
-    while i < FEATURES.len() {
-        assert!(FEATURES[i].feature as usize == i);
-        i += 1;
-    }
-};
 
 impl FeatureSet {
     /// Everything on, every knob read at run time: the one kernel that renders any scene.
     pub fn generic() -> FeatureSet {
         FeatureSet {
-            on: (1u32 << FEATURES.len()) - 1,
+            on: u64::MAX >> (64 - features().len()),
             knobs: [None; KNOBS.len()],
         }
     }
@@ -479,7 +444,7 @@ impl FeatureSet {
             on: 0,
             knobs: [None; KNOBS.len()],
         };
-        for row in FEATURES {
+        for row in features() {
             let needed = match row.group {
                 Group::Other => (row.needed)(scene, params),
                 Group::Material(kind) => used_kinds.contains(&kind),
@@ -494,14 +459,14 @@ impl FeatureSet {
     }
 
     pub fn has(&self, f: Feature) -> bool {
-        self.on & (1 << f as u32) != 0
+        self.on & FeatureRow::bit(f) != 0
     }
 
     pub fn set(&mut self, f: Feature, on: bool) {
         if on {
-            self.on |= 1 << f as u32;
+            self.on |= FeatureRow::bit(f);
         } else {
-            self.on &= !(1 << f as u32);
+            self.on &= !FeatureRow::bit(f);
         }
     }
 
@@ -514,7 +479,7 @@ impl FeatureSet {
     }
 
     fn count_group(&self, material: bool) -> usize {
-        FEATURES
+        features()
             .iter()
             .filter(|r| match r.group {
                 Group::Material(_) => material,
@@ -538,7 +503,7 @@ impl FeatureSet {
     /// The values of the kernel's `override` constants (naga takes them as f64).
     pub fn pipeline_constants(&self) -> Vec<(&'static str, f64)> {
         let b = |v: bool| if v { 1.0 } else { 0.0 };
-        let mut out: Vec<(&'static str, f64)> = FEATURES
+        let mut out: Vec<(&'static str, f64)> = features()
             .iter()
             .map(|r| (r.constant, b(self.has(r.feature))))
             .collect();
@@ -575,7 +540,7 @@ impl FeatureSet {
     /// Switches the feature named as in [`FeatureSet::absent`] on (its code back in the kernel). Naming
     /// `triangles` brings back both ways of finding them (BVH and loop), as in the generic kernel.
     pub fn enable(&mut self, name: &str) {
-        if let Some(row) = FEATURES.iter().find(|r| r.name == name) {
+        if let Some(row) = features().iter().find(|r| r.name == name) {
             self.set(row.feature, true);
             if row.feature == Feature::Triangles {
                 self.set(Feature::Bvh, true);
@@ -586,7 +551,7 @@ impl FeatureSet {
 
     /// The reported features this set leaves out, by name.
     pub fn absent(&self) -> Vec<&'static str> {
-        FEATURES
+        features()
             .iter()
             .filter(|r| r.reported && !self.has(r.feature))
             .map(|r| r.name)
@@ -599,7 +564,7 @@ impl FeatureSet {
         if *self == FeatureSet::generic() {
             return "generic".into();
         }
-        let on: Vec<&str> = FEATURES
+        let on: Vec<&str> = features()
             .iter()
             .filter(|r| self.has(r.feature))
             .map(|r| r.name)
@@ -618,7 +583,7 @@ impl serde::Serialize for FeatureSet {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         use serde::ser::SerializeMap;
         let mut map = s.serialize_map(None)?;
-        for r in FEATURES {
+        for r in features() {
             map.serialize_entry(r.name, &self.has(r.feature))?;
         }
         for (k, v) in KNOBS.iter().zip(self.knobs) {
@@ -634,8 +599,8 @@ mod tests {
 
     #[test]
     fn names_and_constants_are_unique() {
-        let mut names: Vec<&str> = FEATURES.iter().map(|r| r.name).collect();
-        let mut constants: Vec<&str> = FEATURES.iter().map(|r| r.constant).collect();
+        let mut names: Vec<&str> = features().iter().map(|r| r.name).collect();
+        let mut constants: Vec<&str> = features().iter().map(|r| r.constant).collect();
         names.extend(KNOBS.iter().map(|k| k.name));
         constants.extend(
             KNOBS
@@ -653,7 +618,7 @@ mod tests {
     #[test]
     fn generic_has_everything_and_reads_every_knob() {
         let g = FeatureSet::generic();
-        assert!(FEATURES.iter().all(|r| g.has(r.feature)));
+        assert!(features().iter().all(|r| g.has(r.feature)));
         assert!(g.absent().is_empty());
         assert_eq!(g.kernel_name(), "generic");
         let consts = g.pipeline_constants();
@@ -676,10 +641,10 @@ mod tests {
             FeatureSet::of(&GpuScene::build(&scene), &params_for(&scene, 3))
         };
         let glossy = [
-            Feature::Conductor,
-            Feature::RoughDielectric,
-            Feature::Plastic,
-            Feature::MetallicRoughness,
+            Feature::Material(MAT_CONDUCTOR),
+            Feature::Material(MAT_ROUGH_DIELECTRIC),
+            Feature::Material(MAT_PLASTIC),
+            Feature::Material(MAT_METALLIC_ROUGHNESS),
             Feature::Anisotropy,
         ];
         let on =
@@ -687,21 +652,24 @@ mod tests {
         let diffuse = scene_with("{ type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }");
         assert_eq!(on(&diffuse), vec![]);
         let gold = scene_with("{ type = \"conductor\", preset = \"gold\", roughness = 0.3 }");
-        assert_eq!(on(&gold), vec![Feature::Conductor]);
+        assert_eq!(on(&gold), vec![Feature::Material(MAT_CONDUCTOR)]);
         assert!(gold.single_material_kind());
         let brushed =
             scene_with("{ type = \"conductor\", preset = \"gold\", roughness = [0.1, 0.4] }");
-        assert_eq!(on(&brushed), vec![Feature::Conductor, Feature::Anisotropy]);
+        assert_eq!(
+            on(&brushed),
+            vec![Feature::Material(MAT_CONDUCTOR), Feature::Anisotropy]
+        );
         let smooth_glass = scene_with("{ type = \"dielectric\", ior = 1.5, roughness = 0 }");
         assert_eq!(on(&smooth_glass), vec![]);
-        assert!(smooth_glass.has(Feature::Dielectric));
+        assert!(smooth_glass.has(Feature::Material(MAT_DIELECTRIC)));
         let frosted = scene_with("{ type = \"dielectric\", ior = 1.5, roughness = 0.5 }");
-        assert_eq!(on(&frosted), vec![Feature::RoughDielectric]);
-        assert!(!frosted.has(Feature::Dielectric));
+        assert_eq!(on(&frosted), vec![Feature::Material(MAT_ROUGH_DIELECTRIC)]);
+        assert!(!frosted.has(Feature::Material(MAT_DIELECTRIC)));
         let plastic = scene_with("{ type = \"plastic\", albedo = [0.5, 0.5, 0.5] }");
-        assert_eq!(on(&plastic), vec![Feature::Plastic]);
+        assert_eq!(on(&plastic), vec![Feature::Material(MAT_PLASTIC)]);
         let pbr = scene_with("{ type = \"metallic_roughness\" }");
-        assert_eq!(on(&pbr), vec![Feature::MetallicRoughness]);
+        assert_eq!(on(&pbr), vec![Feature::Material(MAT_METALLIC_ROUGHNESS)]);
     }
 
     /// A specialised kernel has the scene's sizes as loop bounds: 12-triangle lists 9 spheres, a sphere

@@ -8,7 +8,9 @@
 //! a test of `intersect_sphere` tests exactly the code that renders, and no list of modules is written
 //! out anywhere else.
 
+use crate::scene::bsdfs;
 use std::collections::HashSet;
+use std::sync::LazyLock;
 
 /// Every file of the library, by the name `requires` lines use.
 pub const MODULES: &[(&str, &str)] = &[
@@ -23,7 +25,6 @@ pub const MODULES: &[(&str, &str)] = &[
         "microfacet.wgsl",
         include_str!("../../shaders/microfacet.wgsl"),
     ),
-    ("bsdf.wgsl", include_str!("../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../shaders/lights.wgsl")),
     ("camera.wgsl", include_str!("../../shaders/camera.wgsl")),
     (
@@ -45,6 +46,107 @@ pub const MODULES: &[(&str, &str)] = &[
     ),
 ];
 
+/// The modules generated from the material registry (`scene::bsdfs`): `bsdf_kinds.wgsl` (the kinds'
+/// numbers and feature constants) and `bsdf.wgsl` (the dispatchers the integrator calls).
+pub const BSDF_KINDS: &str = "bsdf_kinds.wgsl";
+pub const BSDF: &str = "bsdf.wgsl";
+
+/// The six functions every material file defines, as the dispatchers call them: (the dispatcher's
+/// name and signature, the kind function's suffix and arguments, the value when no kind matched: a kind
+/// the kernel has no code for absorbs, is black and is a "delta" (nothing for next-event estimation)).
+const DISPATCHERS: &[(&str, &str, &str, &str)] = &[
+    (
+        "bsdf_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>, entering: bool,\n               rng: ptr<function, Rng>) -> BsdfSample",
+        "sample(mat, wo, Shading(ns, tangent, entering), rng)",
+        "BsdfSample",
+        "bsdf_absorbed()",
+    ),
+    (
+        "bsdf_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,\n             entering: bool) -> vec3<f32>",
+        "eval(mat, wo, wi, Shading(ns, tangent, entering))",
+        "vec3<f32>",
+        "vec3<f32>(0.0)",
+    ),
+    (
+        "bsdf_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,\n            entering: bool) -> f32",
+        "pdf(mat, wo, wi, Shading(ns, tangent, entering))",
+        "f32",
+        "0.0",
+    ),
+    (
+        "bsdf_albedo(mat: Material) -> vec3<f32>",
+        "albedo(mat)",
+        "vec3<f32>",
+        "vec3<f32>(0.0)",
+    ),
+    (
+        "bsdf_is_delta(mat: Material) -> bool",
+        "is_delta(mat)",
+        "bool",
+        "true",
+    ),
+    (
+        "bsdf_transmits(mat: Material) -> bool",
+        "transmits(mat)",
+        "bool",
+        "false",
+    ),
+];
+
+/// The text of `bsdf_kinds.wgsl`: a `MAT_*` constant (the row's index) and a `HAS_*` override per row.
+fn generate_bsdf_kinds() -> String {
+    let mut out = String::from(
+        "// bsdf_kinds.wgsl, generated from the material registry (src/scene/bsdfs.rs) by\n\
+         // src/kernel/library.rs: each kind's number (Material::kind) and its feature constant, an\n\
+         // override like those of features.wgsl, set by the feature table (src/kernel/features.rs).\n\
+         //\n\
+         // requires: (nothing)\n\n",
+    );
+    for (i, k) in bsdfs::BSDFS.iter().enumerate() {
+        out += &format!("const {}: u32 = {i}u;\n", k.constant());
+    }
+    out += "\n";
+    for k in bsdfs::BSDFS {
+        out += &format!("override {}: bool = true;\n", k.feature_constant());
+    }
+    out
+}
+
+/// The text of `bsdf.wgsl`: the six dispatchers, each a branch per kind under the kind's feature
+/// constant, so that a kernel specialised for a scene keeps only the kinds the scene uses; with one kind
+/// (SINGLE_MATERIAL_KIND) the kind test goes too. Each dispatcher has one exit: on lavapipe, whose
+/// invocations run as SIMD lanes, a return inside a branch costs mask bookkeeping at every later
+/// statement.
+fn generate_bsdf() -> String {
+    let mut requires = vec!["features.wgsl".to_string(), BSDF_KINDS.to_string()];
+    requires.extend(bsdfs::BSDFS.iter().map(|k| k.file()));
+    let mut out = format!(
+        "// bsdf.wgsl, generated from the material registry (src/scene/bsdfs.rs) by src/kernel/library.rs:\n\
+         // the interface the integrator calls (bsdf_sample, bsdf_eval, bsdf_pdf, bsdf_albedo, bsdf_is_delta,\n\
+         // bsdf_transmits), each a branch per material kind calling the kind's own function\n\
+         // (shaders/bsdfs/<kind>.wgsl; the interface is documented in bsdfs/common.wgsl).\n\
+         //\n\
+         // requires: {}\n",
+        requires.join(", ")
+    );
+    for (signature, call, ty, none) in DISPATCHERS {
+        out += &format!("\nfn {signature} {{\n    var r: {ty} = {none};\n");
+        for k in bsdfs::BSDFS {
+            out += &format!(
+                "    if {} {{\n        if SINGLE_MATERIAL_KIND || mat.kind == {} {{\n            r = {}_{call};\n        }}\n    }}\n",
+                k.feature_constant(),
+                k.constant(),
+                k.name
+            );
+        }
+        out += "    return r;\n}\n";
+    }
+    out
+}
+
+static GENERATED: LazyLock<[(&str, String); 2]> =
+    LazyLock::new(|| [(BSDF_KINDS, generate_bsdf_kinds()), (BSDF, generate_bsdf())]);
+
 /// The production kernel's root file.
 pub const TRACE: &str = "trace.wgsl";
 
@@ -52,9 +154,35 @@ pub const TRACE: &str = "trace.wgsl";
 /// measured against (`vkpath bench specialisation`).
 pub const TRIMMED_DIFFUSE_POINT: &str = "bench/trimmed_diffuse_point.wgsl";
 
-/// The text of a library file.
+/// The text of a library file: a file of `shaders/`, a material's (`scene::bsdfs`), or a generated one.
 pub fn module(name: &str) -> Option<&'static str> {
-    MODULES.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+    let file = MODULES
+        .iter()
+        .chain(bsdfs::SHARED_FILES)
+        .find(|(n, _)| *n == name);
+    let kind = || {
+        let k = bsdfs::BSDFS.iter().find(|k| k.file() == name)?;
+        Some(k.source)
+    };
+    let generated = || {
+        GENERATED
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, t)| t.as_str())
+    };
+    file.map(|(_, t)| *t).or_else(kind).or_else(generated)
+}
+
+/// Every library file's name and text, generated ones included.
+pub fn all_modules() -> Vec<(String, &'static str)> {
+    let mut all: Vec<(String, &'static str)> = MODULES
+        .iter()
+        .chain(bsdfs::SHARED_FILES)
+        .map(|(n, t)| (n.to_string(), *t))
+        .collect();
+    all.extend(bsdfs::BSDFS.iter().map(|k| (k.file(), k.source)));
+    all.extend(GENERATED.iter().map(|(n, t)| (n.to_string(), t.as_str())));
+    all
 }
 
 /// The files a WGSL text declares it requires, in the order written.
@@ -131,7 +259,7 @@ mod tests {
 
     #[test]
     fn every_module_declares_its_requirements() {
-        for (name, text) in MODULES {
+        for (name, text) in all_modules() {
             assert!(
                 text.contains("// requires:"),
                 "{name} has no `// requires:` line"

@@ -259,7 +259,7 @@ mod tests {
         compile(&library::trimmed_source()).unwrap_or_else(|e| panic!("{e}"));
         // Specialised with every feature off: everything prunes, and what is left still validates.
         let mut none = FeatureSet::generic();
-        for row in crate::kernel::features::FEATURES {
+        for row in crate::kernel::features::features() {
             none.set(row.feature, false);
         }
         compile_with(&library::trace_source(), &none.pipeline_constants())

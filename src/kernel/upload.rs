@@ -98,7 +98,7 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             g.kind = MAT_CONDUCTOR;
             set_alpha(&mut g, roughness);
             // The tint goes where the Fresnel model leaves room: `albedo` beside eta and k, `eta` beside
-            // Schlick's f0 (in `albedo`), which has no index of refraction (bsdf.wgsl, conductor_fresnel).
+            // Schlick's f0 (in `albedo`), which has no index of refraction (bsdfs/conductor.wgsl, conductor_fresnel).
             match fresnel {
                 ConductorFresnel::Complex { eta, k } => {
                     (g.eta, g.k, g.albedo) = (eta.into(), k.into(), tint.into())
@@ -131,6 +131,17 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             set_alpha(&mut g, Roughness::isotropic(roughness));
         }
         Bsdf::Black => g.kind = MAT_EMITTER,
+        Bsdf::Registered {
+            kind,
+            albedo,
+            roughness,
+        } => {
+            // Uploaded as the registry's parameter kinds say (scene::bsdfs::ParamValue): the colour in
+            // `albedo`, alpha = roughness^2 on both axes (not snapped to a delta: the kind decides).
+            g.kind = kind;
+            g.albedo = albedo.into();
+            (g.alpha_x, g.alpha_y) = roughness.alpha();
+        }
     }
     if let Some(Emission {
         radiance,

@@ -4,6 +4,7 @@
 //! Everything here is plain data in `f32`/glam types: it knows nothing of Vulkan. `kernel::upload` turns a
 //! [`Scene`] into the Pod buffers the shader reads.
 
+pub mod bsdfs;
 pub mod bvh;
 pub mod environment;
 pub mod gltf;
@@ -269,7 +270,7 @@ pub enum Bsdf {
         roughness: Roughness,
         tint: Vec3,
     },
-    /// A diffuse base of `albedo` under a dielectric coat of index `ior` (shaders/bsdf.wgsl).
+    /// A diffuse base of `albedo` under a dielectric coat of index `ior` (shaders/bsdfs/plastic.wgsl).
     Plastic {
         albedo: Vec3,
         ior: f32,
@@ -283,6 +284,14 @@ pub enum Bsdf {
     },
     /// Reflects and transmits nothing (the `emitter` material: a lamp's surface).
     Black,
+    /// A kind of the registry that its generic reader reads (`bsdfs::Keys::Params`): the kind's number
+    /// (`MAT_*`) and the values of its parameters by their kinds (`bsdfs::ParamValue`; a kind without
+    /// one has its default: black, smooth).
+    Registered {
+        kind: u32,
+        albedo: Vec3,
+        roughness: Roughness,
+    },
 }
 
 /// A microfacet roughness as scenes give it: perceptual, in [0, 1], along the surface's tangent (`u`)

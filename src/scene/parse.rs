@@ -16,6 +16,7 @@
 //! compared, never unwrapped, and integer arithmetic on them is done in a type wide enough not to
 //! overflow.
 
+use super::bsdfs;
 use super::environment::{self, Environment};
 use super::mesh::{self, Mesh, MeshMaps, ObjMesh, Placement, Texture};
 use super::texture::{MaterialTextures, TextureRef};
@@ -375,6 +376,19 @@ struct RawMaterial {
     alpha_cutoff: Option<Spanned<f32>>,
     bump: Option<Spanned<RawModifier>>,
     normal_map: Option<Spanned<RawModifier>>,
+}
+
+impl RawMaterial {
+    /// The colour key named `key`, for the registry's generic reader (a parameter's key must be one of
+    /// these: tests hold every row against them).
+    fn color_key(&self, key: &str) -> Option<&Spanned<RawParam<RawVec3>>> {
+        match key {
+            "albedo" => self.albedo.as_ref(),
+            "tint" => self.tint.as_ref(),
+            "base_color" => self.base_color.as_ref(),
+            _ => panic!("the material registry names colour key `{key}`, which RawMaterial lacks"),
+        }
+    }
 }
 
 #[derive(Deserialize)]
@@ -1285,7 +1299,7 @@ impl Checker<'_> {
         // takes the surface modifiers.
         const EMISSION: [&str; 2] = ["emission", "two_sided_emission"];
         const MODIFIERS: [&str; 4] = ["opacity", "alpha_cutoff", "bump", "normal_map"];
-        let (allowed, bsdf): (&[&str], _) = match kind {
+        let (allowed, bsdf): (Vec<&str>, _) = match kind {
             "diffuse" => {
                 let albedo = self.required(
                     &m.albedo,
@@ -1303,7 +1317,7 @@ impl Checker<'_> {
                     &mut textures.albedo,
                 )?;
                 (
-                    &["albedo", EMISSION[0], EMISSION[1]],
+                    vec!["albedo", EMISSION[0], EMISSION[1]],
                     Bsdf::Diffuse { albedo },
                 )
             }
@@ -1320,7 +1334,10 @@ impl Checker<'_> {
                         &mut textures.albedo,
                     )?,
                 };
-                (&["tint", EMISSION[0], EMISSION[1]], Bsdf::Mirror { tint })
+                (
+                    vec!["tint", EMISSION[0], EMISSION[1]],
+                    Bsdf::Mirror { tint },
+                )
             }
             "dielectric" => {
                 let ior = self.required(
@@ -1337,7 +1354,7 @@ impl Checker<'_> {
                     &mut textures.roughness,
                 )?;
                 (
-                    &["ior", "roughness", EMISSION[0], EMISSION[1]],
+                    vec!["ior", "roughness", EMISSION[0], EMISSION[1]],
                     Bsdf::Dielectric { ior, roughness },
                 )
             }
@@ -1361,7 +1378,7 @@ impl Checker<'_> {
                     }
                 };
                 (
-                    &[
+                    vec![
                         "preset",
                         "eta",
                         "k",
@@ -1403,7 +1420,7 @@ impl Checker<'_> {
                     &mut textures.roughness,
                 )?;
                 (
-                    &["albedo", "ior", "roughness", EMISSION[0], EMISSION[1]],
+                    vec!["albedo", "ior", "roughness", EMISSION[0], EMISSION[1]],
                     Bsdf::Plastic {
                         albedo,
                         ior,
@@ -1451,7 +1468,7 @@ impl Checker<'_> {
                     },
                 };
                 (
-                    &[
+                    vec![
                         "base_color",
                         "metallic",
                         "roughness",
@@ -1465,15 +1482,29 @@ impl Checker<'_> {
                     },
                 )
             }
-            "emitter" => (&["radiance", "two_sided"], Bsdf::Black),
+            "emitter" => (vec!["radiance", "two_sided"], Bsdf::Black),
+            other if bsdfs::by_toml_type(other).is_some() => {
+                let (kind, row) = bsdfs::by_toml_type(other).expect("matched");
+                self.registered_material(kind, row, name, raw, files, &mut textures)?
+            }
             other => {
+                let registered: Vec<String> = bsdfs::BSDFS
+                    .iter()
+                    .filter_map(|k| match k.keys {
+                        bsdfs::Keys::Params { toml_type, .. } => Some(format!("\"{toml_type}\"")),
+                        bsdfs::Keys::Builtin => None,
+                    })
+                    .collect();
                 return Err(self.error(
                     m.kind.span(),
                     &key("type"),
                     format!("unknown material type \"{other}\""),
-                    "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior), \
-                     \"conductor\" (with preset, eta and k, or base_color), \"plastic\" (with albedo), \
-                     \"metallic_roughness\" or \"emitter\" (with radiance).",
+                    format!(
+                        "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior), \
+                         \"conductor\" (with preset, eta and k, or base_color), \"plastic\" (with albedo), \
+                         \"metallic_roughness\", \"emitter\" (with radiance), or {} (see docs/scene-format.md).",
+                        registered.join(", ")
+                    ),
                 ));
             }
         };
@@ -1587,6 +1618,80 @@ impl Checker<'_> {
 
     /// A colour parameter: its constant (checked by `bad`), or a texture reference, recorded in `slot`,
     /// whose factor (default white, checked the same way) becomes the constant.
+    /// A material of a kind the registry's generic reader reads (`scene::bsdfs`, `Keys::Params`): each
+    /// of the row's parameters read from its key, checked, defaulted and textured by its value kind.
+    /// Returns the keys the kind allows (its parameters and emission) and the material.
+    fn registered_material(
+        &self,
+        kind: u32,
+        row: &'static bsdfs::BsdfKind,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+        files: &mut Files,
+        textures: &mut MaterialTextures,
+    ) -> Result<(Vec<&'static str>, Bsdf), SceneError> {
+        let m = raw.get_ref();
+        let bsdfs::Keys::Params { toml_type, params } = row.keys else {
+            unreachable!("by_toml_type finds rows with parameters only")
+        };
+        let (mut albedo, mut roughness) = (Vec3::ZERO, Roughness::SMOOTH);
+        for p in params {
+            let key = format!("materials.{name}.{}", p.key);
+            match p.value {
+                bsdfs::ParamValue::Albedo { default } => {
+                    albedo = match (m.color_key(p.key), default) {
+                        (Some(v), _) => self.color_param(
+                            v,
+                            &key,
+                            |a| !in_unit_range(a),
+                            "every component must be in [0, 1]",
+                            p.hint,
+                            files,
+                            &mut textures.albedo,
+                        )?,
+                        (None, Some(d)) => Vec3::from(d),
+                        (None, None) => {
+                            let problem = format!("a {toml_type} material needs {}", p.key);
+                            self.required(&None::<Spanned<()>>, raw, &key, &problem)?;
+                            unreachable!("required refuses a missing key")
+                        }
+                    };
+                }
+                bsdfs::ParamValue::Roughness { default } => {
+                    roughness = match &m.roughness {
+                        None => Roughness::isotropic(default),
+                        Some(r) => match self.roughness(
+                            &m.roughness,
+                            &key,
+                            files,
+                            &mut textures.roughness,
+                        )? {
+                            iso @ Roughness { u, v } if u == v => iso,
+                            _ => {
+                                return Err(self.error(
+                                    r.span(),
+                                    &key,
+                                    format!("a {toml_type} material's roughness is one number"),
+                                    p.hint,
+                                ));
+                            }
+                        },
+                    };
+                }
+            }
+        }
+        let mut allowed: Vec<&'static str> = params.iter().map(|p| p.key).collect();
+        allowed.extend(["emission", "two_sided_emission"]);
+        Ok((
+            allowed,
+            Bsdf::Registered {
+                kind,
+                albedo,
+                roughness,
+            },
+        ))
+    }
+
     #[allow(clippy::too_many_arguments)]
     fn color_param(
         &self,

@@ -2,6 +2,7 @@
 //! (Khronos validation on) and check that the validation layer stayed silent.
 #![allow(dead_code)]
 
+pub mod bsdf;
 pub mod envmap;
 pub mod stats;
 pub mod vec;
