@@ -22,6 +22,7 @@ pub mod accum;
 pub mod bench;
 pub mod checkpoint;
 pub mod film;
+pub mod fs_atomic;
 pub mod gpu;
 pub mod kernel;
 pub mod output;

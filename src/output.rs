@@ -19,7 +19,8 @@
 //! fails after others succeeded (which needs the file system to fail between two renames in one
 //! directory) is reported with the files already replaced named.
 
-use crate::film::{Film, OutputFormat, directory_of};
+use crate::film::{Film, OutputFormat};
+use crate::fs_atomic::{directory_of, sync_parent_dir, temp_path_for};
 use crate::scene::{Gamma, ImageSettings};
 use std::path::{Path, PathBuf};
 
@@ -258,6 +259,23 @@ impl ImageFile<'_> {
     }
 }
 
+impl Film {
+    /// Writes the film to `path` (format from the extension), atomically: a temporary file in the same
+    /// directory, flushed and synced, then renamed over the target. A crash never leaves a partial image.
+    /// No metadata and no extra layers: [`write_images`] writes those.
+    pub fn write(&self, path: &Path, settings: &ImageSettings) -> Result<(), crate::Error> {
+        write_images(
+            &[path.to_path_buf()],
+            &ImageFile {
+                film: self,
+                settings,
+                metadata: None,
+                layers: &Layers::default(),
+            },
+        )
+    }
+}
+
 /// Writes `image` to every path (the format from each extension), all or nothing (see the module's
 /// documentation).
 pub fn write_images(paths: &[PathBuf], image: &ImageFile) -> Result<(), crate::Error> {
@@ -311,7 +329,7 @@ pub fn write_images(paths: &[PathBuf], image: &ImageFile) -> Result<(), crate::E
         done.push(path);
     }
     for (_, path) in &staged {
-        crate::film::sync_parent_dir(path);
+        sync_parent_dir(path);
     }
     Ok(())
 }
@@ -329,7 +347,7 @@ fn stage(path: &Path, image: &ImageFile) -> Result<PathBuf, crate::Error> {
         message,
     };
     let bytes = image.encode(format).map_err(io)?;
-    let tmp = crate::film::temp_path_for(path);
+    let tmp = temp_path_for(path);
     let written = (|| {
         use std::io::Write;
         let mut f = std::fs::File::create(&tmp)?;

@@ -45,7 +45,8 @@
 pub mod merge;
 
 use crate::Error;
-use crate::film::{Film, write_atomically_with};
+use crate::film::Film;
+use crate::fs_atomic::write_atomically_with;
 use crate::kernel::abi::GpuAccum;
 use crate::scene::{Gamma, ImageSettings, Scene};
 use serde::{Deserialize, Serialize};

@@ -71,7 +71,7 @@ pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
             message: e.to_string(),
         })?
     };
-    vkpath::film::write_atomically(&a.output, text.as_bytes())?;
+    vkpath::fs_atomic::write_atomically(&a.output, text.as_bytes())?;
     eprintln!("vkpath: wrote {}", a.output.display());
     Ok(0)
 }
