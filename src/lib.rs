@@ -37,6 +37,10 @@ pub use scene::Scene;
 
 use std::path::PathBuf;
 
+/// The version of vkpath (Cargo's package version): written into every image's metadata and every
+/// checkpoint's identity (the only version that resumes it).
+pub const VKPATH_VERSION: &str = env!("CARGO_PKG_VERSION");
+
 /// Everything that can go wrong, grouped by who can fix it (see [`Error::exit_code`]).
 #[derive(Debug, thiserror::Error)]
 pub enum Error {

@@ -43,10 +43,7 @@ impl ImageMetadata {
     /// The (key, value) pairs, in the order they are written.
     pub fn entries(&self) -> Vec<(&'static str, String)> {
         let mut v = vec![
-            (
-                "vkpath:version",
-                crate::render::identity::VKPATH_VERSION.to_string(),
-            ),
+            ("vkpath:version", crate::VKPATH_VERSION.to_string()),
             ("vkpath:scene", self.scene.clone()),
             ("vkpath:scene_hash", self.scene_hash.clone()),
             ("vkpath:spp", self.spp.to_string()),
@@ -174,7 +171,7 @@ impl ImageFile<'_> {
         text(
             &mut encoder,
             "Software",
-            format!("vkpath {}", crate::render::identity::VKPATH_VERSION),
+            format!("vkpath {}", crate::VKPATH_VERSION),
         )?;
         if let Some(m) = self.metadata {
             for (k, v) in m.entries() {
@@ -222,10 +219,7 @@ impl ImageFile<'_> {
             channels.push(channel("depth.Z", crate::output::Layers::depth_values(d)));
         }
         let mut attributes = LayerAttributes {
-            software_name: Text::new_or_none(format!(
-                "vkpath {}",
-                crate::render::identity::VKPATH_VERSION
-            )),
+            software_name: Text::new_or_none(format!("vkpath {}", crate::VKPATH_VERSION)),
             ..LayerAttributes::default()
         };
         if let Some(m) = self.metadata {

@@ -732,7 +732,7 @@ fn checkpoint_bytes() -> Vec<u8> {
     let c = Checkpoint {
         header: Header {
             identity: Identity {
-                vkpath_version: vkpath::checkpoint::VKPATH_VERSION.into(),
+                vkpath_version: vkpath::VKPATH_VERSION.into(),
                 scene_hash: "0123456789abcdef".into(),
                 width: 3,
                 height: 2,
