@@ -22,6 +22,7 @@ pub mod accum;
 pub mod bench;
 pub mod checkpoint;
 pub mod film;
+pub mod fs_atomic;
 pub mod gpu;
 pub mod kernel;
 pub mod output;
@@ -35,6 +36,10 @@ pub use render::{RenderOptions, Renderer};
 pub use scene::Scene;
 
 use std::path::PathBuf;
+
+/// The version of vkpath (Cargo's package version): written into every image's metadata and every
+/// checkpoint's identity (the only version that resumes it).
+pub const VKPATH_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// Everything that can go wrong, grouped by who can fix it (see [`Error::exit_code`]).
 #[derive(Debug, thiserror::Error)]

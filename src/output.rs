@@ -19,7 +19,8 @@
 //! fails after others succeeded (which needs the file system to fail between two renames in one
 //! directory) is reported with the files already replaced named.
 
-use crate::film::{Film, OutputFormat, directory_of};
+use crate::film::{Film, OutputFormat};
+use crate::fs_atomic::{directory_of, sync_parent_dir, temp_path_for};
 use crate::scene::{Gamma, ImageSettings};
 use std::path::{Path, PathBuf};
 
@@ -42,10 +43,7 @@ impl ImageMetadata {
     /// The (key, value) pairs, in the order they are written.
     pub fn entries(&self) -> Vec<(&'static str, String)> {
         let mut v = vec![
-            (
-                "vkpath:version",
-                crate::render::identity::VKPATH_VERSION.to_string(),
-            ),
+            ("vkpath:version", crate::VKPATH_VERSION.to_string()),
             ("vkpath:scene", self.scene.clone()),
             ("vkpath:scene_hash", self.scene_hash.clone()),
             ("vkpath:spp", self.spp.to_string()),
@@ -173,7 +171,7 @@ impl ImageFile<'_> {
         text(
             &mut encoder,
             "Software",
-            format!("vkpath {}", crate::render::identity::VKPATH_VERSION),
+            format!("vkpath {}", crate::VKPATH_VERSION),
         )?;
         if let Some(m) = self.metadata {
             for (k, v) in m.entries() {
@@ -221,10 +219,7 @@ impl ImageFile<'_> {
             channels.push(channel("depth.Z", crate::output::Layers::depth_values(d)));
         }
         let mut attributes = LayerAttributes {
-            software_name: Text::new_or_none(format!(
-                "vkpath {}",
-                crate::render::identity::VKPATH_VERSION
-            )),
+            software_name: Text::new_or_none(format!("vkpath {}", crate::VKPATH_VERSION)),
             ..LayerAttributes::default()
         };
         if let Some(m) = self.metadata {
@@ -255,6 +250,23 @@ impl ImageFile<'_> {
             .to_buffered(&mut bytes)
             .map_err(|e| e.to_string())?;
         Ok(bytes.into_inner())
+    }
+}
+
+impl Film {
+    /// Writes the film to `path` (format from the extension), atomically: a temporary file in the same
+    /// directory, flushed and synced, then renamed over the target. A crash never leaves a partial image.
+    /// No metadata and no extra layers: [`write_images`] writes those.
+    pub fn write(&self, path: &Path, settings: &ImageSettings) -> Result<(), crate::Error> {
+        write_images(
+            &[path.to_path_buf()],
+            &ImageFile {
+                film: self,
+                settings,
+                metadata: None,
+                layers: &Layers::default(),
+            },
+        )
     }
 }
 
@@ -311,7 +323,7 @@ pub fn write_images(paths: &[PathBuf], image: &ImageFile) -> Result<(), crate::E
         done.push(path);
     }
     for (_, path) in &staged {
-        crate::film::sync_parent_dir(path);
+        sync_parent_dir(path);
     }
     Ok(())
 }
@@ -329,7 +341,7 @@ fn stage(path: &Path, image: &ImageFile) -> Result<PathBuf, crate::Error> {
         message,
     };
     let bytes = image.encode(format).map_err(io)?;
-    let tmp = crate::film::temp_path_for(path);
+    let tmp = temp_path_for(path);
     let written = (|| {
         use std::io::Write;
         let mut f = std::fs::File::create(&tmp)?;

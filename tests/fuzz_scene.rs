@@ -12,7 +12,8 @@ use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::Duration;
 use vkpath::Scene;
-use vkpath::scene::mesh::{ObjMesh, parse_obj};
+use vkpath::scene::mesh::ObjMesh;
+use vkpath::scene::obj::parse_obj;
 use vkpath::scene::ply::parse_ply;
 
 /// Longer than any parse here takes (they take microseconds to milliseconds), short enough to call a
@@ -732,7 +733,7 @@ fn checkpoint_bytes() -> Vec<u8> {
     let c = Checkpoint {
         header: Header {
             identity: Identity {
-                vkpath_version: vkpath::checkpoint::VKPATH_VERSION.into(),
+                vkpath_version: vkpath::VKPATH_VERSION.into(),
                 scene_hash: "0123456789abcdef".into(),
                 width: 3,
                 height: 2,

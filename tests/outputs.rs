@@ -367,10 +367,7 @@ fn images_carry_their_metadata_and_transfer_curve() {
     assert_eq!(text("vkpath:seed"), "7");
     assert_eq!(text("vkpath:scene_hash"), hash);
     assert_eq!(text("vkpath:scene"), "aov.toml");
-    assert_eq!(
-        text("vkpath:version"),
-        vkpath::checkpoint::VKPATH_VERSION.to_string()
-    );
+    assert_eq!(text("vkpath:version"), vkpath::VKPATH_VERSION.to_string());
     assert!(!text("vkpath:device").is_empty());
     match attributes
         .other

@@ -45,7 +45,8 @@
 pub mod merge;
 
 use crate::Error;
-use crate::film::{Film, write_atomically_with};
+use crate::film::Film;
+use crate::fs_atomic::write_atomically_with;
 use crate::kernel::abi::GpuAccum;
 use crate::scene::{Gamma, ImageSettings, Scene};
 use serde::{Deserialize, Serialize};
@@ -55,7 +56,7 @@ use std::path::Path;
 // A header holds the render's identity, defined beside the renderer (which computes it) so that the
 // renderer does not depend on this file format. Re-exported because a header cannot be built or read
 // without it (tests/fuzz_scene.rs builds one through this path).
-pub use crate::render::identity::{Identity, VKPATH_VERSION};
+pub use crate::render::identity::Identity;
 
 /// The first bytes of every checkpoint file.
 pub const MAGIC: [u8; 8] = *b"VKPATHCP";
@@ -572,7 +573,7 @@ mod tests {
         Checkpoint {
             header: Header {
                 identity: Identity {
-                    vkpath_version: VKPATH_VERSION.into(),
+                    vkpath_version: crate::VKPATH_VERSION.into(),
                     scene_hash: "0123456789abcdef".into(),
                     width: 2,
                     height: 1,

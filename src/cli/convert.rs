@@ -9,7 +9,7 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use vkpath::Error;
 use vkpath::scene::toml_text::{absolute, relative_to};
-use vkpath::scene::{import, mesh, mitsuba};
+use vkpath::scene::{import, mesh_file, mitsuba};
 
 #[derive(Args)]
 pub struct ConvertArgs {
@@ -60,7 +60,7 @@ pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
         let translated = mitsuba::xml_scene(&a.scene, &options)?;
         // The warnings were printed by load_scene_with.
         translated.toml
-    } else if mesh::is_gltf(&a.scene) {
+    } else if mesh_file::is_gltf(&a.scene) {
         let out_dir = absolute(a.output.parent().unwrap_or(Path::new("")));
         let input = absolute(&a.scene);
         let mesh_ref = relative_to(&input, &out_dir).unwrap_or_else(|| input.clone());
@@ -71,7 +71,7 @@ pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
             message: e.to_string(),
         })?
     };
-    vkpath::film::write_atomically(&a.output, text.as_bytes())?;
+    vkpath::fs_atomic::write_atomically(&a.output, text.as_bytes())?;
     eprintln!("vkpath: wrote {}", a.output.display());
     Ok(0)
 }

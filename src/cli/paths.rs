@@ -8,7 +8,7 @@
 //! the path, before the device is even opened.
 
 use std::path::{Path, PathBuf};
-use vkpath::film::directory_of;
+use vkpath::fs_atomic::directory_of;
 use vkpath::{Error, Scene};
 
 /// A path made comparable: its directory resolved (symbolic links, `..`) when it exists, then its file

@@ -606,7 +606,7 @@ fn write_png(rgb: &image::RgbImage, path: &Path) -> Result<(), Error> {
             path: path.to_path_buf(),
             message: e.to_string(),
         })?;
-    crate::film::write_atomically(path, bytes.get_ref())
+    crate::fs_atomic::write_atomically(path, bytes.get_ref())
 }
 
 /// The render thread: passes of one sample per pixel, an image published every [`PUBLISH_INTERVAL`],

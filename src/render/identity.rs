@@ -6,15 +6,12 @@
 //! the renderer name its identity without depending on the checkpoint format (which depends on the
 //! renderer).
 
+use crate::VKPATH_VERSION;
 use crate::kernel::abi::GpuParams;
 use crate::kernel::upload::GpuScene;
 use crate::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::fmt;
-
-/// The version of vkpath that writes checkpoints (and the only one that resumes them): part of
-/// every [`Identity`].
-pub const VKPATH_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 // ---------------------------------------------------------------------------------------------------
 // The scene's content hash

@@ -19,9 +19,8 @@
 //! other than TEXCOORD_0, alpha modes other than OPAQUE, images given as data URIs, cameras and lights (a
 //! mesh file brings geometry and materials only).
 
-use super::mesh::{
-    FileMaterial, MAX_TRIANGLES, ObjError, ObjMesh, Texture, load_texture, load_texture_bytes,
-};
+use super::image_texture::{Texture, load_texture, load_texture_bytes};
+use super::mesh::{FileMaterial, MAX_TRIANGLES, ObjError, ObjMesh};
 use glam::{Mat3, Mat4, Vec3};
 use std::path::Path;
 use std::sync::Arc;

@@ -8,9 +8,12 @@ pub mod bsdfs;
 pub mod bvh;
 pub mod environment;
 pub mod gltf;
+pub mod image_texture;
 pub mod import;
 pub mod mesh;
+pub mod mesh_file;
 pub mod mitsuba;
+pub mod obj;
 mod parse;
 pub mod ply;
 pub mod shapes;
@@ -21,7 +24,8 @@ use glam::Vec3;
 use std::path::{Path, PathBuf};
 
 pub use environment::{Environment, EnvironmentMap};
-pub use mesh::{Mesh, Texture};
+pub use image_texture::Texture;
+pub use mesh::Mesh;
 pub use parse::SceneError;
 pub use texture::{MaterialTextures, TextureRef};
 
@@ -428,7 +432,7 @@ impl Scene {
             };
             return mitsuba::load(path, &options);
         }
-        if mesh::is_gltf(path) {
+        if mesh_file::is_gltf(path) {
             let imported = import::gltf_scene(path, camera)?;
             let mut scene = Scene::from_toml_str(&imported.toml, Some(path))?;
             let mut warnings = imported.warnings;

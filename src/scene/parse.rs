@@ -18,7 +18,9 @@
 
 use super::bsdfs;
 use super::environment::{self, Environment};
-use super::mesh::{self, Mesh, MeshMaps, ObjMesh, Placement, Texture};
+use super::image_texture::{Texture, load_texture};
+use super::mesh::{self, Mesh, MeshMaps, ObjMesh, Placement};
+use super::mesh_file;
 use super::texture::{MaterialTextures, TextureRef};
 use super::{
     Bsdf, CONDUCTOR_PRESETS, Camera, ConductorFresnel, Emission, Filter, Gamma, ImageSettings,
@@ -2139,12 +2141,12 @@ impl Checker<'_> {
         let obj = match files.objs.get(&obj_path) {
             Some(obj) => obj.clone(),
             None => {
-                let loaded = mesh::load_mesh_file(&obj_path).map_err(|e| {
+                let loaded = mesh_file::load_mesh_file(&obj_path).map_err(|e| {
                     let at = e.line.map_or(String::new(), |l| format!(", line {l}"));
-                    let hint = if mesh::is_gltf(&obj_path) {
+                    let hint = if mesh_file::is_gltf(&obj_path) {
                         "The path is relative to the scene file. A glTF 2.0 file (.gltf with its buffers, or .glb) \
                          needs a scene with at least one mesh of TRIANGLES primitives."
-                    } else if mesh::is_ply(&obj_path) {
+                    } else if mesh_file::is_ply(&obj_path) {
                         "The path is relative to the scene file. A PLY mesh (ascii or binary, version 1.0) needs \
                          `element vertex` with x, y, z (nx, ny, nz and u, v optional) and `element face` with a \
                          `vertex_indices` list, all numbers finite."
@@ -2427,7 +2429,7 @@ impl Checker<'_> {
                             let texture_path = obj_dir.join(file.trim());
                             match files.textures.get(&texture_path) {
                                 Some(tex) => Some(tex.clone()),
-                                None => match mesh::load_texture(&texture_path) {
+                                None => match load_texture(&texture_path) {
                                     Ok(tex) => {
                                         let tex = Arc::new(tex);
                                         files.textures.insert(texture_path, tex.clone());
@@ -2489,7 +2491,7 @@ impl Checker<'_> {
         if let Some(tex) = files.textures.get(&path) {
             return Ok(tex.clone());
         }
-        let tex = mesh::load_texture(&path).map_err(|e| self.error(t.span(), key, e, hint))?;
+        let tex = load_texture(&path).map_err(|e| self.error(t.span(), key, e, hint))?;
         let tex = Arc::new(tex);
         files.textures.insert(path, tex.clone());
         Ok(tex)

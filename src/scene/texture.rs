@@ -3,7 +3,7 @@
 //! (the reference's `factor`) times the texture's value at the hit, the glTF 2.0 model
 //! (`baseColorFactor` x `baseColorTexture`). The kernel's side is shaders/texture.wgsl.
 
-use super::mesh::Texture;
+use super::image_texture::Texture;
 use std::sync::Arc;
 
 /// Which channel(s) of the image a texture reference gives: all three colour channels, or one, spread

@@ -1,0 +1,175 @@
+//! Image textures: an image file (PNG, JPEG, EXR, HDR), or an image held in memory (a glTF buffer's),
+//! decoded into the texels the shader samples ([`Texture`]). How a material reads one is `texture.rs`.
+
+use std::path::{Path, PathBuf};
+
+/// The most texels one texture may have (2^28: 1 GiB of RGBA8 on the device), checked from the file's
+/// header before it is decoded.
+pub const MAX_TEXTURE_TEXELS: u64 = 1 << 28;
+
+/// An RGBA image, rows from the top, as the shader samples it (texture.wgsl): 8 bits per channel
+/// (PNG, JPEG: sRGB-encoded colour or linear data, as a texture reference says), or f16 (EXR, HDR:
+/// linear values).
+#[derive(Clone, PartialEq)]
+pub struct Texture {
+    pub path: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major from the top-left texel. 8-bit: one word per texel, `r | g << 8 | b << 16 | a << 24`
+    /// (WGSL's `unpack4x8unorm` order). `half`: two words per texel, `r | g << 16` and `b | a << 16`, each
+    /// an IEEE binary16 (WGSL's `unpack2x16float` order).
+    pub texels: Vec<u32>,
+    pub half: bool,
+}
+
+impl std::fmt::Debug for Texture {
+    /// The file, size and format; not the texels (millions of them).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Texture")
+            .field("path", &self.path)
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("half", &self.half)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Reads an image file as an sRGB RGBA8 texture (PNG, JPEG, EXR, HDR).
+pub fn load_texture(path: &Path) -> Result<Texture, String> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?;
+    decode_texture(&bytes, path)
+}
+
+/// Decodes an image held in memory (a glTF buffer's), `what` naming it in messages.
+pub fn load_texture_bytes(bytes: &[u8], what: &str) -> Result<Texture, String> {
+    decode_texture(bytes, Path::new(what))
+}
+
+fn decode_texture(bytes: &[u8], path: &Path) -> Result<Texture, String> {
+    let reader = || {
+        image::ImageReader::new(std::io::Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))
+    };
+    // The size comes from the header, before any texel is decoded: a small file declaring a huge image
+    // (a decompression bomb) is refused without the memory it would take.
+    let (width, height) = reader()?
+        .into_dimensions()
+        .map_err(|e| format!("cannot decode the texture {}: {e}", path.display()))?;
+    if width == 0 || height == 0 || u64::from(width) * u64::from(height) > MAX_TEXTURE_TEXELS {
+        return Err(format!(
+            "the texture {} is {width} x {height} texels; it must have between 1 and 2^28 texels",
+            path.display()
+        ));
+    }
+    let decoded = reader()?
+        .decode()
+        .map_err(|e| format!("cannot decode the texture {}: {e}", path.display()))?;
+    // PNG and JPEG hold 8 bits per channel, RGBA8 on the device. EXR and HDR decode to floats (linear
+    // radiance, reflectance or heights): kept as RGBA f16 (two words per texel), unclipped, so that an
+    // emission or height map keeps its range. (Non-finite values become 0; f16 saturates at 65504.)
+    let (texels, half) = match decoded {
+        image::DynamicImage::ImageRgb32F(_) | image::DynamicImage::ImageRgba32F(_) => {
+            let linear = decoded.to_rgba32f();
+            let h = |v: f32| {
+                let v = if v.is_finite() { v } else { 0.0 };
+                u32::from(half::f16::from_f32(v).to_bits())
+            };
+            let texels = linear
+                .pixels()
+                .flat_map(|p| {
+                    let [r, g, b, a] = p.0;
+                    [h(r) | h(g) << 16, h(b) | h(a) << 16]
+                })
+                .collect();
+            (texels, true)
+        }
+        other => {
+            let rgba = other.to_rgba8();
+            (
+                rgba.pixels().map(|p| u32::from_le_bytes(p.0)).collect(),
+                false,
+            )
+        }
+    };
+    Ok(Texture {
+        path: path.to_path_buf(),
+        width,
+        height,
+        texels,
+        half,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// JPEG textures are read as 8-bit texels like PNG; EXR and HDR ones keep their linear values as
+    /// f16, unclipped (1.5 stays 1.5).
+    #[test]
+    fn jpeg_textures_load_as_8_bit_and_exr_and_hdr_as_half_floats() {
+        let dir = tempfile::tempdir().unwrap();
+        // (Values HDR's shared-exponent RGBE and f16 both hold exactly: multiples of 2^-7 below 2.)
+        let linear = [0.5f32, 0.0625, 1.5];
+        let float = image::Rgb32FImage::from_fn(4, 2, |_, _| image::Rgb(linear));
+        for ext in ["exr", "hdr"] {
+            let path = dir.path().join(format!("t.{ext}"));
+            float.save(&path).unwrap();
+            let t = load_texture(&path).unwrap_or_else(|e| panic!("{ext}: {e}"));
+            assert_eq!((t.width, t.height, t.half), (4, 2, true));
+            assert_eq!(t.texels.len(), 16);
+            let f = |bits: u32| half::f16::from_bits(bits as u16).to_f32();
+            let (rg, ba) = (t.texels[10], t.texels[11]); // texel 5
+            let got = [f(rg & 0xffff), f(rg >> 16), f(ba & 0xffff), f(ba >> 16)];
+            assert_eq!(got, [linear[0], linear[1], linear[2], 1.0], "{ext}");
+        }
+        let srgb = image::RgbImage::from_fn(8, 8, |_, _| image::Rgb([200, 100, 50]));
+        let path = dir.path().join("t.jpg");
+        srgb.save(&path).unwrap();
+        let t = load_texture(&path).expect("jpeg");
+        let [r, g, b, _] = t.texels[27].to_le_bytes();
+        // (JPEG is lossy: a flat colour comes back within a few levels.)
+        assert!(
+            r.abs_diff(200) <= 3 && g.abs_diff(100) <= 3 && b.abs_diff(50) <= 3,
+            "{r} {g} {b}"
+        );
+    }
+
+    /// Issue 18, failure 5: a 62 kB PNG declaring 23000 x 23000 was refused only after it was decoded
+    /// (7.9 s, 2.5 GB). The size now comes from the header: a PNG whose header declares that size and
+    /// which holds almost no image data is refused for its size (decoding it would fail otherwise).
+    #[test]
+    fn a_huge_texture_is_refused_from_its_header() {
+        fn chunk(kind: &[u8; 4], data: &[u8]) -> Vec<u8> {
+            let mut crc = crc32fast::Hasher::new();
+            crc.update(kind);
+            crc.update(data);
+            [
+                &(data.len() as u32).to_be_bytes()[..],
+                kind,
+                data,
+                &crc.finalize().to_be_bytes(),
+            ]
+            .concat()
+        }
+        let mut ihdr = Vec::new();
+        ihdr.extend_from_slice(&23000u32.to_be_bytes());
+        ihdr.extend_from_slice(&23000u32.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 6, 0, 0, 0]); // 8-bit RGBA, no interlace
+        let png = [
+            &b"\x89PNG\r\n\x1a\n"[..],
+            &chunk(b"IHDR", &ihdr),
+            // A zlib stream of nothing: the 2 GB of texels it declares are not there.
+            &chunk(b"IDAT", &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01]),
+            &chunk(b"IEND", &[]),
+        ]
+        .concat();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bomb.png");
+        std::fs::write(&path, png).unwrap();
+        let e = load_texture(&path).unwrap_err();
+        assert!(e.contains("23000 x 23000") && e.contains("2^28"), "{e}");
+    }
+}
