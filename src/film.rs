@@ -5,10 +5,6 @@ use crate::kernel::abi::GpuAccum;
 use crate::scene::{Gamma, ImageSettings};
 use std::path::Path;
 
-// src/bench/convergence.rs still names the atomic writer by this path (its module is being edited
-// elsewhere); the writer itself lives in `crate::fs_atomic`.
-pub use crate::fs_atomic::write_atomically;
-
 /// Linear radiance per pixel, row-major from the top-left, with the variance of each pixel's estimate.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {

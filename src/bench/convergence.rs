@@ -501,7 +501,7 @@ pub fn run(
         points.extend(curve);
     }
     let csv = config.out_dir.join(format!("{stem}-convergence.csv"));
-    crate::film::write_atomically(&csv, to_csv(&points).as_bytes())?;
+    crate::fs_atomic::write_atomically(&csv, to_csv(&points).as_bytes())?;
     let plot = config.out_dir.join(format!("{stem}-convergence.png"));
     let title = format!(
         "{stem}, {w}x{h}: relative error vs time ({})",
@@ -720,5 +720,5 @@ pub fn write_plot(
     let mut bytes = std::io::Cursor::new(Vec::new());
     img.write_to(&mut bytes, image::ImageFormat::Png)
         .map_err(|e| fail(e.to_string()))?;
-    crate::film::write_atomically(path, bytes.get_ref())
+    crate::fs_atomic::write_atomically(path, bytes.get_ref())
 }
