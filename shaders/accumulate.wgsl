@@ -13,9 +13,9 @@
 // using small and large superaccumulators" (2015). The window is 192 bits rather than the 277 that would
 // hold every f32 so that the accumulator (96 bytes per pixel) of a 4096x4096 image fits the 2 GiB that
 // lavapipe offers.
-// What exactness costs (lavapipe, 256x256, 64 spp, interleaved runs against the Kahan accumulator it
-// replaced): nothing measurable on the course scene (1.38 vs 1.39 Msamples/s), and about 45% of the
-// samples/s on 01-sphere, whose paths are so cheap that the six limb additions per sample dominate.
+// What exactness costs is measured against the Kahan accumulator it replaced in docs/performance.md
+// (lavapipe: nothing measurable on scenes whose paths cost anything; a large share on 01-sphere, whose
+// paths are so cheap that the six limb additions per sample dominate).
 //
 // The variance. The sums of squares only feed the error estimate, so they stay f32 with a Kahan
 // compensation (Kahan 1965): the rounding error of every addition is carried into the next, so the total

@@ -5,12 +5,14 @@
 // (A push constant would do as well; a 16-byte vkCmdUpdateBuffer costs the same and keeps every input of
 // the kernel a buffer binding.)
 //
-// Why not loop over the pass's samples inside one invocation? Mesa's lavapipe (llvmpipe) ends every loop
-// of an invocation once the invocation has run 65535 loop iterations in total (a guard in its code
-// generator against runaway shaders): a loop over samples, each looping over bounces and primitives, would
-// be cut silently. One path per invocation keeps each invocation's loops small and bounded.
+// How many samples one invocation may trace: Mesa's lavapipe (llvmpipe) ends every loop of an invocation
+// once the invocation has run 65535 loop iterations in total (a guard in its code generator against
+// runaway shaders), so a loop over samples, each looping over bounces and primitives, could be cut
+// silently. The host bounds each invocation's samples by the worst case of its loops
+// (render::samples_per_invocation, see main below).
 //
-// The integrator knows no material and no light: it asks bsdf.wgsl for f, its pdf and a sampled
+// The integrator knows no material and no light: it asks bsdf.wgsl (generated from the material registry)
+// for f, its pdf and a sampled
 // direction, and lights.wgsl for a light sample, and applies f cos / pdf itself (next-event estimation
 // with every light, plus BSDF sampling for the path's continuation).
 //

@@ -39,13 +39,12 @@ use winit::window::{Window, WindowId};
 /// enough for an image that converges.
 pub const PUBLISH_INTERVAL: Duration = Duration::from_millis(250);
 
-/// The pixels of one strip of rows (one queue submission per sample, see the module comment): about
-/// 5 ms of work on lavapipe for the course scene (1.5 Msamples/s on 2 cores), so a present waits at
-/// most that long behind the renderer. Measured at 512x512 on lavapipe with other work on the machine:
-/// strips of 32K pixels kept a present waiting 60-80 ms (16 presents/s), 8K pixels 5-25 ms (30/s, the
-/// pacing's cap). The price is throughput: 64 submissions per sample at 512x512 trace about 2/3 of the
-/// samples/s of `vkpath render` (0.30 vs 0.45 Msamples/s; 0.37 vs 0.56 at 10 presents/s, so it is the
-/// strips, not the presents). On a GPU it only means a few more (cheap) submissions.
+/// The pixels of one strip of rows (one queue submission per sample, see the module comment): a few
+/// milliseconds of work on lavapipe for the course scene, so a present waits at most that long behind
+/// the renderer. Smaller strips keep a present waiting less (larger ones, at 512x512 on lavapipe, kept it
+/// waiting tens of milliseconds), at the price of throughput: many submissions per sample trace fewer
+/// samples/s than `vkpath render` does (docs/performance.md has the measurements, with their dates). On a
+/// GPU it only means a few more (cheap) submissions.
 const STRIP_PIXELS: u32 = 8 * 1024;
 
 /// What `vkpath preview` was asked to do.

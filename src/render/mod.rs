@@ -1,7 +1,8 @@
 //! The progressive renderer: uploads a scene, dispatches passes of samples, reads back the film.
 //!
-//! Each pass traces samples `[start, start + k)` of every pixel, one dispatch per sample (one path per
-//! invocation, see trace.wgsl), and adds them to per-pixel sums on the GPU: exact sums of the samples
+//! Each pass traces samples `[start, start + k)` of every pixel, in dispatches over tiles of the image in
+//! which each invocation traces several consecutive samples of its pixel (path regeneration, trace.wgsl;
+//! [`samples_per_invocation`]), and adds them to per-pixel sums on the GPU: exact sums of the samples
 //! (long accumulators, accumulate.wgsl) and Kahan sums of their squares, in sample index order. Because a
 //! sample's random numbers depend only on (pixel, sample index, dimension, seed), the image after N passes
 //! of k samples is bit-identical to one pass of N k samples: pass sizes are free to adapt to time budgets
