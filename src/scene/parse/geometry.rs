@@ -1,0 +1,517 @@
+//! `[[sphere]]`, `[[triangle]]` and `[[mesh]]`: the objects, placed in world space, and the scene
+//! materials that a mesh's own (MTL or glTF) materials become.
+
+use super::error::SceneError;
+use super::raw::{RawMesh, RawSphere, RawTriangle};
+use super::{Checker, LoadedFiles};
+use crate::scene::image_texture::{Texture, load_texture};
+use crate::scene::mesh::{self, Mesh, MeshMaps, ObjMesh, Placement};
+use crate::scene::mesh_file;
+use crate::scene::texture::MaterialTextures;
+use crate::scene::{Bsdf, ConductorFresnel, Emission, Material, Roughness, Sphere, Triangle};
+use glam::Vec3;
+use std::path::Path;
+use std::sync::Arc;
+use toml::Spanned;
+
+/// What one `[[mesh]]` table becomes: its meshes (one per MTL material when the OBJ's materials are used),
+/// the materials it adds to the scene (named `mesh[i]/<MTL name>`), and what the reader noticed.
+#[derive(Default)]
+pub(super) struct MeshTable {
+    pub(super) meshes: Vec<Mesh>,
+    pub(super) materials: Vec<(String, Material)>,
+    pub(super) warnings: Vec<String>,
+}
+
+/// The scene material for an MTL material, and whether a value had to be clipped (colours to [0, 1],
+/// non-finite numbers to their defaults). The mapping (docs/scene-format.md, "OBJ materials"):
+/// Pr or Pm given (the PBR extension): metallic_roughness (base colour Kd, metallic Pm, roughness Pr);
+/// otherwise by `illum`: 3 or 5 (reflection) a mirror tinted Ks; 4, 6, 7 or 9 (refraction) a smooth
+/// dielectric of index Ni (1.5 without one); anything else, or none, diffuse Kd (MTL's default 0.8). Ke
+/// above 0 is the front side's emission.
+fn mtl_material(m: &mesh::FileMaterial) -> (Material, bool) {
+    let mut clipped = false;
+    let mut color = |c: Option<[f32; 3]>, default: f32| {
+        let c = c.unwrap_or([default; 3]);
+        let v = Vec3::from_array(c.map(|x| if x.is_finite() { x } else { default }));
+        let out = v.clamp(Vec3::ZERO, Vec3::ONE);
+        clipped |= out != Vec3::from_array(c);
+        out
+    };
+    let unit = |x: Option<f32>, default: f32| {
+        x.filter(|x| x.is_finite())
+            .unwrap_or(default)
+            .clamp(0.0, 1.0)
+    };
+    let bsdf = if m.roughness.is_some() || m.metallic.is_some() {
+        Bsdf::MetallicRoughness {
+            base_color: color(m.diffuse, 0.8),
+            metallic: unit(m.metallic, 0.0),
+            roughness: unit(m.roughness, 1.0),
+        }
+    } else {
+        match m.illum {
+            Some(3 | 5) => Bsdf::Mirror {
+                tint: color(m.specular, 1.0),
+            },
+            Some(4 | 6 | 7 | 9) => Bsdf::Dielectric {
+                ior: m.ior.filter(|n| n.is_finite() && *n > 0.0).unwrap_or(1.5),
+                roughness: Roughness::SMOOTH,
+            },
+            _ => Bsdf::Diffuse {
+                albedo: color(m.diffuse, 0.8),
+            },
+        }
+    };
+    let emission = m
+        .emission
+        .map(|e| Vec3::from_array(e.map(|x| if x.is_finite() { x.max(0.0) } else { 0.0 })))
+        .filter(|e| e.max_element() > 0.0)
+        .map(|radiance| Emission {
+            radiance,
+            two_sided: false,
+        });
+    (
+        Material {
+            bsdf,
+            emission,
+            textures: MaterialTextures::default(),
+        },
+        clipped,
+    )
+}
+
+impl Checker<'_> {
+    pub(super) fn sphere(
+        &self,
+        i: usize,
+        raw: &RawSphere,
+        names: &[String],
+    ) -> Result<Sphere, SceneError> {
+        let center = self.vec3(&raw.center, &format!("sphere[{i}].center"))?;
+        let radius = self.positive_radius(&raw.radius, &format!("sphere[{i}].radius"), "sphere")?;
+        let material =
+            self.material_index(&raw.material, &format!("sphere[{i}].material"), names)?;
+        Ok(Sphere {
+            center,
+            radius,
+            material,
+        })
+    }
+
+    pub(super) fn triangle(
+        &self,
+        i: usize,
+        raw: &RawTriangle,
+        names: &[String],
+    ) -> Result<Triangle, SceneError> {
+        let given = raw.vertices.get_ref();
+        if given.len() != 3 {
+            return Err(self.error(
+                raw.vertices.span(),
+                &format!("triangle[{i}].vertices"),
+                format!("a triangle needs exactly 3 vertices, got {}", given.len()),
+                "Give vertices as [[x, y, z], [x, y, z], [x, y, z]], counter-clockwise seen from the front.",
+            ));
+        }
+        let mut vertices = [Vec3::ZERO; 3];
+        for (j, (slot, vertex)) in vertices.iter_mut().zip(given).enumerate() {
+            *slot = self.vec3(vertex, &format!("triangle[{i}].vertices[{j}]"))?;
+        }
+        // A zero-area triangle is allowed: rays never hit it, so it is harmless.
+        let material =
+            self.material_index(&raw.material, &format!("triangle[{i}].material"), names)?;
+        Ok(Triangle { vertices, material })
+    }
+
+    /// A `[[mesh]]`: the OBJ read and placed, its normals and texture resolved. OBJ problems are reported
+    /// at the `obj` key, with the OBJ's own file and line in the message.
+    pub(super) fn mesh(
+        &self,
+        i: usize,
+        raw: &Spanned<RawMesh>,
+        names: &[String],
+        materials: &[Material],
+        base: &Path,
+        files: &mut LoadedFiles,
+    ) -> Result<MeshTable, SceneError> {
+        let m = raw.get_ref();
+        let key = |field: &str| format!("mesh[{i}].{field}");
+        let material = match &m.material {
+            Some(name) => Some(self.material_index(name, &key("material"), names)?),
+            None => None,
+        };
+        let scale = m.scale.as_ref().map_or(Ok(1.0), |s| {
+            self.number_unless(
+                s,
+                &key("scale"),
+                |s| s <= 0.0,
+                "the scale must be > 0",
+                "scale is a uniform factor applied to the OBJ's coordinates; 1 keeps them.",
+            )
+        })?;
+        let rotate_deg = m
+            .rotate
+            .as_ref()
+            .map_or(Ok(glam::Vec3::ZERO), |r| self.vec3(r, &key("rotate")))?;
+        let translate = m
+            .translate
+            .as_ref()
+            .map_or(Ok(glam::Vec3::ZERO), |t| self.vec3(t, &key("translate")))?;
+        let smooth = m.smooth.as_ref().is_none_or(|s| *s.get_ref());
+
+        let obj_path = base.join(m.obj.get_ref());
+        let obj = match files.objs.get(&obj_path) {
+            Some(obj) => obj.clone(),
+            None => {
+                let loaded = mesh_file::load_mesh_file(&obj_path).map_err(|e| {
+                    let at = e.line.map_or(String::new(), |l| format!(", line {l}"));
+                    let hint = if mesh_file::is_gltf(&obj_path) {
+                        "The path is relative to the scene file. A glTF 2.0 file (.gltf with its buffers, or .glb) \
+                         needs a scene with at least one mesh of TRIANGLES primitives."
+                    } else if mesh_file::is_ply(&obj_path) {
+                        "The path is relative to the scene file. A PLY mesh (ascii or binary, version 1.0) needs \
+                         `element vertex` with x, y, z (nx, ny, nz and u, v optional) and `element face` with a \
+                         `vertex_indices` list, all numbers finite."
+                    } else {
+                        "The path is relative to the scene file. The OBJ must have `v x y z` vertices and `f` faces \
+                         with 1-based indices (`vt u v` and `vn x y z` optional), all numbers finite."
+                    };
+                    self.error(
+                        m.obj.span(),
+                        &key("obj"),
+                        format!("{}{at}: {}", obj_path.display(), e.message),
+                        hint,
+                    )
+                })?;
+                let loaded = Arc::new(loaded);
+                files.objs.insert(obj_path.clone(), loaded.clone());
+                loaded
+            }
+        };
+
+        let texture = match (&m.texture, material) {
+            (None, _) => None,
+            (Some(t), None) => {
+                return Err(self.error(
+                    t.span(),
+                    &key("texture"),
+                    "a texture is given but no material for it to apply to",
+                    "Give the mesh a `material` as well; without one, the OBJ's MTL materials are used, with \
+                     their own map_Kd textures.",
+                ));
+            }
+            (Some(t), Some(material)) => {
+                let tkey = key("texture");
+                // The texture replaces the albedo (or tint) and multiplies the emission: a material with
+                // neither has nothing for it to change.
+                let untexturable = match materials.get(material as usize) {
+                    Some(Material {
+                        bsdf: Bsdf::Dielectric { .. },
+                        emission: None,
+                        ..
+                    }) => Some("a dielectric that does not emit"),
+                    Some(Material {
+                        bsdf:
+                            Bsdf::Conductor {
+                                fresnel: ConductorFresnel::Complex { .. },
+                                ..
+                            },
+                        emission: None,
+                        ..
+                    }) => Some("a conductor given by its index of refraction that does not emit"),
+                    _ => None,
+                };
+                if let Some(what) = untexturable {
+                    return Err(self.error(
+                        t.span(),
+                        &tkey,
+                        format!(
+                            "material \"{}\" is {what}: it has no albedo for a texture to replace and no emission for it to multiply",
+                            names[material as usize]
+                        ),
+                        "Give textured meshes a diffuse or plastic material (the texture is the albedo), a mirror (the tint), a metallic_roughness material or a conductor with base_color (the texture is the base colour) or an emitting material (the texture multiplies the emission).",
+                    ));
+                }
+                if obj.uvs.is_none() {
+                    return Err(self.error(
+                        t.span(),
+                        &tkey,
+                        format!(
+                            "{} has no texture coordinates (`vt`) for every face corner, so the texture cannot be mapped",
+                            obj_path.display()
+                        ),
+                        "Export the OBJ with uvs (faces written `v/vt` or `v/vt/vn`), or remove `texture`.",
+                    ));
+                }
+                Some(self.mesh_texture(
+                    t,
+                    &tkey,
+                    base,
+                    files,
+                    "The path is relative to the scene file; the texture must be a PNG image (sRGB).",
+                )?)
+            }
+        };
+
+        // The glTF-style maps (docs/scene-format.md, "[[mesh]]"): each needs the mesh's `material`, a
+        // material it can change, and the mesh's uvs.
+        let mut maps = MeshMaps {
+            normal_scale: 1.0,
+            ..MeshMaps::default()
+        };
+        let given = [
+            ("emission_texture", &m.emission_texture),
+            ("metallic_roughness_texture", &m.metallic_roughness_texture),
+            ("normal_map", &m.normal_map),
+        ];
+        for (field, t) in given {
+            let Some(t) = t else { continue };
+            let tkey = key(field);
+            let Some(material) = material else {
+                return Err(self.error(
+                    t.span(),
+                    &tkey,
+                    format!("`{field}` is given but no material for it to apply to"),
+                    "Give the mesh a `material` as well.",
+                ));
+            };
+            let mat = materials.get(material as usize);
+            let unfit = match field {
+                "emission_texture" if mat.is_some_and(|m| m.emission.is_none()) => {
+                    Some("does not emit: there is no emission for the texture to multiply")
+                }
+                "metallic_roughness_texture"
+                    if !mat.is_some_and(|m| matches!(m.bsdf, Bsdf::MetallicRoughness { .. })) =>
+                {
+                    Some(
+                        "is not a metallic_roughness material: it has no metallic and roughness for the texture to scale",
+                    )
+                }
+                _ => None,
+            };
+            if let Some(why) = unfit {
+                return Err(self.error(
+                    t.span(),
+                    &tkey,
+                    format!("material \"{}\" {why}", names[material as usize]),
+                    "emission_texture needs an emitting material (an `emission`, or an emitter), metallic_roughness_texture a metallic_roughness material.",
+                ));
+            }
+            if obj.uvs.is_none() {
+                return Err(self.error(
+                    t.span(),
+                    &tkey,
+                    format!(
+                        "{} has no texture coordinates (`vt`) for every face corner, so `{field}` cannot be mapped",
+                        obj_path.display()
+                    ),
+                    "Export the OBJ with uvs (faces written `v/vt` or `v/vt/vn`), or remove the key.",
+                ));
+            }
+            let tex = self.mesh_texture(
+                t,
+                &tkey,
+                base,
+                files,
+                "The path is relative to the scene file; data maps (metallic_roughness_texture, normal_map) are read as stored, so give them as PNG (8-bit, not sRGB-decoded).",
+            )?;
+            match field {
+                "emission_texture" => maps.emissive = Some(tex),
+                "metallic_roughness_texture" => maps.metallic_roughness = Some(tex),
+                _ => maps.normal = Some(tex),
+            }
+        }
+        if let Some(s) = &m.normal_scale {
+            if m.normal_map.is_none() {
+                return Err(self.error(
+                    s.span(),
+                    &key("normal_scale"),
+                    "normal_scale is given without a normal_map",
+                    "Give the mesh a `normal_map`, or remove `normal_scale`.",
+                ));
+            }
+            maps.normal_scale = self.number(s, &key("normal_scale"))?;
+        }
+
+        let placement = Placement {
+            scale,
+            rotate_deg,
+            translate,
+        };
+        let place =
+            |obj: &ObjMesh, material: u32, texture: Option<Arc<Texture>>, maps: MeshMaps| {
+                // (Texture coordinates are kept for the material's own textures too.)
+                let textured = texture.is_some()
+                    || !materials
+                        .get(material as usize)
+                        .is_none_or(|m| m.textures.is_plain())
+                    || maps.emissive.is_some()
+                    || maps.metallic_roughness.is_some()
+                    || maps.normal.is_some();
+                let (positions, normals, uvs) = mesh::place(obj, &placement, smooth, textured);
+                if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
+                    return Err(self.error(
+                        raw.span(),
+                        &format!("mesh[{i}]"),
+                        format!(
+                            "placing {} overflows 32-bit floats (a vertex lands at {p})",
+                            obj_path.display()
+                        ),
+                        "Use a smaller scale or translation.",
+                    ));
+                }
+                Ok(Mesh {
+                    obj: obj_path.clone(),
+                    positions,
+                    normals,
+                    uvs,
+                    triangles: obj.triangles.clone(),
+                    material,
+                    texture,
+                    maps,
+                })
+            };
+        let mut table = MeshTable::default();
+        table.warnings.extend(
+            obj.notes
+                .iter()
+                .map(|n| format!("mesh[{i}]: {}: {n}", obj_path.display())),
+        );
+        if let Some(material) = material {
+            // The scene's material applies to every face, whatever the OBJ's MTL says.
+            table.meshes.push(place(&obj, material, texture, maps)?);
+            return Ok(table);
+        }
+        if obj.materials.is_empty() {
+            let Some(problem) = &obj.mtl_problem else {
+                return Err(self.error(
+                    raw.span(),
+                    &format!("mesh[{i}]"),
+                    format!(
+                        "mesh[{i}] needs a material: {} has no materials of its own (MTL or glTF)",
+                        obj_path.display()
+                    ),
+                    "Give the mesh `material = \"name\"`, one of the names in [materials].",
+                ));
+            };
+            table.warnings.push(format!(
+                "mesh[{i}]: {problem}; its faces are diffuse grey (albedo 0.8, MTL's default Kd). Give the mesh a `material` to choose one."
+            ));
+        }
+        // One mesh per MTL material, in the order the faces first use them (faces with none, or when no
+        // MTL file could be read, get MTL's default: diffuse, Kd 0.8).
+        let mut groups: Vec<Option<u32>> = Vec::new();
+        for t in 0..obj.triangles.len() {
+            let id = obj.face_materials.get(t).copied().flatten();
+            if !groups.contains(&id) {
+                groups.push(id);
+            }
+        }
+        let obj_dir = obj_path.parent().unwrap_or(Path::new("."));
+        for id in groups {
+            let index = (names.len() + table.materials.len()) as u32;
+            let (name, material, texture, maps) = match id.map(|k| &obj.materials[k as usize]) {
+                None => (
+                    format!("mesh[{i}]/default"),
+                    Material::from(Bsdf::Diffuse {
+                        albedo: Vec3::splat(0.8),
+                    }),
+                    None,
+                    MeshMaps::default(),
+                ),
+                Some(mtl) => {
+                    let (material, clipped) = mtl_material(mtl);
+                    if clipped {
+                        table.warnings.push(format!(
+                            "mesh[{i}]: {}: MTL material \"{}\" has colours outside [0, 1] or non-finite values; they were clipped",
+                            obj_path.display(),
+                            mtl.name
+                        ));
+                    }
+                    let texture = match &mtl.diffuse_texture {
+                        _ if mtl.texture.is_some() && obj.uvs.is_some() => mtl.texture.clone(),
+                        None if mtl.texture.is_some() => {
+                            table.warnings.push(format!(
+                                "mesh[{i}]: {}: material \"{}\" has a texture but the file has no texture coordinates for every vertex; the texture is not used",
+                                obj_path.display(),
+                                mtl.name
+                            ));
+                            None
+                        }
+                        None => None,
+                        Some(_) if obj.uvs.is_none() => {
+                            table.warnings.push(format!(
+                                "mesh[{i}]: {}: MTL material \"{}\" has a map_Kd but the OBJ has no texture coordinates; the texture is not used",
+                                obj_path.display(),
+                                mtl.name
+                            ));
+                            None
+                        }
+                        Some(file) => {
+                            let texture_path = obj_dir.join(file.trim());
+                            match files.textures.get(&texture_path) {
+                                Some(tex) => Some(tex.clone()),
+                                None => match load_texture(&texture_path) {
+                                    Ok(tex) => {
+                                        let tex = Arc::new(tex);
+                                        files.textures.insert(texture_path, tex.clone());
+                                        Some(tex)
+                                    }
+                                    Err(e) => {
+                                        table.warnings.push(format!(
+                                            "mesh[{i}]: MTL material \"{}\": {e}; the texture is not used",
+                                            mtl.name
+                                        ));
+                                        None
+                                    }
+                                },
+                            }
+                        }
+                    };
+                    // glTF's other textures need the texture coordinates too.
+                    let mut maps = mtl.maps.clone();
+                    if obj.uvs.is_none() {
+                        if maps.emissive.is_some()
+                            || maps.metallic_roughness.is_some()
+                            || maps.normal.is_some()
+                        {
+                            table.warnings.push(format!(
+                                "mesh[{i}]: {}: material \"{}\" has an emissive, metallic-roughness or normal texture but the file has no texture coordinates for every vertex; it is not used",
+                                obj_path.display(),
+                                mtl.name
+                            ));
+                        }
+                        maps.emissive = None;
+                        maps.metallic_roughness = None;
+                        maps.normal = None;
+                    }
+                    (format!("mesh[{i}]/{}", mtl.name), material, texture, maps)
+                }
+            };
+            // A texture replaces the albedo; a glass has none: the map is not used.
+            let texture = match (&material.bsdf, texture) {
+                (Bsdf::Dielectric { .. }, Some(_)) if material.emission.is_none() => None,
+                (_, t) => t,
+            };
+            let sub = obj.subset(id);
+            table.meshes.push(place(&sub, index, texture, maps)?);
+            table.materials.push((name, material));
+        }
+        Ok(table)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scene::parse::tests::{MINIMAL, parse};
+
+    #[test]
+    fn zero_area_triangles_are_allowed() {
+        let text = format!(
+            "{MINIMAL}\n[materials]\nw = {{ type = \"diffuse\", albedo = [1, 1, 1] }}\n[[triangle]]\n\
+             vertices = [[1, 1, 1], [1, 1, 1], [2, 2, 2]]\nmaterial = \"w\"\n"
+        );
+        assert_eq!(parse(&text).triangles.len(), 1);
+    }
+}

@@ -1,0 +1,253 @@
+//! `[[light]]` and `[environment]`: the lights, and the light from infinitely far.
+
+use super::Checker;
+use super::error::SceneError;
+use super::raw::{RawLight, RawScene};
+use crate::scene::Light;
+use crate::scene::environment::{self, Environment};
+use glam::Vec3;
+use std::path::Path;
+use std::sync::Arc;
+use toml::Spanned;
+
+impl Checker<'_> {
+    pub(super) fn light(&self, i: usize, raw: &Spanned<RawLight>) -> Result<Light, SceneError> {
+        let l = raw.get_ref();
+        let key = |field: &str| format!("light[{i}].{field}");
+        let kind = l.kind.get_ref().as_str();
+        // Point and sphere lights are given by their power; a sun by its irradiance.
+        let power = || -> Result<f32, SceneError> {
+            let power = self.required(
+                &l.power,
+                raw,
+                &key("power"),
+                &format!("a {kind} light needs a power"),
+            )?;
+            self.number_unless(
+                power,
+                &key("power"),
+                |p| p <= 0.0,
+                "a light's power must be > 0",
+                "power is the light's total emitted flux in watts; remove the light rather than giving it no power.",
+            )
+        };
+        let color = l.color.as_ref().map_or(Ok(Vec3::ONE), |c| {
+            self.vec3_unless(
+                c,
+                &key("color"),
+                |c| c.min_element() < 0.0,
+                "light color components cannot be negative",
+                "color multiplies power per channel; use components >= 0 ([1, 1, 1] is white).",
+            )
+        })?;
+        let (allowed, light): (&[&str], _) = match kind {
+            "point" => {
+                let power = power()?;
+                let position = self.required(
+                    &l.position,
+                    raw,
+                    &key("position"),
+                    "a point light needs a position",
+                )?;
+                let position = self.vec3(position, &key("position"))?;
+                (
+                    &["position", "power"],
+                    Light::Point {
+                        position,
+                        power,
+                        color,
+                    },
+                )
+            }
+            "sphere" => {
+                let power = power()?;
+                let center = self.required(
+                    &l.center,
+                    raw,
+                    &key("center"),
+                    "a sphere light needs a center",
+                )?;
+                let center = self.vec3(center, &key("center"))?;
+                let radius = self.required(
+                    &l.radius,
+                    raw,
+                    &key("radius"),
+                    "a sphere light needs a radius",
+                )?;
+                let radius_span = radius.span();
+                let radius = self.positive_radius(radius, &key("radius"), "sphere light")?;
+                // The shader works with the light's radiance P / (4 pi^2 r^2) in f32: a radius so small
+                // that it overflows (r below ~1e-18) cannot be rendered as a sphere.
+                let radiance =
+                    power as f64 / (4.0 * std::f64::consts::PI.powi(2) * (radius as f64).powi(2));
+                if radiance > f32::MAX as f64 / 16.0
+                    || (radius as f64).powi(2) < f32::MIN_POSITIVE as f64
+                {
+                    return Err(self.error(
+                        radius_span,
+                        &key("radius"),
+                        format!(
+                            "a sphere light of radius {radius} and power {power} W has a radiance of {radiance:e}, \
+                             beyond what 32-bit floats hold"
+                        ),
+                        "Use a point light for a source this small (it is the same light as the radius goes to 0).",
+                    ));
+                }
+                (
+                    &["center", "radius", "power"],
+                    Light::Sphere {
+                        center,
+                        radius,
+                        power,
+                        color,
+                    },
+                )
+            }
+            "directional" => (
+                &["direction", "irradiance", "angle"],
+                self.directional_light(raw, &key, color)?,
+            ),
+            other => {
+                return Err(self.error(
+                    l.kind.span(),
+                    &key("type"),
+                    format!("unknown light type \"{other}\""),
+                    "Use \"point\" (with position), \"sphere\" (with center and radius) or \"directional\" \
+                     (with direction and irradiance).",
+                ));
+            }
+        };
+        let present = [
+            ("position", l.position.as_ref().map(Spanned::span)),
+            ("center", l.center.as_ref().map(Spanned::span)),
+            ("radius", l.radius.as_ref().map(Spanned::span)),
+            ("power", l.power.as_ref().map(Spanned::span)),
+            ("direction", l.direction.as_ref().map(Spanned::span)),
+            ("irradiance", l.irradiance.as_ref().map(Spanned::span)),
+            ("angle", l.angle.as_ref().map(Spanned::span)),
+        ];
+        self.reject_foreign_keys(
+            &present,
+            allowed,
+            &format!("light[{i}]"),
+            &format!("a {kind} light"),
+        )?;
+        Ok(light)
+    }
+
+    /// `type = "directional"`: a sun (see [`Light::Directional`]).
+    fn directional_light(
+        &self,
+        raw: &Spanned<RawLight>,
+        key: &dyn Fn(&str) -> String,
+        color: Vec3,
+    ) -> Result<Light, SceneError> {
+        let l = raw.get_ref();
+        let direction = self.required(
+            &l.direction,
+            raw,
+            &key("direction"),
+            "a directional light needs a direction",
+        )?;
+        let d = self.vec3(direction, &key("direction"))?;
+        let length = d.as_dvec3().length();
+        if !(length > 0.0 && length.is_finite() && (d.as_dvec3() / length).as_vec3().is_finite()) {
+            return Err(self.error(
+                direction.span(),
+                &key("direction"),
+                format!("the direction [{}, {}, {}] has no length", d.x, d.y, d.z),
+                "Give the direction the light travels in, e.g. [0, -1, 0] for light from straight above.",
+            ));
+        }
+        let irradiance = self.required(
+            &l.irradiance,
+            raw,
+            &key("irradiance"),
+            "a directional light needs an irradiance",
+        )?;
+        let irradiance = self.number_unless(
+            irradiance,
+            &key("irradiance"),
+            |e| e <= 0.0,
+            "a directional light's irradiance must be > 0",
+            "irradiance is in W/m^2 on a surface facing the light (the sun gives about 1000).",
+        )?;
+        let angle_deg = match &l.angle {
+            None => 0.0,
+            Some(a) => self.number_unless(
+                a,
+                &key("angle"),
+                |a| !(0.0..180.0).contains(&a),
+                "the angular diameter must be in [0, 180) degrees",
+                "Use 0 for a delta light (sharp shadows) or the source's angular diameter (the sun: 0.53).",
+            )?,
+        };
+        Ok(Light::Directional {
+            direction: (d.as_dvec3() / length).as_vec3(),
+            irradiance,
+            color,
+            angle_deg,
+        })
+    }
+
+    /// `[environment]`, or the uniform `render.background` it replaces (giving both is an error: which
+    /// one is meant?).
+    pub(super) fn environment(
+        &self,
+        raw: &RawScene,
+        background: Vec3,
+        base: &Path,
+    ) -> Result<Environment, SceneError> {
+        let Some(env) = &raw.environment else {
+            return Ok(Environment {
+                radiance: background,
+                ..Default::default()
+            });
+        };
+        let background_key = raw.render.as_ref().and_then(|r| r.background.as_ref());
+        if let Some(b) = background_key {
+            return Err(self.error(
+                b.span(),
+                "render.background",
+                "the scene has both render.background and an [environment] table",
+                "[environment] replaces render.background: give its uniform radiance as environment.radiance.",
+            ));
+        }
+        let e = env.get_ref();
+        let map = match &e.map {
+            None => None,
+            Some(m) => {
+                let path = base.join(m.get_ref());
+                let loaded = environment::load_map(&path).map_err(|problem| {
+                    self.error(
+                        m.span(),
+                        "environment.map",
+                        problem,
+                        "The path is relative to the scene file; the map must be an equirectangular .exr or .hdr \
+                         image of linear radiance.",
+                    )
+                })?;
+                Some(Arc::new(loaded))
+            }
+        };
+        let default = if map.is_some() { Vec3::ONE } else { Vec3::ZERO };
+        let radiance = e.radiance.as_ref().map_or(Ok(default), |r| {
+            self.vec3_unless(
+                r,
+                "environment.radiance",
+                |r| r.min_element() < 0.0,
+                "environment radiance cannot be negative",
+                "Give a linear RGB radiance (W sr^-1 m^-2) with components >= 0; with a map it multiplies the map.",
+            )
+        })?;
+        let rotate_deg = e
+            .rotate
+            .as_ref()
+            .map_or(Ok(0.0), |r| self.number(r, "environment.rotate"))?;
+        Ok(Environment {
+            radiance,
+            map,
+            rotate_deg,
+        })
+    }
+}

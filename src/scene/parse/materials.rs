@@ -1,0 +1,532 @@
+//! `[materials]`: the keys each material type takes and the material it becomes, the registry's generic
+//! reader for the kinds `scene::bsdfs` describes by their parameters, a conductor's Fresnel, and the
+//! surface modifiers that any material takes.
+
+use super::error::SceneError;
+use super::params::in_unit_range;
+use super::raw::{RawMaterial, RawParam, RawVec3};
+use super::{Checker, Files};
+use crate::scene::bsdfs;
+use crate::scene::texture::{MaterialTextures, TextureRef};
+use crate::scene::{Bsdf, CONDUCTOR_PRESETS, ConductorFresnel, Emission, Material, Roughness};
+use glam::Vec3;
+use toml::Spanned;
+
+/// A plastic's coat when `ior` is not given: near polypropylene's 1.49 (Mitsuba's `plastic` default) and
+/// the 1.5 of glTF's dielectrics.
+const PLASTIC_DEFAULT_IOR: f32 = 1.5;
+
+impl Checker<'_> {
+    pub(super) fn material(
+        &self,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+        files: &mut Files,
+    ) -> Result<Material, SceneError> {
+        let m = raw.get_ref();
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let kind = m.kind.get_ref().as_str();
+        let mut textures = MaterialTextures::default();
+        let radiance = |v: &Spanned<RawParam<RawVec3>>,
+                        field: &str,
+                        files: &mut Files,
+                        slot: &mut Option<TextureRef>| {
+            self.color_param(
+                v,
+                &key(field),
+                |r| r.min_element() < 0.0,
+                "emitted radiance cannot be negative",
+                "Give a linear RGB radiance in W sr^-1 m^-2 with components >= 0.",
+                files,
+                slot,
+            )
+        };
+        // Each type allows only some of the optional keys; a key for another type is treated like any
+        // unknown key rather than silently ignored. Every type but `emitter` may also emit; every type
+        // takes the surface modifiers.
+        const EMISSION: [&str; 2] = ["emission", "two_sided_emission"];
+        const MODIFIERS: [&str; 4] = ["opacity", "alpha_cutoff", "bump", "normal_map"];
+        let (allowed, bsdf): (Vec<&str>, _) = match kind {
+            "diffuse" => {
+                let albedo = self.required(
+                    &m.albedo,
+                    raw,
+                    &key("albedo"),
+                    "a diffuse material needs an albedo",
+                )?;
+                let albedo = self.color_param(
+                    albedo,
+                    &key("albedo"),
+                    |a| !in_unit_range(a),
+                    "every albedo component must be in [0, 1]",
+                    "Albedo is the fraction of light reflected per channel; energy conservation needs it in [0, 1].",
+                    files,
+                    &mut textures.albedo,
+                )?;
+                (
+                    vec!["albedo", EMISSION[0], EMISSION[1]],
+                    Bsdf::Diffuse { albedo },
+                )
+            }
+            "mirror" => {
+                let tint = match &m.tint {
+                    None => Vec3::ONE,
+                    Some(t) => self.color_param(
+                        t,
+                        &key("tint"),
+                        |t| !in_unit_range(t),
+                        "every tint component must be in [0, 1]",
+                        "The tint scales reflected light per channel; leave it out for a perfect white mirror.",
+                        files,
+                        &mut textures.albedo,
+                    )?,
+                };
+                (
+                    vec!["tint", EMISSION[0], EMISSION[1]],
+                    Bsdf::Mirror { tint },
+                )
+            }
+            "dielectric" => {
+                let ior = self.required(
+                    &m.ior,
+                    raw,
+                    &key("ior"),
+                    "a dielectric material needs an ior",
+                )?;
+                let ior = self.ior(ior, &key("ior"))?;
+                let roughness = self.roughness(
+                    &m.roughness,
+                    &key("roughness"),
+                    files,
+                    &mut textures.roughness,
+                )?;
+                (
+                    vec!["ior", "roughness", EMISSION[0], EMISSION[1]],
+                    Bsdf::Dielectric { ior, roughness },
+                )
+            }
+            "conductor" => {
+                let fresnel = self.conductor_fresnel(name, raw, files, &mut textures.albedo)?;
+                // The tint multiplies the Fresnel reflectance (Mitsuba's specular_reflectance). A
+                // textured tint is the albedo slot, which a Schlick conductor's base colour holds.
+                let tint = match &m.tint {
+                    None => Vec3::ONE,
+                    Some(t) => {
+                        let schlick = matches!(fresnel, ConductorFresnel::Schlick { .. });
+                        if schlick && matches!(t.get_ref(), RawParam::Texture(_)) {
+                            return Err(self.error(
+                                t.span(),
+                                &key("tint"),
+                                "a conductor with base_color cannot also have a textured tint",
+                                "Give the tint as a constant [r, g, b], or texture the base_color instead                                  (the tint multiplies it).",
+                            ));
+                        }
+                        self.unit_color(t, &key("tint"), files, &mut textures.albedo)?
+                    }
+                };
+                (
+                    vec![
+                        "preset",
+                        "eta",
+                        "k",
+                        "base_color",
+                        "roughness",
+                        "tint",
+                        EMISSION[0],
+                        EMISSION[1],
+                    ],
+                    Bsdf::Conductor {
+                        fresnel,
+                        roughness: self.roughness(
+                            &m.roughness,
+                            &key("roughness"),
+                            files,
+                            &mut textures.roughness,
+                        )?,
+                        tint,
+                    },
+                )
+            }
+            "plastic" => {
+                let albedo = self.required(
+                    &m.albedo,
+                    raw,
+                    &key("albedo"),
+                    "a plastic material needs an albedo (the colour of its diffuse base)",
+                )?;
+                let albedo =
+                    self.unit_color(albedo, &key("albedo"), files, &mut textures.albedo)?;
+                let ior = match &m.ior {
+                    Some(ior) => self.ior(ior, &key("ior"))?,
+                    None => PLASTIC_DEFAULT_IOR,
+                };
+                let roughness = self.roughness(
+                    &m.roughness,
+                    &key("roughness"),
+                    files,
+                    &mut textures.roughness,
+                )?;
+                (
+                    vec!["albedo", "ior", "roughness", EMISSION[0], EMISSION[1]],
+                    Bsdf::Plastic {
+                        albedo,
+                        ior,
+                        roughness,
+                    },
+                )
+            }
+            "metallic_roughness" => {
+                let base_color = match &m.base_color {
+                    Some(c) => {
+                        self.unit_color(c, &key("base_color"), files, &mut textures.albedo)?
+                    }
+                    None => Vec3::ONE,
+                };
+                let metallic = match &m.metallic {
+                    Some(v) => self.scalar_param(
+                        v,
+                        &key("metallic"),
+                        |x| !(0.0..=1.0).contains(&x),
+                        "metallic must be in [0, 1]",
+                        "0 is a dielectric (plastic-like), 1 a metal; glTF's default is 1.",
+                        files,
+                        &mut textures.metallic,
+                    )?,
+                    None => 1.0,
+                };
+                // glTF's default roughness is 1.
+                let roughness = match &m.roughness {
+                    None => 1.0,
+                    Some(r) => match self.roughness(
+                        &m.roughness,
+                        &key("roughness"),
+                        files,
+                        &mut textures.roughness,
+                    )? {
+                        Roughness { u, v } if u == v => u,
+                        _ => {
+                            return Err(self.error(
+                                r.span(),
+                                &key("roughness"),
+                                "a metallic_roughness material's roughness is one number",
+                                "glTF 2.0's metallic-roughness model is isotropic; give one number in [0, 1].",
+                            ));
+                        }
+                    },
+                };
+                (
+                    vec![
+                        "base_color",
+                        "metallic",
+                        "roughness",
+                        EMISSION[0],
+                        EMISSION[1],
+                    ],
+                    Bsdf::MetallicRoughness {
+                        base_color,
+                        metallic,
+                        roughness,
+                    },
+                )
+            }
+            "emitter" => (vec!["radiance", "two_sided"], Bsdf::Black),
+            other if bsdfs::by_toml_type(other).is_some() => {
+                let (kind, row) = bsdfs::by_toml_type(other).expect("matched");
+                self.registered_material(kind, row, name, raw, files, &mut textures)?
+            }
+            other => {
+                let registered: Vec<String> = bsdfs::BSDFS
+                    .iter()
+                    .filter_map(|k| match k.keys {
+                        bsdfs::Keys::Params { toml_type, .. } => Some(format!("\"{toml_type}\"")),
+                        bsdfs::Keys::Builtin => None,
+                    })
+                    .collect();
+                return Err(self.error(
+                    m.kind.span(),
+                    &key("type"),
+                    format!("unknown material type \"{other}\""),
+                    format!(
+                        "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior), \
+                         \"conductor\" (with preset, eta and k, or base_color), \"plastic\" (with albedo), \
+                         \"metallic_roughness\", \"emitter\" (with radiance), or {} (see docs/scene-format.md).",
+                        registered.join(", ")
+                    ),
+                ));
+            }
+        };
+        let present = [
+            ("albedo", m.albedo.as_ref().map(Spanned::span)),
+            ("tint", m.tint.as_ref().map(Spanned::span)),
+            ("ior", m.ior.as_ref().map(Spanned::span)),
+            ("preset", m.preset.as_ref().map(Spanned::span)),
+            ("eta", m.eta.as_ref().map(Spanned::span)),
+            ("k", m.k.as_ref().map(Spanned::span)),
+            ("base_color", m.base_color.as_ref().map(Spanned::span)),
+            ("roughness", m.roughness.as_ref().map(Spanned::span)),
+            ("metallic", m.metallic.as_ref().map(Spanned::span)),
+            ("radiance", m.radiance.as_ref().map(Spanned::span)),
+            ("two_sided", m.two_sided.as_ref().map(Spanned::span)),
+            ("emission", m.emission.as_ref().map(Spanned::span)),
+            (
+                "two_sided_emission",
+                m.two_sided_emission.as_ref().map(Spanned::span),
+            ),
+        ];
+        let allowed: Vec<&str> = allowed.iter().chain(MODIFIERS.iter()).copied().collect();
+        self.reject_foreign_keys(
+            &present,
+            &allowed,
+            &format!("materials.{name}"),
+            &format!("a {kind} material"),
+        )?;
+        let emission = if bsdf == Bsdf::Black {
+            let r = self.required(
+                &m.radiance,
+                raw,
+                &key("radiance"),
+                "an emitter material needs a radiance",
+            )?;
+            Some(Emission {
+                radiance: radiance(r, "radiance", files, &mut textures.emission)?,
+                two_sided: m.two_sided.as_ref().is_some_and(|t| *t.get_ref()),
+            })
+        } else {
+            match (&m.emission, &m.two_sided_emission) {
+                (Some(e), two_sided) => Some(Emission {
+                    radiance: radiance(e, "emission", files, &mut textures.emission)?,
+                    two_sided: two_sided.as_ref().is_some_and(|t| *t.get_ref()),
+                }),
+                (None, Some(t)) => {
+                    return Err(self.error(
+                        t.span(),
+                        &key("two_sided_emission"),
+                        "two_sided_emission is given but the material has no emission",
+                        "Give `emission = [r, g, b]` (its radiance) as well, or remove two_sided_emission.",
+                    ));
+                }
+                (None, None) => None,
+            }
+        };
+        self.modifiers(name, m, files, &mut textures)?;
+        Ok(Material {
+            bsdf,
+            emission,
+            textures,
+        })
+    }
+
+    /// The surface modifiers any material takes: `opacity` (a number in [0, 1] or a texture),
+    /// `alpha_cutoff` (in [0, 1]: a cut-out), `bump` and `normal_map` (texture tables whose `scale` is a
+    /// number: height in scene units per unit of texel, and the factor of the normal's x and y).
+    fn modifiers(
+        &self,
+        name: &str,
+        m: &RawMaterial,
+        files: &mut Files,
+        textures: &mut MaterialTextures,
+    ) -> Result<(), SceneError> {
+        let key = |field: &str| format!("materials.{name}.{field}");
+        if let Some(o) = &m.opacity {
+            textures.opacity_value = self.scalar_param(
+                o,
+                &key("opacity"),
+                |x| !(0.0..=1.0).contains(&x),
+                "opacity must be in [0, 1]",
+                "Opacity is the fraction of light the surface stops: 1 is opaque (the default), 0 invisible.",
+                files,
+                &mut textures.opacity,
+            )?;
+        }
+        if let Some(c) = &m.alpha_cutoff {
+            textures.alpha_cutoff = Some(self.number_unless(
+                c,
+                &key("alpha_cutoff"),
+                |x| !(0.0..=1.0).contains(&x),
+                "alpha_cutoff must be in [0, 1]",
+                "Opacity below the cutoff is a hole, at or above it solid (glTF's alphaMode MASK; 0.5 is its default).",
+            )?);
+        }
+        for (field, raw, slot) in [
+            ("bump", &m.bump, &mut textures.bump),
+            ("normal_map", &m.normal_map, &mut textures.normal_map),
+        ] {
+            let Some(raw) = raw else { continue };
+            let t = &raw.get_ref().0;
+            let (mut r, scale) = self.texture_ref(t, &key(field), false, true, files)?;
+            // A normal map is a vector: all three channels (a height map, like a scalar, reads "r").
+            if field == "normal_map" && t.channel.is_none() {
+                r.channel = crate::scene::texture::Channel::Rgb;
+            }
+            *slot = Some((r, scale.unwrap_or(1.0)));
+        }
+        Ok(())
+    }
+
+    /// A material of a kind the registry's generic reader reads (`scene::bsdfs`, `Keys::Params`): each
+    /// of the row's parameters read from its key, checked, defaulted and textured by its value kind.
+    /// Returns the keys the kind allows (its parameters and emission) and the material.
+    fn registered_material(
+        &self,
+        kind: u32,
+        row: &'static bsdfs::BsdfKind,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+        files: &mut Files,
+        textures: &mut MaterialTextures,
+    ) -> Result<(Vec<&'static str>, Bsdf), SceneError> {
+        let m = raw.get_ref();
+        let bsdfs::Keys::Params { toml_type, params } = row.keys else {
+            unreachable!("by_toml_type finds rows with parameters only")
+        };
+        let (mut albedo, mut roughness) = (Vec3::ZERO, Roughness::SMOOTH);
+        for p in params {
+            let key = format!("materials.{name}.{}", p.key);
+            match p.value {
+                bsdfs::ParamValue::Albedo { default } => {
+                    albedo = match (m.color_key(p.key), default) {
+                        (Some(v), _) => self.color_param(
+                            v,
+                            &key,
+                            |a| !in_unit_range(a),
+                            "every component must be in [0, 1]",
+                            p.hint,
+                            files,
+                            &mut textures.albedo,
+                        )?,
+                        (None, Some(d)) => Vec3::from(d),
+                        (None, None) => {
+                            let problem = format!("a {toml_type} material needs {}", p.key);
+                            self.required(&None::<Spanned<()>>, raw, &key, &problem)?;
+                            unreachable!("required refuses a missing key")
+                        }
+                    };
+                }
+                bsdfs::ParamValue::Roughness { default } => {
+                    roughness = match &m.roughness {
+                        None => Roughness::isotropic(default),
+                        Some(r) => match self.roughness(
+                            &m.roughness,
+                            &key,
+                            files,
+                            &mut textures.roughness,
+                        )? {
+                            iso @ Roughness { u, v } if u == v => iso,
+                            _ => {
+                                return Err(self.error(
+                                    r.span(),
+                                    &key,
+                                    format!("a {toml_type} material's roughness is one number"),
+                                    p.hint,
+                                ));
+                            }
+                        },
+                    };
+                }
+            }
+        }
+        let mut allowed: Vec<&'static str> = params.iter().map(|p| p.key).collect();
+        allowed.extend(["emission", "two_sided_emission"]);
+        Ok((
+            allowed,
+            Bsdf::Registered {
+                kind,
+                albedo,
+                roughness,
+            },
+        ))
+    }
+
+    /// A conductor's Fresnel: exactly one of `preset`, `eta` with `k`, or `base_color`.
+    fn conductor_fresnel(
+        &self,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+        files: &mut Files,
+        slot: &mut Option<TextureRef>,
+    ) -> Result<ConductorFresnel, SceneError> {
+        let m = raw.get_ref();
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let names: Vec<String> = CONDUCTOR_PRESETS
+            .iter()
+            .map(|(n, _, _)| format!("\"{n}\""))
+            .collect();
+        let how = format!(
+            "Give `preset` ({}), or `eta = [r, g, b]` with `k = [r, g, b]` (the complex index of \
+             refraction), or `base_color = [r, g, b]` (Schlick's reflectance at normal incidence).",
+            names.join(", ")
+        );
+        match (&m.preset, &m.eta, &m.k, &m.base_color) {
+            (Some(p), None, None, None) => {
+                let wanted = p.get_ref().as_str();
+                match CONDUCTOR_PRESETS.iter().find(|(n, _, _)| *n == wanted) {
+                    Some((_, eta, k)) => Ok(ConductorFresnel::Complex {
+                        eta: Vec3::from_array(*eta),
+                        k: Vec3::from_array(*k),
+                    }),
+                    None => Err(self.error(
+                        p.span(),
+                        &key("preset"),
+                        format!("unknown conductor preset \"{wanted}\""),
+                        format!("The presets are {}.", names.join(", ")),
+                    )),
+                }
+            }
+            (None, Some(eta), Some(k), None) => {
+                let eta = self.vec3_unless(
+                    eta,
+                    &key("eta"),
+                    |e| e.min_element() <= 0.0,
+                    "every eta component must be > 0",
+                    "eta is the real part of the metal's complex index of refraction (gold: about [0.14, 0.37, 1.44]).",
+                )?;
+                let k = self.vec3_unless(
+                    k,
+                    &key("k"),
+                    |k| k.min_element() < 0.0,
+                    "every k component must be >= 0",
+                    "k is the extinction coefficient, the imaginary part of the complex index of refraction (gold: about [3.98, 2.39, 1.60]).",
+                )?;
+                Ok(ConductorFresnel::Complex { eta, k })
+            }
+            (None, None, None, Some(c)) => Ok(ConductorFresnel::Schlick {
+                f0: self.unit_color(c, &key("base_color"), files, slot)?,
+            }),
+            (None, Some(_), None, None) => Err(self.error(
+                m.eta.as_ref().map_or(0..0, Spanned::span),
+                &key("eta"),
+                "eta is given without k",
+                how,
+            )),
+            (None, None, Some(_), None) => Err(self.error(
+                m.k.as_ref().map_or(0..0, Spanned::span),
+                &key("k"),
+                "k is given without eta",
+                how,
+            )),
+            (None, None, None, None) => Err(self.error(
+                raw.span(),
+                &format!("materials.{name}"),
+                "a conductor material needs a preset, eta and k, or a base_color",
+                how,
+            )),
+            _ => {
+                // Two ways at once: point at the second one given.
+                let spans = [
+                    ("preset", m.preset.as_ref().map(Spanned::span)),
+                    ("eta", m.eta.as_ref().map(Spanned::span)),
+                    ("base_color", m.base_color.as_ref().map(Spanned::span)),
+                ];
+                let mut given = spans.iter().filter_map(|(n, s)| s.clone().map(|s| (*n, s)));
+                let first = given.next().map_or("preset", |(n, _)| n);
+                let (second, span) = given.next().unwrap_or(("k", raw.span()));
+                Err(self.error(
+                    span,
+                    &key(second),
+                    format!("a conductor takes one of preset, eta and k, or base_color, but {first} and {second} are both given"),
+                    how,
+                ))
+            }
+        }
+    }
+}

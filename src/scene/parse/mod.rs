@@ -1,0 +1,651 @@
+//! Scene files: TOML text -> validated [`Scene`], or a [`SceneError`] that names the file, the line and
+//! the key.
+//!
+//! The work happens in three steps:
+//!
+//! 1. `toml` parses the text into its syntax tree (`DeTable`), keeping the byte span of every key and
+//!    value. Invalid TOML stops here.
+//! 2. serde (`deny_unknown_fields`) turns that tree into the `Raw*` structs (`raw.rs`), which mirror the
+//!    file one to one. Every value is wrapped in [`Spanned`] so that step 3 still knows where it came
+//!    from. Unknown keys, missing required keys and wrong types stop here; their errors carry only a
+//!    byte span and a message, so we find the dotted key path by looking that span up in the tree from
+//!    step 1.
+//! 3. `Checker` applies the contract's rules (finite numbers, positive radii, a usable camera, ...) and
+//!    builds the renderer's types, filling in defaults.
+//!
+//! The contract is `shared/docs/scene-format.md`. Nothing here may panic on any input: user numbers are
+//! compared, never unwrapped, and integer arithmetic on them is done in a type wide enough not to
+//! overflow.
+//!
+//! The files, one concern each:
+//!
+//! - `mod.rs`: the entry point; the `Checker` (the file name and text), which turns a byte span into an
+//!   error at its line and key, and assembles the [`Scene`] from its sections; the files a scene reads
+//!   besides itself (OBJ meshes, images), each read once.
+//! - `error.rs`: [`SceneError`], and the dotted key path of a span, found in the TOML tree (or guessed
+//!   from the line when the text is not TOML).
+//! - `raw.rs`: step 2's schema, the `Raw*` types and their serde visitors.
+//! - `checks.rs`: the small checks that every section shares (finite numbers, ranges, keys that only
+//!   some types need or allow, material names).
+//! - `settings.rs`: `[camera]`, `[image]` and `[render]`.
+//! - `materials.rs`: `[materials]`: each type's keys, the registry's generic reader, a conductor's
+//!   Fresnel, the surface modifiers.
+//! - `params.rs`: a material's parameters, each a constant or a texture reference (colours, scalars,
+//!   roughness), the texture reference itself, the index of refraction.
+//! - `geometry.rs`: `[[sphere]]`, `[[triangle]]` and `[[mesh]]`, with the mapping of MTL materials.
+//! - `lights.rs`: `[[light]]` and `[environment]`.
+
+mod checks;
+mod error;
+mod geometry;
+mod lights;
+mod materials;
+mod params;
+mod raw;
+mod settings;
+
+pub use error::SceneError;
+
+use super::Scene;
+use super::image_texture::{Texture, load_texture};
+use super::mesh::{self, ObjMesh};
+use error::{SEE_CONTRACT, backticked_after, find_key_path, guess_key_at, join_key, plain_words};
+use raw::RawScene;
+use serde::Deserialize;
+use std::collections::HashMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use toml::Spanned;
+use toml::de::DeTable;
+
+/// The file name errors report for the embedded default scene, which has no path.
+const DEFAULT_SCENE_FILE: &str = "<default scene>";
+
+// ---------------------------------------------------------------------------------------------------
+// Entry point
+// ---------------------------------------------------------------------------------------------------
+
+/// Parses and validates a scene. `path` is only used for messages and stored in the result.
+pub(crate) fn parse_scene(text: &str, path: Option<&Path>) -> Result<Scene, SceneError> {
+    let file = match path {
+        Some(p) => p.display().to_string(),
+        None => DEFAULT_SCENE_FILE.to_string(),
+    };
+    let checker = Checker { file, text };
+
+    // Step 1: syntax. The tree is kept so that step 2's errors can be located in it.
+    let tree = DeTable::parse(text).map_err(|e| checker.syntax_error(&e))?;
+    // Step 2: shape. Scene files are small, so cloning the tree costs nothing worth avoiding.
+    let raw = RawScene::deserialize(toml::de::Deserializer::from(tree.clone()))
+        .map_err(|e| checker.shape_error(&e, tree.get_ref()))?;
+    // Step 3: meaning.
+    checker.scene(&raw, path)
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Step 3: the contract's rules
+// ---------------------------------------------------------------------------------------------------
+
+/// Validates the raw file and builds the [`Scene`]; knows the file name and text to phrase errors.
+struct Checker<'a> {
+    file: String,
+    text: &'a str,
+}
+impl Checker<'_> {
+    fn scene(&self, raw: &RawScene, path: Option<&Path>) -> Result<Scene, SceneError> {
+        let camera = self.camera(&raw.camera)?;
+        let mut image = self.image(raw.image.as_ref())?;
+        let (render, background) = self.render(raw.render.as_ref())?;
+        image.tonemap = self.tonemap(raw.render.as_ref())?;
+        let base = path.and_then(Path::parent).unwrap_or(Path::new(""));
+        let environment = self.environment(raw, background, base)?;
+
+        // TOML has already rejected duplicate names, so sorting by position is a total order.
+        let mut named: Vec<_> = raw.materials.iter().collect();
+        named.sort_by_key(|(name, _)| name.span().start);
+        // Relative model and image paths are relative to the scene file (to the working directory for the
+        // embedded scene). A file used by several meshes or materials is read once.
+        let mut files = Files {
+            base,
+            loaded: LoadedFiles::default(),
+        };
+        let mut materials = Vec::with_capacity(named.len());
+        let mut material_names = Vec::with_capacity(named.len());
+        for (name, material) in named {
+            materials.push(self.material(name.get_ref(), material, &mut files)?);
+            material_names.push(name.get_ref().clone());
+        }
+
+        let mut spheres = Vec::with_capacity(raw.sphere.len());
+        for (i, sphere) in raw.sphere.iter().enumerate() {
+            spheres.push(self.sphere(i, sphere.get_ref(), &material_names)?);
+        }
+        let mut triangles = Vec::with_capacity(raw.triangle.len());
+        for (i, triangle) in raw.triangle.iter().enumerate() {
+            triangles.push(self.triangle(i, triangle.get_ref(), &material_names)?);
+        }
+        let mut meshes = Vec::with_capacity(raw.mesh.len());
+        let mut total = triangles.len();
+        let mut warnings = Vec::new();
+        for (i, mesh) in raw.mesh.iter().enumerate() {
+            let table = self.mesh(
+                i,
+                mesh,
+                &material_names,
+                &materials,
+                base,
+                &mut files.loaded,
+            )?;
+            total += table
+                .meshes
+                .iter()
+                .map(|m| m.triangles.len())
+                .sum::<usize>();
+            if total > mesh::MAX_TRIANGLES {
+                return Err(self.error(
+                    mesh.span(),
+                    &format!("mesh[{i}]"),
+                    format!("the scene has more than {} triangles", mesh::MAX_TRIANGLES),
+                    "Use fewer or simpler meshes.",
+                ));
+            }
+            meshes.extend(table.meshes);
+            for (name, material) in table.materials {
+                material_names.push(name);
+                materials.push(material);
+            }
+            warnings.extend(table.warnings);
+        }
+        let mut lights = Vec::with_capacity(raw.light.len());
+        for (i, light) in raw.light.iter().enumerate() {
+            lights.push(self.light(i, light)?);
+        }
+
+        Ok(Scene {
+            path: path.map(Path::to_path_buf),
+            camera,
+            image,
+            render,
+            materials,
+            material_names,
+            spheres,
+            triangles,
+            meshes,
+            lights,
+            environment,
+            warnings,
+        })
+    }
+
+    /// The image file `t` names (relative to the scene file), read once however many keys name it.
+    fn mesh_texture(
+        &self,
+        t: &Spanned<String>,
+        key: &str,
+        base: &Path,
+        files: &mut LoadedFiles,
+        hint: &str,
+    ) -> Result<Arc<Texture>, SceneError> {
+        let path = base.join(t.get_ref());
+        if let Some(tex) = files.textures.get(&path) {
+            return Ok(tex.clone());
+        }
+        let tex = load_texture(&path).map_err(|e| self.error(t.span(), key, e, hint))?;
+        let tex = Arc::new(tex);
+        files.textures.insert(path, tex.clone());
+        Ok(tex)
+    }
+
+    // ----- turning positions into errors -----
+
+    /// The 1-based line of a byte offset.
+    fn line_of(&self, offset: usize) -> usize {
+        let end = offset.min(self.text.len());
+        1 + self.text.as_bytes()[..end]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+    }
+
+    fn error(
+        &self,
+        span: Range<usize>,
+        key: &str,
+        problem: impl Into<String>,
+        hint: impl Into<String>,
+    ) -> SceneError {
+        SceneError::new(
+            self.file.clone(),
+            Some(self.line_of(span.start)),
+            Some(key.to_string()),
+            problem,
+            hint,
+        )
+    }
+
+    /// Step 1 failed: the text is not TOML. There is no tree to look the key up in, so the key is read
+    /// off the offending line when it looks like `key = ...`.
+    fn syntax_error(&self, e: &toml::de::Error) -> SceneError {
+        let offset = e.span().map_or(0, |s| s.start);
+        SceneError::new(
+            self.file.clone(),
+            Some(self.line_of(offset)),
+            guess_key_at(self.text, offset),
+            format!("this is not valid TOML: {}", e.message()),
+            "Fix the TOML syntax at this line (https://toml.io).",
+        )
+    }
+
+    /// Step 2 failed: the TOML does not have the scene's shape. serde's message names the key for
+    /// unknown and missing keys; otherwise the span points at the offending value.
+    fn shape_error(&self, e: &toml::de::Error, tree: &DeTable<'_>) -> SceneError {
+        let message = e.message();
+        let span = e.span().unwrap_or(0..0);
+        let line = Some(self.line_of(span.start));
+        let exact = find_key_path(tree, "", &|s: &Range<usize>| *s == span);
+
+        if let Some(field) = backticked_after(message, "missing field `") {
+            // The span is the table that lacks the key (the document root has the empty span 0..0,
+            // which matches nothing, so it falls back to the empty path).
+            let key = join_key(exact.as_deref().unwrap_or(""), field);
+            let problem = format!("the required key `{field}` is missing");
+            return SceneError::new(
+                self.file.clone(),
+                line,
+                Some(key),
+                problem,
+                format!("Add `{field}`. {SEE_CONTRACT}"),
+            );
+        }
+        if let Some(field) = backticked_after(message, "unknown field `") {
+            // The span is the unknown key itself; serde lists the keys allowed there.
+            let key = exact.unwrap_or_else(|| field.to_string());
+            let allowed = message
+                .split_once(", expected ")
+                .map_or(String::new(), |(_, list)| {
+                    format!(" (allowed here: {list})")
+                });
+            let problem = format!("unknown key `{field}`{allowed}");
+            let hint = format!("Remove it or fix its spelling. {SEE_CONTRACT}");
+            return SceneError::new(self.file.clone(), line, Some(key), problem, hint);
+        }
+
+        // A wrong type or length: the span is the value. Prefer the node with exactly that span, else
+        // the innermost node containing its start.
+        let key =
+            exact.or_else(|| find_key_path(tree, "", &|s: &Range<usize>| s.contains(&span.start)));
+        SceneError::new(
+            self.file.clone(),
+            line,
+            key,
+            plain_words(message),
+            SEE_CONTRACT,
+        )
+    }
+}
+
+/// OBJ files and textures already read while checking this scene, by resolved path.
+#[derive(Default)]
+struct LoadedFiles {
+    objs: HashMap<PathBuf, Arc<ObjMesh>>,
+    textures: HashMap<PathBuf, Arc<Texture>>,
+}
+
+/// The files a scene reads besides itself (meshes, images), relative to `base` (the scene file's
+/// directory), each read once however many keys name it.
+struct Files<'a> {
+    base: &'a Path,
+    loaded: LoadedFiles,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{
+        Bsdf, Camera, Filter, Gamma, ImageSettings, Light, LightSampling, Projection,
+        RenderSettings, Roughness, Sampler, Sphere, Tonemap, Triangle,
+    };
+    use glam::Vec3;
+
+    /// The contract's example, minus the `[[mesh]]` table (its OBJ file does not exist here; tests/mesh.rs
+    /// loads meshes from real files).
+    const CONTRACT_EXAMPLE: &str = r#"
+[camera]
+position       = [0.0, 0.0, 55.0]
+look_at        = [0.0, 0.0, 0.0]
+up             = [0.0, 1.0, 0.0]
+fov            = 60.0
+aperture       = 0.0
+focus_distance = 55.0
+
+[image]
+width    = 512
+height   = 512
+exposure = 1.0
+gamma    = 2.2
+
+[render]
+samples      = 64
+max_bounces  = 5
+seed         = 0
+filter       = "gaussian"
+filter_sigma = 0.5
+background   = [0.0, 0.0, 0.0]
+
+[materials]
+white  = { type = "diffuse", albedo = [0.8, 0.8, 0.8] }
+mirror = { type = "mirror", tint = [1.0, 1.0, 1.0] }
+glass  = { type = "dielectric", ior = 1.5 }
+
+[[sphere]]
+center   = [0.0, 0.0, 0.0]
+radius   = 10.0
+material = "white"
+
+[[triangle]]
+vertices = [[-5.0, -5.0, -20.0], [5.0, -5.0, -20.0], [0.0, 5.0, -20.0]]
+material = "white"
+
+[[light]]
+type     = "point"
+position = [-10.0, 20.0, 40.0]
+power    = 37699.1
+color    = [1.0, 1.0, 1.0]
+
+[[light]]
+type   = "sphere"
+center = [-10.0, 20.0, 40.0]
+radius = 5.0
+power  = 37699.1
+color  = [1.0, 1.0, 1.0]
+"#;
+
+    pub(super) const MINIMAL: &str = r#"
+[camera]
+position = [0, 0, 10]
+look_at  = [0, 0, 0]
+fov      = 45
+"#;
+
+    pub(super) fn parse(text: &str) -> Scene {
+        match parse_scene(text, Some(Path::new("test.toml"))) {
+            Ok(scene) => scene,
+            Err(e) => panic!("scene should parse: {e}"),
+        }
+    }
+
+    #[test]
+    fn contract_example_parses_to_the_written_values() {
+        let scene = parse(CONTRACT_EXAMPLE);
+        assert_eq!(scene.path.as_deref(), Some(Path::new("test.toml")));
+        assert_eq!(
+            scene.camera,
+            Camera {
+                position: Vec3::new(0.0, 0.0, 55.0),
+                look_at: Vec3::ZERO,
+                up: Vec3::Y,
+                projection: Projection::Perspective,
+                fov_deg: 60.0,
+                extent: 0.0,
+                aperture: 0.0,
+                focus_distance: 55.0,
+            }
+        );
+        assert_eq!(
+            scene.image,
+            ImageSettings {
+                width: 512,
+                height: 512,
+                exposure: 1.0,
+                gamma: Gamma::Power(2.2),
+                tonemap: Tonemap::None,
+            }
+        );
+        assert_eq!(
+            scene.render,
+            RenderSettings {
+                samples: 64,
+                max_bounces: 5,
+                seed: 0,
+                filter: Filter::Gaussian,
+                filter_sigma: 0.5,
+                sampler: Sampler::Sobol,
+                light_sampling: LightSampling::Mis,
+                clamp: None,
+            }
+        );
+        assert_eq!(scene.material_names, ["white", "mirror", "glass"]);
+        assert_eq!(
+            scene.materials,
+            [
+                Bsdf::Diffuse {
+                    albedo: Vec3::splat(0.8)
+                }
+                .into(),
+                Bsdf::Mirror { tint: Vec3::ONE }.into(),
+                Bsdf::Dielectric {
+                    ior: 1.5,
+                    roughness: Roughness::SMOOTH
+                }
+                .into(),
+            ]
+        );
+        assert_eq!(
+            scene.spheres,
+            [Sphere {
+                center: Vec3::ZERO,
+                radius: 10.0,
+                material: 0
+            }]
+        );
+        assert_eq!(
+            scene.triangles,
+            [Triangle {
+                vertices: [
+                    Vec3::new(-5.0, -5.0, -20.0),
+                    Vec3::new(5.0, -5.0, -20.0),
+                    Vec3::new(0.0, 5.0, -20.0),
+                ],
+                material: 0,
+            }]
+        );
+        assert_eq!(
+            scene.lights,
+            [
+                Light::Point {
+                    position: Vec3::new(-10.0, 20.0, 40.0),
+                    power: 37699.1,
+                    color: Vec3::ONE
+                },
+                Light::Sphere {
+                    center: Vec3::new(-10.0, 20.0, 40.0),
+                    radius: 5.0,
+                    power: 37699.1,
+                    color: Vec3::ONE,
+                },
+            ]
+        );
+    }
+
+    #[test]
+    fn minimal_scene_gets_every_default() {
+        let scene = parse(MINIMAL);
+        assert_eq!(scene.camera.up, Vec3::Y);
+        assert_eq!(scene.camera.aperture, 0.0);
+        // The default focus distance is |look_at - position|.
+        assert_eq!(scene.camera.focus_distance, 10.0);
+        assert_eq!(
+            scene.image,
+            ImageSettings {
+                width: 512,
+                height: 512,
+                exposure: 1.0,
+                gamma: Gamma::Power(2.2),
+                tonemap: Tonemap::None,
+            }
+        );
+        assert_eq!(
+            scene.render,
+            RenderSettings {
+                samples: 64,
+                max_bounces: 5,
+                seed: 0,
+                filter: Filter::Gaussian,
+                filter_sigma: 0.5,
+                sampler: Sampler::Sobol,
+                light_sampling: LightSampling::Mis,
+                clamp: None,
+            }
+        );
+        assert!(scene.materials.is_empty() && scene.material_names.is_empty());
+        assert!(scene.spheres.is_empty() && scene.triangles.is_empty() && scene.lights.is_empty());
+    }
+
+    #[test]
+    fn partial_tables_default_the_missing_keys() {
+        let text = format!(
+            "{MINIMAL}\n[image]\nwidth = 320\n[render]\nsamples = 16\n\n[materials]\nm = {{ type = \"mirror\" }}\n\
+             [[light]]\ntype = \"point\"\nposition = [0, 5, 0]\npower = 100\n"
+        );
+        let scene = parse(&text);
+        assert_eq!((scene.image.width, scene.image.height), (320, 512));
+        assert_eq!(scene.image.gamma, Gamma::Power(2.2));
+        assert_eq!((scene.render.samples, scene.render.max_bounces), (16, 5));
+        assert_eq!(scene.materials, [Bsdf::Mirror { tint: Vec3::ONE }.into()]);
+        assert_eq!(
+            scene.lights,
+            [Light::Point {
+                position: Vec3::new(0.0, 5.0, 0.0),
+                power: 100.0,
+                color: Vec3::ONE
+            }]
+        );
+    }
+
+    #[test]
+    fn material_indices_follow_file_order_not_name_order() {
+        // Names deliberately out of alphabetical order, and objects refer to them out of order too.
+        let text = format!(
+            r#"{MINIMAL}
+[materials]
+zinc  = {{ type = "mirror", tint = [0.9, 0.9, 0.9] }}
+amber = {{ type = "diffuse", albedo = [0.8, 0.5, 0.1] }}
+moss  = {{ type = "dielectric", ior = 1.3 }}
+
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = "moss"
+
+[[sphere]]
+center = [3, 0, 0]
+radius = 1
+material = "zinc"
+
+[[triangle]]
+vertices = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+material = "amber"
+"#
+        );
+        let scene = parse(&text);
+        assert_eq!(scene.material_names, ["zinc", "amber", "moss"]);
+        let name_of = |i: u32| scene.material_names[i as usize].as_str();
+        assert_eq!(name_of(scene.spheres[0].material), "moss");
+        assert_eq!(name_of(scene.spheres[1].material), "zinc");
+        assert_eq!(name_of(scene.triangles[0].material), "amber");
+        assert_eq!(
+            scene.materials[2],
+            Bsdf::Dielectric {
+                ior: 1.3,
+                roughness: Roughness::SMOOTH
+            }
+            .into()
+        );
+    }
+
+    #[test]
+    fn materials_may_be_written_as_subtables() {
+        let text = format!(
+            "{MINIMAL}\n[materials.b]\ntype = \"dielectric\"\nior = 2\n\n[materials.a]\ntype = \"mirror\"\n"
+        );
+        let scene = parse(&text);
+        assert_eq!(scene.material_names, ["b", "a"]);
+    }
+
+    #[test]
+    fn integers_are_accepted_where_floats_are_expected() {
+        let text = format!(
+            r#"{MINIMAL}
+[image]
+exposure = 2
+gamma = 2
+[render]
+filter = "box"
+filter_sigma = 1
+background = [1, 0, 0]
+[materials]
+glass = {{ type = "dielectric", ior = 2 }}
+[[sphere]]
+center = [1, 2, 3]
+radius = 10
+material = "glass"
+[[light]]
+type = "sphere"
+center = [0, 10, 0]
+radius = 2
+power = 500
+"#
+        );
+        let scene = parse(&text);
+        assert_eq!(scene.camera.fov_deg, 45.0);
+        assert_eq!(scene.image.exposure, 2.0);
+        assert_eq!(scene.image.gamma, Gamma::Power(2.0));
+        assert_eq!(scene.render.filter, Filter::Box);
+        assert_eq!(scene.render.filter_sigma, 1.0);
+        assert_eq!(scene.environment.radiance, Vec3::X);
+        assert_eq!(
+            scene.materials,
+            [Bsdf::Dielectric {
+                ior: 2.0,
+                roughness: Roughness::SMOOTH
+            }
+            .into()]
+        );
+        assert_eq!(
+            scene.spheres,
+            [Sphere {
+                center: Vec3::new(1.0, 2.0, 3.0),
+                radius: 10.0,
+                material: 0
+            }]
+        );
+        assert_eq!(
+            scene.lights,
+            [Light::Sphere {
+                center: Vec3::new(0.0, 10.0, 0.0),
+                radius: 2.0,
+                power: 500.0,
+                color: Vec3::ONE
+            }]
+        );
+    }
+
+    #[test]
+    fn default_scene_errors_name_the_default_scene() {
+        let err = parse_scene("[camera]\nfov = 60\n", None).expect_err("position is missing");
+        assert_eq!(err.file(), DEFAULT_SCENE_FILE);
+        assert!(
+            err.to_string()
+                .starts_with("<default scene>, line 1, key camera.position: "),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn the_embedded_default_scene_is_valid() {
+        if let Err(e) = parse_scene(crate::scene::DEFAULT_SCENE_TOML, None) {
+            panic!("{e}");
+        }
+    }
+}
