@@ -1,4 +1,4 @@
-//! Mitsuba 3 XML scenes (src/scene/mitsuba.rs): hand-written XML covering each element, checked after
+//! Mitsuba 3 XML scenes (src/scene/mitsuba/): hand-written XML covering each element, checked after
 //! loading against hand-computed values; an XML scene and its hand-written TOML equivalent render the same
 //! bits; every refusal names the file, the line and the element; mutated XML never panics.
 

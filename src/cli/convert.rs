@@ -1,7 +1,7 @@
 //! `vkpath convert SCENE -o OUT.toml`: any scene vkpath can read, written as the vkpath TOML it
 //! understood, so that a user can see and edit it. A glTF file becomes the scene src/scene/import.rs
 //! makes of it (the file as a mesh, its camera and lights), its mesh path written relative to OUT's
-//! directory when it can be (else absolute); a Mitsuba 3 XML file the scene src/scene/mitsuba.rs makes
+//! directory when it can be (else absolute); a Mitsuba 3 XML file the scene src/scene/mitsuba/ makes
 //! of it, its file paths likewise; a TOML scene is checked and written as it is.
 
 use super::{load_scene_with, usage};
