@@ -1,10 +1,11 @@
 //! Mitsuba 3 XML scenes, read as vkpath scenes (`vkpath render scene.xml`).
 //!
-//! As for glTF (super::import), the XML becomes the vkpath TOML text that says what vkpath understood
-//! of it, and that text is read by the TOML reader, so every check and default is the TOML reader's and
-//! `vkpath convert scene.xml -o scene.toml` writes the same text. Each line of the TOML remembers the XML
-//! element it came from, so that an error the TOML reader finds (an albedo above 1, an unreadable mesh)
-//! is reported at the XML file, line and element, not at a line of text the user never saw.
+//! As for glTF (super::gltf_scene), the XML becomes the vkpath TOML text that says what vkpath
+//! understood of it, and that text is read by the TOML reader, so every check and default is the TOML
+//! reader's and `vkpath convert scene.xml -o scene.toml` writes the same text. Each line of the TOML
+//! remembers the XML element it came from, so that an error the TOML reader finds (an albedo above 1, an
+//! unreadable mesh) is reported at the XML file, line and element, not at a line of text the user never
+//! saw. [`to_toml`] is this format's entry in super::import.
 //!
 //! Two stages, one concept a file:
 //!
@@ -40,81 +41,34 @@ mod xml;
 pub use shapes::DISK_SEGMENTS;
 pub use translate::INFINITE_DEPTH_BOUNCES;
 
+use super::SceneError;
 use super::toml_text::absolute;
-use super::{Scene, SceneError};
+use super::translated::{ImportOptions, Translated};
 use context::Tr;
-use objects::Loc;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use xml::Parser;
 
-/// How to read an XML scene.
-#[derive(Clone, Debug, Default)]
-pub struct XmlOptions {
-    /// The sensor to render from (0-based, in file order); the first when `None`.
-    pub camera: Option<usize>,
-    /// Skip unknown elements, plugins and parameters with a warning each, instead of refusing the file.
-    pub lenient: bool,
-    /// Write file paths relative to this directory (absolute); the XML file's own directory when `None`
-    /// (the TOML is then read as if it sat beside the XML).
-    pub paths_relative_to: Option<PathBuf>,
-}
-
-/// What an XML scene becomes: the TOML text, what the reader noticed, and where each TOML line came from.
-pub struct Translated {
-    pub toml: String,
-    pub warnings: Vec<String>,
-    origins: Vec<Option<Loc>>,
-}
-
-impl Translated {
-    /// An error of the TOML reader on this text, placed at the XML element its line came from.
-    fn relocate(&self, e: SceneError) -> SceneError {
-        let origin = e
-            .line()
-            .and_then(|l| self.origins.get(l.wrapping_sub(1)))
-            .and_then(Option::as_ref);
-        match origin {
-            Some(loc) => {
-                let key = match e.key() {
-                    Some(k) => format!("{} (read as vkpath's {k})", loc.element),
-                    None => loc.element.clone(),
-                };
-                e.relocated(loc.file.display().to_string(), Some(loc.line), Some(key))
-            }
-            None => e,
-        }
-    }
-}
-
-/// Whether a scene file is read as Mitsuba 3 XML (its extension is `.xml`, any case).
-pub fn is_xml(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
-}
-
-/// Reads the XML scene at `path` and loads the vkpath scene it becomes.
-pub fn load(path: &Path, options: &XmlOptions) -> Result<Scene, SceneError> {
-    let t = xml_scene(path, options)?;
-    let mut scene = Scene::from_toml_str(&t.toml, Some(path)).map_err(|e| t.relocate(e))?;
-    let mut warnings = t.warnings;
-    warnings.append(&mut scene.warnings);
-    scene.warnings = warnings;
-    Ok(scene)
-}
-
-/// The vkpath TOML for the XML scene at `path` (see the module comment).
-pub fn xml_scene(path: &Path, options: &XmlOptions) -> Result<Translated, SceneError> {
+/// The vkpath TOML for the XML scene at `path` (see the module comment), its file paths relative to
+/// `toml_dir` (absolute), or to the XML file's own folder when `None` (the TOML is then read as if it sat
+/// beside the XML).
+pub fn to_toml(
+    path: &Path,
+    options: &ImportOptions,
+    toml_dir: Option<&Path>,
+) -> Result<Translated, SceneError> {
     let main = absolute(path);
     let main_dir = main.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut parser = Parser::new(options.lenient, main_dir.clone());
+    let mut parser = Parser::new(options.xml_lenient, main_dir.clone());
     let scene = parser.main_file(path)?;
-    let refer_dir = options
-        .paths_relative_to
-        .as_deref()
-        .map(absolute)
-        .unwrap_or_else(|| main_dir.clone());
+    let refer_dir = toml_dir.map(absolute).unwrap_or_else(|| main_dir.clone());
     let warnings = std::mem::take(&mut parser.warnings);
-    let mut tr = Tr::new(&parser.ids, options.lenient, warnings, main_dir, refer_dir);
+    let mut tr = Tr::new(
+        &parser.ids,
+        options.xml_lenient,
+        warnings,
+        main_dir,
+        refer_dir,
+    );
     let toml = tr.toml(&scene, path, options.camera)?;
     Ok(Translated {
         toml: toml.text,

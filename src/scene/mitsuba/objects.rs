@@ -4,6 +4,7 @@
 //! Each remembers where it was written ([`Loc`]), which every error and warning names.
 
 use crate::scene::SceneError;
+use crate::scene::translated::Origin;
 use glam::{DMat4, DVec3};
 use std::path::PathBuf;
 use std::rc::Rc;
@@ -30,6 +31,15 @@ impl Loc {
             problem,
             hint,
         )
+    }
+
+    /// Where a line of TOML written for this element came from.
+    pub(super) fn origin(&self) -> Origin {
+        Origin {
+            file: self.file.clone(),
+            line: self.line,
+            element: self.element.clone(),
+        }
     }
 
     /// `file, line N, <element>: ` before a warning.

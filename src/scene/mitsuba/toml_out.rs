@@ -3,13 +3,14 @@
 
 use super::objects::Loc;
 use crate::scene::toml_text;
+use crate::scene::translated::Origin;
 use glam::DVec3;
 
 /// TOML text being written, with the XML element each line came from.
 #[derive(Default)]
 pub(super) struct TomlOut {
     pub(super) text: String,
-    pub(super) origins: Vec<Option<Loc>>,
+    pub(super) origins: Vec<Option<Origin>>,
 }
 
 impl TomlOut {
@@ -17,7 +18,7 @@ impl TomlOut {
         for l in s.as_ref().split('\n') {
             self.text += l;
             self.text.push('\n');
-            self.origins.push(origin.cloned());
+            self.origins.push(origin.map(Loc::origin));
         }
     }
 
