@@ -1,4 +1,4 @@
-//! Mitsuba 3 XML scenes (src/scene/mitsuba.rs): hand-written XML covering each element, checked after
+//! Mitsuba 3 XML scenes (src/scene/mitsuba/): hand-written XML covering each element, checked after
 //! loading against hand-computed values; an XML scene and its hand-written TOML equivalent render the same
 //! bits; every refusal names the file, the line and the element; mutated XML never panics.
 
@@ -9,7 +9,7 @@ use proptest::prelude::*;
 use std::f32::consts::PI;
 use std::path::{Path, PathBuf};
 use vkpath::Scene;
-use vkpath::scene::mitsuba::{self, INFINITE_DEPTH_BOUNCES, XmlOptions};
+use vkpath::scene::mitsuba::{self, INFINITE_DEPTH_BOUNCES};
 use vkpath::scene::{Bsdf, ConductorFresnel, Filter, Light, Projection, Roughness, Sampler};
 
 /// A perspective sensor the scenes below share: 40 x 20 pixels, box filter, 16 spp.
@@ -430,14 +430,7 @@ fn approximations_are_refused_unless_lenient_and_model_differences_are_warnings(
         let e = error_in(dir.path(), body);
         assert!(e.contains("--xml-lenient"), "{e}");
         let p = write(dir.path(), "scene.xml", &scene_xml(body));
-        let s = mitsuba::load(
-            &p,
-            &XmlOptions {
-                lenient: true,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let s = Scene::load_with_options(&p, None, true).unwrap();
         assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     }
     let s = load(
@@ -461,14 +454,7 @@ fn approximations_are_refused_unless_lenient_and_model_differences_are_warnings(
                <fancy/>"#,
         ),
     );
-    let s = mitsuba::load(
-        &p,
-        &XmlOptions {
-            lenient: true,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let s = Scene::load_with_options(&p, None, true).unwrap();
     assert_eq!(s.spheres.len(), 2);
     assert_eq!(s.warnings.len(), 5, "{:#?}", s.warnings);
     for (w, what) in s
@@ -1095,8 +1081,7 @@ proptest! {
         let p = dir.path().join("fuzz.xml");
         std::fs::write(&p, &bytes).unwrap();
         for lenient in [false, true] {
-            let options = XmlOptions { lenient, ..Default::default() };
-            if let Err(e) = mitsuba::load(&p, &options) {
+            if let Err(e) = Scene::load_with_options(&p, None, lenient) {
                 let text = e.to_string();
                 prop_assert!(!text.contains('\n'), "{}", text);
             }

@@ -1,15 +1,17 @@
 //! `vkpath convert SCENE -o OUT.toml`: any scene vkpath can read, written as the vkpath TOML it
-//! understood, so that a user can see and edit it. A glTF file becomes the scene src/scene/import.rs
-//! makes of it (the file as a mesh, its camera and lights), its mesh path written relative to OUT's
-//! directory when it can be (else absolute); a Mitsuba 3 XML file the scene src/scene/mitsuba.rs makes
-//! of it, its file paths likewise; a TOML scene is checked and written as it is.
+//! understood, so that a user can see and edit it. The scene's importer (src/scene/import.rs, the one
+//! `render` reads it with) writes the TOML with its file paths relative to OUT's directory when it can be
+//! (else absolute): a glTF file becomes the scene src/scene/gltf_scene.rs makes of it (the file as a mesh,
+//! its camera and lights), a Mitsuba 3 XML file the scene src/scene/mitsuba/ makes of it; a TOML scene is
+//! checked and written as it is.
 
 use super::{load_scene_with, usage};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use vkpath::Error;
-use vkpath::scene::toml_text::{absolute, relative_to};
-use vkpath::scene::{import, mesh_file, mitsuba};
+use vkpath::scene::import::Importer;
+use vkpath::scene::toml_text::absolute;
+use vkpath::scene::translated::ImportOptions;
 
 #[derive(Args)]
 pub struct ConvertArgs {
@@ -48,29 +50,16 @@ pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
         )));
     }
     // Read (and check) the scene as render would, warnings included.
-    let camera = a.camera.map(|c| c as usize);
-    load_scene_with(Some(&a.scene), camera, a.xml_lenient)?;
-    let text = if mitsuba::is_xml(&a.scene) {
-        // File paths relative to the output's folder, so that the TOML reads them from where it is.
-        let options = mitsuba::XmlOptions {
-            camera,
-            lenient: a.xml_lenient,
-            paths_relative_to: Some(absolute(a.output.parent().unwrap_or(Path::new("")))),
-        };
-        let translated = mitsuba::xml_scene(&a.scene, &options)?;
-        // The warnings were printed by load_scene_with.
-        translated.toml
-    } else if mesh_file::is_gltf(&a.scene) {
-        let out_dir = absolute(a.output.parent().unwrap_or(Path::new("")));
-        let input = absolute(&a.scene);
-        let mesh_ref = relative_to(&input, &out_dir).unwrap_or_else(|| input.clone());
-        import::gltf_scene_referring(&a.scene, camera, &mesh_ref.to_string_lossy())?.toml
-    } else {
-        std::fs::read_to_string(&a.scene).map_err(|e| Error::Io {
-            path: a.scene.clone(),
-            message: e.to_string(),
-        })?
+    let options = ImportOptions {
+        camera: a.camera.map(|c| c as usize),
+        xml_lenient: a.xml_lenient,
     };
+    load_scene_with(Some(&a.scene), options.camera, options.xml_lenient)?;
+    // File paths relative to the output's folder, so that the TOML reads them from where it is. The
+    // warnings were printed by load_scene_with.
+    let out_dir = absolute(a.output.parent().unwrap_or(Path::new("")));
+    let importer = Importer::for_path(&a.scene);
+    let text = (importer.to_toml)(&a.scene, &options, Some(&out_dir))?.toml;
     vkpath::fs_atomic::write_atomically(&a.output, text.as_bytes())?;
     eprintln!("vkpath: wrote {}", a.output.display());
     Ok(0)

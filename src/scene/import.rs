@@ -1,205 +1,114 @@
-//! Whole scenes from other tools, read as vkpath scenes (`vkpath render model.gltf`).
+//! The scene files vkpath reads, one [`Importer`] a format, picked by the file's extension; `Scene::load`
+//! (`vkpath render`) and `vkpath convert` both go through this table, so a new format is one entry.
 //!
-//! A glTF 2.0 file becomes the TOML scene that says what vkpath understood of it: the file as one
-//! `[[mesh]]` (its geometry and materials, super::gltf), a `[camera]` from the scene's first camera (or the
-//! one `--camera N` names, N counting the camera nodes in the order a depth-first walk of the scene
-//! meets them), and a `[[light]]` per KHR_lights_punctual point or directional light. The TOML is then read
-//! like any scene file, so every check and default is the TOML reader's, and `vkpath convert` writes the
-//! same text out.
-//!
-//! Units. glTF point lights give a luminous intensity in candela and directional lights an illuminance in
-//! lux; vkpath is radiometric and uncoloured by a luminous efficacy, so one candela is read as one watt per
-//! steradian (a point light's power P = 4 pi I) and one lux as one watt per square metre, times the
-//! light's colour. Spot lights are not read (a warning). Cameras: glTF's vertical field of view and aspect
-//! ratio give vkpath's horizontal field of view, fov_x = 2 atan(aspect tan(yfov / 2)), and the image
-//! 640 pixels wide (height = 640 / aspect); an orthographic camera's xmag is half the view's width.
+//! Every importer turns a file into vkpath TOML text (super::translated): a glTF 2.0 scene
+//! (super::gltf_scene), a Mitsuba 3 XML scene (super::mitsuba), or a TOML scene, which is its own text.
+//! `render` reads that text like any scene file at the file's path; `convert` writes it out, its file
+//! paths relative to the output's folder.
 
-use super::SceneError;
-use super::toml_text::{num, toml_string};
-use glam::{Mat4, Vec3};
-use std::fmt::Write as _;
+use super::mesh_file::GLTF_EXTENSIONS;
+use super::translated::{ImportOptions, Translated};
+use super::{Scene, SceneError, gltf_scene, mitsuba, read_scene_text};
 use std::path::Path;
 
-/// `[x, y, z]` of a glam vector.
-fn vec3(v: Vec3) -> String {
-    super::toml_text::vec3(v.to_array())
+/// A scene file format.
+pub struct Importer {
+    /// The format's name.
+    pub name: &'static str,
+    /// The extensions of the files it reads, lower case (a file's is matched in any case).
+    pub extensions: &'static [&'static str],
+    /// The TOML text of the file at `path`, its file paths relative to a folder (absolute), or to the
+    /// file's own folder when `None` (the text is then read as if it sat beside the file).
+    pub to_toml: fn(
+        path: &Path,
+        options: &ImportOptions,
+        toml_dir: Option<&Path>,
+    ) -> Result<Translated, SceneError>,
 }
 
-/// The image width an imported camera gets (its aspect ratio gives the height).
-pub const IMPORTED_IMAGE_WIDTH: u32 = 640;
+/// vkpath's own format: read as it is written. It is the importer of every file that no other claims.
+const TOML: Importer = Importer {
+    name: "vkpath TOML",
+    extensions: &["toml"],
+    to_toml: toml_as_written,
+};
 
-/// What a glTF file becomes: the TOML text and the warnings of reading it.
-pub struct Imported {
-    pub toml: String,
-    pub warnings: Vec<String>,
+/// Every format, in the order a file's extension is tried against them; vkpath TOML, last, also reads the
+/// files that no other claims.
+pub const IMPORTERS: &[Importer] = &[
+    Importer {
+        name: "glTF 2.0",
+        extensions: GLTF_EXTENSIONS,
+        to_toml: gltf_scene::to_toml,
+    },
+    Importer {
+        name: "Mitsuba 3 XML",
+        extensions: &["xml"],
+        to_toml: mitsuba::to_toml,
+    },
+    TOML,
+];
+
+impl Importer {
+    /// The importer of the scene file at `path`: the first that claims its extension, else vkpath TOML.
+    pub fn for_path(path: &Path) -> &'static Importer {
+        IMPORTERS.iter().find(|i| i.claims(path)).unwrap_or(&TOML)
+    }
+
+    /// Whether the file at `path` has one of this format's extensions (in any case).
+    pub fn claims(&self, path: &Path) -> bool {
+        path.extension()
+            .is_some_and(|e| self.extensions.iter().any(|x| e.eq_ignore_ascii_case(x)))
+    }
+
+    /// The scene the file at `path` becomes: its TOML read like a scene file at `path` (relative paths
+    /// from the file's folder), an error of the TOML reader reported where its line came from, and the
+    /// warnings of the translation before the TOML reader's.
+    pub fn load(&self, path: &Path, options: &ImportOptions) -> Result<Scene, SceneError> {
+        let t = (self.to_toml)(path, options, None)?;
+        let mut scene = Scene::from_toml_str(&t.toml, Some(path)).map_err(|e| t.relocate(e))?;
+        let mut warnings = t.warnings;
+        warnings.append(&mut scene.warnings);
+        scene.warnings = warnings;
+        Ok(scene)
+    }
 }
 
-fn error(path: &Path, problem: impl Into<String>, hint: &str) -> SceneError {
-    SceneError::import(path, None, problem, hint)
-}
-
-/// The TOML scene for the glTF file at `path` (see the module comment); `camera` picks a camera node.
-/// The mesh refers to the file by its name: the TOML is read as if it sat beside it.
-pub fn gltf_scene(path: &Path, camera: Option<usize>) -> Result<Imported, SceneError> {
-    let name = path
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    gltf_scene_referring(path, camera, &name)
-}
-
-/// [`gltf_scene`], with the mesh's `obj` written as `mesh_ref` (for a TOML file written elsewhere).
-pub fn gltf_scene_referring(
+/// A TOML scene's text, as written (its paths stay as they are). It has one `[camera]`: `--camera` is
+/// refused before the file is read.
+fn toml_as_written(
     path: &Path,
-    camera: Option<usize>,
-    mesh_ref: &str,
-) -> Result<Imported, SceneError> {
-    let hint = "vkpath reads glTF 2.0 (.gltf with its buffers, or .glb); see docs/scene-format.md, \"glTF scenes\".";
-    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, &e))?;
-    let gltf = gltf::Gltf::from_slice(&bytes)
-        .map_err(|e| error(path, format!("not a valid glTF 2.0 file: {e}"), hint))?;
-    let doc = &gltf.document;
-    let scene = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .ok_or_else(|| error(path, "the glTF file has no scene", hint))?;
-    let mut warnings = Vec::new();
-    let mut cameras = Vec::new();
-    let mut lights = String::new();
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
-        scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
-    stack.reverse(); // depth first, in the file's order
-    while let Some((node, parent, depth)) = stack.pop() {
-        if depth > 1024 {
-            return Err(error(
-                path,
-                "the node hierarchy is deeper than 1024 levels (a cycle?)",
-                hint,
-            ));
-        }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        let mut children: Vec<_> = node.children().map(|c| (c, world, depth + 1)).collect();
-        children.reverse();
-        stack.extend(children);
-        if let Some(c) = node.camera() {
-            cameras.push((c, world));
-        }
-        if let Some(light) = node.light() {
-            let position = world.transform_point3(Vec3::ZERO);
-            // A light shines along its node's -z.
-            let direction = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
-            let color = light.color();
-            let intensity = light.intensity();
-            match light.kind() {
-                gltf::khr_lights_punctual::Kind::Point => {
-                    let _ = write!(
-                        lights,
-                        "\n[[light]]                       # glTF point light {}\ntype     = \"point\"\n\
-                         position = {}\npower    = {}           # 4 pi x {intensity} cd\ncolor    = {}\n",
-                        light.index(),
-                        vec3(position),
-                        num(4.0 * std::f32::consts::PI * intensity),
-                        vec3(Vec3::from_array(color))
-                    );
-                }
-                gltf::khr_lights_punctual::Kind::Directional => {
-                    let _ = write!(
-                        lights,
-                        "\n[[light]]                       # glTF directional light {}\ntype       = \"directional\"\n\
-                         direction  = {}\nirradiance = {}         # {intensity} lx\ncolor      = {}\n",
-                        light.index(),
-                        vec3(direction),
-                        num(intensity),
-                        vec3(Vec3::from_array(color))
-                    );
-                }
-                gltf::khr_lights_punctual::Kind::Spot { .. } => warnings.push(format!(
-                    "glTF spot light {} is not read (vkpath has no spot lights)",
-                    light.index()
-                )),
+    options: &ImportOptions,
+    _toml_dir: Option<&Path>,
+) -> Result<Translated, SceneError> {
+    if options.camera.is_some() {
+        return Err(SceneError::import(
+            path,
+            Some("--camera".into()),
+            "--camera picks a camera of a glTF or Mitsuba XML scene, but this scene is a TOML file with one [camera]",
+            "Leave --camera out, or render the glTF or XML file itself.",
+        ));
+    }
+    Ok(Translated::as_written(read_scene_text(path)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_extension_has_one_importer_and_toml_reads_the_rest() {
+        let name = |p: &str| Importer::for_path(Path::new(p)).name;
+        assert_eq!(name("a/scene.gltf"), "glTF 2.0");
+        assert_eq!(name("scene.GLB"), "glTF 2.0");
+        assert_eq!(name("scene.Xml"), "Mitsuba 3 XML");
+        assert_eq!(name("scene.toml"), "vkpath TOML");
+        assert_eq!(name("scene.txt"), "vkpath TOML");
+        assert_eq!(name("scene"), "vkpath TOML");
+        for (i, a) in IMPORTERS.iter().enumerate() {
+            for b in &IMPORTERS[i + 1..] {
+                assert!(a.extensions.iter().all(|e| !b.extensions.contains(e)));
             }
         }
     }
-    let chosen = match camera {
-        Some(n) if n >= cameras.len() => {
-            return Err(SceneError::import(
-                path,
-                Some("--camera".into()),
-                format!(
-                    "--camera {n} asks for camera node {n}, but the scene has {} (0 to {})",
-                    cameras.len(),
-                    cameras.len().saturating_sub(1)
-                ),
-                "Give a camera index the file has, or leave --camera out for the first.",
-            ));
-        }
-        Some(n) => Some(&cameras[n]),
-        None => cameras.first(),
-    };
-    let Some((cam, world)) = chosen else {
-        return Err(error(
-            path,
-            "the glTF scene has no camera to render it from",
-            "Add a camera to the glTF file, or put the file in a TOML scene as a mesh ([[mesh]] obj = \"file.gltf\") with a [camera] of your own.",
-        ));
-    };
-    let position = world.transform_point3(Vec3::ZERO);
-    let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
-    let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
-    let mut toml = format!(
-        "# Read from {} by vkpath: the file as one mesh, its camera and its lights.\n\n[camera]\n\
-         position = {}\nlook_at  = {}\nup       = {}\n",
-        path.file_name().map_or_else(
-            || path.display().to_string(),
-            |n| n.to_string_lossy().into_owned()
-        ),
-        vec3(position),
-        vec3(position + forward),
-        vec3(up)
-    );
-    let aspect = match cam.projection() {
-        gltf::camera::Projection::Perspective(p) => {
-            let aspect = p.aspect_ratio().unwrap_or(1.5);
-            let fov_x = 2.0 * (aspect * (p.yfov() / 2.0).tan()).atan();
-            let _ = writeln!(
-                toml,
-                "fov      = {}         # from yfov {} rad",
-                num(fov_x.to_degrees()),
-                p.yfov()
-            );
-            aspect
-        }
-        gltf::camera::Projection::Orthographic(o) => {
-            let aspect = if o.ymag() != 0.0 {
-                o.xmag() / o.ymag()
-            } else {
-                1.0
-            };
-            let _ = writeln!(
-                toml,
-                "type     = \"orthographic\"\nextent   = {}",
-                num(2.0 * o.xmag())
-            );
-            aspect
-        }
-    };
-    if !(aspect.is_finite() && aspect > 0.0) {
-        return Err(error(
-            path,
-            format!("the camera's aspect ratio {aspect} is not a positive number"),
-            hint,
-        ));
-    }
-    let height = ((IMPORTED_IMAGE_WIDTH as f32 / aspect).round() as u32).clamp(1, 65536);
-    let _ = write!(
-        toml,
-        "\n[image]\nwidth  = {IMPORTED_IMAGE_WIDTH}\nheight = {height}\n\n[[mesh]]\nobj = {}\n",
-        toml_string(mesh_ref)
-    );
-    toml += &lights;
-    if lights.is_empty() {
-        warnings.push(
-            "the glTF scene has no point or directional lights: only its emissive materials light it".into(),
-        );
-    }
-    Ok(Imported { toml, warnings })
 }

@@ -10,10 +10,13 @@ pub fn is_ply(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("ply"))
 }
 
+/// The extensions of glTF 2.0 files: JSON with its buffers, or binary.
+pub const GLTF_EXTENSIONS: &[&str] = &["gltf", "glb"];
+
 /// Whether a mesh file is read as glTF 2.0 (its extension is `.gltf` or `.glb`, any case).
 pub fn is_gltf(path: &Path) -> bool {
     path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+        .is_some_and(|e| GLTF_EXTENSIONS.iter().any(|x| e.eq_ignore_ascii_case(x)))
 }
 
 /// Reads the mesh file of a `[[mesh]]` by its extension: PLY (super::ply), glTF (super::gltf), OBJ

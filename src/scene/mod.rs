@@ -8,6 +8,7 @@ pub mod bsdfs;
 pub mod bvh;
 pub mod environment;
 pub mod gltf;
+pub mod gltf_scene;
 pub mod image_texture;
 pub mod import;
 pub mod mesh;
@@ -19,9 +20,12 @@ pub mod ply;
 pub mod shapes;
 pub mod texture;
 pub mod toml_text;
+pub mod translated;
 
 use glam::Vec3;
+use import::Importer;
 use std::path::{Path, PathBuf};
+use translated::ImportOptions;
 
 pub use environment::{Environment, EnvironmentMap};
 pub use image_texture::Texture;
@@ -410,9 +414,9 @@ impl Scene {
         Scene::load_with_camera(path, None)
     }
 
-    /// Reads a scene file: TOML, or a glTF 2.0 file (`.gltf`, `.glb`) read as the scene
-    /// super::import makes of it, from its first camera or camera `camera` (which only glTF and
-    /// Mitsuba XML files take), or a Mitsuba 3 XML file (`.xml`, super::mitsuba).
+    /// Reads a scene file: TOML, or a glTF 2.0 file (`.gltf`, `.glb`: [`gltf_scene`]) or a Mitsuba 3 XML
+    /// file (`.xml`: [`mitsuba`]) read as the TOML scene it becomes, from its first camera or camera
+    /// `camera` (which only glTF and Mitsuba XML files take). [`import`] picks the format.
     pub fn load_with_camera(path: &Path, camera: Option<usize>) -> Result<Scene, SceneError> {
         Scene::load_with_options(path, camera, false)
     }
@@ -424,37 +428,11 @@ impl Scene {
         camera: Option<usize>,
         xml_lenient: bool,
     ) -> Result<Scene, SceneError> {
-        if mitsuba::is_xml(path) {
-            let options = mitsuba::XmlOptions {
-                camera,
-                lenient: xml_lenient,
-                paths_relative_to: None,
-            };
-            return mitsuba::load(path, &options);
-        }
-        if mesh_file::is_gltf(path) {
-            let imported = import::gltf_scene(path, camera)?;
-            let mut scene = Scene::from_toml_str(&imported.toml, Some(path))?;
-            let mut warnings = imported.warnings;
-            warnings.append(&mut scene.warnings);
-            scene.warnings = warnings;
-            return Ok(scene);
-        }
-        if camera.is_some() {
-            return Err(SceneError::import(
-                path,
-                Some("--camera".into()),
-                "--camera picks a camera of a glTF or Mitsuba XML scene, but this scene is a TOML file with one [camera]",
-                "Leave --camera out, or render the glTF or XML file itself.",
-            ));
-        }
-        Scene::load_toml(path)
-    }
-
-    /// Reads a TOML scene file.
-    fn load_toml(path: &Path) -> Result<Scene, SceneError> {
-        let text = read_scene_text(path)?;
-        Scene::from_toml_str(&text, Some(path))
+        let options = ImportOptions {
+            camera,
+            xml_lenient,
+        };
+        Importer::for_path(path).load(path, &options)
     }
 
     /// Parses and validates scene text. `path` is used for messages and to resolve relative paths.

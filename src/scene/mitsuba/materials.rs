@@ -1,0 +1,407 @@
+//! BSDFs as vkpath materials: each BSDF's keys (diffuse, conductors, dielectrics, plastics, twosided),
+//! its roughness and indices of refraction, and the `[materials]` table, one material per (BSDF,
+//! emission) that shapes share.
+
+use super::args::Args;
+use super::colors::ColorTex;
+use super::context::{Bitmap, Tr};
+use super::objects::{Loc, Obj, Value};
+use super::toml_out::{num, vec3};
+use crate::scene::SceneError;
+use crate::scene::toml_text::toml_string;
+use glam::DVec3;
+use std::rc::Rc;
+
+/// A BSDF as vkpath material keys (`key = value` lines), and its bitmap texture.
+#[derive(Clone)]
+struct MatOut {
+    lines: Vec<(String, Loc)>,
+    texture: Option<Bitmap>,
+}
+
+impl Tr<'_> {
+    /// An IOR parameter: a number or one of Mitsuba's named media.
+    fn ior(&self, args: &Args, name: &str, default: &str) -> Result<f64, SceneError> {
+        let Some(p) = args.prop(name) else {
+            return Ok(named_ior(default).unwrap_or(1.0));
+        };
+        match &p.value {
+            Value::Float(x) => Ok(*x),
+            Value::Integer(i) => Ok(*i as f64),
+            Value::Spectrum(x) => Ok(*x),
+            Value::Str(s) => named_ior(s).ok_or_else(|| {
+                p.loc.error(
+                    format!("\"{s}\" is not one of Mitsuba's named indices of refraction"),
+                    &format!(
+                        "Give a number, or one of: {}.",
+                        IOR_TABLE
+                            .iter()
+                            .map(|(n, _)| *n)
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )
+            }),
+            _ => Err(Args::wrong(p, "a <float> or a named medium (<string>)")),
+        }
+    }
+
+    /// A microfacet BSDF's roughness: vkpath's perceptual roughness r has GGX alpha = r^2, so
+    /// r = sqrt(alpha). Mitsuba's default distribution is Beckmann, which vkpath does not have.
+    fn roughness(&mut self, args: &Args, obj: &Obj) -> Result<f64, SceneError> {
+        match args.string("distribution")? {
+            None => self.approximate(
+                &obj.loc,
+                "Mitsuba's default microfacet distribution is Beckmann; vkpath's is GGX".into(),
+                "Add <string name=\"distribution\" value=\"ggx\"/> to read it as GGX.",
+            )?,
+            Some(("ggx", _)) => {}
+            Some((d, l)) => {
+                let l = l.clone();
+                self.approximate(
+                    &l,
+                    format!("the microfacet distribution \"{d}\": vkpath's is GGX"),
+                    "Use distribution ggx.",
+                )?
+            }
+        }
+        let _ = args.boolean("sample_visible")?;
+        if let Some(p) = args.prop("alpha_u").or_else(|| args.prop("alpha_v")) {
+            return Err(p.loc.error(
+                "anisotropic alpha_u / alpha_v: vkpath's tangent frame is not Mitsuba's, so the highlight would stretch along other directions",
+                "Give one alpha.",
+            ));
+        }
+        let alpha = args.float("alpha")?;
+        let (a, loc) = alpha.map_or((0.1, &obj.loc), |(a, l)| (a, l));
+        if !(0.0..=1.0).contains(&a) {
+            return Err(loc.error(
+                format!("alpha = {a}: vkpath's roughness sqrt(alpha) must be in [0, 1]"),
+                "Give alpha in [0, 1].",
+            ));
+        }
+        Ok(a.sqrt())
+    }
+
+    /// A BSDF as vkpath material keys. `twosided` is accepted and unwrapped: vkpath shades both faces of
+    /// every surface (Mitsuba's other BSDFs are black from behind).
+    fn bsdf(&mut self, obj: &Obj) -> Result<Option<MatOut>, SceneError> {
+        let args = Args::new(obj);
+        let at = |s: String| (s, obj.loc.clone());
+        let mut lines = Vec::new();
+        let mut texture = None;
+        let kind = obj.kind.as_str();
+        match kind {
+            "twosided" => {
+                let inner = args.objects("bsdf", self.ids)?;
+                self.finish(&args, &["bsdf"])?;
+                return match inner.as_slice() {
+                    [(b, _)] => self.bsdf(b),
+                    _ => Err(obj.loc.error(
+                        "a twosided BSDF with other than one nested BSDF (vkpath has no different front and back materials)",
+                        "Nest exactly one BSDF.",
+                    )),
+                };
+            }
+            "diffuse" => {
+                lines.push(at("type = \"diffuse\"".into()));
+                match self.color_tex(&args, "reflectance", DVec3::splat(0.5))? {
+                    ColorTex::Color(c) => lines.push(at(format!("albedo = {}", vec3(c)))),
+                    ColorTex::Bitmap(p, l) => {
+                        lines.push(at(
+                            "albedo = [0.5, 0.5, 0.5]   # replaced by the texture".into()
+                        ));
+                        texture = Some((p, l));
+                    }
+                }
+                self.finish(&args, &["reflectance"])?;
+            }
+            "conductor" | "roughconductor" => {
+                let material = args.string("material")?;
+                let eta = args.prop("eta").map(|_| ());
+                let k = args.prop("k").map(|_| ());
+                let tint = self.color(&args, "specular_reflectance", DVec3::ONE)?;
+                let rough = if kind == "roughconductor" {
+                    Some(self.roughness(&args, obj)?)
+                } else {
+                    None
+                };
+                match (material, eta.is_some() || k.is_some()) {
+                    (Some((_, l)), true) => {
+                        return Err(
+                            l.error("both a material and eta / k are given", "Give one of them.")
+                        );
+                    }
+                    (None, true) => {
+                        let eta = self.color(&args, "eta", DVec3::ZERO)?;
+                        let k = self.color(&args, "k", DVec3::ONE)?;
+                        lines.push(at("type = \"conductor\"".into()));
+                        lines.push(at(format!("eta = {}", vec3(eta))));
+                        lines.push(at(format!("k = {}", vec3(k))));
+                    }
+                    (m, false) => {
+                        let (name, mloc) = m.map_or(("none", &obj.loc), |(n, l)| (n, l));
+                        let preset = match name {
+                            "none" => None,
+                            "Au" => Some("gold"),
+                            "Ag" => Some("silver"),
+                            "Cu" => Some("copper"),
+                            "Al" => Some("aluminium"),
+                            other => {
+                                return Err(mloc.error(
+                                    format!("the conductor material \"{other}\" is not one vkpath has"),
+                                    "vkpath has Au, Ag, Cu, Al (its presets gold, silver, copper, aluminium) and none (a perfect mirror); or give eta and k.",
+                                ));
+                            }
+                        };
+                        match preset {
+                            Some(p) => {
+                                lines.push(at("type = \"conductor\"".into()));
+                                lines.push(at(format!("preset = \"{p}\"")));
+                            }
+                            None if rough.is_none_or(|r| r == 0.0) => {
+                                // Reflectance 1 times specular_reflectance: vkpath's mirror and its tint.
+                                lines.push(at("type = \"mirror\"".into()));
+                                lines.push(at(format!("tint = {}", vec3(tint))));
+                            }
+                            None => {
+                                // Reflectance 1, rough: Schlick's form with f0 = 1 is exactly 1.
+                                lines.push(at("type = \"conductor\"".into()));
+                                lines.push(at("base_color = [1.0, 1.0, 1.0]".into()));
+                            }
+                        }
+                    }
+                }
+                let is_mirror = lines.iter().any(|(l, _)| l == "type = \"mirror\"");
+                if !is_mirror && tint != DVec3::ONE {
+                    // specular_reflectance multiplies the Fresnel reflectance: vkpath's conductor tint.
+                    lines.push(at(format!("tint = {}", vec3(tint))));
+                }
+                if let Some(r) = rough {
+                    lines.push(at(format!("roughness = {}", num(r))));
+                }
+                let known: &[&str] = if kind == "conductor" {
+                    &["material", "eta", "k", "specular_reflectance"]
+                } else {
+                    &[
+                        "material",
+                        "eta",
+                        "k",
+                        "specular_reflectance",
+                        "distribution",
+                        "alpha",
+                        "sample_visible",
+                    ]
+                };
+                self.finish(&args, known)?;
+            }
+            "dielectric" | "roughdielectric" => {
+                // vkpath's ior is the interior's over the exterior's (the outside medium has ior 1).
+                let ior = self.ior(&args, "int_ior", "bk7")? / self.ior(&args, "ext_ior", "air")?;
+                for name in ["specular_reflectance", "specular_transmittance"] {
+                    if self.color(&args, name, DVec3::ONE)? != DVec3::ONE {
+                        let p = args.prop(name).map_or(&obj.loc, |p| &p.loc);
+                        return Err(p.error(
+                            format!("{name} other than 1: vkpath's dielectrics have no tint"),
+                            "Remove it.",
+                        ));
+                    }
+                }
+                lines.push(at("type = \"dielectric\"".into()));
+                lines.push(at(format!("ior = {}", num(ior))));
+                if kind == "roughdielectric" {
+                    let r = self.roughness(&args, obj)?;
+                    lines.push(at(format!("roughness = {}", num(r))));
+                }
+                let known: &[&str] = if kind == "dielectric" {
+                    &[
+                        "int_ior",
+                        "ext_ior",
+                        "specular_reflectance",
+                        "specular_transmittance",
+                    ]
+                } else {
+                    &[
+                        "int_ior",
+                        "ext_ior",
+                        "specular_reflectance",
+                        "specular_transmittance",
+                        "distribution",
+                        "alpha",
+                        "sample_visible",
+                    ]
+                };
+                self.finish(&args, known)?;
+            }
+            "plastic" | "roughplastic" => {
+                let ior = self.ior(&args, "int_ior", "polypropylene")?
+                    / self.ior(&args, "ext_ior", "air")?;
+                if self.color(&args, "specular_reflectance", DVec3::ONE)? != DVec3::ONE {
+                    return Err(obj.loc.error(
+                        "specular_reflectance other than 1: vkpath's plastic coat has no tint",
+                        "Remove it.",
+                    ));
+                }
+                // vkpath's plastic is Mitsuba's with nonlinear = true (the base's internal reflections
+                // tinted by its albedo: a / (1 - a Fdr)); Mitsuba's default is false.
+                match args.boolean("nonlinear")? {
+                    Some((true, _)) => {}
+                    other => {
+                        let l = other.map_or(&obj.loc, |(_, l)| l).clone();
+                        self.approximate(
+                            &l,
+                            "nonlinear = false (Mitsuba's default): vkpath's plastic is Mitsuba's nonlinear one".into(),
+                            "Add <boolean name=\"nonlinear\" value=\"true\"/>.",
+                        )?;
+                    }
+                }
+                lines.push(at("type = \"plastic\"".into()));
+                match self.color_tex(&args, "diffuse_reflectance", DVec3::splat(0.5))? {
+                    ColorTex::Color(c) => lines.push(at(format!("albedo = {}", vec3(c)))),
+                    ColorTex::Bitmap(p, l) => {
+                        lines.push(at(
+                            "albedo = [0.5, 0.5, 0.5]   # replaced by the texture".into()
+                        ));
+                        texture = Some((p, l));
+                    }
+                }
+                lines.push(at(format!("ior = {}", num(ior))));
+                if kind == "roughplastic" {
+                    let r = self.roughness(&args, obj)?;
+                    lines.push(at(format!("roughness = {}", num(r))));
+                    if r > 0.0 {
+                        self.warnings.push(obj.loc.warning(
+                            "vkpath's rough plastic is not Mitsuba's roughplastic: it keeps the smooth coat's \
+                             transmission, so it reflects more (about 1% more at roughness 0.1, 18% at 0.5)",
+                        ));
+                    }
+                }
+                let known: &[&str] = if kind == "plastic" {
+                    &[
+                        "int_ior",
+                        "ext_ior",
+                        "diffuse_reflectance",
+                        "specular_reflectance",
+                        "nonlinear",
+                    ]
+                } else {
+                    &[
+                        "int_ior",
+                        "ext_ior",
+                        "diffuse_reflectance",
+                        "specular_reflectance",
+                        "nonlinear",
+                        "distribution",
+                        "alpha",
+                        "sample_visible",
+                    ]
+                };
+                self.finish(&args, known)?;
+            }
+            _ => {
+                self.unsupported(
+                    obj,
+                    "diffuse, conductor, roughconductor, dielectric, roughdielectric, plastic, roughplastic and twosided",
+                )?;
+                return Ok(None);
+            }
+        }
+        Ok(Some(MatOut { lines, texture }))
+    }
+
+    /// The material of a shape with `bsdf` (Mitsuba's default: diffuse, reflectance 0.5) and `emission`
+    /// (an area emitter's radiance): its name in [materials], written the first time, and its texture.
+    pub(super) fn material(
+        &mut self,
+        bsdf: Option<&Rc<Obj>>,
+        emission: Option<(DVec3, &Loc)>,
+        shape_name: &str,
+        shape_loc: &Loc,
+    ) -> Result<(String, Option<Bitmap>), SceneError> {
+        let key = (
+            bsdf.map_or(0, |b| Rc::as_ptr(b) as usize),
+            emission.map_or([u64::MAX; 3], |(e, _)| e.to_array().map(f64::to_bits)),
+        );
+        if let Some((name, tex)) = self.materials.get(&key) {
+            return Ok((name.clone(), tex.clone()));
+        }
+        let out = match bsdf {
+            Some(b) => self.bsdf(b)?,
+            None => None,
+        };
+        let out = out.unwrap_or_else(|| MatOut {
+            lines: vec![
+                ("type = \"diffuse\"".into(), shape_loc.clone()),
+                (
+                    "albedo = [0.5, 0.5, 0.5]   # Mitsuba's default BSDF".into(),
+                    shape_loc.clone(),
+                ),
+            ],
+            texture: None,
+        });
+        let id = bsdf.and_then(|b| {
+            self.ids
+                .iter()
+                .find(|(_, o)| Rc::ptr_eq(o, b))
+                .map(|(id, _)| id.clone())
+        });
+        let base = match (&id, emission) {
+            (Some(id), None) => id.clone(),
+            (Some(id), Some(_)) => format!("{id}+{shape_name}"),
+            (None, _) => shape_name.to_string(),
+        };
+        let mut name = base.clone();
+        let mut n = 2;
+        while self.material_names.contains(&name) {
+            name = format!("{base}#{n}");
+            n += 1;
+        }
+        self.material_names.push(name.clone());
+        let o = &mut self.out_materials;
+        let origin = bsdf.map_or(shape_loc, |b| &b.loc);
+        o.line("", None);
+        o.line(format!("[materials.{}]", toml_string(&name)), Some(origin));
+        for (l, loc) in &out.lines {
+            o.line(l, Some(loc));
+        }
+        if let Some((e, loc)) = emission {
+            // Mitsuba's area emitter emits on the side its shape's normal faces: vkpath's front side.
+            o.line(format!("emission = {}", vec3(e)), Some(loc));
+        }
+        self.materials
+            .insert(key, (name.clone(), out.texture.clone()));
+        Ok((name, out.texture))
+    }
+}
+
+/// Mitsuba's named indices of refraction (Hecht, Optics; Mitsuba 3's ior table).
+const IOR_TABLE: &[(&str, f64)] = &[
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.3330),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.470),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.5750),
+    ("diamond", 2.419),
+];
+
+fn named_ior(name: &str) -> Option<f64> {
+    let lower = name.to_ascii_lowercase();
+    IOR_TABLE.iter().find(|(n, _)| *n == lower).map(|(_, v)| *v)
+}

@@ -1,0 +1,326 @@
+//! Shapes: spheres (`[[sphere]]`), rectangles, cubes and disks (`[[triangle]]`s) and OBJ or PLY meshes
+//! (`[[mesh]]`), placed by their transforms, with their material and an area emitter's emission.
+
+use super::args::Args;
+use super::context::{ORTHO_TOL, Tr};
+use super::objects::Obj;
+use super::toml_out::{num, vec3};
+use crate::scene::SceneError;
+use crate::scene::toml_text::toml_string;
+use glam::{DMat3, DMat4, DVec3, DVec4};
+
+/// Segments of the polygon that stands for Mitsuba's `disk` (see [`disk_triangles`]).
+pub const DISK_SEGMENTS: usize = 64;
+
+impl Tr<'_> {
+    pub(super) fn shape(&mut self, obj: &Obj, index: usize) -> Result<(), SceneError> {
+        let kind = obj.kind.as_str();
+        if !matches!(
+            kind,
+            "sphere" | "rectangle" | "cube" | "disk" | "obj" | "ply"
+        ) {
+            return self.unsupported(obj, "sphere, rectangle, cube, disk, obj and ply shapes");
+        }
+        let args = Args::new(obj);
+        let bsdf = args.object("bsdf", self.ids)?;
+        let emitter = args.object("emitter", self.ids)?;
+        let emission = match &emitter {
+            None => None,
+            Some((e, _)) if e.kind == "area" => {
+                let eargs = Args::new(e);
+                let radiance = self.color(&eargs, "radiance", DVec3::ONE)?;
+                self.finish(&eargs, &["radiance"])?;
+                Some((radiance, &e.loc))
+            }
+            Some((e, _)) => {
+                return Err(e.loc.error(
+                    format!(
+                        "an emitter \"{}\" inside a shape: a shape emits through an area emitter",
+                        e.kind
+                    ),
+                    "Use <emitter type=\"area\"> inside the shape.",
+                ));
+            }
+        };
+        let xf = args.transform("to_world")?;
+        let m = xf.map_or(DMat4::IDENTITY, |(x, _)| x.m);
+        let xf_loc = xf.map_or(&obj.loc, |(_, l)| l).clone();
+        let flip = args.boolean("flip_normals")?;
+        let shape_name = format!("shape{index}-{kind}");
+        let (material, texture) = self.material(
+            bsdf.as_ref().map(|(b, _)| b),
+            emission,
+            &shape_name,
+            &obj.loc,
+        )?;
+        let material = toml_string(&material);
+        let loc = Some(&obj.loc);
+        let mesh_kind = matches!(kind, "obj" | "ply");
+        if texture.is_some() && !mesh_kind {
+            return Err(obj.loc.error(
+                format!("a bitmap texture on a {kind}: vkpath textures meshes (obj, ply) only, at their uvs"),
+                "Give the shape a plain colour, or make it an OBJ mesh with texture coordinates.",
+            ));
+        }
+        match kind {
+            "sphere" => {
+                // Mitsuba places the unit sphere by to_world x translate(center) x scale(radius).
+                let center = args.vector("center")?.map_or(DVec3::ZERO, |(c, _)| c);
+                let radius = match args.float("radius")? {
+                    None => 1.0,
+                    Some((r, _)) if r > 0.0 => r,
+                    Some((r, l)) => {
+                        return Err(l.error(
+                            format!("radius = {r}: a sphere's radius must be > 0"),
+                            "Give a positive radius.",
+                        ));
+                    }
+                };
+                if let Some((true, l)) = flip {
+                    return Err(l.error(
+                        "flip_normals on a sphere: vkpath's sphere normals point outwards",
+                        "Remove flip_normals.",
+                    ));
+                }
+                self.finish(
+                    &args,
+                    &[
+                        "center",
+                        "radius",
+                        "to_world",
+                        "flip_normals",
+                        "bsdf",
+                        "emitter",
+                    ],
+                )?;
+                let full =
+                    m * DMat4::from_translation(center) * DMat4::from_scale(DVec3::splat(radius));
+                let (c, r) = similarity(&full).ok_or_else(|| {
+                    xf_loc.error(
+                        "the sphere's to_world scales unevenly or shears it: an ellipsoid, which vkpath's spheres cannot be",
+                        "Scale spheres uniformly (or give radius).",
+                    )
+                })?;
+                let o = &mut self.out_shapes;
+                o.line("", None);
+                o.line("[[sphere]]", loc);
+                o.line(format!("center   = {}", vec3(c)), loc);
+                o.line(format!("radius   = {}", num(r)), loc);
+                o.line(format!("material = {material}"), loc);
+            }
+            "rectangle" | "cube" | "disk" => {
+                self.finish(&args, &["to_world", "flip_normals", "bsdf", "emitter"])?;
+                let local = match kind {
+                    "rectangle" => rectangle_triangles(),
+                    "cube" => cube_triangles(),
+                    _ => disk_triangles(),
+                };
+                // Mitsuba's rectangle and disk take their normal through the inverse transpose, so a
+                // mirroring to_world (det < 0) keeps it on the side that +z maps to, while the winding of
+                // the mirrored vertices turns to the other side: reverse it to keep the emitting side.
+                // (The cube is a mesh there, whose normals follow the winding.)
+                let det = DMat3::from_mat4(m).determinant();
+                let reverse = (det < 0.0 && kind != "cube") != flip.is_some_and(|(f, _)| f);
+                let o = &mut self.out_shapes;
+                for [a, b, c] in local {
+                    let [a, b, c] = [a, b, c].map(|p| m.transform_point3(p));
+                    let (b, c) = if reverse { (c, b) } else { (b, c) };
+                    o.line("", None);
+                    o.line("[[triangle]]", loc);
+                    o.line(
+                        format!("vertices = [{}, {}, {}]", vec3(a), vec3(b), vec3(c)),
+                        loc,
+                    );
+                    o.line(format!("material = {material}"), loc);
+                }
+            }
+            _ => {
+                let Some((name, floc)) = args.string("filename")? else {
+                    return Err(obj.loc.error(
+                        format!("a {kind} shape needs a filename"),
+                        "Give <string name=\"filename\" value=\"mesh.obj\"/>.",
+                    ));
+                };
+                let file = self.file(name, floc);
+                let face_normals = args.boolean("face_normals")?.is_some_and(|(f, _)| f);
+                if let Some((true, l)) = flip {
+                    return Err(l.error(
+                        "flip_normals on a mesh: vkpath's [[mesh]] keeps the file's winding",
+                        "Reverse the faces in the mesh file instead.",
+                    ));
+                }
+                let flip_uv = args.boolean("flip_tex_coords")?;
+                if texture.is_some() {
+                    // vkpath's uv (0, 0) is the image's bottom-left corner: Mitsuba's OBJ reader with
+                    // flip_tex_coords = true (its default). Its PLY reader does not flip.
+                    let flipped = flip_uv.map_or(kind == "obj", |(f, _)| f);
+                    if !flipped {
+                        return Err(obj.loc.error(
+                            "a texture on a mesh whose texture coordinates Mitsuba does not flip (a PLY, or flip_tex_coords = false): vkpath's uv (0, 0) is the image's bottom-left corner",
+                            "Use an OBJ with flip_tex_coords true (the default).",
+                        ));
+                    }
+                }
+                self.finish(
+                    &args,
+                    &[
+                        "filename",
+                        "face_normals",
+                        "flip_tex_coords",
+                        "to_world",
+                        "flip_normals",
+                        "bsdf",
+                        "emitter",
+                    ],
+                )?;
+                let (scale, rotate, translate) = placement(&m).ok_or_else(|| {
+                    xf_loc.error(
+                        "the mesh's to_world is not a uniform scale, rotation and translation (it scales unevenly, shears or mirrors)",
+                        "vkpath places a [[mesh]] by a uniform scale, a rotation and a translation: bake other transforms into the mesh file.",
+                    )
+                })?;
+                let file_ref = self.refer(&file);
+                let texture_ref = texture.as_ref().map(|(t, l)| (self.refer(t), l));
+                let o = &mut self.out_shapes;
+                o.line("", None);
+                o.line("[[mesh]]", loc);
+                o.line(format!("obj       = {file_ref}"), Some(floc));
+                o.line(format!("material  = {material}"), loc);
+                o.line(format!("scale     = {}", num(scale)), Some(&xf_loc));
+                o.line(format!("rotate    = {}", vec3(rotate)), Some(&xf_loc));
+                o.line(format!("translate = {}", vec3(translate)), Some(&xf_loc));
+                o.line(format!("smooth    = {}", !face_normals), loc);
+                if let Some((t, tloc)) = texture_ref {
+                    o.line(format!("texture   = {t}"), Some(tloc));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A transform's uniform scale as (centre, radius) of the unit sphere it maps: None unless its 3 x 3 part
+/// is a rotation (or reflection) times one positive scale.
+fn similarity(m: &DMat4) -> Option<(DVec3, f64)> {
+    let (x, y, z) = (
+        m.x_axis.truncate(),
+        m.y_axis.truncate(),
+        m.z_axis.truncate(),
+    );
+    let s = x.length();
+    let ok = s > 0.0
+        && s.is_finite()
+        && (y.length() - s).abs() <= ORTHO_TOL * s
+        && (z.length() - s).abs() <= ORTHO_TOL * s
+        && x.dot(y).abs() <= ORTHO_TOL * s * s
+        && x.dot(z).abs() <= ORTHO_TOL * s * s
+        && y.dot(z).abs() <= ORTHO_TOL * s * s
+        && m.row(3).abs_diff_eq(DVec4::W, 1e-9);
+    ok.then(|| (m.w_axis.truncate(), s))
+}
+
+/// A mesh transform as vkpath's [[mesh]] placement: p -> R (s p) + t with R = Rz(c) Ry(b) Rx(a) (degrees
+/// about x, then y, then z). From R = M3 / s (a proper rotation):
+/// R = [[cb cc, sa sb cc - ca sc, ca sb cc + sa sc], [cb sc, sa sb sc + ca cc, ca sb sc - sa cc],
+///      [-sb, sa cb, ca cb]], so b = asin(-R20), a = atan2(R21, R22), c = atan2(R10, R00); at the gimbal
+/// lock (cb = 0) only a - c (or a + c) is defined: a = 0, c = atan2(-R01, R11).
+fn placement(m: &DMat4) -> Option<(f64, DVec3, DVec3)> {
+    let (_, s) = similarity(m)?;
+    let r = DMat3::from_mat4(*m) / s;
+    if r.determinant() < 0.0 {
+        return None;
+    }
+    // glam's DMat3 is column-major: r.col(j)[i] is row i, column j.
+    let e = |i: usize, j: usize| r.col(j)[i];
+    let sb = (-e(2, 0)).clamp(-1.0, 1.0);
+    let b = sb.asin();
+    let (a, c) = if sb.abs() < 1.0 - 1e-9 {
+        (e(2, 1).atan2(e(2, 2)), e(1, 0).atan2(e(0, 0)))
+    } else {
+        (0.0, (-e(0, 1)).atan2(e(1, 1)))
+    };
+    Some((
+        s,
+        DVec3::new(a.to_degrees(), b.to_degrees(), c.to_degrees()),
+        m.w_axis.truncate(),
+    ))
+}
+
+/// Mitsuba's rectangle: [-1, 1]^2 at z = 0, normal +z, as two counter-clockwise triangles.
+fn rectangle_triangles() -> Vec<[DVec3; 3]> {
+    let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
+    vec![
+        [p(-1.0, -1.0), p(1.0, -1.0), p(1.0, 1.0)],
+        [p(-1.0, -1.0), p(1.0, 1.0), p(-1.0, 1.0)],
+    ]
+}
+
+/// Mitsuba's cube: [-1, 1]^3, 12 triangles wound counter-clockwise seen from outside.
+fn cube_triangles() -> Vec<[DVec3; 3]> {
+    let mut out = Vec::new();
+    // Each face: its outward axis n and two axes u, v with u x v = n; corners c +- u +- v.
+    for axis in 0..3 {
+        for sign in [1.0, -1.0] {
+            let mut n = DVec3::ZERO;
+            n[axis] = sign;
+            let mut u = DVec3::ZERO;
+            u[(axis + 1) % 3] = 1.0;
+            let v = n.cross(u);
+            let q = |a: f64, b: f64| n + a * u + b * v;
+            out.push([q(-1.0, -1.0), q(1.0, -1.0), q(1.0, 1.0)]);
+            out.push([q(-1.0, -1.0), q(1.0, 1.0), q(-1.0, 1.0)]);
+        }
+    }
+    out
+}
+
+/// Mitsuba's disk (the unit disk at z = 0, normal +z) as a fan of [`DISK_SEGMENTS`] triangles: a regular
+/// N-gon whose area equals the disk's. An N-gon of circumradius R has area (N / 2) R^2 sin(2 pi / N), so
+/// R = sqrt(2 pi / (N sin(2 pi / N))) = 1.000803 for N = 64: the emitted power and the area are exact,
+/// and the outline stays within 0.08% of the unit circle (vertices 0.08% outside, edge midpoints
+/// R cos(pi / N) = 0.99960, 0.04% inside).
+fn disk_triangles() -> Vec<[DVec3; 3]> {
+    let n = DISK_SEGMENTS as f64;
+    let tau = std::f64::consts::TAU;
+    let r = (tau / (n * (tau / n).sin())).sqrt();
+    let at = |k: usize| {
+        let phi = tau * k as f64 / n;
+        DVec3::new(r * phi.cos(), r * phi.sin(), 0.0)
+    };
+    (0..DISK_SEGMENTS)
+        .map(|k| [DVec3::ZERO, at(k), at((k + 1) % DISK_SEGMENTS)])
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn placement_recovers_euler_angles() {
+        let m = DMat4::from_translation(DVec3::new(1.0, 2.0, 3.0))
+            * DMat4::from_rotation_z(0.3)
+            * DMat4::from_rotation_y(-0.4)
+            * DMat4::from_rotation_x(1.1)
+            * DMat4::from_scale(DVec3::splat(2.0));
+        let (s, r, t) = placement(&m).unwrap();
+        assert!((s - 2.0).abs() < 1e-12);
+        assert!((r - DVec3::new(1.1, -0.4, 0.3) * (180.0 / std::f64::consts::PI)).length() < 1e-9);
+        assert!((t - DVec3::new(1.0, 2.0, 3.0)).length() < 1e-12);
+        assert!(placement(&DMat4::from_scale(DVec3::new(1.0, 2.0, 1.0))).is_none());
+        assert!(placement(&DMat4::from_scale(DVec3::new(-1.0, 1.0, 1.0))).is_none());
+    }
+
+    #[test]
+    fn the_disk_polygon_has_the_disk_area_and_faces_z() {
+        let area: f64 = disk_triangles()
+            .iter()
+            .map(|[a, b, c]| (*b - *a).cross(*c - *a).z / 2.0)
+            .sum();
+        assert!((area - std::f64::consts::PI).abs() < 1e-12, "{area}");
+        for [a, b, c] in cube_triangles() {
+            let n = (b - a).cross(c - a);
+            assert!(n.dot((a + b + c) / 3.0) > 0.0, "cube faces point outwards");
+        }
+    }
+}

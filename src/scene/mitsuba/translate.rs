@@ -1,0 +1,245 @@
+//! The `<scene>` as TOML: its objects sorted by kind, the `[camera]`, `[image]` and `[render]` tables of
+//! the chosen sensor and the integrator, then the emitters and the shapes (which write the materials).
+
+use super::args::{Args, resolve_ref};
+use super::context::Tr;
+use super::objects::{Obj, SEE_DOCS, Value};
+use super::toml_out::{TomlOut, num};
+use crate::scene::SceneError;
+use std::path::Path;
+
+/// vkpath's `max_bounces` for Mitsuba's `max_depth = -1` (no limit, Mitsuba's default): a path is ended
+/// by Russian roulette long before (vkpath's survival probability is at most 0.95 per bounce after the
+/// roulette depth, so 1024 bounces are reached with probability below 0.95^1000 ~ 5e-23).
+pub const INFINITE_DEPTH_BOUNCES: u32 = 1024;
+
+impl Tr<'_> {
+    /// The TOML of the `<scene>` (its `<ref>`s checked first): the camera, image and render tables and the
+    /// environment, then the materials, the shapes and the lights.
+    pub(super) fn toml(
+        &mut self,
+        scene: &Obj,
+        path: &Path,
+        camera: Option<usize>,
+    ) -> Result<TomlOut, SceneError> {
+        self.check_refs(scene)?;
+        let mut head = self.scene(scene, path, camera)?;
+        head.append(std::mem::take(&mut self.out_materials));
+        head.append(std::mem::take(&mut self.out_shapes));
+        head.append(std::mem::take(&mut self.out_lights));
+        Ok(head)
+    }
+
+    /// The `<scene>`'s objects sorted by kind (a `<bsdf>` or `<texture>` there is a definition to refer
+    /// to), and the head of the TOML: `[camera]` from sensor `camera` (the first when `None`), `[image]`,
+    /// `[render]` and the environment. The emitters and the shapes write their own tables.
+    fn scene(
+        &mut self,
+        scene: &Obj,
+        path: &Path,
+        camera: Option<usize>,
+    ) -> Result<TomlOut, SceneError> {
+        let mut sensors = Vec::new();
+        let mut integrators = Vec::new();
+        let mut shapes = Vec::new();
+        let mut emitters = Vec::new();
+        for p in &scene.props {
+            let obj = match &p.value {
+                Value::Object(o) => o.clone(),
+                Value::Ref(id) => resolve_ref(self.ids, id, &p.loc)?,
+                _ => {
+                    let problem = format!(
+                        "{} directly in the <scene>: the scene takes objects only",
+                        p.loc.element
+                    );
+                    if self.lenient {
+                        self.warnings
+                            .push(p.loc.warning(format!("{problem}; skipped (--xml-lenient)")));
+                        continue;
+                    }
+                    return Err(p.loc.error(problem, SEE_DOCS));
+                }
+            };
+            match obj.tag.as_str() {
+                "sensor" => sensors.push(obj),
+                "integrator" => integrators.push(obj),
+                "shape" => shapes.push(obj),
+                "emitter" => emitters.push(obj),
+                // Definitions that shapes refer to by id.
+                "bsdf" | "texture" => {}
+                _ => {
+                    let problem = format!(
+                        "{} directly in the <scene>: vkpath reads sensors, integrators, shapes, emitters, and BSDFs and textures for reference there",
+                        obj.loc.element
+                    );
+                    if self.lenient {
+                        self.warnings.push(
+                            obj.loc
+                                .warning(format!("{problem}; skipped (--xml-lenient)")),
+                        );
+                        continue;
+                    }
+                    return Err(obj.loc.error(problem, SEE_DOCS));
+                }
+            }
+        }
+
+        // The sensor.
+        let index = camera.unwrap_or(0);
+        let Some(sensor) = sensors.get(index) else {
+            return Err(if sensors.is_empty() {
+                scene.loc.error(
+                    "the scene has no <sensor> to render it from",
+                    "Add a camera: <sensor type=\"perspective\"> with a <transform name=\"to_world\"><lookat .../></transform>.",
+                )
+            } else {
+                SceneError::at(
+                    path,
+                    None,
+                    Some("--camera".into()),
+                    format!(
+                        "--camera {index} asks for sensor {index}, but the scene has {} (0 to {})",
+                        sensors.len(),
+                        sensors.len() - 1
+                    ),
+                    "Give a sensor index the file has, or leave --camera out for the first.",
+                )
+            });
+        };
+        let cam = self.sensor(sensor)?;
+
+        let mut head = TomlOut::default();
+        head.line(
+            format!(
+                "# Read from {} by vkpath (Mitsuba 3 XML): see docs/scene-format.md, \"Mitsuba 3 XML scenes\".",
+                path.file_name()
+                    .map_or_else(|| path.display().to_string(), |n| n.to_string_lossy().into_owned())
+            ),
+            None,
+        );
+        head.line("", None);
+        head.line("[camera]", Some(&sensor.loc));
+        for l in &cam.lines {
+            head.line(l, Some(&sensor.loc));
+        }
+        head.line("", None);
+        head.line("[image]", Some(&cam.film_loc));
+        head.line(format!("width  = {}", cam.width), Some(&cam.film_loc));
+        head.line(format!("height = {}", cam.height), Some(&cam.film_loc));
+        head.line(
+            "gamma  = \"srgb\"                 # Mitsuba writes 8-bit images sRGB-encoded",
+            Some(&cam.film_loc),
+        );
+
+        // The integrator: Mitsuba's default is `path` with max_depth = -1.
+        if integrators.len() > 1 {
+            return Err(integrators[1]
+                .loc
+                .error("the scene has more than one <integrator>", "Keep one."));
+        }
+        let (max_bounces, comment, integrator_loc) = match integrators.first() {
+            Some(i) => {
+                let (b, c) = self.integrator(i)?;
+                (b, c, Some(i.loc.clone()))
+            }
+            None => (
+                INFINITE_DEPTH_BOUNCES,
+                "no <integrator>: Mitsuba's default path tracer, max_depth = -1 (no limit)"
+                    .to_string(),
+                None,
+            ),
+        };
+        head.line("", None);
+        head.line("[render]", None);
+        head.line(
+            format!("samples      = {}", cam.samples),
+            Some(&cam.sampler_loc),
+        );
+        head.line(
+            format!("max_bounces  = {max_bounces}     # {comment}"),
+            integrator_loc.as_ref(),
+        );
+        head.line(
+            format!("seed         = {}", cam.seed),
+            Some(&cam.sampler_loc),
+        );
+        head.line(
+            format!("sampler      = \"{}\"", cam.sampler),
+            Some(&cam.sampler_loc),
+        );
+        head.line(
+            format!("filter       = \"{}\"", cam.filter.0),
+            Some(&cam.film_loc),
+        );
+        if let Some(s) = cam.filter.1 {
+            head.line(format!("filter_sigma = {}", num(s)), Some(&cam.film_loc));
+        }
+
+        // Emitters (lights and the environment), then shapes (which write the materials).
+        let mut env = TomlOut::default();
+        for e in &emitters {
+            self.emitter(e, &mut env)?;
+        }
+        if !env.text.is_empty() {
+            head.line("", None);
+            head.append(env);
+        }
+        for (i, s) in shapes.iter().enumerate() {
+            self.shape(s, i)?;
+        }
+        if !self.out_materials.text.is_empty() {
+            let mut m = TomlOut::default();
+            m.line("", None);
+            m.line("[materials]", None);
+            m.append(std::mem::take(&mut self.out_materials));
+            self.out_materials = m;
+        }
+        Ok(head)
+    }
+
+    fn integrator(&mut self, obj: &Obj) -> Result<(u32, String), SceneError> {
+        if obj.kind != "path" {
+            let problem = format!(
+                "vkpath is a path tracer: it does not read Mitsuba's integrator \"{}\"",
+                obj.kind
+            );
+            return Err(obj.loc.error(
+                problem,
+                "Use <integrator type=\"path\"> (max_depth 2 is direct lighting).",
+            ));
+        }
+        let args = Args::new(obj);
+        let depth = args.int("max_depth")?;
+        let rr = args.int("rr_depth")?;
+        if let Some((true, loc)) = args.boolean("hide_emitters")? {
+            return Err(loc.error(
+                "hide_emitters = true: vkpath always shows the emitters the camera sees",
+                "Remove hide_emitters (or set it to false).",
+            ));
+        }
+        self.finish(&args, &["max_depth", "rr_depth", "hide_emitters"])?;
+        if let Some((r, loc)) = rr
+            && r != 3
+        {
+            self.warnings.push(loc.warning(format!(
+                "rr_depth = {r} is not used: vkpath starts Russian roulette after --roulette-depth bounces \
+                 (default 3); both are unbiased, only the noise differs"
+            )));
+        }
+        // Mitsuba's max_depth counts path segments (1: emitters seen directly, 2: direct light), vkpath's
+        // max_bounces scattering events (0: emitters only, 1: direct light): max_bounces = max_depth - 1.
+        match depth {
+            None | Some((-1, _)) => Ok((
+                INFINITE_DEPTH_BOUNCES,
+                "Mitsuba max_depth = -1 (no limit)".into(),
+            )),
+            Some((d, _)) if d >= 1 && d - 1 <= i64::from(u32::MAX) => {
+                Ok(((d - 1) as u32, format!("Mitsuba max_depth = {d}")))
+            }
+            Some((d, loc)) => Err(loc.error(
+                format!("max_depth = {d}: vkpath needs -1 (no limit) or a depth of at least 1"),
+                "max_depth counts path segments: 1 shows the emitters only, 2 is direct light.",
+            )),
+        }
+    }
+}

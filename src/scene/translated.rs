@@ -1,0 +1,65 @@
+//! What an importer (super::import) is asked and what it answers: the options the command line gives
+//! (`--camera`, `--xml-lenient`), and the vkpath TOML text a scene file becomes, with the warnings of
+//! reading it and where each of its lines came from, so that an error the TOML reader finds in the text is
+//! reported at the file, line and element the user wrote, not at a line of text they never saw.
+
+use super::SceneError;
+use std::path::PathBuf;
+use std::rc::Rc;
+
+/// How to read a scene file.
+#[derive(Clone, Debug, Default)]
+pub struct ImportOptions {
+    /// The camera to render from (0-based, in the file's order: a glTF scene's camera nodes in a depth-first
+    /// walk, a Mitsuba scene's sensors); the first when `None`. A TOML scene has one and refuses it.
+    pub camera: Option<usize>,
+    /// Mitsuba XML: skip unknown elements, plugins and parameters with a warning each, instead of refusing
+    /// the file.
+    pub xml_lenient: bool,
+}
+
+/// Where a line of translated TOML came from: the file, its 1-based line, and the element as written
+/// there (`<float name="radius">`), which errors give as their key.
+#[derive(Clone, Debug)]
+pub struct Origin {
+    pub file: Rc<PathBuf>,
+    pub line: usize,
+    pub element: String,
+}
+
+/// What a scene file becomes: the TOML text, what the reader noticed, and where each TOML line came from
+/// (`origins[i]` for line i + 1; shorter, or `None`, where no element of the file is known).
+pub struct Translated {
+    pub toml: String,
+    pub warnings: Vec<String>,
+    pub origins: Vec<Option<Origin>>,
+}
+
+impl Translated {
+    /// Text read as it is: no warnings, no origins.
+    pub fn as_written(toml: String) -> Translated {
+        Translated {
+            toml,
+            warnings: Vec::new(),
+            origins: Vec::new(),
+        }
+    }
+
+    /// An error of the TOML reader on this text, placed at the element its line came from.
+    pub fn relocate(&self, e: SceneError) -> SceneError {
+        let origin = e
+            .line()
+            .and_then(|l| self.origins.get(l.wrapping_sub(1)))
+            .and_then(Option::as_ref);
+        match origin {
+            Some(o) => {
+                let key = match e.key() {
+                    Some(k) => format!("{} (read as vkpath's {k})", o.element),
+                    None => o.element.clone(),
+                };
+                e.relocated(o.file.display().to_string(), Some(o.line), Some(key))
+            }
+            None => e,
+        }
+    }
+}
