@@ -384,21 +384,21 @@ impl Checker<'_> {
             let key = format!("materials.{name}.{}", p.key);
             match p.value {
                 bsdfs::ParamValue::Albedo { default } => {
-                    albedo = match (m.color_key(p.key), default) {
-                        (Some(v), _) => self.color_param(
-                            v,
-                            &key,
-                            |a| !in_unit_range(a),
-                            "every component must be in [0, 1]",
-                            p.hint,
-                            files,
-                            &mut textures.albedo,
-                        )?,
+                    let value = m.color_key(p.key);
+                    albedo = match (value, default) {
                         (None, Some(d)) => Vec3::from(d),
-                        (None, None) => {
+                        _ => {
                             let problem = format!("a {toml_type} material needs {}", p.key);
-                            self.required(&None::<Spanned<()>>, raw, &key, &problem)?;
-                            unreachable!("required refuses a missing key")
+                            let v = self.required(value, raw, &key, &problem)?;
+                            self.color_param(
+                                v,
+                                &key,
+                                |a| !in_unit_range(a),
+                                "every component must be in [0, 1]",
+                                p.hint,
+                                files,
+                                &mut textures.albedo,
+                            )?
                         }
                     };
                 }

@@ -111,13 +111,13 @@ pub(super) struct RawMaterial {
 }
 
 impl RawMaterial {
-    /// The colour key named `key`, for the registry's generic reader (a parameter's key must be one of
-    /// these: tests hold every row against them).
-    pub(super) fn color_key(&self, key: &str) -> Option<&Spanned<RawParam<RawVec3>>> {
+    /// The colour key named `key`, for the registry's generic reader (a colour parameter's key must be
+    /// one of these; a kind naming another fails the first time a scene uses it, which its own tests do).
+    pub(super) fn color_key(&self, key: &str) -> &Option<Spanned<RawParam<RawVec3>>> {
         match key {
-            "albedo" => self.albedo.as_ref(),
-            "tint" => self.tint.as_ref(),
-            "base_color" => self.base_color.as_ref(),
+            "albedo" => &self.albedo,
+            "tint" => &self.tint,
+            "base_color" => &self.base_color,
             _ => panic!("the material registry names colour key `{key}`, which RawMaterial lacks"),
         }
     }
