@@ -68,22 +68,13 @@ fn trace_aov(kind: u32, o0: vec3<f32>, d0: vec3<f32>, rng: ptr<function, Rng>) -
             }
             return tint * bsdf_albedo(mat);
         }
-        let entering = dot(d, sp.n) < 0.0;
-        let n = select(-sp.n, sp.n, entering);
-        var ns = n;
-        if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
-            ns = select(-sp.ns, sp.ns, entering);
-        }
-        var tangent = vec3<f32>(0.0);
-        if HAS_ANISOTROPY {
-            tangent = surface_tangent(hit, sp.n);
-        }
-        let bs = bsdf_sample(mat, -d, ns, tangent, entering, rng);
+        let f = facing(sp, d, hit);
+        let bs = bsdf_sample(mat, -d, f.sh, rng);
         if bs.flags == 0u {
             break;
         }
         tint *= bs.weight;
-        o = offset_ray_origin(sp.p, sp.err, n, bs.wi);
+        o = offset_ray_origin(sp.p, sp.err, f.n, bs.wi);
         d = bs.wi;
     }
     // Nothing met: albedo 0, normal 0 (stored as 1/2), depth (0, 0, 0).
@@ -111,6 +102,32 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
 // The cosine factor of direct light arriving along wi: dot(n, wi), or with a shading normal dot(ns, wi)
 // provided the light is above the geometric surface too (a shadow ray towards a light below it would
 // start on the far side).
+// A hit seen along d: the geometric normal turned to the side d came from (both faces scatter) and the
+// frame its material is shaded in (Shading, bsdfs/common.wgsl). Smooth, normal- and bump-mapped
+// surfaces scatter about their shading normal ns (on the same side as n); everything else about n. A
+// direction chosen about ns can still point below the geometric surface near a silhouette; such a path
+// ends there (absorbed: trace_path), rather than leaking through the mesh. That loses a little energy at
+// grazing angles, the usual price of shading normals (pbrt-v4 §10.1). The tangent is the direction
+// anisotropic roughness runs along (zero, and not computed, without anisotropy).
+struct Facing {
+    n: vec3<f32>,
+    sh: Shading,
+}
+
+fn facing(sp: Surface, d: vec3<f32>, hit: Hit) -> Facing {
+    let entering = dot(d, sp.n) < 0.0;
+    let n = select(-sp.n, sp.n, entering);
+    var sh = Shading(n, vec3<f32>(0.0), entering, false);
+    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
+        sh.ns = select(-sp.ns, sp.ns, entering);
+        sh.perturbed = sp.shading_normal;
+    }
+    if HAS_ANISOTROPY {
+        sh.tangent = surface_tangent(hit, sp.n);
+    }
+    return Facing(n, sh);
+}
+
 fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 {
     var cos_theta = dot(n, wi);
     if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
@@ -123,8 +140,8 @@ fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 
 
 // Next-event estimation at a surface point with material `mat`, seen from direction wo: for each
 // selected light, one light sample (L, wi, pdf) and the estimate f(wo, wi) L |cos(theta)| / (pdf pmf) if
-// the sampled point on the light is visible. n is the facing geometric normal, ns the facing shading
-// normal (the same vector except on smooth meshes), tangent and entering as bsdf_eval takes them. Lights
+// the sampled point on the light is visible. n is the facing geometric normal, sh the shading frame
+// (facing): its ns is the same vector except on smooth, normal- and bump-mapped surfaces. Lights
 // behind the surface count only for a material that transmits (rough glass); the shadow ray then
 // leaves from the far side. `on_sphere` is the sphere the point lies on (or
 // NO_LIGHT): a sphere light is not sampled from its own surface, whose rounding puts the point a hair
@@ -137,9 +154,9 @@ fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 
 // own samples that hit the light the other way round (emission_weight), so the two estimates of that
 // light's contribution add up to one unbiased estimate (Veach 1997, ch. 9), each strategy dominating
 // where it is good.
-fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,
-                entering: bool, wo: vec3<f32>, mis: bool, on_sphere: u32,
-                rng: ptr<function, Rng>) -> vec3<f32> {
+fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, sh: Shading, wo: vec3<f32>, mis: bool,
+                on_sphere: u32, rng: ptr<function, Rng>) -> vec3<f32> {
+    let ns = sh.ns;
     var l = vec3<f32>(0.0);
     let strategy = light_sampling_strategy();
     let transmits = bsdf_transmits(mat);
@@ -171,12 +188,12 @@ fn direct_light(mat: Material, sp: Surface, n: vec3<f32>, ns: vec3<f32>, tangent
                 }
             }
             if !scene_occluded(shadow.o, shadow.d, shadow.t_max) {
-                let f = bsdf_eval(mat, wo, ls.wi, ns, tangent, entering);
+                let f = bsdf_eval(mat, wo, ls.wi, sh);
                 let pdf = ls.pdf * chosen.pmf;
                 // Suns are not weighed: a BSDF-sampled ray counts them only after delta bounces.
                 var w = 1.0;
                 if mis && !ls.delta && chosen.light.kind != LIGHT_DIRECTIONAL {
-                    w = power_heuristic(pdf, bsdf_pdf(mat, wo, ls.wi, ns, tangent, entering));
+                    w = power_heuristic(pdf, bsdf_pdf(mat, wo, ls.wi, sh));
                 }
                 l += f * ls.L * (w * cos_theta / pdf);
             }
@@ -343,31 +360,17 @@ fn path_step(path: ptr<function, Path>) -> bool {
     }
     (*path).bounces += 1u;
     let sp = surface_at(o, d, hit);
+    // A ray exactly tangent to the surface (d.n = 0, reachable only through rounding) scatters nothing:
+    // every unperturbed shading frame then has wo.ns > 0 (Shading, bsdfs/common.wgsl).
     let on_sphere = select(NO_LIGHT, hit.prim_index, hit.prim_kind == PRIM_SPHERE);
-    // Both faces scatter: shade with the normal on the side the ray came from.
-    let entering = dot(d, sp.n) < 0.0;
-    let n = select(-sp.n, sp.n, entering);
-    // Smooth and normal-mapped meshes scatter about their shading normal ns (on the same side as n);
-    // everything else about n. A direction chosen about ns can still point below the geometric
-    // surface near a silhouette; such a path ends there (absorbed), rather than leaking through the
-    // mesh. That loses a little energy at grazing angles, the usual price of shading normals (pbrt-v4
-    // §10.1).
-    var ns = n;
-    if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
-        ns = select(-sp.ns, sp.ns, entering);
-    }
+    let f = facing(sp, d, hit);
+    let n = f.n;
     // The material's textured parameters at the hit (textured_material, scene.wgsl).
     mat = textured_material(mat, sp);
-    // The direction anisotropic roughness runs along (zero, and not computed, without anisotropy).
-    var tangent = vec3<f32>(0.0);
-    if HAS_ANISOTROPY {
-        tangent = surface_tangent(hit, sp.n);
-    }
     let wo = -d;
     var rng = (*path).rng;
     if !bsdf_is_delta(mat) {
-        (*path).radiance += beta * direct_light(mat, sp, n, ns, tangent, entering, wo, mis, on_sphere,
-                                                &rng);
+        (*path).radiance += beta * direct_light(mat, sp, n, f.sh, wo, mis, on_sphere, &rng);
     }
     // After the last scattering event the continuation ray can only add the emission it finds (an
     // emitting surface, the environment, a sun seen through glass). In a scene where nothing a ray can
@@ -377,7 +380,7 @@ fn path_step(path: ptr<function, Path>) -> bool {
     if (*path).bounces >= params.max_bounces && !rays_find_emission() {
         return false;
     }
-    let bs = bsdf_sample(mat, wo, ns, tangent, entering, &rng);
+    let bs = bsdf_sample(mat, wo, f.sh, &rng);
     (*path).rng = rng;
     if bs.flags == 0u {
         return false; // absorbed

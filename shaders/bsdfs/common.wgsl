@@ -93,12 +93,24 @@ fn bsdf_absorbed() -> BsdfSample {
     return BsdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, 0u);
 }
 
-// Where a material is shaded: the shading normal on wo's side, the anisotropy's tangent, and which side
-// of the surface wo is on (see the conventions above).
+// Where a material is shaded: the shading normal on wo's side, the anisotropy's tangent, which side
+// of the surface wo is on (see the conventions above), and whether ns may differ from the geometric
+// normal n turned to wo's side (`perturbed`: a smooth mesh's interpolated normal, a normal or bump map).
+// Only a perturbed frame can put wo below ns's horizon: otherwise ns = n and wo.ns = |d.n| >= 0, zero
+// only for a ray exactly tangent to the surface, a set of directions of measure zero that no estimate
+// depends on (catching it would cost a branch per bounce on the hottest path).
 struct Shading {
     ns: vec3<f32>,
     tangent: vec3<f32>,
     entering: bool,
+    perturbed: bool,
+}
+
+// Whether wo lies above ns's horizon (strictly, on a perturbed frame: see Shading). Unperturbed frames
+// skip the dot product, so the kernel specialised for a scene without shading normals folds the test
+// away: the diffuse BSDF is called for every bounce and every light sample.
+fn wo_above(wo: vec3<f32>, sh: Shading) -> bool {
+    return !sh.perturbed || dot(wo, sh.ns) > 0.0;
 }
 
 // Mirror reflection of the incoming direction d (pointing at the surface) about the unit normal n.

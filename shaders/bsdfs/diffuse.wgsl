@@ -7,26 +7,25 @@
 // tests both cosines likewise). Sampled cosine-weighted, pdf = cos(theta_i) / pi, so that
 // f cos / pdf = albedo: the weight does not depend on the direction. Seen from below or along the
 // surface (wo.ns <= 0, possible with a shading normal) it reflects nothing: the sample is absorbed (after
-// drawing its two numbers) and the pdf is 0.
+// drawing its two numbers) and the pdf is 0. The side of wo is tested through wo_above (common.wgsl),
+// and as selects rather than branches: this function is the inner loop of every diffuse scene.
 
 fn diffuse_sample(mat: Material, wo: vec3<f32>, sh: Shading, rng: ptr<function, Rng>) -> BsdfSample {
     let wi = sample_cosine_hemisphere(sh.ns, rng_next2(rng));
-    var s = BsdfSample(wi, mat.albedo, cosine_hemisphere_pdf(dot(wi, sh.ns)), BSDF_REFLECTION);
-    if dot(wo, sh.ns) <= 0.0 {
-        s = bsdf_absorbed();
-    }
-    return s;
+    let above = wo_above(wo, sh);
+    let pdf = select(0.0, cosine_hemisphere_pdf(dot(wi, sh.ns)), above);
+    let zero = vec3<f32>(0.0);
+    return BsdfSample(select(zero, wi, above), select(zero, mat.albedo, above), pdf,
+                      select(0u, BSDF_REFLECTION, above));
 }
 
 fn diffuse_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, sh: Shading) -> vec3<f32> {
-    if dot(wi, sh.ns) <= 0.0 || dot(wo, sh.ns) <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    return mat.albedo * INV_PI;
+    let above = dot(wi, sh.ns) > 0.0 && wo_above(wo, sh);
+    return select(vec3<f32>(0.0), mat.albedo * INV_PI, above);
 }
 
 fn diffuse_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, sh: Shading) -> f32 {
-    return select(cosine_hemisphere_pdf(dot(wi, sh.ns)), 0.0, dot(wo, sh.ns) <= 0.0);
+    return select(0.0, cosine_hemisphere_pdf(dot(wi, sh.ns)), wo_above(wo, sh));
 }
 
 fn diffuse_albedo(mat: Material) -> vec3<f32> {

@@ -41,12 +41,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let t = vec3<f32>(0.0); // isotropic materials only
     let entering = c.k.y != 0.0;
     var rng = rng_new(i, 0u, u32(c.k.z));
-    let bs = bsdf_sample(mat, wo, ns, t, entering, &rng);
+    let sh = Shading(ns, t, entering, true); // perturbed: the cases put wo anywhere
+    let bs = bsdf_sample(mat, wo, sh, &rng);
     var o: Out;
     o.s = vec4<f32>(bs.wi, bs.pdf);
     o.w = vec4<f32>(bs.weight, f32(bs.flags));
-    o.at = vec4<f32>(bsdf_eval(mat, wo, bs.wi, ns, t, entering), bsdf_pdf(mat, wo, bs.wi, ns, t, entering));
-    o.aq = vec4<f32>(bsdf_eval(mat, wo, c.q.xyz, ns, t, entering), bsdf_pdf(mat, wo, c.q.xyz, ns, t, entering));
-    o.r = vec4<f32>(bsdf_eval(mat, c.q.xyz, wo, ns, t, entering), select(0.0, 1.0, bsdf_is_delta(mat)));
+    o.at = vec4<f32>(bsdf_eval(mat, wo, bs.wi, sh), bsdf_pdf(mat, wo, bs.wi, sh));
+    o.aq = vec4<f32>(bsdf_eval(mat, wo, c.q.xyz, sh), bsdf_pdf(mat, wo, c.q.xyz, sh));
+    o.r = vec4<f32>(bsdf_eval(mat, c.q.xyz, wo, sh), select(0.0, 1.0, bsdf_is_delta(mat)));
     output[i] = o;
 }

@@ -43,16 +43,19 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let t = c.t.xyz;
     let q = c.q.xyz;
     var rng = rng_new(i, 0u, u32(c.ns.w));
-    let bs = bsdf_sample(mat, wo, ns, t, entering, &rng);
+    // A perturbed frame: the cases put wo anywhere, on or below ns's horizon included.
+    let sh = Shading(ns, t, entering, true);
+    let bs = bsdf_sample(mat, wo, sh, &rng);
     var o: Out;
     o.s = vec4<f32>(bs.wi, bs.pdf);
     o.w = vec4<f32>(bs.weight, f32(bs.flags));
-    o.at = vec4<f32>(bsdf_eval(mat, wo, bs.wi, ns, t, entering), bsdf_pdf(mat, wo, bs.wi, ns, t, entering));
-    o.aq = vec4<f32>(bsdf_eval(mat, wo, q, ns, t, entering), bsdf_pdf(mat, wo, q, ns, t, entering));
+    o.at = vec4<f32>(bsdf_eval(mat, wo, bs.wi, sh), bsdf_pdf(mat, wo, bs.wi, sh));
+    o.aq = vec4<f32>(bsdf_eval(mat, wo, q, sh), bsdf_pdf(mat, wo, q, sh));
     let above = dot(q, ns) >= 0.0;
     let ns2 = select(-ns, ns, above);
     let entering2 = select(!entering, entering, above);
-    o.r = vec4<f32>(bsdf_eval(mat, q, wo, ns2, t, entering2), select(0.0, 1.0, bsdf_is_delta(mat)));
-    o.rp = vec4<f32>(bsdf_pdf(mat, q, wo, ns2, t, entering2), select(0.0, 1.0, bsdf_transmits(mat)), 0.0, 0.0);
+    let sh2 = Shading(ns2, t, entering2, true);
+    o.r = vec4<f32>(bsdf_eval(mat, q, wo, sh2), select(0.0, 1.0, bsdf_is_delta(mat)));
+    o.rp = vec4<f32>(bsdf_pdf(mat, q, wo, sh2), select(0.0, 1.0, bsdf_transmits(mat)), 0.0, 0.0);
     output[i] = o;
 }

@@ -56,20 +56,20 @@ pub const BSDF: &str = "bsdf.wgsl";
 /// the kernel has no code for absorbs, is black and is a "delta" (nothing for next-event estimation)).
 const DISPATCHERS: &[(&str, &str, &str, &str)] = &[
     (
-        "bsdf_sample(mat: Material, wo: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>, entering: bool,\n               rng: ptr<function, Rng>) -> BsdfSample",
-        "sample(mat, wo, Shading(ns, tangent, entering), rng)",
+        "bsdf_sample(mat: Material, wo: vec3<f32>, sh: Shading, rng: ptr<function, Rng>) -> BsdfSample",
+        "sample(mat, wo, sh, rng)",
         "BsdfSample",
         "bsdf_absorbed()",
     ),
     (
-        "bsdf_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,\n             entering: bool) -> vec3<f32>",
-        "eval(mat, wo, wi, Shading(ns, tangent, entering))",
+        "bsdf_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, sh: Shading) -> vec3<f32>",
+        "eval(mat, wo, wi, sh)",
         "vec3<f32>",
         "vec3<f32>(0.0)",
     ),
     (
-        "bsdf_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>, tangent: vec3<f32>,\n            entering: bool) -> f32",
-        "pdf(mat, wo, wi, Shading(ns, tangent, entering))",
+        "bsdf_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, sh: Shading) -> f32",
+        "pdf(mat, wo, wi, sh)",
         "f32",
         "0.0",
     ),
