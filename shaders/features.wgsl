@@ -36,13 +36,9 @@ override HAS_MESH_SHADING: bool = true;
 // then computes a tangent per hit (surface_tangent, scene.wgsl).
 override HAS_ANISOTROPY: bool = true;
 override HAS_EMISSION: bool = true; // some surface emits (an emitter, or any material with `emission`)
-// Lights (lights.wgsl).
-override HAS_POINT_LIGHTS: bool = true;
-override HAS_SPHERE_LIGHTS: bool = true;
-override HAS_DIRECTIONAL_LIGHTS: bool = true; // suns: light from infinitely far, delta or a small cone
-override HAS_TRIANGLE_LIGHTS: bool = true; // emitting triangles and meshes
-override HAS_ENVIRONMENT: bool = true; // light from infinity: uniform (`background`) or a map
-override HAS_ENVIRONMENT_MAP: bool = true;
+// Lights: each kind's override (HAS_POINT_LIGHTS, HAS_SPHERE_LIGHTS, ...) is generated beside its LIGHT_*
+// constant from the light registry (light_kinds.wgsl; src/kernel/light_kinds.rs).
+override HAS_ENVIRONMENT_MAP: bool = true; // the environment light has a map (lights/environment.wgsl)
 override HAS_LENS: bool = true; // aperture > 0
 override HAS_ORTHOGRAPHIC: bool = true; // camera.type = "orthographic"
 override HAS_ROULETTE: bool = true;

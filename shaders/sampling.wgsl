@@ -65,7 +65,7 @@ fn sample_cone(axis: vec3<f32>, one_minus_cos_max: f32, u: vec2<f32>) -> vec3<f3
 }
 
 // sample_cone in the frame of the axis (z up), with the angles it drew: for a caller that needs more than
-// the direction (the point on a sphere light, lights.wgsl).
+// the direction (the point on a sphere light, lights/sphere.wgsl).
 struct ConeSample {
     local: vec3<f32>,
     one_minus_cos: f32,
@@ -160,7 +160,7 @@ fn spherical_triangle_area(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
 // angle `area` (> 0): Arvo, "Stratified Sampling of Spherical Triangles", SIGGRAPH 1995. u1 chooses the
 // sub-triangle (a, b, c') of area u1 * area, which fixes c' on the arc from a to c; u2 then chooses the
 // point on the arc from b to c' by the cosine of its angle from b, linear in u2. pdf = 1 / area.
-// Its f32 precision degrades as the triangle shrinks (1 - c'.b cancels): lights.wgsl samples triangles
+// Its f32 precision degrades as the triangle shrinks (1 - c'.b cancels): lights/triangles.wgsl samples triangles
 // below TRIANGLE_SPHERICAL_MIN_SR by area instead.
 fn sample_spherical_triangle(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, area: f32,
                              u: vec2<f32>) -> vec3<f32> {

@@ -1,7 +1,7 @@
 // scene.wgsl: closest-hit and visibility queries over the scene buffers (scene_data.wgsl), the surface
 // at a hit, and which lights a next-event estimate samples (light selection).
 //
-// requires: features.wgsl, scene_data.wgsl, intersect.wgsl, bvh.wgsl, texture.wgsl, opacity.wgsl
+// requires: features.wgsl, light_kinds.wgsl, scene_data.wgsl, intersect.wgsl, bvh.wgsl, texture.wgsl, opacity.wgsl
 
 // How many spheres, loop-tested triangles (scenes without a BVH) and lights the scene has. The generic
 // kernel reads them from `params`; a kernel specialised for a scene has them as constants (the
@@ -519,7 +519,7 @@ fn emitter_light_pdf(hit: Hit, p: vec3<f32>, p_sphere: u32, wi: vec3<f32>, strat
     return pdf;
 }
 
-// The sphere-light strategy (`render.light_sampling`) for the lights.wgsl dispatchers (a constant there
+// The sphere-light strategy (`render.light_sampling`) for the light dispatchers (lights.wgsl) (a constant there
 // when the kernel is specialised).
 fn light_sampling_strategy() -> u32 {
     return params.light_sampling;

@@ -6,7 +6,7 @@
 //
 // requires: bsdf.wgsl, lights.wgsl, accumulate.wgsl
 //
-// (lights.wgsl declares the buffers only lights read: the emissive triangles and the environment map.)
+// (lights/triangles.wgsl and lights/environment.wgsl declare the buffers only those lights read.)
 
 struct Params {
     cam_position: vec3<f32>,
@@ -26,7 +26,7 @@ struct Params {
     max_bounces: u32,
     seed: u32,
     sampler: u32, // SAMPLER_INDEPENDENT or SAMPLER_SOBOL (rng.wgsl)
-    light_sampling: u32, // LIGHT_SAMPLING_* (lights.wgsl): how sphere lights are sampled
+    light_sampling: u32, // LIGHT_SAMPLING_* (lights/common.wgsl): how sphere lights are sampled
     num_spheres: u32,
     num_triangles: u32,
     num_lights: u32,

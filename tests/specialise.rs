@@ -4,7 +4,10 @@
 mod common;
 
 use common::*;
-use vkpath::kernel::abi::{MAT_DIELECTRIC, MAT_DIFFUSE, MAT_EMITTER, MAT_MIRROR};
+use vkpath::kernel::abi::{
+    LIGHT_ENVIRONMENT, LIGHT_POINT, LIGHT_SPHERE, MAT_DIELECTRIC, MAT_DIFFUSE, MAT_EMITTER,
+    MAT_MIRROR,
+};
 use vkpath::kernel::features::{Feature as F, FeatureSet};
 use vkpath::render::{RenderOptions, kernel_for};
 
@@ -100,13 +103,13 @@ fn absent_features_leave_no_code() {
     assert!(
         features.has(F::Spheres)
             && features.has(F::Material(MAT_DIFFUSE))
-            && features.has(F::PointLights)
+            && features.has(F::Light(LIGHT_POINT))
     );
     assert!(
         !features.has(F::Triangles)
             && !features.has(F::Material(MAT_MIRROR))
             && !features.has(F::Material(MAT_DIELECTRIC))
-            && !features.has(F::SphereLights)
+            && !features.has(F::Light(LIGHT_SPHERE))
             && !features.has(F::Lens)
     );
 
@@ -199,9 +202,9 @@ material = "white"
     );
     assert!(
         !f.has(F::Lens)
-            && !f.has(F::Environment)
-            && !f.has(F::PointLights)
-            && !f.has(F::SphereLights)
+            && !f.has(F::Light(LIGHT_ENVIRONMENT))
+            && !f.has(F::Light(LIGHT_POINT))
+            && !f.has(F::Light(LIGHT_SPHERE))
             && !f.has(F::Material(MAT_EMITTER))
     );
     assert_eq!(f.knob("filter"), Some(2), "gaussian by default");
@@ -213,10 +216,10 @@ material = "white"
     let f = features(&with, 3);
     assert!(
         f.has(F::Lens)
-            && f.has(F::Environment)
-            && f.has(F::SphereLights)
+            && f.has(F::Light(LIGHT_ENVIRONMENT))
+            && f.has(F::Light(LIGHT_SPHERE))
             && f.has(F::Material(MAT_EMITTER))
-            && !f.has(F::PointLights)
+            && !f.has(F::Light(LIGHT_POINT))
     );
 }
 

@@ -4,7 +4,7 @@
 
 use super::{BenchSettings, median, pass_times};
 use crate::gpu::GpuContext;
-use crate::kernel::abi::{FILTER_NONE, MAT_DIFFUSE};
+use crate::kernel::abi::{FILTER_NONE, LIGHT_POINT, MAT_DIFFUSE};
 use crate::kernel::features::{Feature, FeatureSet, features};
 use crate::kernel::{library, specialise};
 use crate::render::{RenderOptions, Renderer};
@@ -33,7 +33,7 @@ fn trimmed_features() -> [Feature; 4] {
     [
         Feature::Spheres,
         Feature::Material(MAT_DIFFUSE),
-        Feature::PointLights,
+        Feature::Light(LIGHT_POINT),
         Feature::Roulette,
     ]
 }

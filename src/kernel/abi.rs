@@ -1,11 +1,12 @@
-//! The kernel's ABI: the `#[repr(C)]` Pod structs shared with the WGSL (scene_data.wgsl, bsdf.wgsl,
-//! lights.wgsl, accumulate.wgsl) and every constant the host and the shader must agree on.
+//! The kernel's ABI: the `#[repr(C)]` Pod structs shared with the WGSL (scene_data.wgsl,
+//! bsdfs/common.wgsl, lights/*.wgsl, accumulate.wgsl) and every constant the host and the shader must agree on.
 //!
 //! WGSL's layout rules put a `vec3<f32>` at 16-byte alignment with size 12, so every `vec3` here is
 //! followed by a 4-byte scalar that fills its slot, and structs are padded to a multiple of 16 bytes.
 //! The compile-time asserts below pin the sizes; `tests/layout.rs` holds every field offset against the
 //! layout naga reflects from the WGSL.
 
+use super::light_kinds;
 use crate::scene::bsdfs;
 use bytemuck::{Pod, Zeroable};
 
@@ -148,16 +149,17 @@ pub struct GpuMaterial {
     pub _pad0: u32,
 }
 
-/// Light kinds (`LIGHT_*` in lights.wgsl).
-pub const LIGHT_POINT: u32 = 0;
-pub const LIGHT_SPHERE: u32 = 1;
-pub const LIGHT_DIRECTIONAL: u32 = 2;
-pub const LIGHT_TRIANGLES: u32 = 3;
-pub const LIGHT_ENVIRONMENT: u32 = 4;
+/// Light kinds: the rows of the light registry (`kernel::light_kinds`; `LIGHT_*` in the generated
+/// light_kinds.wgsl).
+pub const LIGHT_POINT: u32 = light_kinds::kind("point");
+pub const LIGHT_SPHERE: u32 = light_kinds::kind("sphere");
+pub const LIGHT_DIRECTIONAL: u32 = light_kinds::kind("directional");
+pub const LIGHT_TRIANGLES: u32 = light_kinds::kind("triangles");
+pub const LIGHT_ENVIRONMENT: u32 = light_kinds::kind("environment");
 /// No light: `GpuParams::environment_light` of a scene without an environment.
 pub const NO_LIGHT: u32 = u32::MAX;
 
-/// Mirrors `Light` in lights.wgsl. What each field holds depends on the kind (see lights.wgsl).
+/// Mirrors `Light` in lights/common.wgsl. What each field holds depends on the kind (see there).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuLight {
@@ -173,7 +175,7 @@ pub struct GpuLight {
     pub _pad0: u32,
 }
 
-/// Mirrors `LightTriangle` in lights.wgsl: one emissive triangle (its vertices as in `triangles`, its
+/// Mirrors `LightTriangle` in lights/triangles.wgsl: one emissive triangle (its vertices as in `triangles`, its
 /// material's emission) and its column of the alias table that picks triangles in proportion to their
 /// power (Walker 1977; Vose 1991): column j keeps triangle j with probability `keep`, else gives `alias_triangle`.
 #[repr(C)]
@@ -377,7 +379,7 @@ pub const FILTER_GAUSSIAN: u32 = 2;
 pub const SAMPLER_INDEPENDENT: u32 = 0;
 pub const SAMPLER_SOBOL: u32 = 1;
 
-/// Sphere-light strategies (`GpuParams::light_sampling`, `LIGHT_SAMPLING_*` in lights.wgsl).
+/// Sphere-light strategies (`GpuParams::light_sampling`, `LIGHT_SAMPLING_*` in lights/common.wgsl).
 pub const LIGHT_SAMPLING_CONE: u32 = 0;
 pub const LIGHT_SAMPLING_AREA: u32 = 1;
 pub const LIGHT_SAMPLING_NONE: u32 = 2;

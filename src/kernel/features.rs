@@ -10,10 +10,12 @@
 //! the overrides the WGSL declares, both ways.
 //!
 //! Adding a feature: a row here and its `override` in features.wgsl (the test fails until both exist).
-//! The material kinds' rows are not written here: each row of the material registry (`scene::bsdfs`)
-//! is one, with its override generated beside the kind's constant (bsdf_kinds.wgsl).
+//! The material and light kinds' rows are not written here: each row of the material registry
+//! (`scene::bsdfs`) and of the light registry (`kernel::light_kinds`) is one, with its override
+//! generated beside the kind's constant (bsdf_kinds.wgsl, light_kinds.wgsl).
 
 use super::abi::*;
+use super::light_kinds;
 use super::upload::GpuScene;
 use crate::scene::bsdfs;
 use std::sync::LazyLock;
@@ -34,17 +36,14 @@ pub enum Feature {
     Opacity,
     Anisotropy,
     Emission,
-    PointLights,
-    SphereLights,
-    DirectionalLights,
-    TriangleLights,
-    Environment,
     EnvironmentMap,
     Lens,
     Orthographic,
     Roulette,
     /// A material kind (`MAT_*`), a row of the registry (`scene::bsdfs`).
     Material(u32),
+    /// A light kind (`LIGHT_*`), a row of the light registry (`kernel::light_kinds`).
+    Light(u32),
 }
 
 /// What decides whether a scene needs a feature.
@@ -222,47 +221,10 @@ const AFTER_MATERIALS: &[FeatureRow] = &[
         needed: |g, _| used_materials(g).any(|m| m.emission.iter().any(|&c| c > 0.0)),
         reported: true,
     },
-    FeatureRow {
-        feature: Feature::PointLights,
-        name: "point_lights",
-        constant: "HAS_POINT_LIGHTS",
-        group: Group::Light(LIGHT_POINT),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::SphereLights,
-        name: "sphere_lights",
-        constant: "HAS_SPHERE_LIGHTS",
-        group: Group::Light(LIGHT_SPHERE),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::DirectionalLights,
-        name: "directional_lights",
-        constant: "HAS_DIRECTIONAL_LIGHTS",
-        group: Group::Light(LIGHT_DIRECTIONAL),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        feature: Feature::TriangleLights,
-        name: "triangle_lights",
-        constant: "HAS_TRIANGLE_LIGHTS",
-        group: Group::Light(LIGHT_TRIANGLES),
-        needed: by_group,
-        reported: true,
-    },
-    FeatureRow {
-        // The environment light (uniform, or with a map): what rays that leave the scene see.
-        feature: Feature::Environment,
-        name: "environment",
-        constant: "HAS_ENVIRONMENT",
-        group: Group::Light(LIGHT_ENVIRONMENT),
-        needed: by_group,
-        reported: true,
-    },
+];
+
+/// The rows after the light kinds'.
+const AFTER_LIGHTS: &[FeatureRow] = &[
     FeatureRow {
         feature: Feature::EnvironmentMap,
         name: "environment_map",
@@ -298,8 +260,9 @@ const AFTER_MATERIALS: &[FeatureRow] = &[
     },
 ];
 
-/// The feature table: the rows above, with a row per material kind of the registry (`scene::bsdfs`)
-/// between them. A feature's bit in a [`FeatureSet`] is its row's index.
+/// The feature table: the rows above, with a row per material kind of the material registry
+/// (`scene::bsdfs`) and a row per light kind of the light registry (`kernel::light_kinds`) between them.
+/// A feature's bit in a [`FeatureSet`] is its row's index.
 pub fn features() -> &'static [FeatureRow] {
     static ROWS: LazyLock<Vec<FeatureRow>> = LazyLock::new(|| {
         let materials = bsdfs::BSDFS.iter().enumerate().map(|(i, k)| FeatureRow {
@@ -311,11 +274,24 @@ pub fn features() -> &'static [FeatureRow] {
             needed: by_group,
             reported: true,
         });
+        let lights = light_kinds::LIGHTS
+            .iter()
+            .enumerate()
+            .map(|(i, k)| FeatureRow {
+                feature: Feature::Light(i as u32),
+                name: k.feature,
+                constant: k.feature_constant().leak(),
+                group: Group::Light(i as u32),
+                needed: by_group,
+                reported: true,
+            });
         let rows: Vec<FeatureRow> = BEFORE_MATERIALS
             .iter()
             .map(FeatureRow::copy)
             .chain(materials)
             .chain(AFTER_MATERIALS.iter().map(FeatureRow::copy))
+            .chain(lights)
+            .chain(AFTER_LIGHTS.iter().map(FeatureRow::copy))
             .collect();
         assert!(rows.len() <= 64, "a FeatureSet holds 64 features");
         rows

@@ -8,6 +8,7 @@
 //! a test of `intersect_sphere` tests exactly the code that renders, and no list of modules is written
 //! out anywhere else.
 
+use super::light_kinds;
 use crate::scene::bsdfs;
 use std::collections::HashSet;
 use std::sync::LazyLock;
@@ -25,7 +26,6 @@ pub const MODULES: &[(&str, &str)] = &[
         "microfacet.wgsl",
         include_str!("../../shaders/microfacet.wgsl"),
     ),
-    ("lights.wgsl", include_str!("../../shaders/lights.wgsl")),
     ("camera.wgsl", include_str!("../../shaders/camera.wgsl")),
     (
         "accumulate.wgsl",
@@ -46,15 +46,22 @@ pub const MODULES: &[(&str, &str)] = &[
     ),
 ];
 
-/// The modules generated from the material registry (`scene::bsdfs`): `bsdf_kinds.wgsl` (the kinds'
-/// numbers and feature constants) and `bsdf.wgsl` (the dispatchers the integrator calls).
+/// The modules generated from the registries: from the material registry (`scene::bsdfs`),
+/// `bsdf_kinds.wgsl` (the kinds' numbers and feature constants) and `bsdf.wgsl` (the dispatchers the
+/// integrator calls); from the light registry (`kernel::light_kinds`), `light_kinds.wgsl` and
+/// `lights.wgsl`, likewise.
 pub const BSDF_KINDS: &str = "bsdf_kinds.wgsl";
 pub const BSDF: &str = "bsdf.wgsl";
+pub const LIGHT_KINDS: &str = "light_kinds.wgsl";
+pub const LIGHTS: &str = "lights.wgsl";
 
-/// The six functions every material file defines, as the dispatchers call them: (the dispatcher's
-/// name and signature, the kind function's suffix and arguments, the value when no kind matched: a kind
-/// the kernel has no code for absorbs, is black and is a "delta" (nothing for next-event estimation)).
-const DISPATCHERS: &[(&str, &str, &str, &str)] = &[
+/// A generated dispatcher: its name and signature, the kind function's suffix and arguments, and the
+/// value when no kind matched.
+type Dispatcher = (&'static str, &'static str, &'static str, &'static str);
+
+/// The six functions every material file defines, as the dispatchers call them. A kind the kernel has
+/// no code for absorbs, is black and is a "delta" (nothing for next-event estimation).
+const BSDF_DISPATCHERS: &[Dispatcher] = &[
     (
         "bsdf_sample(mat: Material, wo: vec3<f32>, sh: Shading, rng: ptr<function, Rng>) -> BsdfSample",
         "sample(mat, wo, sh, rng)",
@@ -93,50 +100,99 @@ const DISPATCHERS: &[(&str, &str, &str, &str)] = &[
     ),
 ];
 
-/// The text of `bsdf_kinds.wgsl`: a `MAT_*` constant (the row's index) and a `HAS_*` override per row.
-fn generate_bsdf_kinds() -> String {
-    let mut out = String::from(
-        "// bsdf_kinds.wgsl, generated from the material registry (src/scene/bsdfs.rs) by\n\
-         // src/kernel/library.rs: each kind's number (Material::kind) and its feature constant, an\n\
-         // override like those of features.wgsl, set by the feature table (src/kernel/features.rs).\n\
+/// The three functions every light file defines (lights/common.wgsl documents them). A kind the kernel
+/// has no code for gives no sample, density 0 and no radiance.
+const LIGHT_DISPATCHERS: &[Dispatcher] = &[
+    (
+        "light_sample_li(light: Light, p: vec3<f32>, strategy: u32, rng: ptr<function, Rng>) -> LightLiSample",
+        "light_sample_li(light, p, strategy, rng)",
+        "LightLiSample",
+        "no_light_sample()",
+    ),
+    (
+        "light_pdf_li(light: Light, p: vec3<f32>, wi: vec3<f32>, strategy: u32) -> f32",
+        "light_pdf_li(light, p, wi, strategy)",
+        "f32",
+        "0.0",
+    ),
+    (
+        "light_radiance(light: Light, w: vec3<f32>) -> vec3<f32>",
+        "light_radiance(light, w)",
+        "vec3<f32>",
+        "vec3<f32>(0.0)",
+    ),
+];
+
+/// One registry row as the generators see it: its name (the prefix of its functions), its `MAT_*` or
+/// `LIGHT_*` constant, its `HAS_*` override and its file.
+struct Row {
+    name: &'static str,
+    constant: String,
+    feature_constant: String,
+    file: String,
+}
+
+fn bsdf_rows() -> Vec<Row> {
+    let row = |k: &bsdfs::BsdfKind| Row {
+        name: k.name,
+        constant: k.constant(),
+        feature_constant: k.feature_constant(),
+        file: k.file(),
+    };
+    bsdfs::BSDFS.iter().map(row).collect()
+}
+
+fn light_rows() -> Vec<Row> {
+    let row = |k: &light_kinds::LightKind| Row {
+        name: k.name,
+        constant: k.constant(),
+        feature_constant: k.feature_constant(),
+        file: k.file(),
+    };
+    light_kinds::LIGHTS.iter().map(row).collect()
+}
+
+/// The text of a kinds module (`bsdf_kinds.wgsl`, `light_kinds.wgsl`): a constant per row (the row's
+/// index) and a `HAS_*` override per row, like those of features.wgsl, set by the feature table
+/// (`kernel::features`).
+fn generate_kinds(name: &str, registry: &str, rows: &[Row]) -> String {
+    let mut out = format!(
+        "// {name}, generated from the {registry} by src/kernel/library.rs: each kind's number and its\n\
+         // feature constant, an override like those of features.wgsl, set by the feature table\n\
+         // (src/kernel/features.rs).\n\
          //\n\
          // requires: (nothing)\n\n",
     );
-    for (i, k) in bsdfs::BSDFS.iter().enumerate() {
-        out += &format!("const {}: u32 = {i}u;\n", k.constant());
+    for (i, r) in rows.iter().enumerate() {
+        out += &format!("const {}: u32 = {i}u;\n", r.constant);
     }
     out += "\n";
-    for k in bsdfs::BSDFS {
-        out += &format!("override {}: bool = true;\n", k.feature_constant());
+    for r in rows {
+        out += &format!("override {}: bool = true;\n", r.feature_constant);
     }
     out
 }
 
-/// The text of `bsdf.wgsl`: the six dispatchers, each a branch per kind under the kind's feature
-/// constant, so that a kernel specialised for a scene keeps only the kinds the scene uses; with one kind
-/// (SINGLE_MATERIAL_KIND) the kind test goes too. Each dispatcher has one exit: on lavapipe, whose
-/// invocations run as SIMD lanes, a return inside a branch costs mask bookkeeping at every later
-/// statement.
-fn generate_bsdf() -> String {
-    let mut requires = vec!["features.wgsl".to_string(), BSDF_KINDS.to_string()];
-    requires.extend(bsdfs::BSDFS.iter().map(|k| k.file()));
-    let mut out = format!(
-        "// bsdf.wgsl, generated from the material registry (src/scene/bsdfs.rs) by src/kernel/library.rs:\n\
-         // the interface the integrator calls (bsdf_sample, bsdf_eval, bsdf_pdf, bsdf_albedo, bsdf_is_delta,\n\
-         // bsdf_transmits), each a branch per material kind calling the kind's own function\n\
-         // (shaders/bsdfs/<kind>.wgsl; the interface is documented in bsdfs/common.wgsl).\n\
-         //\n\
-         // requires: {}\n",
-        requires.join(", ")
-    );
-    for (signature, call, ty, none) in DISPATCHERS {
+/// The text of a dispatch module (`bsdf.wgsl`, `lights.wgsl`): each dispatcher a branch per row under
+/// the row's feature constant, so that a kernel specialised for a scene keeps only the kinds the scene
+/// uses; with one kind (`single`: SINGLE_MATERIAL_KIND, SINGLE_LIGHT_KIND) the kind test goes too. Each
+/// dispatcher has one exit: on lavapipe, whose invocations run as SIMD lanes, a return inside a branch
+/// costs mask bookkeeping at every later statement.
+fn generate_dispatchers(
+    header: &str,
+    requires: &[String],
+    dispatchers: &[Dispatcher],
+    rows: &[Row],
+    kind_of: &str,
+    single: &str,
+) -> String {
+    let mut out = format!("{header}//\n// requires: {}\n", requires.join(", "));
+    for (signature, call, ty, none) in dispatchers {
         out += &format!("\nfn {signature} {{\n    var r: {ty} = {none};\n");
-        for k in bsdfs::BSDFS {
+        for r in rows {
             out += &format!(
-                "    if {} {{\n        if SINGLE_MATERIAL_KIND || mat.kind == {} {{\n            r = {}_{call};\n        }}\n    }}\n",
-                k.feature_constant(),
-                k.constant(),
-                k.name
+                "    if {} {{\n        if {single} || {kind_of} == {} {{\n            r = {}_{call};\n        }}\n    }}\n",
+                r.feature_constant, r.constant, r.name
             );
         }
         out += "    return r;\n}\n";
@@ -144,8 +200,69 @@ fn generate_bsdf() -> String {
     out
 }
 
-static GENERATED: LazyLock<[(&str, String); 2]> =
-    LazyLock::new(|| [(BSDF_KINDS, generate_bsdf_kinds()), (BSDF, generate_bsdf())]);
+/// The text of `bsdf.wgsl`.
+fn generate_bsdf() -> String {
+    let rows = bsdf_rows();
+    let mut requires = vec!["features.wgsl".to_string(), BSDF_KINDS.to_string()];
+    requires.extend(rows.iter().map(|r| r.file.clone()));
+    generate_dispatchers(
+        "// bsdf.wgsl, generated from the material registry (src/scene/bsdfs.rs) by src/kernel/library.rs:\n\
+         // the interface the integrator calls (bsdf_sample, bsdf_eval, bsdf_pdf, bsdf_albedo, bsdf_is_delta,\n\
+         // bsdf_transmits), each a branch per material kind calling the kind's own function\n\
+         // (shaders/bsdfs/<kind>.wgsl; the interface is documented in bsdfs/common.wgsl).\n",
+        &requires,
+        BSDF_DISPATCHERS,
+        &rows,
+        "mat.kind",
+        "SINGLE_MATERIAL_KIND",
+    )
+}
+
+/// The text of `lights.wgsl`.
+fn generate_lights() -> String {
+    let rows = light_rows();
+    let mut requires = vec![
+        "features.wgsl".to_string(),
+        LIGHT_KINDS.to_string(),
+        "lights/common.wgsl".to_string(),
+    ];
+    requires.extend(rows.iter().map(|r| r.file.clone()));
+    generate_dispatchers(
+        "// lights.wgsl, generated from the light registry (src/kernel/light_kinds.rs) by\n\
+         // src/kernel/library.rs: the interface the integrator calls (light_sample_li, light_pdf_li,\n\
+         // light_radiance: pbrt-v4's SampleLi, PDF_Li and L), each a branch per light kind calling the\n\
+         // kind's own function (shaders/lights/<kind>.wgsl; the interface is documented in\n\
+         // lights/common.wgsl).\n",
+        &requires,
+        LIGHT_DISPATCHERS,
+        &rows,
+        "light.kind",
+        "SINGLE_LIGHT_KIND",
+    )
+}
+
+static GENERATED: LazyLock<[(&str, String); 4]> = LazyLock::new(|| {
+    [
+        (
+            BSDF_KINDS,
+            generate_kinds(
+                BSDF_KINDS,
+                "material registry (src/scene/bsdfs.rs)",
+                &bsdf_rows(),
+            ),
+        ),
+        (BSDF, generate_bsdf()),
+        (
+            LIGHT_KINDS,
+            generate_kinds(
+                LIGHT_KINDS,
+                "light registry (src/kernel/light_kinds.rs)",
+                &light_rows(),
+            ),
+        ),
+        (LIGHTS, generate_lights()),
+    ]
+});
 
 /// The production kernel's root file.
 pub const TRACE: &str = "trace.wgsl";
@@ -154,15 +271,18 @@ pub const TRACE: &str = "trace.wgsl";
 /// measured against (`vkpath bench specialisation`).
 pub const TRIMMED_DIFFUSE_POINT: &str = "bench/trimmed_diffuse_point.wgsl";
 
-/// The text of a library file: a file of `shaders/`, a material's (`scene::bsdfs`), or a generated one.
+/// The text of a library file: a file of `shaders/`, a material's (`scene::bsdfs`), a light's
+/// (`kernel::light_kinds`), or a generated one.
 pub fn module(name: &str) -> Option<&'static str> {
     let file = MODULES
         .iter()
         .chain(bsdfs::SHARED_FILES)
+        .chain(light_kinds::SHARED_FILES)
         .find(|(n, _)| *n == name);
     let kind = || {
-        let k = bsdfs::BSDFS.iter().find(|k| k.file() == name)?;
-        Some(k.source)
+        let bsdf = bsdfs::BSDFS.iter().find(|k| k.file() == name);
+        let light = || light_kinds::LIGHTS.iter().find(|k| k.file() == name);
+        bsdf.map(|k| k.source).or_else(|| light().map(|k| k.source))
     };
     let generated = || {
         GENERATED
@@ -178,9 +298,11 @@ pub fn all_modules() -> Vec<(String, &'static str)> {
     let mut all: Vec<(String, &'static str)> = MODULES
         .iter()
         .chain(bsdfs::SHARED_FILES)
+        .chain(light_kinds::SHARED_FILES)
         .map(|(n, t)| (n.to_string(), *t))
         .collect();
     all.extend(bsdfs::BSDFS.iter().map(|k| (k.file(), k.source)));
+    all.extend(light_kinds::LIGHTS.iter().map(|k| (k.file(), k.source)));
     all.extend(GENERATED.iter().map(|(n, t)| (n.to_string(), t.as_str())));
     all
 }

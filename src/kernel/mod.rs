@@ -12,6 +12,7 @@ pub mod abi;
 pub mod alias;
 pub mod features;
 pub mod library;
+pub mod light_kinds;
 pub mod specialise;
 pub mod upload;
 

@@ -163,7 +163,8 @@ pub const fn kind(name: &str) -> u32 {
     panic!("no such material kind in the registry")
 }
 
-const fn str_eq(a: &str, b: &str) -> bool {
+/// `a == b` in a `const fn` (the registries' [`kind`] lookups; also `kernel::light_kinds`).
+pub(crate) const fn str_eq(a: &str, b: &str) -> bool {
     let (a, b) = (a.as_bytes(), b.as_bytes());
     if a.len() != b.len() {
         return false;

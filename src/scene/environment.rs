@@ -11,7 +11,7 @@
 //!   row j at v = j / (H - 1), so the first and last rows are the poles. Radiance at (u, v) is the
 //!   bilinear mix of the four samples around it.
 //!
-//! Sampling (shaders/lights.wgsl) is piecewise constant over the (H - 1) x W cells between those samples,
+//! Sampling (shaders/lights/environment.wgsl) is piecewise constant over the (H - 1) x W cells between those samples,
 //! each cell weighted by the mean luminance of its four corners times sin(theta) at its centre (the
 //! Jacobian of the (u, v) -> direction map is 2 pi^2 sin(theta)): pbrt-v4's ImageInfiniteLight and
 //! Mitsuba's envmap sample in proportion to the same product. A cell's weight is positive wherever the
