@@ -30,6 +30,7 @@ pub mod output;
 pub mod preview;
 pub mod render;
 pub mod scene;
+pub mod session;
 
 pub use film::Film;
 pub use render::{RenderOptions, Renderer};

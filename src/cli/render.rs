@@ -1,11 +1,12 @@
 //! `vkpath render`: a scene to PNG/EXR, progressively, with time and error budgets, progress images,
 //! checkpoints, resumes and partial renders (`--sample-range`, and `--part I/N` for render farms).
 //!
-//! [`run_render`] runs the steps in order, each a function that makes one decision: [`check_flags`]
-//! (what the flags decide on their own), [`prepare`] (the scene with its overrides, the options, the
-//! outputs, the checkpoint to resume), [`plan_samples`] (where this run's samples start and end),
-//! [`render_loop`] (the passes and what they write on the way), [`write_outputs`] (the final image and
-//! checkpoint) and [`report`] (what is printed, and the exit status).
+//! The render itself is a library session (`vkpath::session`: the plan of samples, the passes and their
+//! stopping rules, the progress images and checkpoints on the way, the AOV layers, the final files).
+//! This command is what surrounds it: [`run_render`] runs [`check_flags`] (what the flags decide on
+//! their own, a `--part` resolved from the scheduler's variables), [`prepare`] (the scene with its
+//! overrides, the options, the outputs, the checkpoint to resume, all before any device work), the
+//! session with a progress bar, and [`report`] (what is printed, and the exit status).
 
 use super::report::{RenderReport, kernel_name, print_json, shown_paths};
 use super::{
@@ -15,18 +16,15 @@ use super::{
 use clap::Args;
 use indicatif::ProgressBar;
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
+use std::path::PathBuf;
 use std::time::Duration;
 use vkpath::checkpoint::{Checkpoint, Part};
 use vkpath::film::Film;
 use vkpath::film::OutputFormat;
 use vkpath::gpu::{ContextOptions, GpuContext};
-use vkpath::kernel::abi::{AOV_ALBEDO, AOV_DEPTH, AOV_NORMAL};
-use vkpath::output::{Aov, ImageFile, ImageMetadata, Layers, write_images};
-use vkpath::render::{
-    Budget, Fault, RenderOptions, Renderer, SaveEvery, StopReason, render_aov, render_progressive,
-};
+use vkpath::output::Aov;
+use vkpath::render::{Fault, PassReport, RenderOptions, Renderer, SaveEvery, StopReason};
+use vkpath::session::{Plan, Request, Session};
 use vkpath::{Error, Scene};
 
 /// `vkpath render`: the exit status, or the error that decides it. A failure part-way through the
@@ -59,66 +57,53 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
     if let (Some(w), false) = (ctx.device_info().old_lavapipe_warning(), a.quiet) {
         eprintln!("vkpath: warning: {w}");
     }
-    let mut renderer = Renderer::new(&ctx, &job.scene, &job.options)?;
-    let plan = plan_samples(&mut renderer, &job.scene, range, part, job.resumed, a.quiet)?;
-
-    let budget = Budget {
-        spp: plan.target_spp,
-        time: flags.time,
-        progress_every: a.progress_every,
-        save_every: flags.save_every,
-        target_error: a.target_error,
-    };
-    let bar = progress_bar(a.quiet, &plan);
-    let mut disk = Disk {
-        scene: &job.scene,
-        outputs: &job.outputs,
-        checkpoint: flags.checkpoint.as_deref(),
-        part,
-        saved: Saved::default(),
-        scene_hash: renderer.identity().scene_hash,
-        device: ctx.device_info().name.clone(),
-        started: std::time::Instant::now(),
-    };
-    // Resuming into the file resumed from: that file is the last intact checkpoint until a new one is
-    // written.
-    if let (Some(p), true, None) = (&flags.checkpoint, plan.resumed_samples > 0, &a.checkpoint) {
-        disk.saved.checkpoint = Some((p.clone(), plan.resumed_samples));
+    let mut session = Session::start(
+        &ctx,
+        Request {
+            scene: &job.scene,
+            options: &job.options,
+            outputs: &job.outputs,
+            checkpoint: flags.checkpoint.as_deref(),
+            resume: job.resumed,
+            range,
+            part,
+            aovs: &flags.aovs,
+            time: flags.time,
+            target_error: a.target_error,
+            progress_every: a.progress_every,
+            save_every: flags.save_every,
+        },
+    )?;
+    if !a.quiet {
+        for w in &session.plan().warnings {
+            eprintln!("vkpath: warning: {w}");
+        }
     }
-    let ended = match render_loop(
-        &mut renderer,
-        &job.options,
-        &budget,
-        &stop,
-        bar.as_ref(),
-        &mut disk,
-        flags.aovs.contains(&Aov::Variance),
-    ) {
+    let bar = progress_bar(a.quiet, session.plan());
+    let mut error_shown: Option<std::time::Instant> = None;
+    let ended = session.run(&stop, |r, report| {
+        if let Some(bar) = &bar {
+            show_progress(bar, r, report, &mut error_shown)?;
+        }
+        Ok(())
+    });
+    let ended = match ended {
         Ok(v) => v,
-        Err(e) => return Ok(fail(bar.as_ref(), &disk, e)),
+        Err(e) => return Ok(fail(bar.as_ref(), &session, e)),
     };
     if let Some(bar) = &bar {
         bar.finish_and_clear();
     }
-    let film = match renderer.film() {
-        Ok(f) => f,
-        Err(e) => return Ok(fail(bar.as_ref(), &disk, e.into())),
-    };
-    if film.spp == 0 {
-        eprintln!("vkpath: interrupted before the first pass ended; no image was written.");
-        return Ok(1);
-    }
-    let aovs = AovJob {
-        list: &flags.aovs,
-        ctx: &ctx,
-        scene: &job.scene,
-        options: &job.options,
-    };
-    if let Err(e) = write_outputs(&film, &mut renderer, &mut disk, &aovs) {
+    let film = match session.finish() {
+        Ok(Some(film)) => film,
+        Ok(None) => {
+            eprintln!("vkpath: interrupted before the first pass ended; no image was written.");
+            return Ok(1);
+        }
         // Say what is still on disk (the checkpoint, written first).
-        return Ok(fail(None, &disk, e));
-    }
-    Ok(report(&a, &renderer, &disk, &plan, &film, ended))
+        Err(e) => return Ok(fail(None, &session, e)),
+    };
+    Ok(report(&a, &session, &film, ended))
 }
 
 /// What the flags decide on their own, before any file is read.
@@ -263,85 +248,6 @@ fn prepare(a: &RenderArgs, is_part: bool) -> Result<Job, Error> {
     })
 }
 
-/// Where this run's samples start and end.
-struct Plan {
-    /// The samples per pixel the render ends with: B - A of a range, else the scene's (or --spp's).
-    target_spp: u32,
-    /// The samples per pixel already in the accumulator when the passes start (from a checkpoint).
-    resumed_samples: u32,
-}
-
-/// Decides where the samples start: from the checkpoint resumed (which must be of this render, and, for
-/// a partial render, of the start of the same `--sample-range` or the same `--part`: anything else would
-/// render other samples), at the start of the range, or at 0. Puts the resumed state on the device, and
-/// warns (unless `--quiet`) when it was computed on another device.
-fn plan_samples(
-    renderer: &mut Renderer,
-    scene: &Scene,
-    range: Option<[u32; 2]>,
-    part: Option<Part>,
-    resumed: Option<(PathBuf, Checkpoint)>,
-    quiet: bool,
-) -> Result<Plan, Error> {
-    let target_spp = match range {
-        Some([a0, b0]) => b0 - a0,
-        None => scene.render.samples,
-    };
-    match (&resumed, range) {
-        (Some((path, c)), range) => {
-            c.check_identity(path, &renderer.identity())?;
-            let held = vkpath::checkpoint::show_ranges(&c.header.ranges);
-            let first = c.header.ranges.first().map_or(0, |r| r[0]);
-            let refusal = match range {
-                Some(_) if part.is_some() && c.header.part != part => Some(format!(
-                    "this checkpoint is {}, not part {} of this render: resume each part from its own file.",
-                    c.header
-                        .part
-                        .map_or("not a part of a --part split".into(), |p| format!(
-                            "part {}",
-                            p.show()
-                        )),
-                    part.map_or(String::new(), |p| p.show())
-                )),
-                Some([a0, b0])
-                    if c.header.ranges.len() != 1 || first != a0 || c.next_sample() > b0 =>
-                {
-                    Some(format!(
-                        "this checkpoint holds the samples {held}, which is not the start of --sample-range {a0}..{b0}. Resume it with the --sample-range it was made with."
-                    ))
-                }
-                None if first != 0 => Some(format!(
-                    "this is a partial render of the samples {held}: resume it with its --sample-range {first}..B, or combine it with the other parts with `vkpath merge`."
-                )),
-                _ => None,
-            };
-            if let Some(message) = refusal {
-                return Err(Error::Checkpoint {
-                    path: path.clone(),
-                    message,
-                });
-            }
-            renderer.restore(&c.header.ranges, &c.accum)?;
-            if !quiet {
-                let device = &renderer.context().device_info().name;
-                if &c.header.device != device {
-                    eprintln!(
-                        "vkpath: warning: the checkpoint was computed on {}, this render runs on {device}; the image is a valid estimate, but bit-for-bit equality with an uninterrupted render is promised only on the same device.",
-                        c.header.device
-                    );
-                }
-            }
-        }
-        (None, Some([a0, _])) => renderer.start_at(a0)?,
-        (None, None) => {}
-    }
-    // `resumed` (the whole state, as large as the accumulator) is freed here, before the passes.
-    Ok(Plan {
-        target_spp,
-        resumed_samples: renderer.samples_done(),
-    })
-}
-
 /// How often the progress bar's estimated error is brought up to date.
 const BAR_ERROR_EVERY: Duration = Duration::from_secs(5);
 
@@ -371,173 +277,49 @@ fn progress_bar(quiet: bool, plan: &Plan) -> Option<ProgressBar> {
     Some(bar)
 }
 
-/// Where the render writes, and which of its files are whole on disk.
-struct Disk<'a> {
-    /// The scene rendered: its display transform for the images, its name for checkpoints.
-    scene: &'a Scene,
-    outputs: &'a [PathBuf],
-    checkpoint: Option<&'a Path>,
-    /// `--part`: recorded in the checkpoint, so that `vkpath merge` knows the split.
-    part: Option<Part>,
-    /// For the message if the render fails part-way.
-    saved: Saved,
-    /// For the images' metadata: the render's content hash, the device, and when this run's passes
-    /// started.
-    scene_hash: String,
-    device: String,
-    started: std::time::Instant,
-}
-
-impl Disk<'_> {
-    /// Writes `film` with `layers` to every output, all or nothing, with the render's metadata, noting
-    /// them as written.
-    fn write_images(&mut self, film: &Film, layers: &Layers) -> Result<(), Error> {
-        let metadata = ImageMetadata {
-            scene: self.scene.display_name(),
-            scene_hash: self.scene_hash.clone(),
-            spp: film.spp,
-            seed: self.scene.render.seed,
-            seconds: Some(self.started.elapsed().as_secs_f64()),
-            device: self.device.clone(),
-        };
-        write_images(
-            self.outputs,
-            &ImageFile {
-                film,
-                settings: &self.scene.image,
-                metadata: Some(&metadata),
-                layers,
-            },
-        )?;
-        if !self.outputs.is_empty() {
-            self.saved.images = Some((self.outputs.to_vec(), film.spp));
+/// Brings the bar up to date after a pass: the samples done, and the estimated error, which needs the
+/// film read back (96 bytes a pixel): at most every few seconds, so that the bar costs the render next
+/// to nothing.
+fn show_progress(
+    bar: &ProgressBar,
+    r: &mut Renderer,
+    report: &PassReport,
+    shown: &mut Option<std::time::Instant>,
+) -> Result<(), Error> {
+    bar.set_position(report.samples_done as u64);
+    if report.samples_done >= 2 && shown.is_none_or(|t| t.elapsed() >= BAR_ERROR_EVERY) {
+        let rel = r.film()?.estimated_rel_error();
+        if rel.is_finite() {
+            bar.set_message(format!(", error {:.2}%", 100.0 * rel));
         }
-        Ok(())
+        *shown = Some(std::time::Instant::now());
     }
-
-    /// Writes the renderer's state to the checkpoint file, when there is one, noting it as written.
-    fn save_checkpoint(&mut self, r: &mut Renderer) -> Result<(), Error> {
-        if let Some(path) = self.checkpoint {
-            let mut state = Checkpoint::of(r, self.scene)?;
-            state.header.part = self.part;
-            state.write(path)?;
-            self.saved.checkpoint = Some((path.to_path_buf(), r.samples_done()));
-        }
-        Ok(())
-    }
-}
-
-/// Runs passes until the sample budget, `--time`, `--target-error` or a signal ends the render,
-/// rewriting the images at every `--progress-every` and the checkpoint at every `--checkpoint-every` on
-/// the way, but not after the last pass: [`write_outputs`] writes those once. How it stopped, and when.
-fn render_loop(
-    renderer: &mut Renderer,
-    options: &RenderOptions,
-    budget: &Budget,
-    stop: &AtomicBool,
-    bar: Option<&ProgressBar>,
-    disk: &mut Disk,
-    aovs_variance: bool,
-) -> Result<(StopReason, Duration), Error> {
-    let mut error_shown: Option<std::time::Instant> = None;
-    render_progressive(renderer, options, budget, stop, |r, report| {
-        if let Some(bar) = bar {
-            bar.set_position(report.samples_done as u64);
-            // The estimated error needs the film read back (96 bytes a pixel): at most every few
-            // seconds, so that the bar costs the render next to nothing.
-            if report.samples_done >= 2
-                && error_shown.is_none_or(|t| t.elapsed() >= BAR_ERROR_EVERY)
-            {
-                let rel = r.film()?.estimated_rel_error();
-                if rel.is_finite() {
-                    bar.set_message(format!(", error {:.2}%", 100.0 * rel));
-                }
-                error_shown = Some(std::time::Instant::now());
-            }
-        }
-        let ending = report.samples_done >= budget.spp;
-        if report.progress && !ending {
-            let film = r.film()?;
-            let layers = Layers {
-                variance: aovs_variance,
-                ..Layers::default()
-            };
-            disk.write_images(&film, &layers)?;
-        }
-        if report.save_state && !ending {
-            disk.save_checkpoint(r)?;
-        }
-        Ok(())
-    })
+    Ok(())
 }
 
 /// A render that failed part-way (a lost device): the error, with the files still intact on disk to go
 /// on from, and the exit status it ends with.
-fn fail(bar: Option<&ProgressBar>, disk: &Disk, e: Error) -> i32 {
+fn fail(bar: Option<&ProgressBar>, session: &Session, e: Error) -> i32 {
     if let Some(bar) = bar {
         bar.abandon();
     }
-    eprintln!("vkpath: error: {e}{}", disk.saved.hint());
+    eprintln!("vkpath: error: {e}{}", session.saved_hint());
     e.exit_code()
-}
-
-/// What `--aov` asks for, and what rendering its layers takes.
-struct AovJob<'a> {
-    list: &'a [Aov],
-    ctx: &'a std::sync::Arc<GpuContext>,
-    scene: &'a Scene,
-    options: &'a RenderOptions,
-}
-
-impl AovJob<'_> {
-    /// The layers for a render of `spp` samples per pixel: the variance from the render's own sums, the
-    /// others each rendered by the kernel specialised for it with min(spp, AOV_MAX_SPP) samples.
-    fn layers(&self, spp: u32) -> Result<Layers, Error> {
-        let mut layers = Layers {
-            variance: self.list.contains(&Aov::Variance),
-            ..Layers::default()
-        };
-        let spp = spp.clamp(1, vkpath::render::AOV_MAX_SPP);
-        for aov in self.list {
-            let (code, slot) = match aov {
-                Aov::Albedo => (AOV_ALBEDO, &mut layers.albedo),
-                Aov::Normal => (AOV_NORMAL, &mut layers.normal),
-                Aov::Depth => (AOV_DEPTH, &mut layers.depth),
-                Aov::Variance => continue,
-            };
-            *slot = Some(render_aov(self.ctx, self.scene, self.options, code, spp)?);
-        }
-        Ok(layers)
-    }
-}
-
-/// The final state to the checkpoint file, then the final image (with the `--aov` layers) to every
-/// output: also after an interrupt, so that the render can go on from there.
-fn write_outputs(
-    film: &Film,
-    renderer: &mut Renderer,
-    disk: &mut Disk,
-    aovs: &AovJob,
-) -> Result<(), Error> {
-    // The checkpoint first: if an image cannot be written after all, the samples are kept.
-    disk.save_checkpoint(renderer)?;
-    let layers = aovs.layers(film.spp)?;
-    disk.write_images(film, &layers)
 }
 
 /// Says how an interrupted render can go on (unless `--quiet`), prints the `--json` report, and reports
 /// the validation layer's errors. The exit status: 1 when there were any (a bug in vkpath), else 0.
 fn report(
     a: &RenderArgs,
-    renderer: &Renderer,
-    disk: &Disk,
-    plan: &Plan,
+    session: &Session,
     film: &Film,
     (reason, elapsed): (StopReason, Duration),
 ) -> i32 {
     // A part that stopped early is not done: exit 1, so that the scheduler (Slurm, Kubernetes) does not
     // count the task as a success and runs it again, and the merge is not started without it.
-    let unfinished_part = match (reason, disk.part) {
+    let renderer = session.renderer();
+    let plan = session.plan();
+    let unfinished_part = match (reason, session.part()) {
         (StopReason::Interrupted, Some(p)) => Some(p),
         _ => None,
     };
@@ -550,16 +332,18 @@ fn report(
             p.show(),
             film.spp,
             end - start,
-            disk.checkpoint
+            session
+                .checkpoint()
                 .map_or("(none)".into(), |c| c.display().to_string()),
-            disk.checkpoint
+            session
+                .checkpoint()
                 .map_or("FILE".into(), |c| c.display().to_string()),
         );
     } else if reason == StopReason::Interrupted && !a.quiet {
         eprintln!(
             "vkpath: interrupted; wrote the image with {} samples per pixel{}.",
             film.spp,
-            match disk.checkpoint {
+            match session.checkpoint() {
                 Some(p) => format!(
                     " and the checkpoint {} (go on with --resume {})",
                     p.display(),
@@ -576,10 +360,10 @@ fn report(
     warn_sample_faults(&faults);
     let seconds = elapsed.as_secs_f64();
     let traced = film.spp - plan.resumed_samples;
-    let scene = disk.scene;
+    let scene = session.scene();
     let samples = scene.image.width as f64 * scene.image.height as f64 * traced as f64;
     if !a.quiet {
-        eprintln!("{}", summary_line(disk, film, seconds, samples));
+        eprintln!("{}", summary_line(session, film, seconds, samples));
     }
     if a.json {
         let rel = film.estimated_rel_error();
@@ -596,7 +380,7 @@ fn report(
             max_bounces: scene.render.max_bounces,
             seed: scene.render.seed,
             stop_reason: reason,
-            outputs: shown_paths(disk.outputs),
+            outputs: shown_paths(session.outputs()),
             validation_errors: validation_errors.len(),
             triangles: stats.triangles,
             bvh_nodes: stats.bvh_nodes,
@@ -607,7 +391,7 @@ fn report(
             strips: renderer.tile_layout().strips.len(),
             tiles_per_sample: renderer.tiles_per_sample(),
             resumed_spp: plan.resumed_samples,
-            checkpoint: disk.checkpoint.map(|p| p.display().to_string()),
+            checkpoint: session.checkpoint().map(|p| p.display().to_string()),
             sample_faults: faults,
         });
     }
@@ -839,48 +623,15 @@ fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
     Ok(o)
 }
 
-/// What is on disk when a render fails part-way, for the error message: the last checkpoint and the
-/// last image written, with their sample counts.
-#[derive(Default)]
-struct Saved {
-    checkpoint: Option<(PathBuf, u32)>,
-    /// The images of the last progress write (all of them: they are written all or nothing).
-    images: Option<(Vec<PathBuf>, u32)>,
-}
-
-impl Saved {
-    /// One sentence per file still on disk, to append to the error's paragraph.
-    fn hint(&self) -> String {
-        let mut s = String::new();
-        if let Some((p, n)) = &self.checkpoint {
-            s.push_str(&format!(
-                " The last checkpoint, {} ({n} samples per pixel), is intact: go on with --resume {}.",
-                p.display(),
-                p.display()
-            ));
-        }
-        if let Some((paths, n)) = &self.images {
-            let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
-            s.push_str(&format!(
-                " The last progress image{}, {} ({n} samples per pixel), {} intact.",
-                if names.len() == 1 { "" } else { "s" },
-                names.join(", "),
-                if names.len() == 1 { "is" } else { "are" }
-            ));
-        }
-        s
-    }
-}
-
 /// The line `vkpath render` ends with on stderr (unless `--quiet`): what it wrote, how many samples per
 /// pixel in how long, at what rate, and the image's estimated relative error.
-fn summary_line(disk: &Disk, film: &Film, seconds: f64, samples: f64) -> String {
-    let mut wrote: Vec<String> = disk
-        .outputs
+fn summary_line(session: &Session, film: &Film, seconds: f64, samples: f64) -> String {
+    let mut wrote: Vec<String> = session
+        .outputs()
         .iter()
         .map(|p| p.display().to_string())
         .collect();
-    if let Some(c) = disk.checkpoint {
+    if let Some(c) = session.checkpoint() {
         wrote.push(format!("checkpoint {}", c.display()));
     }
     let rel = film.estimated_rel_error();

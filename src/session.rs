@@ -1,0 +1,424 @@
+//! A render session: one render from its first pass to its files on disk, as a library type.
+//!
+//! [`Session::start`] makes the renderer and decides where this run's samples start and end (from a
+//! checkpoint resumed, from a `--sample-range` or `--part`, or from 0); [`Session::run`] runs the
+//! progressive passes until the sample budget, the time budget, the target error or a stop request ends
+//! them (the stopping rules are `render::render_progressive`'s), rewriting the progress images and the
+//! checkpoint on their cadence on the way; [`Session::finish`] writes the final checkpoint, then the
+//! images with their AOV layers. The session remembers which of its files are whole on disk, so that a
+//! failure part-way can say what to go on from ([`Session::saved_hint`]).
+//!
+//! `vkpath render` (`cli/render.rs`), and through it every render-farm part, is a session with a command
+//! line around it: the command parses and checks the flags, shows a progress bar through
+//! [`Session::run`]'s observer, and prints the report. The session writes nothing else and prints
+//! nothing: what the caller should tell the user comes back as values (warnings, the plan, the files).
+//!
+//! It sits above `render`, `checkpoint` and `output` (which it ties together) and below `cli`: the
+//! render module knows nothing of files, and checkpoints know the renderer, so a session inside either
+//! would make their imports circular.
+
+use crate::Error;
+use crate::Scene;
+use crate::checkpoint::{Checkpoint, Part, show_ranges};
+use crate::film::Film;
+use crate::gpu::GpuContext;
+use crate::kernel::abi::{AOV_ALBEDO, AOV_DEPTH, AOV_NORMAL};
+use crate::output::{Aov, ImageFile, ImageMetadata, Layers, write_images};
+use crate::render::{
+    AOV_MAX_SPP, Budget, PassReport, RenderOptions, Renderer, SaveEvery, StopReason, render_aov,
+    render_progressive,
+};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
+use std::time::{Duration, Instant};
+
+/// What to render, how long, and where to write: everything a session decides from.
+pub struct Request<'a> {
+    /// The scene, with any command-line overrides already applied.
+    pub scene: &'a Scene,
+    pub options: &'a RenderOptions,
+    /// The images to write (PNG or EXR; all or nothing, at each progress write and at the end).
+    pub outputs: &'a [PathBuf],
+    /// Where the state is saved (`--checkpoint`, or the file resumed from).
+    pub checkpoint: Option<&'a Path>,
+    /// The checkpoint resumed, read and checked for damage by the caller (before any device work).
+    pub resume: Option<(PathBuf, Checkpoint)>,
+    /// `--sample-range A..B`: the samples A..B of the render, alone.
+    pub range: Option<[u32; 2]>,
+    /// `--part I/N`: its range, recorded in the checkpoint so that `vkpath merge` knows the split.
+    pub part: Option<Part>,
+    /// The EXR's extra layers.
+    pub aovs: &'a [Aov],
+    /// Stop after the first pass that ends past this duration.
+    pub time: Option<Duration>,
+    /// Stop once the estimated relative error is below this.
+    pub target_error: Option<f64>,
+    /// Rewrite the images whenever the sample count reaches a multiple of this.
+    pub progress_every: Option<u32>,
+    /// How often the checkpoint is rewritten (when there is one).
+    pub save_every: Option<SaveEvery>,
+}
+
+/// Where this run's samples start and end.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// The samples per pixel the render ends with: B - A of a range, else the scene's (or --spp's).
+    pub target_spp: u32,
+    /// The samples per pixel already in the accumulator when the passes start (from a checkpoint).
+    pub resumed_samples: u32,
+    /// What the user should know but that does not stop the render (a checkpoint made on another
+    /// device).
+    pub warnings: Vec<String>,
+}
+
+/// What is on disk when a render fails part-way, for the error message: the last checkpoint and the
+/// last image written, with their sample counts.
+#[derive(Default)]
+struct Saved {
+    checkpoint: Option<(PathBuf, u32)>,
+    /// The images of the last progress write (all of them: they are written all or nothing).
+    images: Option<(Vec<PathBuf>, u32)>,
+}
+
+impl Saved {
+    /// One sentence per file still on disk, to append to the error's paragraph.
+    fn hint(&self) -> String {
+        let mut s = String::new();
+        if let Some((p, n)) = &self.checkpoint {
+            s.push_str(&format!(
+                " The last checkpoint, {} ({n} samples per pixel), is intact: go on with --resume {}.",
+                p.display(),
+                p.display()
+            ));
+        }
+        if let Some((paths, n)) = &self.images {
+            let names: Vec<String> = paths.iter().map(|p| p.display().to_string()).collect();
+            s.push_str(&format!(
+                " The last progress image{}, {} ({n} samples per pixel), {} intact.",
+                if names.len() == 1 { "" } else { "s" },
+                names.join(", "),
+                if names.len() == 1 { "is" } else { "are" }
+            ));
+        }
+        s
+    }
+}
+
+/// One render in progress (see the module's documentation).
+pub struct Session<'a> {
+    scene: &'a Scene,
+    options: &'a RenderOptions,
+    outputs: &'a [PathBuf],
+    checkpoint: Option<&'a Path>,
+    part: Option<Part>,
+    aovs: &'a [Aov],
+    budget: Budget,
+    renderer: Renderer,
+    plan: Plan,
+    saved: Saved,
+    /// For the images' metadata: the render's content hash, the device, and when this run's passes
+    /// started.
+    scene_hash: String,
+    device: String,
+    started: Instant,
+}
+
+impl<'a> Session<'a> {
+    /// Makes the renderer for `request.scene` on `ctx` and plans the samples (see [`plan_samples`]):
+    /// a resumed checkpoint is put on the device here, or the refusal says why it does not fit.
+    pub fn start(ctx: &Arc<GpuContext>, request: Request<'a>) -> Result<Session<'a>, Error> {
+        let mut renderer = Renderer::new(ctx, request.scene, request.options)?;
+        let resumed_from = request.resume.as_ref().map(|(p, _)| p.clone());
+        let plan = plan_samples(
+            &mut renderer,
+            request.scene,
+            request.range,
+            request.part,
+            request.resume,
+        )?;
+        let mut saved = Saved::default();
+        // Resuming into the file resumed from: that file is the last intact checkpoint until a new one
+        // is written.
+        if let (Some(c), Some(r)) = (request.checkpoint, &resumed_from)
+            && c == r
+            && plan.resumed_samples > 0
+        {
+            saved.checkpoint = Some((c.to_path_buf(), plan.resumed_samples));
+        }
+        Ok(Session {
+            scene: request.scene,
+            options: request.options,
+            outputs: request.outputs,
+            checkpoint: request.checkpoint,
+            part: request.part,
+            aovs: request.aovs,
+            budget: Budget {
+                spp: plan.target_spp,
+                time: request.time,
+                progress_every: request.progress_every,
+                save_every: request.save_every,
+                target_error: request.target_error,
+            },
+            scene_hash: renderer.identity().scene_hash,
+            device: ctx.device_info().name.clone(),
+            started: Instant::now(),
+            renderer,
+            plan,
+            saved,
+        })
+    }
+
+    /// Runs passes until the sample budget, the time, the target error or `stop` (Ctrl-C) ends the
+    /// render, rewriting the images at every `progress_every` and the checkpoint at every `save_every`
+    /// on the way, but not after the last pass: [`Session::finish`] writes those once. `observe` sees
+    /// the renderer after every pass, before those writes (a progress bar). How it stopped, and when.
+    pub fn run(
+        &mut self,
+        stop: &AtomicBool,
+        mut observe: impl FnMut(&mut Renderer, &PassReport) -> Result<(), Error>,
+    ) -> Result<(StopReason, Duration), Error> {
+        let target = self.budget.spp;
+        let variance = self.aovs.contains(&Aov::Variance);
+        let mut files = Files {
+            scene: self.scene,
+            outputs: self.outputs,
+            checkpoint: self.checkpoint,
+            part: self.part,
+            saved: &mut self.saved,
+            scene_hash: &self.scene_hash,
+            device: &self.device,
+            started: self.started,
+        };
+        render_progressive(
+            &mut self.renderer,
+            self.options,
+            &self.budget,
+            stop,
+            |r, report| {
+                observe(r, report)?;
+                let ending = report.samples_done >= target;
+                if report.progress && !ending {
+                    let film = r.film()?;
+                    let layers = Layers {
+                        variance,
+                        ..Layers::default()
+                    };
+                    files.write_images(&film, &layers)?;
+                }
+                if report.save_state && !ending {
+                    files.save_checkpoint(r)?;
+                }
+                Ok(())
+            },
+        )
+    }
+
+    /// The final state to the checkpoint file, then the final image (with the AOV layers) to every
+    /// output: also after an interrupt, so that the render can go on from there. The film written, or
+    /// `None` when no pass ended (nothing is written then).
+    pub fn finish(&mut self) -> Result<Option<Film>, Error> {
+        let film = self.renderer.film()?;
+        if film.spp == 0 {
+            return Ok(None);
+        }
+        let mut files = Files {
+            scene: self.scene,
+            outputs: self.outputs,
+            checkpoint: self.checkpoint,
+            part: self.part,
+            saved: &mut self.saved,
+            scene_hash: &self.scene_hash,
+            device: &self.device,
+            started: self.started,
+        };
+        // The checkpoint first: if an image cannot be written after all, the samples are kept.
+        files.save_checkpoint(&mut self.renderer)?;
+        let layers = aov_layers(
+            self.renderer.context(),
+            self.scene,
+            self.options,
+            self.aovs,
+            film.spp,
+        )?;
+        files.write_images(&film, &layers)?;
+        Ok(Some(film))
+    }
+
+    /// One sentence per file still whole on disk (the last checkpoint, the last progress images), to
+    /// append to the message of an error part-way.
+    pub fn saved_hint(&self) -> String {
+        self.saved.hint()
+    }
+
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
+    pub fn plan(&self) -> &Plan {
+        &self.plan
+    }
+
+    pub fn scene(&self) -> &Scene {
+        self.scene
+    }
+
+    pub fn outputs(&self) -> &[PathBuf] {
+        self.outputs
+    }
+
+    pub fn checkpoint(&self) -> Option<&Path> {
+        self.checkpoint
+    }
+
+    pub fn part(&self) -> Option<Part> {
+        self.part
+    }
+}
+
+/// The session's files, borrowed for a write: where they go and which are whole on disk.
+struct Files<'s> {
+    scene: &'s Scene,
+    outputs: &'s [PathBuf],
+    checkpoint: Option<&'s Path>,
+    part: Option<Part>,
+    saved: &'s mut Saved,
+    scene_hash: &'s str,
+    device: &'s str,
+    started: Instant,
+}
+
+impl Files<'_> {
+    /// Writes `film` with `layers` to every output, all or nothing, with the render's metadata, noting
+    /// them as written.
+    fn write_images(&mut self, film: &Film, layers: &Layers) -> Result<(), Error> {
+        let metadata = ImageMetadata {
+            scene: self.scene.display_name(),
+            scene_hash: self.scene_hash.to_string(),
+            spp: film.spp,
+            seed: self.scene.render.seed,
+            seconds: Some(self.started.elapsed().as_secs_f64()),
+            device: self.device.to_string(),
+        };
+        write_images(
+            self.outputs,
+            &ImageFile {
+                film,
+                settings: &self.scene.image,
+                metadata: Some(&metadata),
+                layers,
+            },
+        )?;
+        if !self.outputs.is_empty() {
+            self.saved.images = Some((self.outputs.to_vec(), film.spp));
+        }
+        Ok(())
+    }
+
+    /// Writes the renderer's state to the checkpoint file, when there is one, noting it as written.
+    fn save_checkpoint(&mut self, r: &mut Renderer) -> Result<(), Error> {
+        if let Some(path) = self.checkpoint {
+            let mut state = Checkpoint::of(r, self.scene)?;
+            state.header.part = self.part;
+            state.write(path)?;
+            self.saved.checkpoint = Some((path.to_path_buf(), r.samples_done()));
+        }
+        Ok(())
+    }
+}
+
+/// The layers for a render of `spp` samples per pixel: the variance from the render's own sums, the
+/// others each rendered by the kernel specialised for it with min(spp, AOV_MAX_SPP) samples.
+fn aov_layers(
+    ctx: &Arc<GpuContext>,
+    scene: &Scene,
+    options: &RenderOptions,
+    list: &[Aov],
+    spp: u32,
+) -> Result<Layers, Error> {
+    let mut layers = Layers {
+        variance: list.contains(&Aov::Variance),
+        ..Layers::default()
+    };
+    let spp = spp.clamp(1, AOV_MAX_SPP);
+    for aov in list {
+        let (code, slot) = match aov {
+            Aov::Albedo => (AOV_ALBEDO, &mut layers.albedo),
+            Aov::Normal => (AOV_NORMAL, &mut layers.normal),
+            Aov::Depth => (AOV_DEPTH, &mut layers.depth),
+            Aov::Variance => continue,
+        };
+        *slot = Some(render_aov(ctx, scene, options, code, spp)?);
+    }
+    Ok(layers)
+}
+
+/// Decides where the samples start: from the checkpoint resumed (which must be of this render, and, for
+/// a partial render, of the start of the same `--sample-range` or the same `--part`: anything else would
+/// render other samples), at the start of the range, or at 0. Puts the resumed state on the device, and
+/// warns when it was computed on another device.
+fn plan_samples(
+    renderer: &mut Renderer,
+    scene: &Scene,
+    range: Option<[u32; 2]>,
+    part: Option<Part>,
+    resumed: Option<(PathBuf, Checkpoint)>,
+) -> Result<Plan, Error> {
+    let target_spp = match range {
+        Some([a0, b0]) => b0 - a0,
+        None => scene.render.samples,
+    };
+    let mut warnings = Vec::new();
+    match (&resumed, range) {
+        (Some((path, c)), range) => {
+            c.check_identity(path, &renderer.identity())?;
+            let held = show_ranges(&c.header.ranges);
+            let first = c.header.ranges.first().map_or(0, |r| r[0]);
+            let refusal = match range {
+                Some(_) if part.is_some() && c.header.part != part => Some(format!(
+                    "this checkpoint is {}, not part {} of this render: resume each part from its own file.",
+                    c.header
+                        .part
+                        .map_or("not a part of a --part split".into(), |p| format!(
+                            "part {}",
+                            p.show()
+                        )),
+                    part.map_or(String::new(), |p| p.show())
+                )),
+                Some([a0, b0])
+                    if c.header.ranges.len() != 1 || first != a0 || c.next_sample() > b0 =>
+                {
+                    Some(format!(
+                        "this checkpoint holds the samples {held}, which is not the start of --sample-range {a0}..{b0}. Resume it with the --sample-range it was made with."
+                    ))
+                }
+                None if first != 0 => Some(format!(
+                    "this is a partial render of the samples {held}: resume it with its --sample-range {first}..B, or combine it with the other parts with `vkpath merge`."
+                )),
+                _ => None,
+            };
+            if let Some(message) = refusal {
+                return Err(Error::Checkpoint {
+                    path: path.clone(),
+                    message,
+                });
+            }
+            renderer.restore(&c.header.ranges, &c.accum)?;
+            let device = &renderer.context().device_info().name;
+            if &c.header.device != device {
+                warnings.push(format!(
+                    "the checkpoint was computed on {}, this render runs on {device}; the image is a valid estimate, but bit-for-bit equality with an uninterrupted render is promised only on the same device.",
+                    c.header.device
+                ));
+            }
+        }
+        (None, Some([a0, _])) => renderer.start_at(a0)?,
+        (None, None) => {}
+    }
+    // `resumed` (the whole state, as large as the accumulator) is freed here, before the passes.
+    Ok(Plan {
+        target_spp,
+        resumed_samples: renderer.samples_done(),
+        warnings,
+    })
+}
