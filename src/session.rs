@@ -107,21 +107,12 @@ impl Saved {
 
 /// One render in progress (see the module's documentation).
 pub struct Session<'a> {
-    scene: &'a Scene,
     options: &'a RenderOptions,
-    outputs: &'a [PathBuf],
-    checkpoint: Option<&'a Path>,
-    part: Option<Part>,
     aovs: &'a [Aov],
     budget: Budget,
     renderer: Renderer,
     plan: Plan,
-    saved: Saved,
-    /// For the images' metadata: the render's content hash, the device, and when this run's passes
-    /// started.
-    scene_hash: String,
-    device: String,
-    started: Instant,
+    files: Files<'a>,
 }
 
 impl<'a> Session<'a> {
@@ -147,11 +138,7 @@ impl<'a> Session<'a> {
             saved.checkpoint = Some((c.to_path_buf(), plan.resumed_samples));
         }
         Ok(Session {
-            scene: request.scene,
             options: request.options,
-            outputs: request.outputs,
-            checkpoint: request.checkpoint,
-            part: request.part,
             aovs: request.aovs,
             budget: Budget {
                 spp: plan.target_spp,
@@ -160,12 +147,18 @@ impl<'a> Session<'a> {
                 save_every: request.save_every,
                 target_error: request.target_error,
             },
-            scene_hash: renderer.identity().scene_hash,
-            device: ctx.device_info().name.clone(),
-            started: Instant::now(),
+            files: Files {
+                scene: request.scene,
+                outputs: request.outputs,
+                checkpoint: request.checkpoint,
+                part: request.part,
+                saved,
+                scene_hash: renderer.identity().scene_hash,
+                device: ctx.device_info().name.clone(),
+                started: Instant::now(),
+            },
             renderer,
             plan,
-            saved,
         })
     }
 
@@ -180,16 +173,7 @@ impl<'a> Session<'a> {
     ) -> Result<(StopReason, Duration), Error> {
         let target = self.budget.spp;
         let variance = self.aovs.contains(&Aov::Variance);
-        let mut files = Files {
-            scene: self.scene,
-            outputs: self.outputs,
-            checkpoint: self.checkpoint,
-            part: self.part,
-            saved: &mut self.saved,
-            scene_hash: &self.scene_hash,
-            device: &self.device,
-            started: self.started,
-        };
+        let files = &mut self.files;
         render_progressive(
             &mut self.renderer,
             self.options,
@@ -222,33 +206,23 @@ impl<'a> Session<'a> {
         if film.spp == 0 {
             return Ok(None);
         }
-        let mut files = Files {
-            scene: self.scene,
-            outputs: self.outputs,
-            checkpoint: self.checkpoint,
-            part: self.part,
-            saved: &mut self.saved,
-            scene_hash: &self.scene_hash,
-            device: &self.device,
-            started: self.started,
-        };
         // The checkpoint first: if an image cannot be written after all, the samples are kept.
-        files.save_checkpoint(&mut self.renderer)?;
+        self.files.save_checkpoint(&mut self.renderer)?;
         let layers = aov_layers(
             self.renderer.context(),
-            self.scene,
+            self.files.scene,
             self.options,
             self.aovs,
             film.spp,
         )?;
-        files.write_images(&film, &layers)?;
+        self.files.write_images(&film, &layers)?;
         Ok(Some(film))
     }
 
     /// One sentence per file still whole on disk (the last checkpoint, the last progress images), to
     /// append to the message of an error part-way.
     pub fn saved_hint(&self) -> String {
-        self.saved.hint()
+        self.files.saved.hint()
     }
 
     pub fn renderer(&self) -> &Renderer {
@@ -260,31 +234,35 @@ impl<'a> Session<'a> {
     }
 
     pub fn scene(&self) -> &Scene {
-        self.scene
+        self.files.scene
     }
 
     pub fn outputs(&self) -> &[PathBuf] {
-        self.outputs
+        self.files.outputs
     }
 
     pub fn checkpoint(&self) -> Option<&Path> {
-        self.checkpoint
+        self.files.checkpoint
     }
 
     pub fn part(&self) -> Option<Part> {
-        self.part
+        self.files.part
     }
 }
 
-/// The session's files, borrowed for a write: where they go and which are whole on disk.
-struct Files<'s> {
-    scene: &'s Scene,
-    outputs: &'s [PathBuf],
-    checkpoint: Option<&'s Path>,
+/// The session's files: where they go, what their metadata says, and which are whole on disk.
+struct Files<'a> {
+    /// The scene rendered: its display transform for the images, its name for checkpoints.
+    scene: &'a Scene,
+    outputs: &'a [PathBuf],
+    checkpoint: Option<&'a Path>,
+    /// `--part`: recorded in the checkpoint, so that `vkpath merge` knows the split.
     part: Option<Part>,
-    saved: &'s mut Saved,
-    scene_hash: &'s str,
-    device: &'s str,
+    saved: Saved,
+    /// For the images' metadata: the render's content hash, the device, and when this run's passes
+    /// started.
+    scene_hash: String,
+    device: String,
     started: Instant,
 }
 
@@ -294,11 +272,11 @@ impl Files<'_> {
     fn write_images(&mut self, film: &Film, layers: &Layers) -> Result<(), Error> {
         let metadata = ImageMetadata {
             scene: self.scene.display_name(),
-            scene_hash: self.scene_hash.to_string(),
+            scene_hash: self.scene_hash.clone(),
             spp: film.spp,
             seed: self.scene.render.seed,
             seconds: Some(self.started.elapsed().as_secs_f64()),
-            device: self.device.to_string(),
+            device: self.device.clone(),
         };
         write_images(
             self.outputs,
