@@ -2,8 +2,10 @@
 //! to an error, the error measures, the CSV, the knob settings), and the command itself on a tiny render,
 //! checking that the measured error falls as 1/√N and agrees with the film's own variance estimate.
 
+mod common;
+
+use common::cli::run;
 use std::path::Path;
-use std::process::Command;
 use vkpath::bench::convergence::{
     CSV_HEADER, Point, REL_MSE_EPSILON, checkpoints, image_errors, parse_settings, time_to_error,
     to_csv,
@@ -241,14 +243,6 @@ radius = 3.0
 power  = 40000.0
 "#;
 
-fn vkpath(dir: &Path, args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_vkpath"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("the vkpath binary runs")
-}
-
 fn csv_rows(path: &Path) -> Vec<Vec<String>> {
     let text = std::fs::read_to_string(path).unwrap();
     let mut lines = text.lines();
@@ -262,7 +256,7 @@ fn csv_rows(path: &Path) -> Vec<Vec<String>> {
 fn cli_writes_the_curves_and_the_error_falls_as_one_over_sqrt_n() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("tiny.toml"), SCENE).unwrap();
-    let out = vkpath(
+    let out = run(
         dir.path(),
         &[
             "bench",
@@ -354,7 +348,7 @@ fn cli_writes_the_curves_and_the_error_falls_as_one_over_sqrt_n() {
     }
 
     // Reusing the reference: no new reference is rendered.
-    let out = vkpath(
+    let out = run(
         dir.path(),
         &[
             "bench",
@@ -391,7 +385,7 @@ fn cli_writes_the_curves_and_the_error_falls_as_one_over_sqrt_n() {
     assert_eq!(rows2[1][6], rows[1][6]);
 
     // A reference of another size is refused with exit 2, naming the file and the sizes.
-    let out = vkpath(
+    let out = run(
         dir.path(),
         &[
             "bench",

@@ -1,8 +1,9 @@
 //! `vkpath bench throughput` on a directory of two tiny scenes: one row per scene in name order, the
 //! median between the min and the max, JSON rows that say the same, and exit 2 for bad flags.
 
-use std::path::Path;
-use std::process::Command;
+mod common;
+
+use common::cli::run;
 
 const SCENE: &str = r#"[camera]
 position = [0.0, 0.0, 30.0]
@@ -31,14 +32,6 @@ position = [10.0, 30.0, 30.0]
 power    = 40000.0
 "#;
 
-fn vkpath(dir: &Path, args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_vkpath"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("the vkpath binary runs")
-}
-
 #[test]
 fn throughput_table_and_json() {
     let dir = tempfile::tempdir().unwrap();
@@ -59,7 +52,7 @@ fn throughput_table_and_json() {
         "--runs",
         "3",
     ];
-    let out = vkpath(dir.path(), &args);
+    let out = run(dir.path(), &args);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -83,7 +76,7 @@ fn throughput_table_and_json() {
 
     let mut json_args = args.to_vec();
     json_args.push("--json");
-    let out = vkpath(dir.path(), &json_args);
+    let out = run(dir.path(), &json_args);
     assert!(out.status.success());
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let rows = v["rows"].as_array().unwrap();
@@ -96,12 +89,12 @@ fn throughput_table_and_json() {
         assert_eq!(r["spp"], 2);
     }
 
-    let out = vkpath(dir.path(), &["bench", "throughput", "--runs", "0"]);
+    let out = run(dir.path(), &["bench", "throughput", "--runs", "0"]);
     assert_eq!(out.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("--runs"), "{stderr}");
     let empty = tempfile::tempdir().unwrap();
     std::fs::create_dir(empty.path().join("scenes")).unwrap();
-    let out = vkpath(empty.path(), &["bench", "throughput"]);
+    let out = run(empty.path(), &["bench", "throughput"]);
     assert_eq!(out.status.code(), Some(2));
 }

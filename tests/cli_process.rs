@@ -1,25 +1,21 @@
 //! The command line as a process: interruption (SIGINT) and a machine without a Vulkan driver.
 
+mod common;
+
+use common::cli::vkpath;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn vkpath() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_vkpath"));
-    c.env("VKPATH_VALIDATION", "1");
-    c
-}
 
 /// Ctrl-C ends the render after the pass in flight and writes the outputs with the samples done so far:
 /// exit 0, a valid image, `spp` between 1 and the requested count, stop_reason "interrupted".
 #[test]
 fn sigint_writes_the_samples_done_so_far() {
     let dir = tempfile::tempdir().unwrap();
-    let child = vkpath()
+    let child = vkpath(dir.path())
         .args([
             "render", "--width", "64", "--height", "64", "--spp", "1000000", "--json", "-o",
             "out.png", "-o", "out.exr",
         ])
-        .current_dir(dir.path())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -69,12 +65,11 @@ fn sigint_writes_the_samples_done_so_far() {
 fn no_vulkan_device_is_explained() {
     let dir = tempfile::tempdir().unwrap();
     for args in [vec!["render", "--spp", "1", "-o", "x.png"], vec!["info"]] {
-        let out = vkpath()
+        let out = vkpath(dir.path())
             .env_remove("VKPATH_VALIDATION")
             .env("VK_ICD_FILENAMES", "/nonexistent/vkpath-test-icd.json")
             .env("VK_DRIVER_FILES", "/nonexistent/vkpath-test-icd.json")
             .args(&args)
-            .current_dir(dir.path())
             .output()
             .unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);

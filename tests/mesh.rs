@@ -9,18 +9,13 @@
 
 mod common;
 
+use common::cli::{run, write};
 use glam::Vec3;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use vkpath::kernel::features::FeatureSet;
 use vkpath::kernel::upload::{GpuScene, params_for};
 use vkpath::render::{LAVAPIPE_LOOP_BUDGET, RenderOptions, worst_case_loop_iterations};
 use vkpath::scene::{Scene, SceneError, shapes};
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let path = dir.join(name);
-    std::fs::write(&path, text).unwrap();
-    path
-}
 
 fn load(dir: &Path, toml: &str) -> Scene {
     let path = write(dir, "scene.toml", toml);
@@ -572,11 +567,7 @@ fn a_bad_obj_exits_with_status_2() {
         "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n[materials]\n\
          white = { type = \"diffuse\", albedo = [0.8, 0.8, 0.8] }\n[[mesh]]\nobj = \"bad.obj\"\nmaterial = \"white\"\n",
     );
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vkpath"))
-        .current_dir(dir.path())
-        .args(["render", "bad.toml", "--spp", "1"])
-        .output()
-        .unwrap();
+    let out = run(dir.path(), &["render", "bad.toml", "--spp", "1"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
     for w in ["bad.toml", "line 8", "mesh[0].obj", "bad.obj, line 4"] {

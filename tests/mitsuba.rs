@@ -4,10 +4,11 @@
 
 mod common;
 
+use common::cli::{run, write};
 use glam::Vec3;
 use proptest::prelude::*;
 use std::f32::consts::PI;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use vkpath::Scene;
 use vkpath::scene::mitsuba::{self, INFINITE_DEPTH_BOUNCES};
 use vkpath::scene::{Bsdf, ConductorFresnel, Filter, Light, Projection, Roughness, Sampler};
@@ -23,12 +24,6 @@ const SENSOR: &str = r#"
             <rfilter type="box"/>
         </film>
     </sensor>"#;
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 /// `<scene>` around `body` (with the shared sensor unless the body has its own).
 fn scene_xml(body: &str) -> String {
@@ -964,15 +959,15 @@ fn convert_writes_the_toml_of_an_xml_scene() {
     );
     std::fs::create_dir(dir.path().join("out")).unwrap();
     let out = dir.path().join("out/scene.toml");
-    let status = std::process::Command::new(env!("CARGO_BIN_EXE_vkpath"))
-        .args([
+    let status = run(
+        dir.path(),
+        &[
             "convert",
             xml.to_str().unwrap(),
             "-o",
             out.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+        ],
+    );
     assert!(
         status.status.success(),
         "{}",
@@ -992,27 +987,27 @@ fn convert_writes_the_toml_of_an_xml_scene() {
         &scene_xml("<shape type=\"cylinder\"/>"),
     );
     let out2 = dir.path().join("out/bad.toml");
-    let r = std::process::Command::new(env!("CARGO_BIN_EXE_vkpath"))
-        .args([
+    let r = run(
+        dir.path(),
+        &[
             "convert",
             bad.to_str().unwrap(),
             "-o",
             out2.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+        ],
+    );
     assert_eq!(r.status.code(), Some(2));
     assert!(!out2.exists());
-    let r = std::process::Command::new(env!("CARGO_BIN_EXE_vkpath"))
-        .args([
+    let r = run(
+        dir.path(),
+        &[
             "convert",
             bad.to_str().unwrap(),
             "--xml-lenient",
             "-o",
             out2.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+        ],
+    );
     assert!(r.status.success());
     assert!(String::from_utf8_lossy(&r.stderr).contains("cylinder"));
 }

@@ -5,8 +5,10 @@
 //! ray through the pixel's centre and each layer can be computed in f64 here: a diffuse ball of radius 2
 //! at (1, 0.5, 0) in front of a diffuse wall at z = -3, seen from the plane z = 10 looking down -z.
 
+mod common;
+
+use common::cli::{run, run_ok};
 use std::path::Path;
-use std::process::{Command, Output};
 
 const SCENE: &str = r#"
 [camera]
@@ -50,25 +52,6 @@ power = 2000.0
 
 const W: usize = 32;
 const H: usize = 24;
-
-fn vkpath(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_vkpath"))
-        .env("VKPATH_VALIDATION", "1")
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("run vkpath")
-}
-
-#[track_caller]
-fn ok(out: &Output) {
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
 
 /// Every f32 channel of the EXR's first layer, by name.
 fn exr_channels(path: &Path) -> (Vec<(String, Vec<f32>)>, exr::meta::header::LayerAttributes) {
@@ -129,7 +112,7 @@ fn aov_layers_hold_the_analytic_values() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("aov.toml"), SCENE).unwrap();
-    let out = vkpath(
+    run_ok(
         d,
         &[
             "render",
@@ -143,7 +126,6 @@ fn aov_layers_hold_the_analytic_values() {
             "c.ckpt",
         ],
     );
-    ok(&out);
     let (channels, _) = exr_channels(&d.join("out.exr"));
     let names: Vec<&str> = channels.iter().map(|(n, _)| n.as_str()).collect();
     assert_eq!(
@@ -256,7 +238,7 @@ material = "wall"
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("m.toml"), scene).unwrap();
-    ok(&vkpath(
+    run_ok(
         d,
         &[
             "render",
@@ -267,10 +249,10 @@ material = "wall"
             "--aov",
             "albedo,normal,depth",
         ],
-    ));
+    );
     let (channels, _) = exr_channels(&d.join("m.exr"));
     // The generic kernel (reading the layer from its parameters) traces the same layers, bit for bit.
-    ok(&vkpath(
+    run_ok(
         d,
         &[
             "render",
@@ -282,7 +264,7 @@ material = "wall"
             "--aov",
             "albedo,normal,depth",
         ],
-    ));
+    );
     let (generic, _) = exr_channels(&d.join("g.exr"));
     for ((n, a), (m, b)) in channels.iter().zip(&generic) {
         assert_eq!(n, m);
@@ -335,7 +317,7 @@ fn images_carry_their_metadata_and_transfer_curve() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("aov.toml"), SCENE).unwrap();
-    ok(&vkpath(
+    run_ok(
         d,
         &[
             "render",
@@ -352,7 +334,7 @@ fn images_carry_their_metadata_and_transfer_curve() {
             "--checkpoint",
             "a.ckpt",
         ],
-    ));
+    );
     let hash = vkpath::checkpoint::Checkpoint::read(&d.join("a.ckpt"))
         .unwrap()
         .header
@@ -395,12 +377,12 @@ fn images_carry_their_metadata_and_transfer_curve() {
     assert!(chunks["vkpath:seconds"].parse::<f64>().unwrap() > 0.0);
 
     // The default gamma, a power of 2.2: a gAMA chunk of 1/2.2 and no sRGB chunk.
-    ok(&vkpath(
+    run_ok(
         d,
         &[
             "render", "--quiet", "--spp", "1", "--width", "8", "--height", "8", "-o", "g.png",
         ],
-    ));
+    );
     let reader = png::Decoder::new(std::io::BufReader::new(
         std::fs::File::open(d.join("g.png")).unwrap(),
     ))
@@ -419,13 +401,13 @@ fn compare_and_aov_flag_errors() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let render = |out: &str, seed: &str| {
-        ok(&vkpath(
+        run_ok(
             d,
             &[
                 "render", "--quiet", "--spp", "2", "--width", "16", "--height", "12", "--seed",
                 seed, "-o", out,
             ],
-        ))
+        );
     };
     render("a.exr", "1");
     render("b.exr", "1");
@@ -435,22 +417,22 @@ fn compare_and_aov_flag_errors() {
         std::fs::read(d.join("b.exr")).unwrap(),
         "the files differ (their seconds): the comparison must look at the pixels"
     );
-    let same = vkpath(d, &["compare", "a.exr", "b.exr"]);
+    let same = run(d, &["compare", "a.exr", "b.exr"]);
     assert_eq!(same.status.code(), Some(0));
     assert!(String::from_utf8_lossy(&same.stdout).contains("the same pixels"));
-    let differ = vkpath(d, &["compare", "--json", "a.exr", "c.exr"]);
+    let differ = run(d, &["compare", "--json", "a.exr", "c.exr"]);
     assert_eq!(differ.status.code(), Some(1));
     let j: serde_json::Value = serde_json::from_slice(&differ.stdout).unwrap();
     assert_eq!(j["identical"], false);
     assert!(j["differing_values"].as_u64().unwrap() > 0);
-    ok(&vkpath(
+    run_ok(
         d,
         &[
             "render", "--quiet", "--spp", "1", "--width", "8", "--height", "8", "-o", "s.exr",
         ],
-    ));
+    );
     assert_eq!(
-        vkpath(d, &["compare", "a.exr", "s.exr"]).status.code(),
+        run(d, &["compare", "a.exr", "s.exr"]).status.code(),
         Some(2)
     );
     for (args, word) in [
@@ -458,7 +440,7 @@ fn compare_and_aov_flag_errors() {
         (&["--aov", "depth,depth", "-o", "x.exr"][..], "twice"),
         (&["--aov", "albedo", "-o", "x.png"][..], "-o OUT.exr"),
     ] {
-        let out = vkpath(d, &[&["render", "--spp", "1"][..], args].concat());
+        let out = run(d, &[&["render", "--spp", "1"][..], args].concat());
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
         assert!(

@@ -5,45 +5,15 @@
 //! Renders are tiny (32x24, the embedded course scene) so that every test stays within a few seconds on
 //! lavapipe; the Khronos validation layer is on (`VKPATH_VALIDATION=1`).
 
+mod common;
+
+use common::cli::{run, run_ok, vkpath};
 use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 use vkpath::checkpoint::Checkpoint;
 
 const SIZE: [&str; 4] = ["--width", "32", "--height", "24"];
-
-fn vkpath(dir: &Path) -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_vkpath"));
-    c.env("VKPATH_VALIDATION", "1").current_dir(dir);
-    // `--part env` reads these: a test run inside a Slurm or Kubernetes job must not see its own.
-    for v in [
-        "SLURM_ARRAY_TASK_ID",
-        "SLURM_ARRAY_TASK_COUNT",
-        "SLURM_ARRAY_TASK_MIN",
-        "SLURM_ARRAY_TASK_MAX",
-        "JOB_COMPLETION_INDEX",
-    ] {
-        c.env_remove(v);
-    }
-    c
-}
-
-#[track_caller]
-fn run(dir: &Path, args: &[&str]) -> Output {
-    vkpath(dir).args(args).output().expect("run vkpath")
-}
-
-#[track_caller]
-fn run_ok(dir: &Path, args: &[&str]) -> Output {
-    let out = run(dir, args);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "vkpath {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    out
-}
 
 /// The command fails with `code`, one paragraph on stderr that contains every word of `words`.
 #[track_caller]

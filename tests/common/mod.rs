@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod bsdf;
+pub mod cli;
 pub mod envmap;
 pub mod stats;
 pub mod vec;
