@@ -1118,3 +1118,45 @@ fn conductor_specular_reflectance_is_the_tint() {
         }
     );
 }
+
+/// Mitsuba's `roughdiffuse` with `use_fast_approx` (Oren and Nayar's qualitative model) is vkpath's
+/// `rough_diffuse`, with roughness sqrt(alpha); without it (Mitsuba's default, the full model) it is an
+/// approximation, refused unless lenient.
+#[test]
+fn roughdiffuse_is_the_rough_diffuse_material() {
+    let s = load(
+        r#"<shape type="sphere"><bsdf type="roughdiffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/>
+             <float name="alpha" value="0.36"/><boolean name="use_fast_approx" value="true"/></bsdf></shape>"#,
+    );
+    let Bsdf::Registered {
+        kind,
+        albedo,
+        roughness,
+    } = s.materials[s.spheres[0].material as usize].bsdf
+    else {
+        panic!("{:?}", s.materials[0].bsdf)
+    };
+    assert_eq!(kind, vkpath::scene::bsdfs::kind("rough_diffuse"));
+    assert_close(albedo, Vec3::new(0.6, 0.5, 0.4));
+    assert!(
+        (roughness.u - 0.6).abs() < 1e-6 && roughness.u == roughness.v,
+        "{roughness:?}"
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    let body = r#"<shape type="sphere"><bsdf type="roughdiffuse"/></shape>"#;
+    let e = error_in(dir.path(), body);
+    assert!(
+        e.contains("use_fast_approx") && e.contains("--xml-lenient"),
+        "{e}"
+    );
+    let p = write(dir.path(), "scene.xml", &scene_xml(body));
+    let s = Scene::load_with_options(&p, None, true).unwrap();
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    let Bsdf::Registered { roughness, .. } = s.materials[s.spheres[0].material as usize].bsdf
+    else {
+        panic!("{:?}", s.materials[0].bsdf)
+    };
+    // Mitsuba's default alpha, 0.2.
+    assert!((roughness.u - 0.2f32.sqrt()).abs() < 1e-6, "{roughness:?}");
+}

@@ -1,4 +1,4 @@
-//! BSDFs as vkpath materials: each BSDF's keys (diffuse, conductors, dielectrics, plastics, twosided),
+//! BSDFs as vkpath materials: each BSDF's keys (diffuse, rough diffuse, conductors, dielectrics, plastics, twosided),
 //! its roughness and indices of refraction, and the `[materials]` table, one material per (BSDF,
 //! emission) that shapes share.
 
@@ -103,8 +103,10 @@ impl Tr<'_> {
                     )),
                 };
             }
-            "diffuse" => {
-                lines.push(at("type = \"diffuse\"".into()));
+            "diffuse" | "roughdiffuse" => {
+                let rough = kind == "roughdiffuse";
+                let vkpath_type = if rough { "rough_diffuse" } else { "diffuse" };
+                lines.push(at(format!("type = \"{vkpath_type}\"")));
                 match self.color_tex(&args, "reflectance", DVec3::splat(0.5))? {
                     ColorTex::Color(c) => lines.push(at(format!("albedo = {}", vec3(c)))),
                     ColorTex::Bitmap(p, l) => {
@@ -114,7 +116,33 @@ impl Tr<'_> {
                         texture = Some((p, l));
                     }
                 }
-                self.finish(&args, &["reflectance"])?;
+                if rough {
+                    // Mitsuba's alpha is the RMS slope of the facets (default 0.2); vkpath's roughness
+                    // r has r^2 = alpha (rough_diffuse.wgsl).
+                    let (alpha, loc) = args
+                        .float("alpha")?
+                        .map_or((0.2, &obj.loc), |(a, l)| (a, l));
+                    if !(0.0..=1.0).contains(&alpha) {
+                        return Err(loc.error(
+                            format!(
+                                "alpha = {alpha}: vkpath's roughness sqrt(alpha) must be in [0, 1]"
+                            ),
+                            "Give alpha in [0, 1].",
+                        ));
+                    }
+                    lines.push(at(format!("roughness = {}", num(alpha.sqrt()))));
+                    match args.boolean("use_fast_approx")? {
+                        Some((true, _)) => {}
+                        _ => self.approximate(
+                            &obj.loc,
+                            "roughdiffuse without use_fast_approx: Mitsuba's default is Oren and Nayar's full model, vkpath's rough_diffuse their qualitative one".into(),
+                            "Add <boolean name=\"use_fast_approx\" value=\"true\"/> to read it as that model.",
+                        )?,
+                    }
+                    self.finish(&args, &["reflectance", "alpha", "use_fast_approx"])?;
+                } else {
+                    self.finish(&args, &["reflectance"])?;
+                }
             }
             "conductor" | "roughconductor" => {
                 let material = args.string("material")?;
@@ -301,7 +329,7 @@ impl Tr<'_> {
             _ => {
                 self.unsupported(
                     obj,
-                    "diffuse, conductor, roughconductor, dielectric, roughdielectric, plastic, roughplastic and twosided",
+                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, plastic, roughplastic and twosided",
                 )?;
                 return Ok(None);
             }
