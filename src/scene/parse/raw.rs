@@ -77,9 +77,11 @@ pub(super) struct RawRender {
     pub(super) clamp: Option<Spanned<f32>>,
 }
 
-/// One flat struct for every material type rather than a serde-tagged enum: a tagged enum buffers its
-/// content, which loses the spans, and its "unknown variant" error would point at the whole material
-/// rather than at `type`. Which keys a type allows is checked by hand in `Checker::material`.
+/// One flat struct for every material type rather than a serde-tagged enum (one serde type per kind): a
+/// tagged enum buffers its content, which loses the spans (toml's `Spanned` inside an internally tagged
+/// enum fails to deserialize at all: toml-rs/toml#535), and its "unknown variant" error would point at
+/// the whole material rather than at `type`. Which keys a type allows is checked by hand in
+/// `Checker::material`; the registry's kinds (`bsdfs::Keys::Params`) list their keys in their row.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawMaterial {
