@@ -86,6 +86,9 @@ fn throughput_table_and_json() {
         let lo = r["min_samples_per_second"].as_f64().unwrap();
         let hi = r["max_samples_per_second"].as_f64().unwrap();
         assert!(lo > 0.0 && lo <= m && m <= hi, "{r}");
+        // lavapipe runs the passes on this process's threads: they take CPU time.
+        let cpu = r["min_cpu_seconds_per_msample"].as_f64().unwrap();
+        assert!(cpu > 0.0 && cpu.is_finite(), "{r}");
         assert_eq!(r["spp"], 2);
     }
 

@@ -37,12 +37,40 @@ pub fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// Seconds of each of `settings.runs` timed passes of `settings.spp` samples per pixel, per renderer,
-/// after one untimed warm-up pass each, interleaved across the renderers.
+/// One timed pass: its wall-clock seconds, and the CPU seconds the whole process spent meanwhile (user
+/// and system, all threads; `None` where getrusage is not available). On a CPU driver such as lavapipe
+/// the CPU time is the work the pass took: unlike the wall clock it does not grow when other programs
+/// share the cores, so it compares two builds on a busy machine.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PassTime {
+    pub wall: f64,
+    pub cpu: Option<f64>,
+}
+
+/// The CPU seconds (user + system, every thread) this process has used so far.
+pub fn process_cpu_seconds() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        // SAFETY: getrusage writes a plain struct we own; RUSAGE_SELF is always a valid target.
+        let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+        if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
+            return None;
+        }
+        let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+        Some(seconds(usage.ru_utime) + seconds(usage.ru_stime))
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
+}
+
+/// Each of `settings.runs` timed passes of `settings.spp` samples per pixel, per renderer, after one
+/// untimed warm-up pass each, interleaved across the renderers.
 pub fn pass_times(
     renderers: &mut [Renderer],
     settings: BenchSettings,
-) -> Result<Vec<Vec<f64>>, Error> {
+) -> Result<Vec<Vec<PassTime>>, Error> {
     let mut times = vec![Vec::new(); renderers.len()];
     // One untimed pass each: the driver may finish compiling on first use.
     for r in renderers.iter_mut() {
@@ -54,9 +82,12 @@ pub fn pass_times(
             let i = (k + run as usize) % renderers.len();
             let r = &mut renderers[i];
             r.reset()?;
+            let cpu0 = process_cpu_seconds();
             let t0 = Instant::now();
             r.run_pass(settings.spp)?;
-            times[i].push(t0.elapsed().as_secs_f64());
+            let wall = t0.elapsed().as_secs_f64();
+            let cpu = process_cpu_seconds().zip(cpu0).map(|(b, a)| b - a);
+            times[i].push(PassTime { wall, cpu });
         }
     }
     Ok(times)

@@ -156,7 +156,10 @@ pub fn ablation(
 fn time_renderers(renderers: &mut [Renderer], settings: BenchSettings) -> Result<Vec<f64>, Error> {
     let samples = settings.width as f64 * settings.height as f64 * settings.spp as f64;
     let times = pass_times(renderers, settings)?;
-    Ok(times.into_iter().map(|t| samples / median(t)).collect())
+    Ok(times
+        .into_iter()
+        .map(|t| samples / median(t.iter().map(|p| p.wall).collect()))
+        .collect())
 }
 
 /// The ablation as a Markdown table.

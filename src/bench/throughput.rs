@@ -1,5 +1,8 @@
 //! `vkpath bench throughput`: samples per second of each scene at fixed settings (image size, samples per
-//! pixel per timed pass), the median, min and max over several timed passes.
+//! pixel per timed pass), the median, min and max over several timed passes, and the process's CPU
+//! seconds per million samples of its least disturbed pass: on a CPU driver (lavapipe) the work a
+//! sample takes, which compares two builds even on a machine whose other tenants make the wall clock
+//! vary by tens of percent from one minute to the next.
 
 use super::{BenchSettings, median, pass_times};
 use crate::gpu::GpuContext;
@@ -17,6 +20,9 @@ pub struct ThroughputRow {
     pub median_samples_per_second: f64,
     pub min_samples_per_second: f64,
     pub max_samples_per_second: f64,
+    /// The fewest CPU seconds (user + system, all threads of the process) per million samples of any
+    /// timed pass; `None` where the platform does not report CPU time.
+    pub min_cpu_seconds_per_msample: Option<f64>,
 }
 
 /// Times `settings.runs` passes of `settings.spp` samples per pixel of each scene (at
@@ -38,7 +44,11 @@ pub fn throughput(
             .pop()
             .unwrap_or_default();
         // The fastest pass is the highest rate: min and max swap going from seconds to samples/s.
-        let rates: Vec<f64> = times.iter().map(|t| samples / t.max(1e-12)).collect();
+        let rates: Vec<f64> = times.iter().map(|t| samples / t.wall.max(1e-12)).collect();
+        let cpu: Option<Vec<f64>> = times.iter().map(|t| t.cpu).collect();
+        let min_cpu = cpu
+            .filter(|c| !c.is_empty())
+            .map(|c| c.into_iter().fold(f64::INFINITY, f64::min) / (samples / 1e6));
         rows.push(ThroughputRow {
             scene: path
                 .file_name()
@@ -48,6 +58,7 @@ pub fn throughput(
             median_samples_per_second: median(rates.clone()),
             min_samples_per_second: rates.iter().copied().fold(f64::INFINITY, f64::min),
             max_samples_per_second: rates.iter().copied().fold(0.0, f64::max),
+            min_cpu_seconds_per_msample: min_cpu,
         });
     }
     Ok(rows)
@@ -57,18 +68,21 @@ pub fn throughput(
 pub fn throughput_table(rows: &[ThroughputRow], settings: BenchSettings, device: &str) -> String {
     let mut out = format!(
         "Throughput, {}x{}, {} spp per timed pass, {} runs, on {device}.\n\n\
-         | scene | spp | Msamples/s median | min | max |\n| --- | ---: | ---: | ---: | ---: |\n",
+         | scene | spp | Msamples/s median | min | max | CPU s/Msample (min) |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: |\n",
         settings.width, settings.height, settings.spp, settings.runs
     );
     for r in rows {
         let _ = writeln!(
             out,
-            "| {} | {} | {:.3} | {:.3} | {:.3} |",
+            "| {} | {} | {:.3} | {:.3} | {:.3} | {} |",
             r.scene,
             r.spp,
             r.median_samples_per_second / 1e6,
             r.min_samples_per_second / 1e6,
-            r.max_samples_per_second / 1e6
+            r.max_samples_per_second / 1e6,
+            r.min_cpu_seconds_per_msample
+                .map_or("-".into(), |c| format!("{c:.4}"))
         );
     }
     out
