@@ -99,14 +99,11 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
     }
 }
 
-// The cosine factor of direct light arriving along wi: dot(n, wi), or with a shading normal dot(ns, wi)
-// provided the light is above the geometric surface too (a shadow ray towards a light below it would
-// start on the far side).
 // A hit seen along d: the geometric normal turned to the side d came from (both faces scatter) and the
 // frame its material is shaded in (Shading, bsdfs/common.wgsl). Smooth, normal- and bump-mapped
 // surfaces scatter about their shading normal ns (on the same side as n); everything else about n. A
 // direction chosen about ns can still point below the geometric surface near a silhouette; such a path
-// ends there (absorbed: trace_path), rather than leaking through the mesh. That loses a little energy at
+// ends there (absorbed: path_step), rather than leaking through the mesh. That loses a little energy at
 // grazing angles, the usual price of shading normals (pbrt-v4 §10.1). The tangent is the direction
 // anisotropic roughness runs along (zero, and not computed, without anisotropy).
 struct Facing {
@@ -128,6 +125,9 @@ fn facing(sp: Surface, d: vec3<f32>, hit: Hit) -> Facing {
     return Facing(n, sh);
 }
 
+// The cosine factor of direct light arriving along wi: dot(n, wi), or with a shading normal dot(ns, wi)
+// provided the light is above the geometric surface too (a shadow ray towards a light below it would
+// start on the far side).
 fn light_cosine(sp: Surface, n: vec3<f32>, ns: vec3<f32>, wi: vec3<f32>) -> f32 {
     var cos_theta = dot(n, wi);
     if HAS_SMOOTH_NORMALS || HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
@@ -360,8 +360,6 @@ fn path_step(path: ptr<function, Path>) -> bool {
     }
     (*path).bounces += 1u;
     let sp = surface_at(o, d, hit);
-    // A ray exactly tangent to the surface (d.n = 0, reachable only through rounding) scatters nothing:
-    // every unperturbed shading frame then has wo.ns > 0 (Shading, bsdfs/common.wgsl).
     let on_sphere = select(NO_LIGHT, hit.prim_index, hit.prim_kind == PRIM_SPHERE);
     let f = facing(sp, d, hit);
     let n = f.n;
