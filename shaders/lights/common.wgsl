@@ -1,5 +1,6 @@
-// lights/common.wgsl: what every light kind shares, behind one interface the integrator calls (after pbrt-v4's
-// Light::SampleLi / PDF_Li / L; Pharr, Jakob & Humphreys, "Physically Based Rendering", 4th ed., §12.1).
+// lights/common.wgsl: what every light kind shares, behind one interface the integrator calls (after
+// pbrt-v4's Light::SampleLi / PDF_Li / L; Pharr, Jakob & Humphreys, "Physically Based Rendering", 4th
+// ed., §12.1).
 //
 // requires: features.wgsl, light_kinds.wgsl, sampling.wgsl, rng.wgsl, intersect.wgsl, bsdf.wgsl
 //

@@ -24,7 +24,7 @@ fn directional_light_covers(light: Light, w: vec3<f32>) -> bool {
     return light.radius > 0.0 && 0.5 * dot(delta, delta) <= light.radius;
 }
 
-// --- The interface (lights/common.wgsl) ---------------------------------------------------------------------
+// --- The interface (lights/common.wgsl) -----------------------------------------------------------
 
 fn directional_light_sample_li(light: Light, p: vec3<f32>, strategy: u32,
                                rng: ptr<function, Rng>) -> LightLiSample {

@@ -161,7 +161,7 @@ fn environment_sample(light: Light, strategy: u32, u: vec2<f32>) -> LightLiSampl
     return ls;
 }
 
-// --- The interface (lights/common.wgsl) ---------------------------------------------------------------------
+// --- The interface (lights/common.wgsl) -----------------------------------------------------------
 
 fn environment_light_sample_li(light: Light, p: vec3<f32>, strategy: u32,
                                rng: ptr<function, Rng>) -> LightLiSample {

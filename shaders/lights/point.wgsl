@@ -15,9 +15,10 @@ fn point_light_sample(light: Light, p: vec3<f32>) -> LightLiSample {
     return LightLiSample(light.intensity / d2, to_light / dist, 1.0, light.position, dist, true, NO_LIGHT);
 }
 
-// --- The interface (lights/common.wgsl) ---------------------------------------------------------------------
+// --- The interface (lights/common.wgsl) -----------------------------------------------------------
 
-fn point_light_sample_li(light: Light, p: vec3<f32>, strategy: u32, rng: ptr<function, Rng>) -> LightLiSample {
+fn point_light_sample_li(light: Light, p: vec3<f32>, strategy: u32,
+                         rng: ptr<function, Rng>) -> LightLiSample {
     return point_light_sample(light, p);
 }
 

@@ -148,11 +148,12 @@ fn sphere_light_pdf(light: Light, p: vec3<f32>, wi: vec3<f32>, strategy: u32) ->
     return pdf;
 }
 
-// --- The interface (lights/common.wgsl) ---------------------------------------------------------------------
+// --- The interface (lights/common.wgsl) -----------------------------------------------------------
 
 // The two numbers are drawn whatever the strategy ("none" included), so that the numbers drawn after them
 // are at the same dimensions in every variant.
-fn sphere_light_sample_li(light: Light, p: vec3<f32>, strategy: u32, rng: ptr<function, Rng>) -> LightLiSample {
+fn sphere_light_sample_li(light: Light, p: vec3<f32>, strategy: u32,
+                          rng: ptr<function, Rng>) -> LightLiSample {
     let u = rng_next2(rng);
     return sphere_light_sample(light, p, strategy, u);
 }

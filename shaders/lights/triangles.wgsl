@@ -136,7 +136,7 @@ fn triangle_lights_sample(light: Light, p: vec3<f32>, strategy: u32,
     return ls;
 }
 
-// --- The interface (lights/common.wgsl) ---------------------------------------------------------------------
+// --- The interface (lights/common.wgsl) -----------------------------------------------------------
 
 fn triangles_light_sample_li(light: Light, p: vec3<f32>, strategy: u32,
                              rng: ptr<function, Rng>) -> LightLiSample {
