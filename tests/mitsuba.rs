@@ -1160,3 +1160,85 @@ fn roughdiffuse_is_the_rough_diffuse_material() {
     // Mitsuba's default alpha, 0.2.
     assert!((roughness.u - 0.2f32.sqrt()).abs() < 1e-6, "{roughness:?}");
 }
+
+/// Issue 31's recursion defects: deep nesting (written out, or through includes) and BSDFs that hold
+/// themselves through `<ref>` are refused with the file and line (exit 2 from the binary) instead of
+/// overflowing the stack; before, each of these aborted the process.
+#[test]
+fn deep_nesting_and_reference_cycles_are_refused_not_overflowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        // 20 000 nested unknown elements (roxmltree's own tokenizer recurses per level).
+        (
+            format!("{}{}", "<foo>".repeat(20_000), "</foo>".repeat(20_000)),
+            "nested more than 100 deep",
+        ),
+        // 5 000 nested twosided BSDFs.
+        (
+            format!(
+                "<shape type=\"sphere\">{}<bsdf type=\"diffuse\"/>{}</shape>",
+                "<bsdf type=\"twosided\">".repeat(5_000),
+                "</bsdf>".repeat(5_000)
+            ),
+            "nested more than 100 deep",
+        ),
+        // A BSDF that refers to itself, and two that refer to each other.
+        (
+            r#"<bsdf type="twosided" id="a"><ref id="a"/></bsdf><shape type="sphere"><ref id="a"/></shape>"#
+                .to_string(),
+            "reference cycle",
+        ),
+        (
+            r#"<bsdf type="twosided" id="a"><ref id="b"/></bsdf>
+               <bsdf type="twosided" id="b"><ref id="a"/></bsdf><shape type="sphere"><ref id="a"/></shape>"#
+                .to_string(),
+            "reference cycle",
+        ),
+        // A chain of 150 BSDFs, each a twosided around the next by reference: flat text, deep walk.
+        (
+            (0..150)
+                .map(|i| format!("<bsdf type=\"twosided\" id=\"b{i}\"><ref id=\"b{}\"/></bsdf>\n", i + 1))
+                .collect::<String>()
+                + "<bsdf type=\"diffuse\" id=\"b150\"/><shape type=\"sphere\"><ref id=\"b0\"/></shape>",
+            "nested more than 100 deep through <ref>s",
+        ),
+    ];
+    for (body, want) in &cases {
+        let e = error_in(dir.path(), body);
+        assert!(e.contains(want) && e.contains("scene.xml, line"), "{e}");
+    }
+    // Deep only together: main.xml includes a.xml, which includes b.xml, whose 100 levels (a shape, 97
+    // nested twosided BSDFs and a diffuse one, under its <scene>) pass the text check; the walk counts
+    // the two include elements too.
+    let b = format!(
+        "<scene version=\"3.0.0\"><shape type=\"sphere\">{}<bsdf type=\"diffuse\"/>{}</shape></scene>",
+        "<bsdf type=\"twosided\">".repeat(97),
+        "</bsdf>".repeat(97)
+    );
+    write(dir.path(), "b.xml", &b);
+    write(
+        dir.path(),
+        "a.xml",
+        "<scene version=\"3.0.0\"><include filename=\"b.xml\"/></scene>",
+    );
+    let e = error_in(dir.path(), r#"<include filename="a.xml"/>"#);
+    assert!(
+        e.contains("nested more than 100 deep") && e.contains("b.xml, line 1"),
+        "{e}"
+    );
+    // The binary: exit 2 and one paragraph, for render and convert alike.
+    let p = write(dir.path(), "deep.xml", &scene_xml(&cases[0].0));
+    for args in [
+        vec!["render", p.to_str().unwrap(), "-o", "deep.png"],
+        vec!["convert", p.to_str().unwrap(), "-o", "deep.toml"],
+    ] {
+        let out = run(dir.path(), &args);
+        assert_eq!(
+            out.status.code(),
+            Some(2),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(!dir.path().join("deep.png").exists() && !dir.path().join("deep.toml").exists());
+    }
+}

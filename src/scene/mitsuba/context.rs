@@ -35,6 +35,9 @@ pub(super) struct Tr<'p> {
     pub(super) out_shapes: TomlOut,
     pub(super) out_lights: TomlOut,
     pub(super) environment: Option<Loc>,
+    /// The BSDFs being translated, outermost first (their addresses), to refuse a BSDF that holds
+    /// itself through `<ref>`s instead of recursing until the stack overflows.
+    pub(super) bsdf_stack: Vec<usize>,
 }
 
 impl<'p> Tr<'p> {
@@ -60,6 +63,7 @@ impl<'p> Tr<'p> {
             out_shapes: TomlOut::default(),
             out_lights: TomlOut::default(),
             environment: None,
+            bsdf_stack: Vec::new(),
         }
     }
 

@@ -83,9 +83,35 @@ impl Tr<'_> {
         Ok(a.sqrt())
     }
 
-    /// A BSDF as vkpath material keys. `twosided` is accepted and unwrapped: vkpath shades both faces of
-    /// every surface (Mitsuba's other BSDFs are black from behind).
+    /// A BSDF as vkpath material keys; refused when it holds itself through `<ref>`s (a cycle, which
+    /// Mitsuba would also refuse) or nests more than [`super::xml::MAX_XML_DEPTH`] BSDFs deep through
+    /// them (nesting written out is bounded by the reader already).
     fn bsdf(&mut self, obj: &Obj) -> Result<Option<MatOut>, SceneError> {
+        let address = obj as *const Obj as usize;
+        if self.bsdf_stack.contains(&address) {
+            return Err(obj.loc.error(
+                "this BSDF holds itself through <ref> (a reference cycle)",
+                "A BSDF can nest only other BSDFs: break the cycle of ids.",
+            ));
+        }
+        if self.bsdf_stack.len() >= super::xml::MAX_XML_DEPTH {
+            return Err(obj.loc.error(
+                format!(
+                    "BSDFs nested more than {} deep through <ref>s",
+                    super::xml::MAX_XML_DEPTH
+                ),
+                "Real scenes nest a BSDF or two (twosided around another); this file is damaged or hostile.",
+            ));
+        }
+        self.bsdf_stack.push(address);
+        let out = self.bsdf_unwrapped(obj);
+        self.bsdf_stack.pop();
+        out
+    }
+
+    /// [`Tr::bsdf`] once the nesting is checked. `twosided` is accepted and unwrapped: vkpath shades both
+    /// faces of every surface (Mitsuba's other BSDFs are black from behind).
+    fn bsdf_unwrapped(&mut self, obj: &Obj) -> Result<Option<MatOut>, SceneError> {
         let args = Args::new(obj);
         let at = |s: String| (s, obj.loc.clone());
         let mut lines = Vec::new();

@@ -42,7 +42,15 @@ pub(super) struct Parser {
     /// The files being read, outermost first (canonical paths), to find include cycles.
     chain: Vec<PathBuf>,
     main_dir: PathBuf,
+    /// How many elements deep the walk is (across includes), against [`MAX_XML_DEPTH`].
+    depth: usize,
 }
+
+/// The deepest nesting of elements read: the walk recurses once per level, and a hostile file of a few
+/// hundred kB could nest tens of thousands of levels and overflow the stack. Real scenes nest a handful
+/// (scene > shape > bsdf > bsdf > texture > transform op); Mitsuba has no such limit, and nothing a
+/// renderer reads needs more than a few dozen.
+pub(super) const MAX_XML_DEPTH: usize = 100;
 
 /// The file being read.
 struct Src<'a, 'input> {
@@ -65,6 +73,17 @@ impl Attrs {
 }
 
 fn parse_xml<'i>(path: &Path, text: &'i str) -> Result<roxmltree::Document<'i>, SceneError> {
+    // roxmltree's tokenizer recurses once per level of nesting: a deep file would overflow the stack
+    // inside it, before the walk's own limit is reached. So the depth is measured on the text first.
+    if let Some(line) = line_past_depth(text, MAX_XML_DEPTH) {
+        return Err(SceneError::at(
+            path,
+            Some(line),
+            None,
+            format!("elements nested more than {MAX_XML_DEPTH} deep"),
+            "Real scenes nest a few levels (shape, bsdf, texture); this file is damaged or hostile.",
+        ));
+    }
     roxmltree::Document::parse(text).map_err(|e| {
         SceneError::at(
             path,
@@ -74,6 +93,61 @@ fn parse_xml<'i>(path: &Path, text: &'i str) -> Result<roxmltree::Document<'i>, 
             "Mitsuba 3 scenes are XML files; fix the syntax at that line.",
         )
     })
+}
+
+/// The line of the first element opened more than `max` elements deep, if any: a scan of the tags alone
+/// (start tags count up unless self-closing, end tags down; comments, CDATA, processing instructions and
+/// declarations are skipped, `>` inside quoted attribute values does not end a tag). Malformed text is
+/// left to the XML parser, which reports it.
+fn line_past_depth(text: &str, max: usize) -> Option<usize> {
+    let b = text.as_bytes();
+    let skip_past = |from: usize, end: &[u8]| {
+        b[from..]
+            .windows(end.len())
+            .position(|w| w == end)
+            .map_or(b.len(), |i| from + i + end.len())
+    };
+    let (mut i, mut depth) = (0, 0usize);
+    while let Some(off) = b[i..].iter().position(|&c| c == b'<') {
+        let start = i + off;
+        let rest = &b[start + 1..];
+        i = if rest.starts_with(b"!--") {
+            skip_past(start, b"-->")
+        } else if rest.starts_with(b"![CDATA[") {
+            skip_past(start, b"]]>")
+        } else if rest.starts_with(b"?") {
+            skip_past(start, b"?>")
+        } else if rest.starts_with(b"!") {
+            skip_past(start, b">")
+        } else if rest.starts_with(b"/") {
+            depth = depth.saturating_sub(1);
+            skip_past(start, b">")
+        } else {
+            // A start tag: find its '>' outside quotes, and whether it closes itself.
+            let mut j = start + 1;
+            let mut quote = None;
+            while j < b.len() {
+                match (quote, b[j]) {
+                    (None, b'"' | b'\'') => quote = Some(b[j]),
+                    (Some(q), c) if c == q => quote = None,
+                    (None, b'>') => break,
+                    _ => {}
+                }
+                j += 1;
+            }
+            if j < b.len() && b[j - 1] != b'/' {
+                depth += 1;
+                if depth > max {
+                    return Some(1 + b[..start].iter().filter(|&&c| c == b'\n').count());
+                }
+            }
+            j + 1
+        };
+        if i >= b.len() {
+            break;
+        }
+    }
+    None
 }
 
 /// Mitsuba's version string: three numbers separated by dots (or spaces).
@@ -119,6 +193,7 @@ impl Parser {
             ids: HashMap::new(),
             chain: Vec::new(),
             main_dir,
+            depth: 0,
         }
     }
 
@@ -284,7 +359,27 @@ impl Parser {
         }
     }
 
+    /// One element (and, recursively, what it holds), refused past [`MAX_XML_DEPTH`] levels.
     fn element(
+        &mut self,
+        src: &Src,
+        node: roxmltree::Node,
+        out: &mut Vec<Prop>,
+    ) -> Result<(), SceneError> {
+        if self.depth >= MAX_XML_DEPTH {
+            let loc = self.loc(src, node, Self::describe(node));
+            return Err(loc.error(
+                format!("elements nested more than {MAX_XML_DEPTH} deep"),
+                "Real scenes nest a few levels (shape, bsdf, texture); this file is damaged or hostile.",
+            ));
+        }
+        self.depth += 1;
+        let read = self.element_at_depth(src, node, out);
+        self.depth -= 1;
+        read
+    }
+
+    fn element_at_depth(
         &mut self,
         src: &Src,
         node: roxmltree::Node,
@@ -748,6 +843,21 @@ pub(super) fn resolve(name: &str, file: &Path, main_dir: &Path) -> Option<PathBu
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn nesting_is_measured_on_the_text() {
+        let nested = |n: usize| format!("<a>{}{}</a>", "<b x='>'>".repeat(n), "</b>".repeat(n));
+        assert_eq!(line_past_depth(&nested(99), 100), None);
+        assert_eq!(line_past_depth(&nested(100), 100), Some(1));
+        // Self-closing tags, comments, CDATA and declarations do not count.
+        let flat = format!(
+            "<?xml version='1.0'?>\n<!DOCTYPE x>\n<a>{}<!-- <b> <b> -->\n<![CDATA[<b><b>]]></a>",
+            "<b/>".repeat(500)
+        );
+        assert_eq!(line_past_depth(&flat, 2), None);
+        let deep = format!("<a>\n<b>\n<c>{}", "</c></b></a>");
+        assert_eq!(line_past_depth(&deep, 2), Some(3));
+    }
 
     #[test]
     fn camel_case_names_upgrade_as_mitsuba() {
