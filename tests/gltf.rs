@@ -1049,3 +1049,86 @@ fn toml_mesh_maps_render_like_the_gltf_ones() {
         "mesh[0].normal_map",
     );
 }
+
+/// Issue 31: a node graph that is not a tree is refused, naming a node, for a glTF scene and a glTF
+/// `[[mesh]]` alike, instead of walked: 64 nodes each listing the next one twice (2^64 paths: it used to
+/// run for ever), a cycle, and a root listed twice. A tree of the same nodes still loads.
+#[test]
+fn a_gltf_node_graph_that_is_not_a_tree_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let nodes = |children: &dyn Fn(usize) -> String| {
+        (0..64)
+            .map(|i| format!("{{\"children\": [{}]}}", children(i)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let gltf = |roots: &str, nodes: String| {
+        format!(
+            "{{\"asset\": {{\"version\": \"2.0\"}}, \"scene\": 0, \"scenes\": [{{\"nodes\": [{roots}]}}], \
+             \"nodes\": [{nodes}]}}"
+        )
+    };
+    let next = |i: usize| {
+        if i < 63 {
+            format!("{}", i + 1)
+        } else {
+            String::new()
+        }
+    };
+    let cases = [
+        (
+            gltf(
+                "0",
+                nodes(&|i| {
+                    if i < 63 {
+                        format!("{0}, {0}", i + 1)
+                    } else {
+                        String::new()
+                    }
+                }),
+            ),
+            "node 1 is a child of node 0 and of node 0",
+        ),
+        // A cycle through every node: each has one parent, and the walk meets node 0 again.
+        (
+            gltf("0", nodes(&|i| format!("{}", (i + 1) % 64))),
+            "node 0 is reached twice",
+        ),
+        (gltf("0, 0", nodes(&next)), "node 0 is reached twice"),
+        // A cycle back into the chain: 0 -> 1 -> ... -> 63 -> 1 (node 1 has two parents).
+        (
+            gltf(
+                "0",
+                nodes(&|i| {
+                    if i < 63 {
+                        format!("{}", i + 1)
+                    } else {
+                        "1".into()
+                    }
+                }),
+            ),
+            "node 1 is a child of node 0 and of node 63",
+        ),
+    ];
+    for (json, want) in &cases {
+        std::fs::write(dir.path().join("g.gltf"), json).unwrap();
+        let started = std::time::Instant::now();
+        let as_scene = Scene::load(&dir.path().join("g.gltf")).expect_err("not a tree");
+        let as_mesh = Scene::load(&common::cli::write(
+            dir.path(),
+            "s.toml",
+            &format!("{HEAD}[[mesh]]\nobj = \"g.gltf\"\n"),
+        ))
+        .expect_err("not a tree");
+        for e in [as_scene.to_string(), as_mesh.to_string()] {
+            assert!(e.contains(want) && e.contains("g.gltf"), "{e}");
+        }
+        // Refused from the node lists alone, not by walking paths (generous: it is microseconds).
+        assert!(started.elapsed().as_secs() < 10);
+    }
+    // The chain as a tree is walked (and then refused for what it lacks: any geometry).
+    std::fs::write(dir.path().join("g.gltf"), gltf("0", nodes(&next))).unwrap();
+    let e =
+        Scene::load(&dir.path().join("g.gltf")).map_or_else(|e| e.to_string(), |_| String::new());
+    assert!(!e.contains("tree"), "{e}");
+}

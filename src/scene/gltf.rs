@@ -26,6 +26,56 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// Reads a `.gltf` (with its buffers, beside it or in data URIs) or a `.glb`.
+/// The nodes of `scene` with their world transforms, parents before children, depth first: in the
+/// file's order, or with `mirrored` in the mirror order (the last root first, and at each node its last
+/// child first: the order the mesh reader has always appended triangles in, which every render's bits
+/// depend on through the BVH and the emitters' alias table). glTF requires the node hierarchy to be a strict tree (glTF 2.0 §3.5.3: no node is the child of
+/// two nodes, or twice of one, and none is an ancestor of itself); a file whose nodes are not is refused,
+/// naming a node, rather than walked: 64 nodes each listing the next one twice make 2^64 paths, and a
+/// cycle never ends. The walk visits each node once. The error is the message alone (the callers add the
+/// file).
+pub fn scene_nodes<'a>(
+    doc: &'a gltf::Document,
+    scene: &gltf::Scene<'a>,
+    mirrored: bool,
+) -> Result<Vec<(gltf::Node<'a>, Mat4)>, String> {
+    let mut parent: Vec<Option<usize>> = vec![None; doc.nodes().len()];
+    for node in doc.nodes() {
+        for child in node.children() {
+            if let Some(first) = parent[child.index()].replace(node.index()) {
+                return Err(format!(
+                    "node {} is a child of node {first} and of node {} (or twice of one): glTF's                      node hierarchy must be a tree",
+                    child.index(),
+                    node.index()
+                ));
+            }
+        }
+    }
+    let mut visited = vec![false; parent.len()];
+    let mut out = Vec::new();
+    let mut stack: Vec<(gltf::Node, Mat4)> = scene.nodes().map(|n| (n, Mat4::IDENTITY)).collect();
+    if !mirrored {
+        stack.reverse();
+    }
+    while let Some((node, parent_world)) = stack.pop() {
+        // With one parent each, a node reached twice is a root listed twice or a cycle.
+        if std::mem::replace(&mut visited[node.index()], true) {
+            return Err(format!(
+                "node {} is reached twice from the scene's root nodes (a cycle, or a root listed                  twice): glTF's node hierarchy must be a tree",
+                node.index()
+            ));
+        }
+        let world = parent_world * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let mut children: Vec<_> = node.children().map(|c| (c, world)).collect();
+        if !mirrored {
+            children.reverse();
+        }
+        stack.extend(children);
+        out.push((node, world));
+    }
+    Ok(out)
+}
+
 pub fn load_gltf(path: &Path) -> Result<ObjMesh, ObjError> {
     let bytes = std::fs::read(path)
         .map_err(|e| ObjError::whole_file(format!("cannot read the glTF file: {e}")))?;
@@ -56,24 +106,12 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| ObjError::whole_file("the glTF file has no scene"))?;
-    // (node, world transform) pairs, depth first. glTF forbids cycles; the depth bound keeps a file
-    // that has one from looping.
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
-        scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
+    let nodes = scene_nodes(doc, &scene, true).map_err(ObjError::whole_file)?;
     let mut all_normals = true;
     let mut all_uvs = true;
     let mut normals = Vec::new();
     let mut uvs = Vec::new();
-    while let Some((node, parent, depth)) = stack.pop() {
-        if depth > 1024 {
-            return Err(ObjError::whole_file(
-                "the glTF node hierarchy is deeper than 1024 levels (a cycle?)",
-            ));
-        }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        for child in node.children() {
-            stack.push((child, world, depth + 1));
-        }
+    for (node, world) in nodes {
         let Some(m) = node.mesh() else { continue };
         // Normals go by the inverse transpose of the upper 3x3 (a non-uniform scale bends them).
         let normal_matrix = Mat3::from_mat4(world).inverse().transpose();

@@ -17,7 +17,7 @@
 use super::SceneError;
 use super::toml_text::{absolute, num, relative_to, toml_string};
 use super::translated::{ImportOptions, Translated};
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -73,21 +73,8 @@ fn scene_toml(
     let mut warnings = Vec::new();
     let mut cameras = Vec::new();
     let mut lights = String::new();
-    let mut stack: Vec<(gltf::Node, Mat4, usize)> =
-        scene.nodes().map(|n| (n, Mat4::IDENTITY, 0)).collect();
-    stack.reverse(); // depth first, in the file's order
-    while let Some((node, parent, depth)) = stack.pop() {
-        if depth > 1024 {
-            return Err(error(
-                path,
-                "the node hierarchy is deeper than 1024 levels (a cycle?)",
-                hint,
-            ));
-        }
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        let mut children: Vec<_> = node.children().map(|c| (c, world, depth + 1)).collect();
-        children.reverse();
-        stack.extend(children);
+    let nodes = super::gltf::scene_nodes(doc, &scene, false).map_err(|m| error(path, m, hint))?;
+    for (node, world) in nodes {
         if let Some(c) = node.camera() {
             cameras.push((c, world));
         }
