@@ -4,7 +4,7 @@
 //! Column j of n keeps item j with probability `keep[j]` and otherwise gives `alias[j]`: drawing a
 //! column uniformly and then keep-or-alias picks item i with probability
 //! (keep[i] + sum over columns j with alias[j] = i of (1 - keep[j])) / n = w_i / sum(w). The shader does
-//! it with one uniform number (lights.wgsl, `triangle_light_pick`).
+//! it with one uniform number (lights/triangles.wgsl, `triangle_light_pick`).
 
 /// One column of the table.
 #[derive(Clone, Copy, Debug, PartialEq)]
