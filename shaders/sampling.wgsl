@@ -112,6 +112,21 @@ fn sample_gaussian2(u: vec2<f32>, sigma: f32) -> vec2<f32> {
     return vec2<f32>(r * cos(phi), r * sin(phi));
 }
 
+// One coordinate of the tent filter of radius r, f(x) = max(0, 1 - |x| / r) / r (a triangle of unit
+// area), by inverting its CDF: F(x) = (1 + x / r)^2 / 2 on [-r, 0] and 1 - (1 - x / r)^2 / 2 on [0, r], so
+// x = r (sqrt(2 u) - 1) for u < 1/2 and r (1 - sqrt(2 - 2 u)) otherwise. Mitsuba 3's tent filter is this
+// triangle in x times the same in y (separable), and so is this 2-D sample.
+fn sample_tent(u: f32, r: f32) -> f32 {
+    if u < 0.5 {
+        return r * (sqrt(2.0 * u) - 1.0);
+    }
+    return r * (1.0 - sqrt(2.0 - 2.0 * u));
+}
+
+fn sample_tent2(u: vec2<f32>, r: f32) -> vec2<f32> {
+    return vec2<f32>(sample_tent(u.x, r), sample_tent(u.y, r));
+}
+
 // Density of sample_gaussian2 per unit area at offset x: exp(-|x|^2 / (2 sigma^2)) / (2 pi sigma^2).
 fn gaussian2_pdf(x: vec2<f32>, sigma: f32) -> f32 {
     let s2 = sigma * sigma;

@@ -16,7 +16,7 @@ struct Params {
     cam_up: vec3<f32>,
     focus_distance: f32,
     cam_forward: vec3<f32>,
-    filter_sigma: f32,
+    filter_width: f32, // the Gaussian's standard deviation or the tent's radius, in pixels
     environment_light: u32, // the environment's index in `lights`, or NO_LIGHT
     triangle_light: u32, // the LIGHT_TRIANGLES light's index in `lights`, or NO_LIGHT
     sample_clamp: f32, // render.clamp: a sample's largest channel is scaled down to it; 0 = no clamp
@@ -181,6 +181,14 @@ struct PassConstants {
     tile_y1: u32,
     // The dispatch traces samples sample_index .. sample_index + sample_count - 1 of each pixel.
     sample_count: u32,
+    // Path continuation (trace.wgsl, main): 0 when the dispatch begins the tile's paths, one invocation
+    // per pixel; otherwise the number of paths it continues, one invocation each, whose slots in
+    // `path_state` are listed at path_queue[queue_in ..]. The paths still going when an invocation has
+    // made `casts` ray casts are listed at path_queue[queue_out ..] for the next dispatch.
+    queued: u32,
+    queue_in: u32,
+    queue_out: u32,
+    casts: u32,
     _pad0: u32,
 }
 
@@ -188,9 +196,13 @@ struct PassConstants {
 @group(0) @binding(6) var<uniform> pass_constants: PassConstants;
 
 // Samples the accumulator could not take as they were, counted over the whole render (SAMPLE_CLAMPED and
-// SAMPLE_NOT_FINITE of accumulate.wgsl, one counter each): the host reads them after each pass and reports
-// them (`--json`, stderr), so that no sample is changed silently.
-@group(0) @binding(12) var<storage, read_write> sample_faults: array<atomic<u32>, 2>;
+// SAMPLE_NOT_FINITE of accumulate.wgsl, one counter each), and paths ended by BOUNCE_CAP rather than by
+// the scene's own bounce limit or by roulette (FAULT_BOUNCE_CAP, trace.wgsl): the host reads them after
+// each pass and reports them (`--json`, stderr), so that no sample is changed silently.
+const FAULT_BOUNCE_CAP: u32 = 2u;
+// The most bounces a path makes, whatever the scene asks (src/kernel/abi.rs explains the choice).
+const BOUNCE_CAP: u32 = 1024u;
+@group(0) @binding(12) var<storage, read_write> sample_faults: array<atomic<u32>, 3>;
 
 fn count_sample_fault(fault: u32) {
     if (fault & SAMPLE_CLAMPED) != 0u {

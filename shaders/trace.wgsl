@@ -1,15 +1,10 @@
-// trace.wgsl: the path-tracing kernel. One invocation traces one path: sample `sample_index` of one
-// pixel, added to the pixel's running sums. A pass of k samples is k dispatches in one command buffer, each
-// preceded by an update of `pass_constants.sample_index`, so the sums see the samples in index order
-// whatever the split into passes: N passes of k samples give the same bits as one pass of N k.
-// (A push constant would do as well; a 16-byte vkCmdUpdateBuffer costs the same and keeps every input of
-// the kernel a buffer binding.)
-//
-// How many samples one invocation may trace: Mesa's lavapipe (llvmpipe) ends every loop of an invocation
-// once the invocation has run 65535 loop iterations in total (a guard in its code generator against
-// runaway shaders), so a loop over samples, each looping over bounces and primitives, could be cut
-// silently. The host bounds each invocation's samples by the worst case of its loops
-// (render::samples_per_invocation, see main below).
+// trace.wgsl: the path-tracing kernel. One invocation traces the samples of one pixel for a bounded
+// number of ray casts, added to the pixel's running sums; a path still going then is saved and continued
+// by a later dispatch (main, at the end). A pass of k samples is one dispatch per tile that begins them,
+// then dispatches over the queue of unfinished paths until none is left; each is preceded by an update of
+// `pass_constants` (a push constant would do as well; a 16-byte vkCmdUpdateBuffer costs the same and
+// keeps every input of the kernel a buffer binding). Sums are exact, so N passes of k samples give the
+// same bits as one pass of N k.
 //
 // The integrator knows no material and no light: it asks bsdf.wgsl (generated from the material registry)
 // for f, its pdf and a sampled
@@ -21,12 +16,13 @@
 const FILTER_NONE: u32 = 0u;
 const FILTER_BOX: u32 = 1u;
 const FILTER_GAUSSIAN: u32 = 2u;
+const FILTER_TENT: u32 = 3u;
 // The pixel filter: read from `params` by the generic kernel; a constant when specialised (the switch
 // on a constant then folds to one case).
 override FILTER_FROM_PARAMS: bool = true;
 override FILTER_KIND: u32 = 0u;
 
-// What a sample is (params.aov): radiance, or a layer of `--aov` (trace_aov). Read from `params` by the
+// What a sample is (params.aov): radiance, or a layer of `--aov` (aov_step). Read from `params` by the
 // generic kernel; a constant when specialised, so that a render's kernel has no AOV code at all.
 const AOV_NONE: u32 = 0u;
 const AOV_ALBEDO: u32 = 1u;
@@ -35,50 +31,56 @@ const AOV_DEPTH: u32 = 3u;
 override AOV_FROM_PARAMS: bool = true;
 override AOV_KIND: u32 = 0u;
 
-// One sample of an `--aov` layer of the pixel, through the camera ray (o, d) that the same sample of the
-// render traces (same film position and lens point), so that each layer is filtered like the image:
-// - AOV_DEPTH: (t, 1, 0) with t the distance from the ray's origin to the first surface, or (0, 0, 0)
-//   for a ray that leaves the scene; the host divides the means (mean distance of the hits, +inf where
-//   none hit).
+// One ray cast of a sample of an `--aov` layer of the pixel, the path's role in `main` when the kernel
+// traces a layer instead of radiance. The path starts as the render's does (path_begin: same film position
+// and lens point), so that each layer is filtered like the image, and follows delta bounces only:
+// - AOV_DEPTH: (t, 1, 0) with t the distance from the camera ray's origin (prev_p, path_begin) to the
+//   first surface, or (0, 0, 0) for a ray that leaves the scene; the host divides the means (mean distance
+//   of the hits, +inf where none hit).
 // - AOV_ALBEDO: bsdf_albedo of the first non-delta surface, times the weights of the delta bounces
-//   (mirrors, smooth glass and metals, sampled as the render samples them) on the way there; 0 for a ray
-//   that leaves the scene (the environment is light, not a surface).
+//   (mirrors, smooth glass and metals, sampled as the render samples them) on the way there (beta); 0 for
+//   a ray that leaves the scene (the environment is light, not a surface).
 // - AOV_NORMAL: that surface's shading normal n, as the surface defines it (outward on spheres, the
 //   interpolated vertex normal on smooth meshes), not flipped towards the viewer; 0 for none. Stored as
 //   n / 2 + 1/2, in [0, 1], because the exact accumulator sums non-negative samples only; the host
 //   undoes it on the mean (2 m - 1), which the affine map commutes with.
-// After max_bounces delta bounces, the surface reached counts as the first non-delta one.
-fn trace_aov(kind: u32, o0: vec3<f32>, d0: vec3<f32>, rng: ptr<function, Rng>) -> vec3<f32> {
-    var o = o0;
-    var d = d0;
-    var tint = vec3<f32>(1.0);
-    for (var bounce = 0u; bounce <= params.max_bounces; bounce++) {
-        let hit = scene_intersect(o, d, T_MISS);
-        if hit.prim_kind == PRIM_NONE {
-            break;
-        }
-        let sp = surface_at(o, d, hit);
-        if kind == AOV_DEPTH {
-            return vec3<f32>(distance(o0, sp.p), 1.0, 0.0);
-        }
-        let mat = textured_material(materials[hit_material(hit)], sp);
-        if !bsdf_is_delta(mat) || bounce == params.max_bounces {
-            if kind == AOV_NORMAL {
-                return 0.5 * sp.ns + vec3<f32>(0.5);
-            }
-            return tint * bsdf_albedo(mat);
-        }
-        let f = facing(sp, d, hit);
-        let bs = bsdf_sample(mat, -d, f.sh, rng);
-        if bs.flags == 0u {
-            break;
-        }
-        tint *= bs.weight;
-        o = offset_ray_origin(sp.p, sp.err, f.n, bs.wi);
-        d = bs.wi;
-    }
+// After max_bounces delta bounces, the surface reached counts as the first non-delta one. The layer's
+// value ends in `radiance` when the step returns false.
+fn aov_step(kind: u32, path: ptr<function, Path>) -> bool {
+    let o = (*path).o;
+    let d = (*path).d;
     // Nothing met: albedo 0, normal 0 (stored as 1/2), depth (0, 0, 0).
-    return select(vec3<f32>(0.0), vec3<f32>(0.5), kind == AOV_NORMAL);
+    (*path).radiance = select(vec3<f32>(0.0), vec3<f32>(0.5), kind == AOV_NORMAL);
+    let hit = scene_intersect(o, d, T_MISS);
+    if hit.prim_kind == PRIM_NONE {
+        return false;
+    }
+    let sp = surface_at(o, d, hit);
+    if kind == AOV_DEPTH {
+        (*path).radiance = vec3<f32>(distance((*path).prev_p, sp.p), 1.0, 0.0);
+        return false;
+    }
+    let mat = textured_material(materials[hit_material(hit)], sp);
+    if !bsdf_is_delta(mat) || (*path).bounces >= params.max_bounces {
+        if kind == AOV_NORMAL {
+            (*path).radiance = 0.5 * sp.ns + vec3<f32>(0.5);
+        } else {
+            (*path).radiance = (*path).beta * bsdf_albedo(mat);
+        }
+        return false;
+    }
+    let f = facing(sp, d, hit);
+    var rng = (*path).rng;
+    let bs = bsdf_sample(mat, -d, f.sh, &rng);
+    (*path).rng = rng;
+    if bs.flags == 0u {
+        return false;
+    }
+    (*path).beta *= bs.weight;
+    (*path).o = offset_ray_origin(sp.p, sp.err, f.n, bs.wi);
+    (*path).d = bs.wi;
+    (*path).bounces += 1u;
+    return true;
 }
 
 // Position on the film of one sample of pixel `px`, importance-sampled from the pixel filter: the
@@ -91,7 +93,10 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
             return vec2<f32>(px) + u;
         }
         case FILTER_GAUSSIAN: {
-            return center + sample_gaussian2(u, params.filter_sigma);
+            return center + sample_gaussian2(u, params.filter_width);
+        }
+        case FILTER_TENT: {
+            return center + sample_tent2(u, params.filter_width);
         }
         default: {
             return center;
@@ -238,12 +243,17 @@ struct CameraSample {
     rng: Rng,
 }
 
-fn camera_sample(px: vec2<u32>, sample: u32) -> CameraSample {
+// The sample's part of the opacity test's hash (opacity.wgsl): rays of different samples with the same
+// origin and direction (a pinhole camera without a pixel filter) decide independently. Set when a sample
+// begins and when its path is taken up again in a later dispatch.
+fn set_opacity_seed(px: vec2<u32>, sample: u32) {
     if HAS_OPACITY {
-        // The sample's part of the opacity test's hash (opacity.wgsl): rays of different samples with
-        // the same origin and direction (a pinhole camera without a pixel filter) decide independently.
         opacity_seed = pcg4d(vec4<u32>(px.x, px.y, sample, params.seed)).x;
     }
+}
+
+fn camera_sample(px: vec2<u32>, sample: u32) -> CameraSample {
+    set_opacity_seed(px, sample);
     var rng = rng_new_sampler(px.y * params.width + px.x, sample, params.seed, params.sampler);
     let film = film_position(px, &rng);
     // The lens sample is dimension 1 whether or not there is a lens, so that a pinhole-specialised kernel
@@ -294,10 +304,20 @@ struct Path {
     bounces: u32,
 }
 
+// The camera ray of the sample. prev_p starts at the camera (an AOV path's depth is measured from it;
+// a radiance path reads prev_p only after a non-delta bounce has set it).
 fn path_begin(px: vec2<u32>, sample: u32) -> Path {
     let cam = camera_sample(px, sample);
-    return Path(cam.rng, cam.o, cam.d, vec3<f32>(1.0), vec3<f32>(0.0), vec3<f32>(0.0), 0.0, NO_LIGHT,
-                true, 0u);
+    return Path(cam.rng, cam.o, cam.d, vec3<f32>(1.0), vec3<f32>(0.0), cam.o, 0.0, NO_LIGHT, true, 0u);
+}
+
+// Paths ended by the bounce limit are counted when the limit is BOUNCE_CAP (abi.rs: the scene asked for
+// no limit, or for more bounces than the cap): such a path would have gone on, so its sample is short of
+// light, and the host reports how many there were.
+fn count_bounce_cap() {
+    if params.max_bounces >= BOUNCE_CAP {
+        atomicAdd(&sample_faults[FAULT_BOUNCE_CAP], 1u);
+    }
 }
 
 // One ray cast of the path and what follows it: the emission the ray finds, then (unless the path ends
@@ -356,6 +376,7 @@ fn path_step(path: ptr<function, Path>) -> bool {
         }
     }
     if (*path).bounces >= params.max_bounces {
+        count_bounce_cap();
         return false;
     }
     (*path).bounces += 1u;
@@ -376,6 +397,7 @@ fn path_step(path: ptr<function, Path>) -> bool {
     // is exactly nothing, so the path ends here without sampling the BSDF or casting the ray: the same
     // bits, one ray cast fewer per path (half the rays of a one-bounce scene).
     if (*path).bounces >= params.max_bounces && !rays_find_emission() {
+        count_bounce_cap();
         return false;
     }
     let bs = bsdf_sample(mat, wo, f.sh, &rng);
@@ -414,14 +436,6 @@ fn path_step(path: ptr<function, Path>) -> bool {
     return true;
 }
 
-// One sample of an `--aov` layer (trace_aov) through the sample's camera ray; radiance is traced by
-// path_begin and path_step.
-fn aov_sample(kind: u32, px: vec2<u32>, sample: u32) -> vec3<f32> {
-    var cam = camera_sample(px, sample);
-    var rng = cam.rng;
-    return trace_aov(kind, cam.o, cam.d, &rng);
-}
-
 // The sample as the accumulator takes it. The firefly clamp (render.clamp, off by default): biased by
 // design, so a scene opts in. The sample is scaled, not clipped per channel, so that a clamped sample
 // keeps its hue. (A NaN passes through to the accumulator, which counts it.)
@@ -437,51 +451,118 @@ fn add_sample(acc: ptr<function, Accum>, sample_radiance: vec3<f32>) {
     }
 }
 
-// One invocation: samples sample_index .. sample_index + sample_count - 1 of one pixel, added to the
-// pixel's sums in index order. The pixel's accumulator entry is read once, updated in registers and
-// written once.
-//
-// Path regeneration: the invocation traces its samples in one loop whose every iteration is one ray cast
-// (path_step); when a path ends, the iteration adds it and starts the next sample. On a SIMD machine (a
-// GPU's warp, lavapipe's 8-wide AVX2 lanes) an invocation whose path ended early then goes on working
-// instead of idling until the longest path of its group ends, and the group runs about max over lanes
-// of (sum of path lengths) iterations instead of sum over samples of (max of path lengths). The host
-// sizes sample_count so that the invocation's loop iterations stay within lavapipe's budget
-// (render::samples_per_invocation). The bits do not depend on sample_count: each sample is the same
-// function of (pixel, sample index, seed) and is added in the same order, so any split of a pass into
-// dispatches, tiles, passes or ranges gives the same image.
-@compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    // The dispatch covers one tile (see PassConstants); the pixel, and so its random numbers, do not
-    // depend on the tiling.
-    let pc = pass_constants;
-    let px = gid.xy + vec2<u32>(pc.tile_x0, pc.tile_y0);
-    if px.x >= pc.tile_x1 || px.y >= pc.tile_y1 || px.x >= params.width || px.y >= params.height {
-        return;
-    }
-    let slot = px.y * params.width + px.x - pc.accum_base;
-    let end = pc.sample_index + pc.sample_count;
-    var acc = accum[slot];
-    // An `--aov` layer instead of radiance: written with bare constant conditions, so that a specialised
-    // render kernel has no AOV code (features.wgsl explains the pruning).
+// A path between two dispatches: Path packed into 16-byte rows (the booleans and counters bitcast into
+// the fourth lanes), with its pixel and the samples the pixel still has to trace in this pass. Exact: a
+// path taken up again continues with the same bits it would have had without the break.
+struct PathState {
+    o_pdf: vec4<f32>, // o, prev_pdf
+    d_sphere: vec4<f32>, // d, prev_sphere
+    beta_bounces: vec4<f32>, // beta, bounces
+    radiance_delta: vec4<f32>, // radiance, last_delta
+    prev_p_dim: vec4<f32>, // prev_p, the rng's next dimension
+    pixel: vec4<u32>, // px.x, px.y, the sample being traced, the end of the pixel's samples
+}
+
+@group(0) @binding(18) var<storage, read_write> path_state: array<PathState>;
+@group(0) @binding(19) var<storage, read_write> path_queue: array<u32>;
+@group(0) @binding(20) var<storage, read_write> path_count: atomic<u32>;
+
+fn path_save(p: Path, px: vec2<u32>, sample: u32, end: u32) -> PathState {
+    return PathState(vec4<f32>(p.o, p.prev_pdf), vec4<f32>(p.d, bitcast<f32>(p.prev_sphere)),
+                     vec4<f32>(p.beta, bitcast<f32>(p.bounces)),
+                     vec4<f32>(p.radiance, bitcast<f32>(select(0u, 1u, p.last_delta))),
+                     vec4<f32>(p.prev_p, bitcast<f32>(p.rng.dim)), vec4<u32>(px, sample, end));
+}
+
+fn path_load(s: PathState) -> Path {
+    let px = s.pixel.xy;
+    let sample = s.pixel.z;
+    set_opacity_seed(px, sample);
+    var rng = rng_new_sampler(px.y * params.width + px.x, sample, params.seed, params.sampler);
+    rng.dim = bitcast<u32>(s.prev_p_dim.w);
+    return Path(rng, s.o_pdf.xyz, s.d_sphere.xyz, s.beta_bounces.xyz, s.radiance_delta.xyz,
+                s.prev_p_dim.xyz, s.o_pdf.w, bitcast<u32>(s.d_sphere.w),
+                bitcast<u32>(s.radiance_delta.w) != 0u, bitcast<u32>(s.beta_bounces.w));
+}
+
+// One ray cast of the path: radiance (path_step) or, when the kernel traces an `--aov` layer, aov_step.
+// Written with bare constant conditions, so that a specialised render kernel has no AOV code
+// (features.wgsl explains the pruning).
+fn step(path: ptr<function, Path>) -> bool {
     if AOV_FROM_PARAMS {
         if params.aov != AOV_NONE {
-            add_aov_samples(&acc, params.aov, px, pc.sample_index, end);
-            accum[slot] = acc;
-            return;
+            return aov_step(params.aov, path);
         }
     } else {
         if AOV_KIND != AOV_NONE {
-            add_aov_samples(&acc, AOV_KIND, px, pc.sample_index, end);
-            accum[slot] = acc;
-            return;
+            return aov_step(AOV_KIND, path);
         }
     }
+    return path_step(path);
+}
+
+// One invocation traces the samples of one pixel, in index order, added to the pixel's exact sums
+// (accumulate.wgsl), for at most `casts` ray casts; a path still going then is saved and continued by
+// the next dispatch. That is a wavefront in its simplest form (Laine, Karras & Aila, "Megakernels
+// considered harmful", HPG 2013): the path's state lives in a device buffer between dispatches, and the
+// queue of live paths is compacted between them. It is what makes paths of any length and scenes of any
+// size possible: Mesa's lavapipe (llvmpipe) ends every loop of an invocation once the invocation has run
+// 65535 loop iterations in total (a guard in its code generator against runaway shaders), and one
+// invocation's loops now run at most `casts` ray casts whatever the path length; the host sizes
+// `casts` from one cast's worst case (render::casts_per_dispatch) and bounds the dispatch's duration by
+// its tile.
+//
+// A dispatch with `queued` = 0 begins the tile's pixels: samples sample_index .. + sample_count - 1,
+// invocation (x, y) the pixel (tile_x0 + x, tile_y0 + y), whose state slot is y * tile width + x. A
+// dispatch with `queued` > 0 continues the paths listed at path_queue[queue_in ..], one invocation each
+// (invocation (x, y) the entry y * tile width + x). The host dispatches until no path is left.
+//
+// Path regeneration: when a path ends, the invocation adds it and starts the pixel's next sample in the
+// same iteration. On a SIMD machine (a GPU's warp, lavapipe's 8-wide AVX2 lanes) an invocation whose
+// path ended early then goes on working instead of idling until the longest path of its group ends.
+//
+// The bits do not depend on `casts`, the tiling or the order of the queue: each sample is the same
+// function of (pixel, sample index, seed), a saved path resumes exactly, and the pixel's samples are
+// added in index order to an exact sum, so that any split of a render gives the same image.
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let pc = pass_constants;
+    let tile_w = pc.tile_x1 - pc.tile_x0;
+    var slot = gid.y * tile_w + gid.x;
+    var px = gid.xy + vec2<u32>(pc.tile_x0, pc.tile_y0);
     var sample = pc.sample_index;
-    var path = path_begin(px, sample);
+    var end = pc.sample_index + pc.sample_count;
+    var path: Path;
+    if pc.queued == 0u {
+        if px.x >= pc.tile_x1 || px.y >= pc.tile_y1 || px.x >= params.width || px.y >= params.height {
+            return;
+        }
+        path = path_begin(px, sample);
+    } else {
+        if gid.x >= tile_w || slot >= pc.queued {
+            return;
+        }
+        slot = path_queue[pc.queue_in + slot];
+        let saved = path_state[slot];
+        px = saved.pixel.xy;
+        sample = saved.pixel.z;
+        end = saved.pixel.w;
+        path = path_load(saved);
+    }
+    let accum_slot = px.y * params.width + px.x - pc.accum_base;
+    var acc = accum[accum_slot];
+    var added = false;
+    var casts = 0u;
     loop {
-        if !path_step(&path) {
+        if casts >= pc.casts {
+            path_state[slot] = path_save(path, px, sample, end);
+            path_queue[pc.queue_out + atomicAdd(&path_count, 1u)] = slot;
+            break;
+        }
+        casts += 1u;
+        if !step(&path) {
             add_sample(&acc, path.radiance);
+            added = true;
             sample += 1u;
             if sample >= end {
                 break;
@@ -489,11 +570,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             path = path_begin(px, sample);
         }
     }
-    accum[slot] = acc;
-}
-
-fn add_aov_samples(acc: ptr<function, Accum>, kind: u32, px: vec2<u32>, first: u32, end: u32) {
-    for (var sample = first; sample < end; sample++) {
-        add_sample(acc, aov_sample(kind, px, sample));
+    if added {
+        accum[accum_slot] = acc;
     }
 }

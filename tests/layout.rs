@@ -297,7 +297,7 @@ fn params_matches_wgsl() {
         size_of::<GpuParams>(),
         fields!(GpuParams:
             cam_position, lens_radius, cam_right, view_half_width, cam_up, focus_distance, cam_forward,
-            filter_sigma, environment_light, triangle_light, sample_clamp, filter_kind, width, height, max_bounces, seed, sampler,
+            filter_width, environment_light, triangle_light, sample_clamp, filter_kind, width, height, max_bounces, seed, sampler,
             light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, camera_kind,
             aov, _pad),
     );
@@ -588,6 +588,10 @@ fn pass_constants_match_wgsl() {
             tile_x1,
             tile_y1,
             sample_count,
+            queued,
+            queue_in,
+            queue_out,
+            casts,
             _pad
         ),
     );
@@ -598,6 +602,29 @@ fn pass_constants_match_wgsl() {
         .expect("the kernel takes its sample index in `pass_constants`");
     assert_eq!(var.space, naga::AddressSpace::Uniform);
     assert_eq!(module.types[var.ty].name.as_deref(), Some("PassConstants"));
+}
+
+/// The host allocates `PATH_STATE_BYTES` per path in flight for the kernel's `path_state` array.
+#[test]
+fn path_state_size_matches_wgsl() {
+    let module = kernel();
+    let (_, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("PathState"))
+        .expect("PathState is in the production kernel");
+    let TypeInner::Struct { span, .. } = &ty.inner else {
+        panic!("PathState is not a struct");
+    };
+    let bytes = vkpath::kernel::abi::PATH_STATE_BYTES as usize;
+    assert_eq!(*span as usize, bytes);
+    check_storage_array(
+        &module,
+        "path_state",
+        "PathState",
+        "PATH_STATE_BYTES",
+        bytes,
+    );
 }
 
 // ----- meshes and the BVH (src/kernel/abi.rs, shaders/scene_data.wgsl, shaders/bvh.wgsl) -----

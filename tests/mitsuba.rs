@@ -10,7 +10,8 @@ use proptest::prelude::*;
 use std::f32::consts::PI;
 use std::path::Path;
 use vkpath::Scene;
-use vkpath::scene::mitsuba::{self, INFINITE_DEPTH_BOUNCES};
+use vkpath::scene::NO_BOUNCE_LIMIT;
+use vkpath::scene::mitsuba;
 use vkpath::scene::{Bsdf, ConductorFresnel, Filter, Light, Projection, Roughness, Sampler};
 
 /// A perspective sensor the scenes below share: 40 x 20 pixels, box filter, 16 spp.
@@ -86,11 +87,11 @@ fn the_sensor_film_sampler_and_integrator_map_to_camera_image_and_render() {
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
 
     // No integrator: Mitsuba's path tracer without a depth limit. rr_depth other than vkpath's is a note.
-    assert_eq!(load("").render.max_bounces, INFINITE_DEPTH_BOUNCES);
+    assert_eq!(load("").render.max_bounces, NO_BOUNCE_LIMIT);
     let s = load(
         r#"<integrator type="path"><integer name="max_depth" value="-1"/><integer name="rr_depth" value="5"/></integrator>"#,
     );
-    assert_eq!(s.render.max_bounces, INFINITE_DEPTH_BOUNCES);
+    assert_eq!(s.render.max_bounces, NO_BOUNCE_LIMIT);
     assert!(
         s.warnings.iter().any(|w| w.contains("rr_depth = 5")),
         "{:?}",
@@ -111,6 +112,17 @@ fn the_sensor_film_sampler_and_integrator_map_to_camera_image_and_render() {
         (s.render.filter, s.render.filter_sigma),
         (Filter::Gaussian, 0.25)
     );
+    // Mitsuba's tent (Bitterli's scenes use it): radius 1 pixel unless given.
+    for (inner, radius) in [("", 1.0), (r#"<float name="radius" value="1.5"/>"#, 1.5)] {
+        let s = load(&format!(
+            r#"<sensor type="perspective"><float name="fov" value="45"/>
+                 <film type="hdrfilm"><rfilter type="tent">{inner}</rfilter></film></sensor>"#
+        ));
+        assert_eq!(
+            (s.render.filter, s.render.filter_radius),
+            (Filter::Tent, radius)
+        );
+    }
     // Identity to_world: at the origin looking down +z, up +y.
     assert_eq!(s.camera.position, Vec3::ZERO);
     assert_close(s.camera.look_at, Vec3::Z);

@@ -538,8 +538,10 @@ fn progressive_passes_equal_one_pass() {
     );
 }
 
-/// On lavapipe, a scene whose longest path could exceed the driver's loop budget is refused up front
-/// (with the limit named) rather than rendered with paths silently cut short; elsewhere it renders.
+/// Paths of any length fit lavapipe's loop budget (trace.wgsl carries a path across dispatches): the
+/// course at 100 000 bounces renders. What a single ray cast could exceed, six thousand lights each
+/// with its shadow ray, is refused up front on lavapipe with the limit named rather than rendered with
+/// paths silently cut short; elsewhere it renders.
 #[test]
 fn loop_budget_is_enforced_on_lavapipe() {
     let mut s = load_scene_file("course.toml");
@@ -547,26 +549,21 @@ fn loop_budget_is_enforced_on_lavapipe() {
     s.image.height = 8;
     s.render.max_bounces = 100_000;
     let ctx = vkpath::gpu::testing::context();
+    let mut r = vkpath::Renderer::new(&ctx, &s, &RenderOptions::default())
+        .expect("a path of any length fits the loop budget");
+    r.run_pass(1).expect("pass");
+    let light = s.lights[0];
+    s.lights = vec![light; 6000];
     let result = vkpath::Renderer::new(&ctx, &s, &RenderOptions::default());
     if ctx.device_info().name.contains("llvmpipe") {
         let err = result
             .err()
-            .expect("a 100000-bounce course scene exceeds lavapipe's loop budget");
+            .expect("one cast towards 6000 lights exceeds lavapipe's loop budget");
         let msg = err.to_string();
         assert!(
-            msg.contains("65535") && msg.contains("max_bounces"),
+            msg.contains("65535") && msg.contains("6000 lights"),
             "{msg}"
         );
-        // The bound it suggests must itself be accepted.
-        let max_ok: u32 = msg
-            .split("max_bounces to ")
-            .nth(1)
-            .and_then(|t| t.split(' ').next())
-            .unwrap()
-            .parse()
-            .unwrap();
-        s.render.max_bounces = max_ok;
-        assert!(vkpath::Renderer::new(&ctx, &s, &RenderOptions::default()).is_ok());
     } else {
         assert!(result.is_ok());
     }

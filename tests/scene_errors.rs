@@ -566,8 +566,10 @@ fn samples_as_float() {
 
 #[test]
 fn max_bounces_negative() {
-    let text = with_base("[render]\nmax_bounces = -1   # line 10\n");
-    expect_error_exact(&text, 10, "render.max_bounces");
+    // -1 is no limit (tests/unbounded.rs); below it, an error naming the key.
+    let text = with_base("[render]\nmax_bounces = -2   # line 10\n");
+    let err = expect_error_exact(&text, 10, "render.max_bounces");
+    assert!(err.to_string().contains("-1 sets no limit"), "{err}");
 }
 
 #[test]
@@ -591,7 +593,7 @@ fn seed_beyond_i64() {
 
 #[test]
 fn unknown_filter() {
-    let text = with_base("[render]\nfilter = \"tent\"   # line 10\n");
+    let text = with_base("[render]\nfilter = \"mitchell\"   # line 10\n");
     let err = expect_error_exact(&text, 10, "render.filter");
     assert!(err.to_string().contains("\"gaussian\""), "{err}");
 }
@@ -619,6 +621,13 @@ fn unknown_light_sampling() {
 fn filter_sigma_zero() {
     let text = with_base("[render]\nfilter_sigma = 0   # line 10\n");
     expect_error_exact(&text, 10, "render.filter_sigma");
+}
+
+#[test]
+fn filter_radius_not_positive() {
+    let text = with_base("[render]\nfilter = \"tent\"\nfilter_radius = -1   # line 11\n");
+    let err = expect_error_exact(&text, 11, "render.filter_radius");
+    assert!(err.to_string().contains("> 0"), "{err}");
 }
 
 // ----- meshes -----

@@ -264,6 +264,7 @@ enum Warp {
     SphereCone { axis: [f32; 3], r: f32, d2: f32 },
     Gaussian { sigma: f32 },
     Disk,
+    Tent { radius: f32 },
 }
 
 fn header(w: Warp, seed: u32) -> [[f32; 4]; 2] {
@@ -275,6 +276,7 @@ fn header(w: Warp, seed: u32) -> [[f32; 4]; 2] {
         Warp::SphereCone { axis, r, d2 } => [[2.0, s, r, d2], [axis[0], axis[1], axis[2], 0.0]],
         Warp::Gaussian { sigma } => [[3.0, s, 0.0, 0.0], [0.0, 0.0, 0.0, sigma]],
         Warp::Disk => [[4.0, s, 0.0, 0.0], [0.0; 4]],
+        Warp::Tent { radius } => [[5.0, s, 0.0, 0.0], [0.0, 0.0, 0.0, radius]],
     }
 }
 
@@ -731,6 +733,54 @@ fn cone_limits() {
             );
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// The tent filter.
+
+/// The CDF of the tent of radius r, f(x) = max(0, 1 - |x| / r) / r, written independently of the shader:
+/// the area of the triangle left of x.
+fn tent_cdf(x: f64, r: f64) -> f64 {
+    let t = (x / r).clamp(-1.0, 1.0);
+    if t <= 0.0 {
+        0.5 * (1.0 + t) * (1.0 + t)
+    } else {
+        1.0 - 0.5 * (1.0 - t) * (1.0 - t)
+    }
+}
+
+/// sample_tent2: through the tent's CDF in x and in y, the samples must be uniform on the unit square
+/// (chi-square on a 32 x 32 grid, the second CDF scaled to the grid's [0, 2 pi)); every sample within the
+/// radius. A tent 10 % wider, and a box of the same radius, are rejected.
+#[test]
+fn tent_chi_square() {
+    let r = 1.5f64;
+    let s = warp(Warp::Tent { radius: r as f32 }, 7, N);
+    assert!(
+        s.iter()
+            .all(|o| o[0].abs() <= r as f32 && o[1].abs() <= r as f32)
+    );
+    let coords = |width: f64, cdf: &dyn Fn(f64, f64) -> f64| -> Vec<(f64, f64)> {
+        s.iter()
+            .map(|o| {
+                let (x, y) = (f64::from(o[0]), f64::from(o[1]));
+                (cdf(x, width), 2.0 * PI * cdf(y, width))
+            })
+            .collect()
+    };
+    let grid = Grid::from_inverse_cdf(32, 32, |p| p);
+    let uniform = |a0: f64, a1: f64, p0: f64, p1: f64| (a1 - a0) * (p1 - p0) / (2.0 * PI);
+    assert_fits(
+        "tent (F(x), F(y))",
+        &grid.chi2(&coords(r, &tent_cdf), &uniform),
+    );
+    assert_rejects(
+        "tent of radius 1.1 r",
+        &grid.chi2(&coords(1.1 * r, &tent_cdf), &uniform),
+        5.0,
+    );
+    let box_cdf = |x: f64, w: f64| ((x / w + 1.0) / 2.0).clamp(0.0, 1.0);
+    assert_rejects("box", &grid.chi2(&coords(r, &box_cdf), &uniform), 5.0);
 }
 
 // ---------------------------------------------------------------------------------------------------

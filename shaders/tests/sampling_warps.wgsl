@@ -11,6 +11,7 @@
 //                                                                     -> (w.xyz, omc)
 // mode 3: sample_gaussian2(u, sigma = p2)                             -> (g.xy, 0, 0)
 // mode 4: sample_uniform_disk(u)                                      -> (p.xy, 0, 0)
+// mode 5: sample_tent2(u, radius = p2)                                -> (t.xy, 0, 0)
 //
 // requires: sampling.wgsl, rng.wgsl
 
@@ -48,6 +49,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         case 3u: {
             out = vec4<f32>(sample_gaussian2(u, p2), 0.0, 0.0);
+        }
+        case 5u: {
+            out = vec4<f32>(sample_tent2(u, p2), 0.0, 0.0);
         }
         default: {
             out = vec4<f32>(sample_uniform_disk(u), 0.0, 0.0);

@@ -154,3 +154,16 @@ fn report_validation_errors(errors: &[String]) -> bool {
     );
     true
 }
+
+/// `--max-bounces N`: a count of scattering events, or -1 for no limit
+/// ([`vkpath::scene::NO_BOUNCE_LIMIT`]).
+fn parse_max_bounces(text: &str) -> Result<u32, String> {
+    match text.trim().parse::<i64>() {
+        Ok(-1) => Ok(vkpath::scene::NO_BOUNCE_LIMIT),
+        Ok(n) if (0..i64::from(u32::MAX)).contains(&n) => Ok(n as u32),
+        _ => Err(format!(
+            "expected a number of bounces from 0 to {}, or -1 for no limit",
+            u32::MAX - 1
+        )),
+    }
+}

@@ -24,8 +24,8 @@ pub struct PreviewArgs {
     /// Random seed (overrides the scene).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..))]
     seed: Option<u32>,
-    /// Scattering events per path (overrides the scene).
-    #[arg(long = "max-bounces", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..))]
+    /// Scattering events per path, -1 for no limit (overrides the scene).
+    #[arg(long = "max-bounces", allow_negative_numbers = true, value_parser = super::parse_max_bounces)]
     max_bounces: Option<u32>,
     /// Exit after N presents of a rendered image (scripted use; see --json for the spp shown).
     #[arg(long)]

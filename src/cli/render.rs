@@ -377,7 +377,7 @@ fn report(
             samples_per_second: samples / seconds.max(1e-12),
             estimated_rel_error: rel.is_finite().then_some(rel),
             device: &ctx.device_info().name,
-            max_bounces: scene.render.max_bounces,
+            max_bounces: vkpath::scene::bounces_as_written(scene.render.max_bounces),
             seed: scene.render.seed,
             stop_reason: reason,
             outputs: shown_paths(session.outputs()),
@@ -418,6 +418,16 @@ fn warn_sample_faults(faults: &vkpath::render::SampleFaults) {
             "vkpath: warning: {} samples were NaN or infinite and were counted as black. This is a bug \
              in vkpath; please report it with the scene.",
             faults.not_finite
+        );
+    }
+    if faults.bounce_capped > 0 {
+        eprintln!(
+            "vkpath: warning: {} paths reached {} bounces, the most vkpath traces, and were ended there, \
+             so the image is darker than the scene where they fell. With Russian roulette on a path \
+             practically never gets there; turn it on (--roulette-depth N) or give the scene a bounce \
+             limit (max_bounces).",
+            faults.bounce_capped,
+            vkpath::kernel::abi::BOUNCE_CAP
         );
     }
 }
@@ -464,8 +474,8 @@ pub struct RenderArgs {
     /// Image height in pixels (overrides the scene).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     height: Option<u32>,
-    /// Scattering events per path (overrides the scene).
-    #[arg(long = "max-bounces", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(0..))]
+    /// Scattering events per path, -1 for no limit (overrides the scene).
+    #[arg(long = "max-bounces", allow_negative_numbers = true, value_parser = super::parse_max_bounces)]
     max_bounces: Option<u32>,
     /// Where random numbers come from (overrides the scene's render.sampler).
     #[arg(long, value_enum)]
@@ -485,10 +495,11 @@ pub struct RenderArgs {
     /// Samples per pixel in each pass (default: adapted to about a quarter second per pass).
     #[arg(long = "samples-per-pass", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     samples_per_pass: Option<u32>,
-    /// The most samples of its pixel one kernel invocation traces per dispatch (default: as many as
-    /// the device's loop budget allows, at most 64). The image does not depend on it.
-    #[arg(long = "samples-per-invocation", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
-    samples_per_invocation: Option<u32>,
+    /// The most ray casts one kernel invocation makes per dispatch before its path is saved for the
+    /// next (default: as many as the device's loop budget allows, at most 256). The image does not
+    /// depend on it.
+    #[arg(long = "casts-per-dispatch", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
+    casts_per_dispatch: Option<u32>,
     /// Start Russian roulette after this many bounces ("off" disables it). Default 3.
     #[arg(long = "roulette-depth")]
     roulette_depth: Option<String>,
@@ -579,7 +590,7 @@ fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
         }
         o.samples_per_pass = Some(k);
     }
-    o.samples_per_invocation = a.samples_per_invocation;
+    o.casts_per_dispatch = a.casts_per_dispatch;
     if let Some(r) = &a.roulette_depth {
         o.roulette_depth = match r.as_str() {
             "off" => u32::MAX,

@@ -45,7 +45,8 @@ pub struct RenderReport<'a> {
     /// `null` where the film has no estimate: below 2 samples per pixel, or for a black image.
     pub estimated_rel_error: Option<f64>,
     pub device: &'a str,
-    pub max_bounces: u32,
+    /// -1: no limit.
+    pub max_bounces: i64,
     pub seed: u32,
     pub stop_reason: StopReason,
     pub outputs: Vec<String>,

@@ -23,7 +23,8 @@ pub struct GpuParams {
     pub cam_up: [f32; 3],
     pub focus_distance: f32,
     pub cam_forward: [f32; 3],
-    pub filter_sigma: f32,
+    /// The Gaussian's standard deviation or the tent's radius, in pixels.
+    pub filter_width: f32,
     /// The index in `lights` of the environment light ([`NO_LIGHT`]: none), which rays that leave the
     /// scene see.
     pub environment_light: u32,
@@ -69,6 +70,16 @@ pub struct GpuPassConstants {
     pub tile_x1: u32,
     pub tile_y1: u32,
     pub sample_count: u32,
+    /// Path continuation (trace.wgsl, `main`): 0 for a dispatch that begins the tile's paths (one
+    /// invocation per pixel), else the number of paths it continues (one invocation each), whose
+    /// `path_state` slots are listed from `path_queue[queue_in]` on.
+    pub queued: u32,
+    pub queue_in: u32,
+    /// Where the dispatch lists the paths still going after `casts` ray casts (their count in
+    /// `path_count`).
+    pub queue_out: u32,
+    /// The most ray casts one invocation makes in this dispatch ([`crate::render::casts_per_dispatch`]).
+    pub casts: u32,
     pub _pad: u32,
 }
 
@@ -374,6 +385,7 @@ pub const CAMERA_ORTHOGRAPHIC: u32 = 1;
 pub const FILTER_NONE: u32 = 0;
 pub const FILTER_BOX: u32 = 1;
 pub const FILTER_GAUSSIAN: u32 = 2;
+pub const FILTER_TENT: u32 = 3;
 
 /// Samplers (`GpuParams::sampler`, `SAMPLER_*` in rng.wgsl).
 pub const SAMPLER_INDEPENDENT: u32 = 0;
@@ -394,7 +406,22 @@ pub const AOV_DEPTH: u32 = 3;
 
 /// The counters of `sample_faults` (scene_data.wgsl): samples clamped below 2^64 by the accumulator, and
 /// samples dropped as not finite (see accumulate.wgsl).
-pub const SAMPLE_FAULT_COUNTERS: usize = 2;
+pub const SAMPLE_FAULT_COUNTERS: usize = 3;
+/// The third counter of `sample_faults`: paths ended by [`BOUNCE_CAP`] (trace.wgsl, path_step).
+pub const FAULT_BOUNCE_CAP: u32 = 2;
+
+/// `max_bounces` in the scene means this many at most on the device. A scene without a bounce limit
+/// (`max_bounces = -1`, Mitsuba's `max_depth = -1`) ends its paths by Russian roulette only, and with
+/// roulette a path survives each bounce with probability at most 0.95, so it reaches 1024 bounces with
+/// probability below 0.95^1020 ~ 2e-23. The cap is there for what cannot end by roulette (roulette
+/// turned off in a closed scene): every path it ends is counted (`FAULT_BOUNCE_CAP`) and reported, never
+/// dropped silently. Paths of any length cost nothing more than their ray casts: the kernel carries a
+/// path across dispatches (trace.wgsl, `main`), so no loop of one invocation grows with it.
+pub const BOUNCE_CAP: u32 = 1024;
+
+/// Bytes of one path's state between dispatches (`PathState` in trace.wgsl; `tests/layout.rs` checks it
+/// against naga's layout).
+pub const PATH_STATE_BYTES: u64 = 96;
 
 /// Every integer constant the host and the WGSL share, by its name in both: `tests/layout.rs` checks each
 /// against the value naga parses from the production kernel. (The `MAT_*` kinds are generated into the
@@ -416,6 +443,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("FILTER_NONE", FILTER_NONE),
     ("FILTER_BOX", FILTER_BOX),
     ("FILTER_GAUSSIAN", FILTER_GAUSSIAN),
+    ("FILTER_TENT", FILTER_TENT),
     ("SAMPLER_INDEPENDENT", SAMPLER_INDEPENDENT),
     ("SAMPLER_SOBOL", SAMPLER_SOBOL),
     ("LIGHT_SAMPLING_CONE", LIGHT_SAMPLING_CONE),
@@ -449,6 +477,8 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("BVH_LEAF_COUNT_MASK", crate::scene::bvh::LEAF_COUNT_MASK),
     ("BVH_STACK_SIZE", crate::scene::bvh::STACK_SIZE as u32),
     ("BVH_MAX_STEPS", crate::scene::bvh::MAX_STEPS),
+    ("FAULT_BOUNCE_CAP", FAULT_BOUNCE_CAP),
+    ("BOUNCE_CAP", BOUNCE_CAP),
 ];
 
 const _: () = assert!(std::mem::size_of::<GpuParams>() == 144);

@@ -742,7 +742,10 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         cam_up: up.into(),
         focus_distance: cam.focus_distance,
         cam_forward: forward.into(),
-        filter_sigma: scene.render.filter_sigma,
+        filter_width: match scene.render.filter {
+            Filter::Tent => scene.render.filter_radius,
+            _ => scene.render.filter_sigma,
+        },
         environment_light: NO_LIGHT,
         triangle_light: NO_LIGHT,
         sample_clamp: scene.render.clamp.unwrap_or(0.0),
@@ -750,10 +753,12 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
             Filter::None => FILTER_NONE,
             Filter::Box => FILTER_BOX,
             Filter::Gaussian => FILTER_GAUSSIAN,
+            Filter::Tent => FILTER_TENT,
         },
         width: scene.image.width,
         height: scene.image.height,
-        max_bounces: scene.render.max_bounces,
+        // No limit, or more than the cap, is the cap (abi.rs; the kernel counts the paths it ends).
+        max_bounces: scene.render.max_bounces.min(crate::kernel::abi::BOUNCE_CAP),
         seed: scene.render.seed,
         sampler: match scene.render.sampler {
             Sampler::Independent => SAMPLER_INDEPENDENT,

@@ -1,8 +1,9 @@
 //! The progressive renderer: uploads a scene, dispatches passes of samples, reads back the film.
 //!
 //! Each pass traces samples `[start, start + k)` of every pixel, in dispatches over tiles of the image in
-//! which each invocation traces several consecutive samples of its pixel (path regeneration, trace.wgsl;
-//! [`samples_per_invocation`]), and adds them to per-pixel sums on the GPU: exact sums of the samples
+//! which each invocation traces consecutive samples of its pixel for at most [`casts_per_dispatch`] ray
+//! casts (path regeneration and continuation, trace.wgsl), then dispatches over the queue of paths still
+//! going until none is left, and adds them to per-pixel sums on the GPU: exact sums of the samples
 //! (long accumulators, accumulate.wgsl) and Kahan sums of their squares, in sample index order. Because a
 //! sample's random numbers depend only on (pixel, sample index, dimension, seed), the image after N passes
 //! of k samples is bit-identical to one pass of N k samples: pass sizes are free to adapt to time budgets
@@ -13,7 +14,9 @@ pub mod tiles;
 
 use crate::film::Film;
 use crate::gpu::{Buffer, Command, GpuContext, GpuError, Kernel, upload_device_local};
-use crate::kernel::abi::{GpuAccum, GpuParams, GpuPassConstants, SAMPLE_FAULT_COUNTERS};
+use crate::kernel::abi::{
+    GpuAccum, GpuParams, GpuPassConstants, PATH_STATE_BYTES, SAMPLE_FAULT_COUNTERS,
+};
 use crate::kernel::features::FeatureSet;
 use crate::kernel::specialise::CompiledShader;
 use crate::kernel::upload::{GpuScene, SceneStats, params_for};
@@ -25,19 +28,25 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
-/// The most dispatches recorded into one command buffer; a pass of more is several submits.
-const MAX_DISPATCHES_PER_SUBMIT: u64 = 256;
-
 /// Pixels per dispatch before the renderer has timed a pass (then it adapts, see
 /// [`RenderOptions::target_dispatch_seconds`]).
 const INITIAL_TILE_PIXELS: u64 = 1 << 18;
 
 /// Lavapipe (Mesa's llvmpipe) ends all loops of an invocation once it has run 65535 loop iterations in
-/// total. A path's loops are bounded (bounces x (primitives + lights x primitives)), so the renderer
-/// refuses, up front and with the limit named, a scene whose longest possible path would exceed this
-/// on such a device, instead of rendering it silently wrong. (The BVH will make the per-ray count
-/// logarithmic; real GPUs have no such limit.)
+/// total. One ray cast's loops are bounded (primitives + lights x primitives, a BVH walk at most
+/// `bvh::MAX_STEPS`), and an invocation makes at most [`casts_per_dispatch`] casts before its path is
+/// saved for the next dispatch, so a path of any length fits; the renderer refuses, up front and with
+/// the limit named, only a scene of which a single cast could exceed it (thousands of lights), instead
+/// of rendering it silently wrong. Real GPUs have no such limit.
 pub const LAVAPIPE_LOOP_BUDGET: u64 = 65_535;
+
+/// The most ray casts one invocation makes per dispatch where no loop budget applies. Past a few
+/// hundred the dispatches saved no longer show, and the casts bound a dispatch's duration with its tile.
+pub const MAX_CASTS_PER_DISPATCH: u32 = 256;
+
+/// The most paths in flight at once: the path state (`PATH_STATE_BYTES` each) and queue buffers hold
+/// this many, 100 MiB in all, and a tile has at most this many pixels.
+pub const MAX_PATHS_IN_FLIGHT: u64 = 1 << 20;
 
 /// An upper bound on the loop iterations one path can run in trace.wgsl: for each of max_bounces + 1
 /// ray casts, one scene query for the closest hit, and for each light, one shadow query, plus the loop
@@ -91,10 +100,10 @@ pub struct RenderOptions {
     /// What the samples are: radiance ([`AOV_NONE`](crate::kernel::abi::AOV_NONE)), or an `AOV_*`
     /// layer (`--aov`: albedo, normal or depth, averaged over the pixel's samples like radiance).
     pub aov: u32,
-    /// The most samples of its pixel one kernel invocation traces in a dispatch (path regeneration,
-    /// trace.wgsl); `None` lets the renderer choose ([`samples_per_invocation`]). The image does not
-    /// depend on it (tests/tiling.rs); `Some(1)` is the one-path-per-invocation kernel of before.
-    pub samples_per_invocation: Option<u32>,
+    /// The most ray casts one kernel invocation makes in a dispatch before its path is saved for the
+    /// next (trace.wgsl, `main`); `None` lets the renderer choose ([`casts_per_dispatch`]). The image
+    /// does not depend on it (tests/tiling.rs).
+    pub casts_per_dispatch: Option<u32>,
 }
 
 /// Faults the renderer can be told to simulate, so that the handling of each (messages, exit codes,
@@ -136,25 +145,20 @@ impl Default for RenderOptions {
             max_tile: None,
             fault: None,
             aov: crate::kernel::abi::AOV_NONE,
-            samples_per_invocation: None,
+            casts_per_dispatch: None,
         }
     }
 }
 
-/// The largest number of samples one invocation traces per dispatch, whatever the device: past a few
-/// dozen, the dispatches saved no longer show, and a dispatch's duration grows with it.
-pub const MAX_SAMPLES_PER_INVOCATION: u32 = 64;
-
-/// How many samples of its pixel one invocation traces per dispatch (trace.wgsl, path regeneration):
-/// on lavapipe, as many as fit its loop budget, the invocation's loops running at most
-/// `samples x worst_case_loop_iterations` iterations ([`LAVAPIPE_LOOP_BUDGET`]); elsewhere
-/// [`MAX_SAMPLES_PER_INVOCATION`]. At least 1 (a scene whose single path exceeds the budget is refused
-/// before this is asked).
-pub fn samples_per_invocation(device_name: &str, gpu: &GpuScene, max_bounces: u32) -> u32 {
-    let mut m = MAX_SAMPLES_PER_INVOCATION;
+/// How many ray casts one invocation makes per dispatch (trace.wgsl, `main`): on lavapipe, as many as
+/// fit its loop budget, a cast running at most `worst_case_loop_iterations(gpu, 0)` iterations plus one
+/// of the invocation's own loop ([`LAVAPIPE_LOOP_BUDGET`]); elsewhere [`MAX_CASTS_PER_DISPATCH`]. At
+/// least 1 (a scene whose single cast exceeds the budget is refused before this is asked).
+pub fn casts_per_dispatch(device_name: &str, gpu: &GpuScene) -> u32 {
+    let mut m = MAX_CASTS_PER_DISPATCH;
     if device_name.contains("llvmpipe") {
-        let per_sample = worst_case_loop_iterations(gpu, max_bounces).max(1);
-        m = m.min((LAVAPIPE_LOOP_BUDGET / per_sample) as u32);
+        let per_cast = worst_case_loop_iterations(gpu, 0) + 1;
+        m = m.min((LAVAPIPE_LOOP_BUDGET / per_cast) as u32);
     }
     m.max(1)
 }
@@ -177,8 +181,14 @@ pub struct Renderer {
     layout: tiles::TileLayout,
     /// The current budget of pixels per dispatch (adapted to `target_dispatch_seconds`).
     tile_pixels: u64,
-    /// The most samples one invocation traces per dispatch ([`samples_per_invocation`]).
-    samples_per_invocation: u32,
+    /// The most ray casts one invocation makes per dispatch ([`casts_per_dispatch`]).
+    casts_per_dispatch: u32,
+    /// Samples of a pixel one dispatch begins: the whole pass, except for a caller's kernel (1).
+    samples_per_dispatch: u32,
+    /// Paths in flight at most: the capacity of `path_state` and of each half of `path_queue`.
+    path_slots: u64,
+    /// `path_count` (trace.wgsl): how many paths the last dispatch left for the next; host-visible.
+    path_count: Buffer,
     target_dispatch_seconds: f64,
     /// Host-visible, as large as the largest strip: film readback and checkpoint restore go through it.
     staging: Buffer,
@@ -238,26 +248,27 @@ pub fn kernel_for(features: &FeatureSet) -> Result<Arc<CompiledShader>, GpuError
 pub struct SampleFaults {
     pub clamped: u32,
     pub not_finite: u32,
+    /// Paths ended by the bounce cap (`abi::BOUNCE_CAP`) rather than by the scene's own limit or by
+    /// Russian roulette: zero unless roulette is off in a scene without a bounce limit (or with more
+    /// bounces than the cap).
+    pub bounce_capped: u32,
 }
 
-/// Refuses, on lavapipe, a scene whose longest possible path could run more loop iterations than
-/// lavapipe allows one invocation (see [`LAVAPIPE_LOOP_BUDGET`]), naming the limit and what to lower.
-fn check_loop_budget(ctx: &GpuContext, gpu: &GpuScene, max_bounces: u32) -> Result<(), GpuError> {
+/// Refuses, on lavapipe, a scene of which one ray cast could run more loop iterations than lavapipe
+/// allows one invocation (see [`LAVAPIPE_LOOP_BUDGET`]): with next-event estimation towards every light,
+/// thousands of lights over many spheres. Paths of any length are fine (trace.wgsl carries them across
+/// dispatches).
+fn check_loop_budget(ctx: &GpuContext, gpu: &GpuScene) -> Result<(), GpuError> {
     let device = &ctx.device_info().name;
-    let iterations = worst_case_loop_iterations(gpu, max_bounces);
+    let iterations = worst_case_loop_iterations(gpu, 0) + 1;
     if device.contains("llvmpipe") && iterations > LAVAPIPE_LOOP_BUDGET {
-        let per_bounce = worst_case_loop_iterations(gpu, 0);
-        let max_ok = (LAVAPIPE_LOOP_BUDGET / per_bounce).saturating_sub(1);
         return Err(GpuError::Limit(format!(
-            "this scene is too heavy for {device}: a path of up to {max_bounces} bounces over {} primitives \
-             and {} lights could run {iterations} shader loop iterations, and lavapipe stops every loop of \
-             an invocation after {LAVAPIPE_LOOP_BUDGET}, which would cut paths short silently. Lower \
-             max_bounces to {max_ok} or less (--max-bounces; in a Mitsuba XML scene the path \
-             integrator's max_depth to {} or less; Russian roulette keeps the result unbiased), use \
-             fewer primitives, or render on a GPU (VKPATH_DEVICE).",
+            "this scene is too heavy for {device}: one ray cast over {} primitives and {} lights could run \
+             {iterations} shader loop iterations, and lavapipe stops every loop of an invocation after \
+             {LAVAPIPE_LOOP_BUDGET}, which would cut paths short silently. Use fewer lights or spheres, \
+             or render on a GPU (VKPATH_DEVICE).",
             gpu.spheres.len() + gpu.triangles.len(),
             gpu.lights.len(),
-            max_ok + 1
         )));
     }
     Ok(())
@@ -372,12 +383,13 @@ fn bind_all(
     scene: &[(&'static str, Buffer)],
     accum: &Buffer,
     pass_constants: &Buffer,
-    sample_faults: &Buffer,
+    [sample_faults, path_count]: [&Buffer; 2],
 ) -> Result<(), GpuError> {
     let mut bindings: Vec<(&str, &Buffer)> = scene.iter().map(|(n, b)| (*n, b)).collect();
     bindings.push(("accum", accum));
     bindings.push(("pass_constants", pass_constants));
     bindings.push(("sample_faults", sample_faults));
+    bindings.push(("path_count", path_count));
     kernel.bind(&bindings)
 }
 
@@ -409,7 +421,7 @@ impl Renderer {
         custom_kernel: Option<Arc<CompiledShader>>,
     ) -> Result<Renderer, GpuError> {
         let gpu = GpuScene::build(scene);
-        check_loop_budget(ctx, &gpu, scene.render.max_bounces)?;
+        check_loop_budget(ctx, &gpu)?;
         let params = render_params(scene, &gpu, options);
         let features = if options.generic {
             FeatureSet::generic()
@@ -417,20 +429,12 @@ impl Renderer {
             FeatureSet::of(&gpu, &params)
         };
         let content_hash = identity::content_hash(scene, &gpu, &params);
-        // A caller's kernel (benchmarks) traces one sample per invocation.
-        let per_invocation = match (&custom_kernel, options.samples_per_invocation) {
-            (Some(_), _) => 1,
-            (None, Some(m)) => m
-                .clamp(1, MAX_SAMPLES_PER_INVOCATION)
-                .min(samples_per_invocation(
-                    &ctx.device_info().name,
-                    &gpu,
-                    scene.render.max_bounces,
-                )),
-            (None, None) => {
-                samples_per_invocation(&ctx.device_info().name, &gpu, scene.render.max_bounces)
-            }
-        };
+        // A caller's kernel (benchmarks) traces one sample per invocation and never saves a path.
+        let samples_per_dispatch = if custom_kernel.is_some() { 1 } else { u32::MAX };
+        let most_casts = casts_per_dispatch(&ctx.device_info().name, &gpu);
+        let casts = options
+            .casts_per_dispatch
+            .map_or(most_casts, |m| m.clamp(1, most_casts));
         let compiled = match custom_kernel {
             Some(k) => k,
             None => compile_kernel(&features, options.fault)?,
@@ -444,7 +448,19 @@ impl Renderer {
             options.max_tile,
         )
         .map_err(|e| GpuError::Limit(format!("{e}. Render a narrower image.")))?;
-        check_device_memory(ctx, &gpu, &layout)?;
+        // Paths in flight: a tile has at most this many pixels (a fixed tile, all of it).
+        let largest_strip = (0..layout.strips.len())
+            .map(|i| layout.strip_pixels(i))
+            .max()
+            .unwrap_or(0);
+        let fixed_tile = options
+            .max_tile
+            .map_or(0, |[w, h]| u64::from(w) * u64::from(h));
+        let path_slots = largest_strip
+            .min(MAX_PATHS_IN_FLIGHT)
+            .max(fixed_tile.min(largest_strip))
+            .max(64);
+        check_device_memory(ctx, &gpu, &layout, path_slots)?;
         let mut kernel = Kernel::new(ctx, &compiled)?;
         let bound = upload_scene(ctx, &mut kernel, &gpu, &params)?;
         // Device-local: every sample reads and writes its pixel's sums, one buffer per strip of rows. The
@@ -463,12 +479,20 @@ impl Renderer {
         )?;
         let sample_faults =
             Buffer::readable_storage(ctx, "sample faults", 4 * SAMPLE_FAULT_COUNTERS as u64)?;
+        let path_count = Buffer::readable_storage(ctx, "path count", 16)?;
+        let mut bound = bound;
+        if kernel.uses("path_state") {
+            let state = Buffer::device_storage(ctx, "path state", path_slots * PATH_STATE_BYTES)?;
+            bound.push(("path_state", state));
+            let queue = Buffer::device_storage(ctx, "path queue", path_slots * 2 * 4)?;
+            bound.push(("path_queue", queue));
+        }
         bind_all(
             &mut kernel,
             &bound,
             &strips[0].buffer,
             &pass_constants,
-            &sample_faults,
+            [&sample_faults, &path_count],
         )?;
         let mut r = Renderer {
             ctx: ctx.clone(),
@@ -477,8 +501,11 @@ impl Renderer {
             strips,
             bound_strip: 0,
             layout,
-            tile_pixels: INITIAL_TILE_PIXELS,
-            samples_per_invocation: per_invocation,
+            tile_pixels: INITIAL_TILE_PIXELS.min(path_slots),
+            casts_per_dispatch: casts,
+            samples_per_dispatch,
+            path_slots,
+            path_count,
             target_dispatch_seconds: options.target_dispatch_seconds,
             staging,
             pass_constants,
@@ -546,7 +573,7 @@ impl Renderer {
             &self.bound,
             &self.strips[i].buffer,
             &self.pass_constants,
-            &self.sample_faults,
+            [&self.sample_faults, &self.path_count],
         )?;
         self.bound_strip = i;
         Ok(())
@@ -561,6 +588,7 @@ impl Renderer {
         Ok(SampleFaults {
             clamped: counts[0],
             not_finite: counts[1],
+            bounce_capped: counts[crate::kernel::abi::FAULT_BOUNCE_CAP as usize],
         })
     }
 
@@ -578,20 +606,10 @@ impl Renderer {
             )));
         }
         let start = self.next_sample;
-        let t0 = Instant::now();
         self.passes += 1;
         if let Err(e) = self.dispatch_samples(start, spp) {
             self.poisoned = Some(e.to_string());
             return Err(e);
-        }
-        // Adapt the tiles so that one dispatch (a chunk of samples over one tile) takes about its
-        // target.
-        let paths = f64::from(spp) * f64::from(self.params.width) * f64::from(self.params.height);
-        let per_path = t0.elapsed().as_secs_f64() / paths.max(1.0);
-        if per_path > 0.0 {
-            let chunk = f64::from(self.samples_per_invocation.min(spp.max(1)));
-            let ideal = self.target_dispatch_seconds / (per_path * chunk);
-            self.tile_pixels = ideal.clamp(64.0, 4.0e9) as u64;
         }
         self.next_sample += spp;
         self.samples_done += spp;
@@ -603,11 +621,13 @@ impl Renderer {
         Ok(())
     }
 
-    /// Records and submits the dispatches of samples `start..start + spp`: for each strip, for each
-    /// chunk of at most `samples_per_invocation` samples in order, one dispatch per tile.
+    /// Traces samples `start..start + spp` of every pixel: for each strip, for each tile (and, with a
+    /// caller's kernel, each sample in order), [`Renderer::trace_tile`]. The tiles then adapt so that
+    /// the slowest dispatch per pixel of this pass, at the next pass's tile size, takes about
+    /// `target_dispatch_seconds`.
     fn dispatch_samples(&mut self, start: u32, spp: u32) -> Result<(), GpuError> {
-        let chunk = self.samples_per_invocation.max(1);
-        let chunks = spp.div_ceil(chunk);
+        let chunk = self.samples_per_dispatch.clamp(1, spp.max(1));
+        let mut slowest_per_pixel = 0.0f64;
         for si in 0..self.strips.len() {
             let tiles = self.layout.tiles(si, self.tile_pixels);
             if tiles.is_empty() {
@@ -615,50 +635,87 @@ impl Renderer {
             }
             self.bind_strip(si)?;
             let accum_base = self.strips[si].rows[0] * self.params.width;
-            let per_chunk = tiles.len() as u64;
-            let total = u64::from(chunks) * per_chunk;
-            let mut first = 0u64;
-            while first < total {
-                let last = (first + MAX_DISPATCHES_PER_SUBMIT).min(total);
-                let constants: Vec<GpuPassConstants> = (first..last)
-                    .map(|i| {
-                        let t = tiles[(i % per_chunk) as usize];
-                        let offset = (i / per_chunk) as u32 * chunk;
-                        GpuPassConstants {
-                            sample_index: start + offset,
-                            accum_base,
-                            tile_x0: t.origin[0],
-                            tile_y0: t.origin[1],
-                            tile_x1: t.end[0],
-                            tile_y1: t.end[1],
-                            sample_count: chunk.min(spp - offset),
-                            _pad: 0,
-                        }
-                    })
-                    .collect();
-                let commands: Vec<Command> = constants
-                    .iter()
-                    .flat_map(|c| {
-                        let [w, h] = [c.tile_x1 - c.tile_x0, c.tile_y1 - c.tile_y0];
-                        [
-                            Command::Update(&self.pass_constants, bytemuck::bytes_of(c)),
-                            Command::Dispatch {
-                                invocations: [w, h, 1],
-                            },
-                        ]
-                    })
-                    .collect();
-                self.kernel.submit(&commands)?;
-                if self.fault == Some(Fault::DeviceLostAtPass(self.passes)) {
-                    // As a real loss would: part of the pass is in the accumulator.
-                    return Err(GpuError::DeviceLost(
-                        "vkQueueSubmit (injected: VKPATH_FAULT=device-lost@N)",
-                    ));
+            let mut offset = 0;
+            while offset < spp {
+                let count = chunk.min(spp - offset);
+                for t in &tiles {
+                    let seconds = self.trace_tile(t, accum_base, start + offset, count)?;
+                    let pixels =
+                        f64::from(t.end[0] - t.origin[0]) * f64::from(t.end[1] - t.origin[1]);
+                    slowest_per_pixel = slowest_per_pixel.max(seconds / pixels.max(1.0));
                 }
-                first = last;
+                offset += count;
             }
         }
+        if slowest_per_pixel > 0.0 {
+            let ideal = self.target_dispatch_seconds / slowest_per_pixel;
+            self.tile_pixels = ideal.clamp(64.0, self.path_slots as f64) as u64;
+        }
         Ok(())
+    }
+
+    /// Traces `count` samples from `sample_index` on over one tile: a dispatch that begins them, then
+    /// dispatches over the queue of paths still going (trace.wgsl, `main`) until none is left, one submit
+    /// each (the host reads the queue's length in between). Returns the longest dispatch's duration in
+    /// seconds.
+    fn trace_tile(
+        &mut self,
+        t: &tiles::Tile,
+        accum_base: u32,
+        sample_index: u32,
+        count: u32,
+    ) -> Result<f64, GpuError> {
+        let width = t.end[0] - t.origin[0];
+        let height = t.end[1] - t.origin[1];
+        let mut c = GpuPassConstants {
+            sample_index,
+            accum_base,
+            tile_x0: t.origin[0],
+            tile_y0: t.origin[1],
+            tile_x1: t.end[0],
+            tile_y1: t.end[1],
+            sample_count: count,
+            queued: 0,
+            queue_in: 0,
+            queue_out: 0,
+            casts: self.casts_per_dispatch,
+            _pad: 0,
+        };
+        let half = self.path_slots as u32;
+        let mut longest = 0.0f64;
+        loop {
+            self.path_count.write(&[0u8; 4])?;
+            // Continuing: one invocation per queued path, in rows as wide as the tile.
+            let invocations = if c.queued == 0 {
+                [width, height, 1]
+            } else {
+                [width, c.queued.div_ceil(width), 1]
+            };
+            let t0 = Instant::now();
+            self.kernel.submit(&[
+                Command::Update(&self.pass_constants, bytemuck::bytes_of(&c)),
+                Command::Dispatch { invocations },
+            ])?;
+            longest = longest.max(t0.elapsed().as_secs_f64());
+            if self.fault == Some(Fault::DeviceLostAtPass(self.passes)) {
+                // As a real loss would: part of the pass is in the accumulator.
+                return Err(GpuError::DeviceLost(
+                    "vkQueueSubmit (injected: VKPATH_FAULT=device-lost@N)",
+                ));
+            }
+            let left = u32::from_le_bytes(
+                self.path_count.read_bytes()?[..4]
+                    .try_into()
+                    .expect("4 bytes"),
+            );
+            if left == 0 {
+                return Ok(longest);
+            }
+            // The queue's two halves take turns as input and output.
+            c.queued = left;
+            c.queue_in = c.queue_out;
+            c.queue_out = if c.queue_in == 0 { half } else { 0 };
+        }
     }
 
     /// How the image is cut into strips (accumulator buffers) and tiles (dispatches).
@@ -666,9 +723,9 @@ impl Renderer {
         &self.layout
     }
 
-    /// The most samples one invocation traces per dispatch ([`samples_per_invocation`]).
-    pub fn samples_per_invocation(&self) -> u32 {
-        self.samples_per_invocation
+    /// The most ray casts one invocation makes per dispatch ([`casts_per_dispatch`]).
+    pub fn casts_per_dispatch(&self) -> u32 {
+        self.casts_per_dispatch
     }
 
     /// The tiles one sample is dispatched over now (they adapt to the dispatch target).
@@ -952,6 +1009,7 @@ fn check_device_memory(
     ctx: &GpuContext,
     gpu: &GpuScene,
     layout: &tiles::TileLayout,
+    path_slots: u64,
 ) -> Result<(), GpuError> {
     let info = ctx.device_info();
     let range = u64::from(info.max_storage_buffer_range);
@@ -1040,19 +1098,21 @@ fn check_device_memory(
     let accum = layout.total_bytes();
     // The staging buffer is host-visible; on a discrete GPU it is not device memory, but counting it
     // keeps the check simple and errs on the side of refusing.
-    let total = scene_bytes + accum + layout.max_strip_bytes();
+    let paths = path_slots * (PATH_STATE_BYTES + 8);
+    let total = scene_bytes + accum + layout.max_strip_bytes() + paths;
     let available = info.device_local_memory_bytes;
     if available > 0 && total > available {
         return Err(GpuError::Limit(format!(
             "this render needs {:.0} MiB of device memory ({:.0} MiB of accumulator for {}x{} pixels at \
-             {} bytes each, {:.0} MiB of staging, {:.0} MiB of scene), and {} has {:.0} MiB. Render a \
-             smaller image, or use a device with more memory (VKPATH_DEVICE).",
+             {} bytes each, {:.0} MiB of staging, {:.0} MiB of paths in flight, {:.0} MiB of scene), and \
+             {} has {:.0} MiB. Render a smaller image, or use a device with more memory (VKPATH_DEVICE).",
             mib(total),
             mib(accum),
             layout.width,
             layout.height,
             tiles::ACCUM_BYTES_PER_PIXEL,
             mib(layout.max_strip_bytes()),
+            mib(paths),
             mib(scene_bytes),
             info.name,
             mib(available)

@@ -146,6 +146,9 @@ pub enum Filter {
     Box,
     /// Every sample through the pixel centre.
     None,
+    /// A tent (triangle) of radius `filter_radius` pixels in x times the same in y (Mitsuba's tent),
+    /// importance-sampled.
+    Tent,
 }
 
 /// Where a path's random numbers come from (`render.sampler`). Both are pure functions of (pixel, sample
@@ -206,13 +209,29 @@ impl LightSampling {
     }
 }
 
+/// `max_bounces = -1` in a scene file or on the command line: no bounce limit.
+pub const NO_BOUNCE_LIMIT: u32 = u32::MAX;
+
+/// `max_bounces` as the user writes it: -1 for [`NO_BOUNCE_LIMIT`].
+pub fn bounces_as_written(max_bounces: u32) -> i64 {
+    if max_bounces == NO_BOUNCE_LIMIT {
+        -1
+    } else {
+        i64::from(max_bounces)
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
     pub samples: u32,
+    /// Scattering events per path; [`NO_BOUNCE_LIMIT`] (`max_bounces = -1`) for none: paths then end by
+    /// Russian roulette, or at `abi::BOUNCE_CAP` (counted and reported).
     pub max_bounces: u32,
     pub seed: u32,
     pub filter: Filter,
     pub filter_sigma: f32,
+    /// The tent filter's radius, in pixels (> 0; default 1).
+    pub filter_radius: f32,
     pub sampler: Sampler,
     pub light_sampling: LightSampling,
     /// `render.clamp`: each sample's radiance is scaled down so that its largest channel is at most this

@@ -39,7 +39,6 @@ mod translate;
 mod xml;
 
 pub use shapes::DISK_SEGMENTS;
-pub use translate::INFINITE_DEPTH_BOUNCES;
 
 use super::SceneError;
 use super::toml_text::absolute;

@@ -9,7 +9,8 @@ use super::xml::parse_float;
 use crate::scene::SceneError;
 use glam::{DMat4, DVec3, DVec4};
 
-/// A film as vkpath's image size and pixel filter (its name and Gaussian sigma).
+/// A film as vkpath's image size and pixel filter (its name, and its width: the Gaussian's sigma or the
+/// tent's radius).
 struct FilmOut {
     width: i64,
     height: i64,
@@ -335,16 +336,24 @@ impl Tr<'_> {
                     // Mitsuba truncates its Gaussian at 4 standard deviations, vkpath does not: the
                     // difference is the weight beyond 4 sigma, 3e-4 of it.
                     "gaussian" => ("gaussian", Some(fargs.float_or("stddev", 0.5)?)),
+                    // Mitsuba's tent: 1 - |x| / radius in x times the same in y, radius 1 pixel by
+                    // default; vkpath's is the same separable tent.
+                    "tent" => ("tent", Some(fargs.float_or("radius", 1.0)?)),
                     other => {
                         return Err(f.loc.error(
                             format!(
                                 "vkpath does not read Mitsuba's reconstruction filter \"{other}\""
                             ),
-                            "Use <rfilter type=\"box\"/> or <rfilter type=\"gaussian\"> (stddev).",
+                            "Use <rfilter type=\"box\"/>, <rfilter type=\"tent\"> (radius) or \
+                             <rfilter type=\"gaussian\"> (stddev).",
                         ));
                     }
                 };
-                let known: &[&str] = if out.0 == "box" { &[] } else { &["stddev"] };
+                let known: &[&str] = match out.0 {
+                    "box" => &[],
+                    "tent" => &["radius"],
+                    _ => &["stddev"],
+                };
                 self.finish(&fargs, known)?;
                 out
             }

@@ -8,11 +8,6 @@ use super::toml_out::{TomlOut, num};
 use crate::scene::SceneError;
 use std::path::Path;
 
-/// vkpath's `max_bounces` for Mitsuba's `max_depth = -1` (no limit, Mitsuba's default): a path is ended
-/// by Russian roulette long before (vkpath's survival probability is at most 0.95 per bounce after the
-/// roulette depth, so 1024 bounces are reached with probability below 0.95^1000 ~ 5e-23).
-pub const INFINITE_DEPTH_BOUNCES: u32 = 1024;
-
 impl Tr<'_> {
     /// The TOML of the `<scene>` (its `<ref>`s checked first): the camera, image and render tables and the
     /// environment, then the materials, the shapes and the lights.
@@ -143,7 +138,7 @@ impl Tr<'_> {
                 (b, c, Some(i.loc.clone()))
             }
             None => (
-                INFINITE_DEPTH_BOUNCES,
+                -1,
                 "no <integrator>: Mitsuba's default path tracer, max_depth = -1 (no limit)"
                     .to_string(),
                 None,
@@ -172,7 +167,12 @@ impl Tr<'_> {
             Some(&cam.film_loc),
         );
         if let Some(s) = cam.filter.1 {
-            head.line(format!("filter_sigma = {}", num(s)), Some(&cam.film_loc));
+            let key = if cam.filter.0 == "tent" {
+                "filter_radius"
+            } else {
+                "filter_sigma"
+            };
+            head.line(format!("{key} = {}", num(s)), Some(&cam.film_loc));
         }
 
         // Emitters (lights and the environment), then shapes (which write the materials).
@@ -197,7 +197,7 @@ impl Tr<'_> {
         Ok(head)
     }
 
-    fn integrator(&mut self, obj: &Obj) -> Result<(u32, String), SceneError> {
+    fn integrator(&mut self, obj: &Obj) -> Result<(i64, String), SceneError> {
         if obj.kind != "path" {
             let problem = format!(
                 "vkpath is a path tracer: it does not read Mitsuba's integrator \"{}\"",
@@ -229,12 +229,9 @@ impl Tr<'_> {
         // Mitsuba's max_depth counts path segments (1: emitters seen directly, 2: direct light), vkpath's
         // max_bounces scattering events (0: emitters only, 1: direct light): max_bounces = max_depth - 1.
         match depth {
-            None | Some((-1, _)) => Ok((
-                INFINITE_DEPTH_BOUNCES,
-                "Mitsuba max_depth = -1 (no limit)".into(),
-            )),
-            Some((d, _)) if d >= 1 && d - 1 <= i64::from(u32::MAX) => {
-                Ok(((d - 1) as u32, format!("Mitsuba max_depth = {d}")))
+            None | Some((-1, _)) => Ok((-1, "Mitsuba max_depth = -1 (no limit)".into())),
+            Some((d, _)) if d >= 1 && d - 1 < i64::from(u32::MAX) => {
+                Ok((d - 1, format!("Mitsuba max_depth = {d}")))
             }
             Some((d, loc)) => Err(loc.error(
                 format!("max_depth = {d}: vkpath needs -1 (no limit) or a depth of at least 1"),

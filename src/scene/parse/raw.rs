@@ -70,6 +70,7 @@ pub(super) struct RawRender {
     pub(super) seed: Option<Spanned<i64>>,
     pub(super) filter: Option<Spanned<String>>,
     pub(super) filter_sigma: Option<Spanned<f32>>,
+    pub(super) filter_radius: Option<Spanned<f32>>,
     pub(super) background: Option<Spanned<RawVec3>>,
     pub(super) sampler: Option<Spanned<String>>,
     pub(super) light_sampling: Option<Spanned<String>>,

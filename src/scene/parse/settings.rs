@@ -289,12 +289,16 @@ impl Checker<'_> {
             )
         })?;
         let max_bounces = raw.max_bounces.as_ref().map_or(Ok(5), |b| {
+            if *b.get_ref() == -1 {
+                return Ok(crate::scene::NO_BOUNCE_LIMIT);
+            }
             self.integer(
                 b,
                 "render.max_bounces",
                 0,
-                u32::MAX,
-                "max_bounces counts scattering events per path; 0 shows lights and the background only.",
+                u32::MAX - 1,
+                "max_bounces counts scattering events per path; 0 shows lights and the background \
+                 only, -1 sets no limit (paths end by Russian roulette).",
             )
         })?;
         let seed = raw.seed.as_ref().map_or(Ok(0), |s| {
@@ -312,12 +316,13 @@ impl Checker<'_> {
                 "gaussian" => Filter::Gaussian,
                 "box" => Filter::Box,
                 "none" => Filter::None,
+                "tent" => Filter::Tent,
                 other => {
                     return Err(self.error(
                         f.span(),
                         "render.filter",
                         format!("unknown pixel filter \"{other}\""),
-                        "Use \"gaussian\" (the default), \"box\" or \"none\".",
+                        "Use \"gaussian\" (the default), \"box\", \"tent\" or \"none\".",
                     ));
                 }
             },
@@ -329,6 +334,15 @@ impl Checker<'_> {
                 |sigma| sigma <= 0.0,
                 "the filter's standard deviation must be > 0",
                 "filter_sigma is in pixels; 0.5 is the default. Use filter = \"none\" for no filtering.",
+            )
+        })?;
+        let filter_radius = raw.filter_radius.as_ref().map_or(Ok(1.0), |r| {
+            self.number_unless(
+                r,
+                "render.filter_radius",
+                |radius| radius <= 0.0,
+                "the tent filter's radius must be > 0",
+                "filter_radius is in pixels; 1 is the default.",
             )
         })?;
         let background = raw.background.as_ref().map_or(Ok(Vec3::ZERO), |b| {
@@ -388,6 +402,7 @@ impl Checker<'_> {
             seed,
             filter,
             filter_sigma,
+            filter_radius,
             sampler,
             light_sampling,
             clamp,
