@@ -26,7 +26,58 @@ fn scene_files() -> Vec<std::path::PathBuf> {
     files
 }
 
-/// Every scene in scenes/, specialised and generic, same seed: the same bits. A present feature runs the
+/// Every scene in scenes/ and its subfolders (TOML, glTF, Mitsuba XML).
+fn every_scene_file() -> Vec<std::path::PathBuf> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mut files = scene_files();
+    for (dir, ext) in [("gltf", "gltf"), ("mitsuba", "xml")] {
+        let mut more: Vec<_> = std::fs::read_dir(root.join(dir))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == ext))
+            .collect();
+        more.sort();
+        assert!(!more.is_empty(), "no .{ext} scene in scenes/{dir}");
+        files.extend(more);
+    }
+    files
+}
+
+/// Every scene in scenes/ and its subfolders rendered in one pass of 6 samples, and split: passes of 1,
+/// 2 and 3 samples, in 8 x 8 tiles, with one ray cast per dispatch (every path saved and continued by
+/// the next dispatch, the queue in whatever order the invocations append to it): the same bits. The
+/// sums are exact and each sample a function of (pixel, sample index, seed) only, so nothing may
+/// differ.
+#[test]
+fn any_split_equals_one_render_for_every_scene() {
+    for path in every_scene_file() {
+        let mut s = vkpath::Scene::load(&path).unwrap();
+        s.image.width = 20;
+        s.image.height = 12;
+        let one = render_passes(&s, &RenderOptions::default(), 1, 6);
+        let options = RenderOptions {
+            max_tile: Some([8, 8]),
+            casts_per_dispatch: Some(1),
+            ..Default::default()
+        };
+        let ctx = vkpath::gpu::testing::context();
+        let mut r = vkpath::Renderer::new(&ctx, &s, &options).unwrap();
+        for spp in [1, 2, 3] {
+            r.run_pass(spp).unwrap();
+        }
+        let split = r.film().unwrap();
+        assert_no_validation_errors();
+        assert_eq!(
+            one.mean,
+            split.mean,
+            "{}: a split render differs from one render",
+            path.display()
+        );
+        assert!(one.average() > 0.0, "{}: black image", path.display());
+    }
+}
+
+/// Every scene in scenes/ and its subfolders, specialised and generic, same seed: the same bits. A present feature runs the
 /// generic code unchanged and absent ones draw no random numbers, so nothing may differ (not even by
 /// float reassociation: both kernels evaluate the same expressions in the same order).
 #[test]
@@ -35,7 +86,7 @@ fn specialised_equals_generic_for_every_scene() {
     // Every scene with the default knobs; the soft-shadows scene (a sphere light) also with each
     // sampler and light-sampling strategy, which are specialisation constants too.
     let soft = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/10-soft-shadows.toml");
-    let mut cases: Vec<_> = scene_files().into_iter().map(|p| (p, None)).collect();
+    let mut cases: Vec<_> = every_scene_file().into_iter().map(|p| (p, None)).collect();
     for knobs in [
         (Sampler::Sobol, LightSampling::Cone),
         (Sampler::Independent, LightSampling::Area),
