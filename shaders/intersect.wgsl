@@ -285,8 +285,18 @@ fn spawn_ray_towards(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, w: vec3<f32>) -
     return ShadowRay(offset_ray_origin(p, err, n, w), w, T_MISS);
 }
 
+// Which side of the surface the ray leaves from is the sign of dot(p_to - p, n), trusted only beyond what
+// it could be wrong by: the rounding of the difference and of the dot product (gamma(4) dot(|d|, |n|))
+// plus p's own error box projected on n (where the exact surface point may lie). Within that, p_to is
+// in the surface's plane as far as p can tell (a light sampled next to the shaded triangle, far from the
+// origin: at |p| = 1.2e7 the error bound is 5 units), and the ray leaves on the side of n, the facing
+// normal, the side the path arrived on. Deciding by the bare sign there put the origin on the far side
+// for a point a hair below p, and the ray then crossed the surface near its end.
 fn spawn_ray_to(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, p_to: vec3<f32>) -> ShadowRay {
-    let o = offset_ray_origin(p, err, n, p_to - p);
+    let d = p_to - p;
+    let side = dot(d, n);
+    let uncertain = gamma_n(4.0) * dot(abs(d), abs(n)) + dot(abs(n), err);
+    let o = offset_ray_origin(p, err, n, select(n, d, abs(side) > uncertain));
     let to = p_to - o;
     let dist = length(to);
     return ShadowRay(o, to / dist, dist * (1.0 - SHADOW_EPSILON));

@@ -1014,15 +1014,20 @@ fn negative_numbers_name_their_flag() {
         "--seed",
         "--width",
         "--height",
-        "--max-bounces",
         "--progress-every",
         "--samples-per-pass",
+        "--casts-per-dispatch",
     ] {
         expect_usage_error(
             &[&["render", "tiny.toml", flag, "-1"][..], &OUTS].concat(),
             &[flag, "-1 is not in"],
         );
     }
+    // -1 is no bounce limit (tests/unbounded.rs); -2 names the flag and what it takes.
+    expect_usage_error(
+        &[&["render", "tiny.toml", "--max-bounces", "-2"][..], &OUTS].concat(),
+        &["--max-bounces", "-1 for no limit"],
+    );
     for flag in ["--width", "--height", "--spp", "--runs"] {
         expect_usage_error(
             &["bench", "throughput", flag, "-3"],

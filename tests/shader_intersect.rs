@@ -1580,6 +1580,8 @@ struct SpawnCase {
 const REFLECT: u32 = 0;
 const REFRACT: u32 = 1;
 const SHADOW: u32 = 2;
+/// A shadow ray of a surface that transmits: no horizon test (intersect_spawn.wgsl, mode 4).
+const SHADOW_THROUGH: u32 = 4;
 const REFRACT_THEN_SHADOW: u32 = 3;
 const MODES: [&str; 4] = ["reflect", "refract", "shadow", "refract+shadow"];
 const IOR: f32 = 1.5;
@@ -1849,6 +1851,87 @@ fn secondary_rays_never_self_intersect() {
     assert!(
         naive_failed_at.contains(&1e5) && naive_failed_at.contains(&1e-4),
         "the fixed epsilon was expected to fail at scales 1e5 (acne) and 1e-4 (pushed through)"
+    );
+}
+
+/// A shadow ray towards a point that lies, as seen from the shaded point, almost in the surface's plane,
+/// far from the origin: triangles of size 10^3 around |p| = 1.2e7, where a hit point's error bound is
+/// about 5 units, lit from above, and light points q on the triangle's plane through the computed hit
+/// point p (|dot(q - p, n)| < 2e-3: a light sampled next to the shaded triangle), truly above the
+/// triangle. The shadow ray is spawned as for a surface that transmits (no horizon test: spawn_ray_to
+/// alone decides the side). It used to decide by the sign of dot(q - p, n) in f32, which p's own error
+/// (5 units here) makes meaningless this close to the plane: q a hair below the computed p put the
+/// origin below the surface and the ray crossed the triangle near its end (the defect of issue 27).
+/// spawn_ray_to now trusts the sign only beyond its error bound, and otherwise leaves on the side of
+/// the facing normal. No shadow ray may hit the triangle it leaves.
+#[test]
+fn shadow_rays_to_points_near_the_plane_leave_from_the_lit_side() {
+    let mut rng = Rng(37);
+    let mut tris = Vec::new();
+    let mut first = Vec::new();
+    for _ in 0..4000 {
+        let center = r32(DVec3::new(1.2e7, -3.0e6, 2.0e6) + rng.ball(1.0e4));
+        let v = random_triangle(&mut rng, center, 1.0e3);
+        let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+        let tri = Prim::Triangle(v);
+        let target = surface_target(&mut rng, &tri);
+        // From above (the +n side), steeply enough to hit reliably.
+        let o = r32(target + (n + rng.unit() * 0.5).normalize() * 1.0e3 * rng.range(1.0, 5.0));
+        first.push(spawn_case(o, dir32(target - o), tri, REFLECT, DVec3::ZERO));
+        tris.push(v);
+    }
+    // The hit points as the kernel computes them; then, per hit, a light point q in the plane through p
+    // (rounded to f32, where one ulp is 1) and truly at least 0.01 above the triangle's plane.
+    let hits: Vec<[[f32; 4]; 3]> = run(
+        include_str!("../shaders/tests/intersect_spawn.wgsl"),
+        &first,
+        first.len(),
+    );
+    let mut cases = Vec::new();
+    for ((got, v), case) in hits.iter().zip(&tris).zip(&first) {
+        if got[0][0] >= T_MISS {
+            continue;
+        }
+        let p = tail3(got[0]);
+        let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize();
+        for _ in 0..400 {
+            let u = rng.unit();
+            let along = (u - n * u.dot(n)).normalize() * rng.range(50.0, 800.0);
+            let q = r32(p + along);
+            if (q - p).dot(n).abs() < 2e-3 && (q - v[0]).dot(n) >= 0.01 {
+                let mut c = *case;
+                c.d[3] = SHADOW_THROUGH as f32;
+                c.l = v4(q, IOR);
+                cases.push(c);
+                break;
+            }
+        }
+    }
+    let out: Vec<[[f32; 4]; 3]> = run(
+        include_str!("../shaders/tests/intersect_spawn.wgsl"),
+        &cases,
+        cases.len(),
+    );
+    let (mut judged, mut blocked) = (0, 0);
+    for got in &out {
+        let [hit, next, _] = *got;
+        if hit[0] >= T_MISS {
+            continue;
+        }
+        judged += 1;
+        if next[0] < T_MISS {
+            blocked += 1;
+        }
+    }
+    println!("{blocked} of {judged} shadow rays hit the triangle they leave");
+    assert!(
+        judged > 1000,
+        "too few judged cases: {judged} of {}",
+        cases.len()
+    );
+    assert_eq!(
+        blocked, 0,
+        "{blocked} of {judged} shadow rays hit their own triangle"
     );
 }
 

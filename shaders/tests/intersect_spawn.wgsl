@@ -9,6 +9,8 @@
 //   2 shadow    spawn_ray_to the light l.xyz                  next ray over (0, dist (1 - 1e-4)),
 //               skipped (next.x = -1) when the light is below the horizon, as direct_light does
 //   3 refract, then a shadow ray from the refracted ray's origin towards l.xyz, over (0, dist)
+//   4 shadow    as 2 without the horizon test (a surface that transmits: direct_light keeps lights on
+//               either side and spawn_ray_to alone decides which side the ray leaves from)
 // a: sphere centre and radius, or triangle v0; b, c: triangle v1, v2; l.w: index of refraction.
 // Out: hit = (t of the incoming ray, p); next = (t of the secondary ray or T_MISS, its origin);
 //      w = (its direction, its t_max).
@@ -70,12 +72,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var t_max = T_MISS;
     if mode == 0u {
         wi = reflect_dir(d, nf);
-    } else if mode == 2u {
+    } else if mode == 2u || mode == 4u {
         let to_light = c.l.xyz - sp.p;
         let dist = length(to_light);
         wi = to_light / dist;
         t_max = dist * (1.0 - 1.0e-4);
-        if dot(nf, wi) <= 0.0 {
+        if mode == 2u && dot(nf, wi) <= 0.0 {
             output[id.x] = SpawnOut(vec4<f32>(h.t, sp.p), vec4<f32>(-1.0, vec3<f32>(0.0)), vec4<f32>(0.0));
             return;
         }
@@ -88,7 +90,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     var o2 = offset_ray_origin(sp.p, sp.err, nf, wi);
-    if mode == 2u {
+    if mode == 2u || mode == 4u {
         // As direct_light aims it: from the offset origin at the light (spawn_ray_to).
         let shadow = spawn_ray_to(sp.p, sp.err, nf, c.l.xyz);
         o2 = shadow.o;
