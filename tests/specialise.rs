@@ -185,7 +185,7 @@ fn absent_features_leave_no_code() {
         "coated_sample",
         "surface_tangent",
         // The --aov layers: only in a layer's kernel, not in a render's.
-        "trace_aov",
+        "aov_step",
         "bsdf_albedo",
     ] {
         assert!(

@@ -28,9 +28,16 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
-/// Pixels per dispatch before the renderer has timed a pass (then it adapts, see
-/// [`RenderOptions::target_dispatch_seconds`]).
-const INITIAL_TILE_PIXELS: u64 = 1 << 18;
+/// Pixels per dispatch before the renderer has timed one, at the default dispatch target (0.1 s; in
+/// proportion for another): small, so that the very first dispatch is bounded in time too (4096 paths of
+/// at most [`MAX_CASTS_PER_DISPATCH`] casts: well under a desktop watchdog's two seconds even on
+/// lavapipe). The tiles then grow, at most [`TILE_GROWTH`] times per pass, towards
+/// [`RenderOptions::target_dispatch_seconds`].
+const INITIAL_TILE_PIXELS: f64 = 4096.0;
+
+/// The most the tile may grow from one pass to the next (a slow start, as TCP's): a dispatch is never
+/// more than this many times the largest one timed so far.
+const TILE_GROWTH: f64 = 4.0;
 
 /// Lavapipe (Mesa's llvmpipe) ends all loops of an invocation once it has run 65535 loop iterations in
 /// total. One ray cast's loops are bounded (primitives + lights x primitives, a BVH walk at most
@@ -501,7 +508,8 @@ impl Renderer {
             strips,
             bound_strip: 0,
             layout,
-            tile_pixels: INITIAL_TILE_PIXELS.min(path_slots),
+            tile_pixels: (INITIAL_TILE_PIXELS * options.target_dispatch_seconds / 0.1)
+                .clamp(64.0, path_slots as f64) as u64,
             casts_per_dispatch: casts,
             samples_per_dispatch,
             path_slots,
@@ -649,7 +657,8 @@ impl Renderer {
         }
         if slowest_per_pixel > 0.0 {
             let ideal = self.target_dispatch_seconds / slowest_per_pixel;
-            self.tile_pixels = ideal.clamp(64.0, self.path_slots as f64) as u64;
+            let most = (TILE_GROWTH * self.tile_pixels as f64).min(self.path_slots as f64);
+            self.tile_pixels = ideal.clamp(64.0, most.max(64.0)) as u64;
         }
         Ok(())
     }
