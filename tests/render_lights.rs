@@ -144,25 +144,13 @@ material = "lamp"
 }
 
 fn inside_sphere(albedo: f64, two_sided: bool, max_bounces: u32) -> vkpath::Scene {
-    scene(&format!(
-        r#"
-[camera]
-position = [0.0, 0.0, 0.0]
-look_at = [0.0, 0.0, -1.0]
-fov = 90.0
-[image]
-width = 16
-height = 16
-[render]
-samples = 256
-max_bounces = {max_bounces}
-[materials]
-glow = {{ type = "diffuse", albedo = [{albedo}, {albedo}, {albedo}], emission = [1.5, 1.5, 1.5], two_sided_emission = {two_sided} }}
-[[sphere]]
-center = [0.0, 0.0, 0.0]
-radius = 2.0
-material = "glow"
-"#
+    scene(&inside_emissive_sphere(
+        albedo,
+        1.5,
+        two_sided,
+        &max_bounces.to_string(),
+        16,
+        256,
     ))
 }
 

@@ -315,6 +315,8 @@ fn tile_and_dispatch_flags_do_not_change_the_image() {
     for bad in [
         &["--tile", "0x8"][..],
         &["--tile", "64"],
+        // More pixels than the renderer keeps paths in flight (2^20).
+        &["--tile", "2048x1024"],
         &["--dispatch-ms", "0"],
         &["--dispatch-ms", "-5"],
     ] {

@@ -11,34 +11,14 @@ use vkpath::kernel::abi::BOUNCE_CAP;
 use vkpath::render::{RenderOptions, Renderer};
 use vkpath::scene::NO_BOUNCE_LIMIT;
 
-/// A white furnace that emits: the camera inside a closed sphere whose diffuse wall has albedo a = 0.9
-/// and emits radiance Le = 1 on both sides. Every wall point then has L = Le + a L (the wall sees only
-/// wall, of the same radiance, and a Lambertian wall reflects a times its irradiance pi L as radiance
-/// a L), so L = Le / (1 - a) = 10: the geometric series 1 + a + a^2 + ..., which only a path without a
-/// bounce limit sums. With cosine-weighted bounces each path of n bounces carries exactly
-/// 1 + a + ... + a^n.
+/// A white furnace that emits (common::inside_emissive_sphere): the camera inside a closed sphere whose
+/// diffuse wall has albedo a = 0.9 and emits radiance Le = 1 on both sides. Every wall point then has
+/// L = Le + a L (the wall sees only wall, of the same radiance, and a Lambertian wall reflects a times its
+/// irradiance pi L as radiance a L), so L = Le / (1 - a) = 10: the geometric series 1 + a + a^2 + ...,
+/// which only a path without a bounce limit sums. With cosine-weighted bounces each path of n bounces
+/// carries exactly 1 + a + ... + a^n.
 fn emitting_furnace(size: u32, samples: u32, max_bounces: &str) -> String {
-    format!(
-        r#"
-[camera]
-position = [0.0, 0.0, 0.0]
-look_at = [0.0, 0.0, -1.0]
-fov = 90.0
-[image]
-width = {size}
-height = {size}
-[render]
-samples = {samples}
-max_bounces = {max_bounces}
-filter = "box"
-[materials]
-wall = {{ type = "diffuse", albedo = [0.9, 0.9, 0.9], emission = [1.0, 1.0, 1.0], two_sided_emission = true }}
-[[sphere]]
-center = [0.0, 0.0, 0.0]
-radius = 10.0
-material = "wall"
-"#
-    )
+    common::inside_emissive_sphere(0.9, 1.0, true, max_bounces, size, samples)
 }
 
 /// With Russian roulette (the default, from bounce 3), the unbounded furnace's image mean converges to

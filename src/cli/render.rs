@@ -613,6 +613,13 @@ fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
         if w == 0 || h == 0 {
             return Err(bad());
         }
+        let most = vkpath::render::MAX_PATHS_IN_FLIGHT;
+        if u64::from(w) * u64::from(h) > most {
+            return Err(usage(format!(
+                "--tile {w}x{h}: a tile may have at most {most} pixels (the paths the renderer keeps in \
+                 flight, one per pixel of a dispatch), e.g. 1024x1024."
+            )));
+        }
         o.max_tile = Some([w, h]);
     }
     if let Some(ms) = a.dispatch_ms {

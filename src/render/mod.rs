@@ -463,9 +463,16 @@ impl Renderer {
         let fixed_tile = options
             .max_tile
             .map_or(0, |[w, h]| u64::from(w) * u64::from(h));
+        let fixed_tile = fixed_tile.min(largest_strip);
+        if fixed_tile > MAX_PATHS_IN_FLIGHT {
+            return Err(GpuError::Limit(format!(
+                "a tile of {fixed_tile} pixels is more than the {MAX_PATHS_IN_FLIGHT} paths the renderer \
+                 keeps in flight (one per pixel of a dispatch). Use a smaller --tile."
+            )));
+        }
         let path_slots = largest_strip
             .min(MAX_PATHS_IN_FLIGHT)
-            .max(fixed_tile.min(largest_strip))
+            .max(fixed_tile)
             .max(64);
         check_device_memory(ctx, &gpu, &layout, path_slots)?;
         let mut kernel = Kernel::new(ctx, &compiled)?;

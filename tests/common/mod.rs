@@ -85,3 +85,37 @@ pub fn assert_strategies_agree(
     }
     stats
 }
+
+/// The camera at the centre of a closed diffuse sphere of albedo `albedo` that emits `emission` from its
+/// outside, or from both sides with `two_sided` (seen from inside: a white furnace that emits). Each wall
+/// point then has L = Le + a L over an unbounded path (L = Le / (1 - a)), or the sum up to a^N over N
+/// bounces. `max_bounces` as the scene file writes it (-1: no limit).
+pub fn inside_emissive_sphere(
+    albedo: f64,
+    emission: f64,
+    two_sided: bool,
+    max_bounces: &str,
+    size: u32,
+    samples: u32,
+) -> String {
+    format!(
+        r#"
+[camera]
+position = [0.0, 0.0, 0.0]
+look_at = [0.0, 0.0, -1.0]
+fov = 90.0
+[image]
+width = {size}
+height = {size}
+[render]
+samples = {samples}
+max_bounces = {max_bounces}
+[materials]
+wall = {{ type = "diffuse", albedo = [{albedo}, {albedo}, {albedo}], emission = [{emission}, {emission}, {emission}], two_sided_emission = {two_sided} }}
+[[sphere]]
+center = [0.0, 0.0, 0.0]
+radius = 2.0
+material = "wall"
+"#
+    )
+}
