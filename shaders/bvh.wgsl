@@ -19,7 +19,7 @@ const BVH_NONE: u32 = 0xffffffffu;
 // The host bounds the tree's depth to fit (src/scene/bvh.rs): at most one entry per level is pending.
 const BVH_STACK_SIZE: u32 = 64u;
 // Lavapipe ends all loops of an invocation after 65535 iterations in total, and the renderer bounds a
-// path's iterations before rendering, so one traversal runs at most this many iterations: one interior
+// ray cast's iterations before rendering, so one traversal runs at most this many iterations: one interior
 // node or one triangle each. Typical rays need a few dozen to a few hundred (src/scene/bvh.rs, MAX_STEPS,
 // explains the choice; tests/shader_bvh.rs measures it).
 const BVH_MAX_STEPS: u32 = 2048u;

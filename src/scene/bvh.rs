@@ -45,11 +45,11 @@ pub const SAH_MAX_DEPTH: usize = 32;
 /// (`BVH_MAX_STEPS`). One iteration visits one interior node (both child boxes) or tests one triangle.
 ///
 /// Why a cap: Mesa's lavapipe ends every loop of an invocation after 65535 iterations in total, and the
-/// renderer must bound a path's iterations before it renders (`render::worst_case_loop_iterations`). The
-/// uncapped worst case of one traversal is every node and every triangle, which for 10^6 triangles
-/// would refuse every mesh scene. With the cap, a path costs at most (bounces + 1) x (lights + 1)
-/// traversals of 2048 iterations: the course's settings (5 bounces, 1 light) need 12 x 2048 = 24,576,
-/// within the budget with room for spheres and lights. A ray through a good BVH needs far fewer:
+/// renderer must bound one ray cast's iterations before it renders (`render::worst_case_loop_iterations`,
+/// `render::casts_per_dispatch`). The uncapped worst case of one traversal is every node and every
+/// triangle, which for 10^6 triangles would not fit. With the cap, a cast costs at most (lights + 1)
+/// traversals of 2048 iterations: with one light, 4096, so that an invocation makes 15 casts per
+/// dispatch on the largest meshes (paths go on in the next dispatch). A ray through a good BVH needs far fewer:
 /// roughly 2 log2(N) interior nodes plus a few leaves, and `tests/shader_bvh.rs` measures the largest count over
 /// random rays into meshes of up to 10^5 triangles (a few hundred at most). A ray that reached the cap
 /// would keep the closest hit found so far (a shadow ray: unoccluded); the tests check that none does.
