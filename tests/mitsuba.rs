@@ -12,6 +12,7 @@ use std::path::Path;
 use vkpath::Scene;
 use vkpath::scene::NO_BOUNCE_LIMIT;
 use vkpath::scene::mitsuba;
+use vkpath::scene::translated::ImportOptions;
 use vkpath::scene::{Bsdf, ConductorFresnel, Filter, Light, Projection, Roughness, Sampler};
 
 /// A perspective sensor the scenes below share: 40 x 20 pixels, box filter, 16 spp.
@@ -509,6 +510,104 @@ fn defaults_includes_and_references() {
     };
     assert_eq!(albedo(0), Vec3::new(0.0, 0.0, 0.5));
     assert_eq!(albedo(1), Vec3::new(0.7, 0.0, 0.0));
+}
+
+/// `-D name=value` (ImportOptions::defines) sets `<default>` parameters as Mitsuba's command line does:
+/// over the file's `<default>`, the first of a repeated name winning; a name the file never mentions is a
+/// warning; one the file uses without a `<default>` is defined by it. On the command line: render takes
+/// it, and refuses it for a TOML scene (exit 2, naming the flag) or without the `=`.
+#[test]
+fn command_line_defines_set_xml_default_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = r#"<default name="integrator" value="my_guiding_integrator"/>
+           <default name="depth" value="8"/>
+           <integrator type="$integrator"><integer name="max_depth" value="$depth"/></integrator>
+           <shape type="sphere"><float name="radius" value="$r"/></shape>"#;
+    let p = write(dir.path(), "scene.xml", &scene_xml(body));
+    let with = |defines: &[(&str, &str)]| {
+        let options = ImportOptions {
+            defines: defines
+                .iter()
+                .map(|(n, v)| (n.to_string(), v.to_string()))
+                .collect(),
+            ..ImportOptions::default()
+        };
+        Scene::load_with(&p, &options)
+    };
+    // As written: the custom integrator is refused, and $r has no <default>.
+    let e = with(&[]).expect_err("refused").to_string();
+    assert!(
+        e.contains("$r") || e.contains("my_guiding_integrator"),
+        "{e}"
+    );
+    let e = with(&[("r", "2")]).expect_err("refused").to_string();
+    assert!(e.contains("my_guiding_integrator"), "{e}");
+    // -D over <default>; the first -D of a name wins; max_depth 8 is 7 bounces, 4 is 3.
+    let s = with(&[("integrator", "path"), ("r", "2"), ("r", "5")]).unwrap();
+    assert_eq!(s.spheres[0].radius, 2.0);
+    assert_eq!(s.render.max_bounces, 7);
+    assert!(
+        s.warnings.iter().all(|w| !w.contains("-D")),
+        "{:?}",
+        s.warnings
+    );
+    let s = with(&[
+        ("integrator", "path"),
+        ("r", "2"),
+        ("depth", "4"),
+        ("nmae", "x"),
+    ])
+    .unwrap();
+    assert_eq!(s.render.max_bounces, 3);
+    let unused: Vec<_> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("-D nmae="))
+        .collect();
+    assert_eq!(unused.len(), 1, "{:?}", s.warnings);
+    assert!(unused[0].contains("scene.xml"), "{}", unused[0]);
+
+    let out = dir.path().join("out.exr");
+    let ok = run(
+        dir.path(),
+        &[
+            "render",
+            p.to_str().unwrap(),
+            "-D",
+            "integrator=path",
+            "-D",
+            "r=1",
+            "--spp",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "4",
+            "--quiet",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(
+        ok.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let toml = write(
+        dir.path(),
+        "scene.toml",
+        "[camera]\nposition = [0.0, 0.0, 5.0]\n",
+    );
+    for (args, needle) in [
+        (vec!["render", toml.to_str().unwrap(), "-D", "r=1"], "-D r="),
+        (vec!["render", p.to_str().unwrap(), "-D", "r"], "NAME=VALUE"),
+    ] {
+        let o = run(dir.path(), &args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(needle), "{err}");
+    }
 }
 
 /// Every refusal: the file, the line, the element and what vkpath reads instead.

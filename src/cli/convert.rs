@@ -26,6 +26,9 @@ pub struct ConvertArgs {
     /// A Mitsuba XML scene: skip what vkpath does not read, with a warning each (as `render`).
     #[arg(long = "xml-lenient")]
     xml_lenient: bool,
+    /// A Mitsuba XML scene's `<default>` parameter (as `render -D`); repeatable.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = super::parse_define)]
+    defines: Vec<(String, String)>,
 }
 
 pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
@@ -53,8 +56,9 @@ pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
     let options = ImportOptions {
         camera: a.camera.map(|c| c as usize),
         xml_lenient: a.xml_lenient,
+        defines: a.defines.clone(),
     };
-    load_scene_with(Some(&a.scene), options.camera, options.xml_lenient)?;
+    load_scene_with(Some(&a.scene), &options)?;
     // File paths relative to the output's folder, so that the TOML reads them from where it is. The
     // warnings were printed by load_scene_with.
     let out_dir = absolute(a.output.parent().unwrap_or(Path::new("")));

@@ -16,6 +16,8 @@ use clap::{Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
+use vkpath::scene::import::Importer;
+use vkpath::scene::translated::ImportOptions;
 use vkpath::{Error, Scene};
 
 #[derive(Parser)]
@@ -75,18 +77,34 @@ fn usage(msg: impl Into<String>) -> Error {
 /// scene when none is. What the reader noticed and worked around (Scene::warnings) is printed on stderr,
 /// one line each.
 fn load_scene(path: Option<&Path>, camera: Option<usize>) -> Result<Scene, Error> {
-    load_scene_with(path, camera, false)
+    let options = ImportOptions {
+        camera,
+        ..ImportOptions::default()
+    };
+    load_scene_with(path, &options)
 }
 
-/// [`load_scene`]; `xml_lenient`: a Mitsuba XML scene's unknown elements are skipped with a warning.
-fn load_scene_with(
-    path: Option<&Path>,
-    camera: Option<usize>,
-    xml_lenient: bool,
-) -> Result<Scene, Error> {
-    let scene = match (path, camera) {
-        (Some(path), camera) => Scene::load_with_options(path, camera, xml_lenient)?,
-        (None, None) => Scene::default_scene(),
+/// [`load_scene`] with every import option: `--xml-lenient` (a Mitsuba XML scene's unknown elements are
+/// skipped with a warning) and `-D` (a Mitsuba XML scene's `<default>` parameters), which only an XML
+/// scene takes.
+fn load_scene_with(path: Option<&Path>, options: &ImportOptions) -> Result<Scene, Error> {
+    if let (Some(path), Some((name, _))) = (path, options.defines.first())
+        && !Importer::for_path(path).takes_defines
+    {
+        return Err(usage(format!(
+            "-D {name}=...: -D sets the <default> parameters of a Mitsuba XML scene, and {} is a {} file.",
+            path.display(),
+            Importer::for_path(path).name
+        )));
+    }
+    let scene = match (path, options.camera) {
+        (Some(path), _) => Scene::load_with(path, options)?,
+        (None, None) if options.defines.is_empty() => Scene::default_scene(),
+        (None, None) => {
+            return Err(usage(
+                "-D sets the <default> parameters of a Mitsuba XML scene; give the scene file as well.",
+            ));
+        }
         (None, Some(_)) => {
             return Err(usage(
                 "--camera picks a camera of a glTF or Mitsuba XML scene file; give the scene file as well.",
@@ -153,6 +171,16 @@ fn report_validation_errors(errors: &[String]) -> bool {
         errors.len()
     );
     true
+}
+
+/// `-D NAME=VALUE`: a Mitsuba XML `<default>` parameter, as Mitsuba's own command line takes it.
+fn parse_define(text: &str) -> Result<(String, String), String> {
+    match text.split_once('=') {
+        Some((name, value)) if !name.trim().is_empty() => {
+            Ok((name.trim().to_string(), value.to_string()))
+        }
+        _ => Err("expected NAME=VALUE, e.g. -D integrator=path".into()),
+    }
 }
 
 /// `--max-bounces N`: a count of scattering events, or -1 for no limit

@@ -24,6 +24,7 @@ use vkpath::film::OutputFormat;
 use vkpath::gpu::{ContextOptions, GpuContext};
 use vkpath::output::Aov;
 use vkpath::render::{Fault, PassReport, RenderOptions, Renderer, SaveEvery, StopReason};
+use vkpath::scene::translated::ImportOptions;
 use vkpath::session::{Plan, Request, Session};
 use vkpath::{Error, Scene};
 
@@ -218,11 +219,12 @@ struct Job {
 /// an output of unknown format; a part writes no image unless asked: its checkpoint is what counts), and
 /// reads the checkpoint to resume: a damaged or foreign file is refused here, before any device work.
 fn prepare(a: &RenderArgs, is_part: bool) -> Result<Job, Error> {
-    let mut scene = load_scene_with(
-        a.scene.as_deref(),
-        a.camera.map(|c| c as usize),
-        a.xml_lenient,
-    )?;
+    let import = ImportOptions {
+        camera: a.camera.map(|c| c as usize),
+        xml_lenient: a.xml_lenient,
+        defines: a.defines.clone(),
+    };
+    let mut scene = load_scene_with(a.scene.as_deref(), &import)?;
     apply_overrides(&mut scene, a)?;
     let options = render_options(a)?;
     let outputs = if a.outputs.is_empty() && !is_part {
@@ -451,6 +453,10 @@ pub struct RenderArgs {
     /// warning each, instead of refusing the file.
     #[arg(long = "xml-lenient")]
     xml_lenient: bool,
+    /// A Mitsuba XML scene's `<default>` parameter, as on Mitsuba's command line (`-D integrator=path`,
+    /// `-D spp=64`); it wins over the file's `<default>`. Repeatable.
+    #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = super::parse_define)]
+    defines: Vec<(String, String)>,
     /// Output file; repeatable; the format follows the extension (.png, .exr). Default: <scene-stem>.png.
     #[arg(short = 'o', long = "output")]
     outputs: Vec<PathBuf>,

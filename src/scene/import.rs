@@ -17,6 +17,8 @@ pub struct Importer {
     pub name: &'static str,
     /// The extensions of the files it reads, lower case (a file's is matched in any case).
     pub extensions: &'static [&'static str],
+    /// Whether its files have parameters that `-D name=value` sets (Mitsuba XML's `<default>`s).
+    pub takes_defines: bool,
     /// The TOML text of the file at `path`, its file paths relative to a folder (absolute), or to the
     /// file's own folder when `None` (the text is then read as if it sat beside the file).
     pub to_toml: fn(
@@ -30,6 +32,7 @@ pub struct Importer {
 const TOML: Importer = Importer {
     name: "vkpath TOML",
     extensions: &["toml"],
+    takes_defines: false,
     to_toml: toml_as_written,
 };
 
@@ -39,11 +42,13 @@ pub const IMPORTERS: &[Importer] = &[
     Importer {
         name: "glTF 2.0",
         extensions: GLTF_EXTENSIONS,
+        takes_defines: false,
         to_toml: gltf_scene::to_toml,
     },
     Importer {
         name: "Mitsuba 3 XML",
         extensions: &["xml"],
+        takes_defines: true,
         to_toml: mitsuba::to_toml,
     },
     TOML,

@@ -450,8 +450,14 @@ impl Scene {
         let options = ImportOptions {
             camera,
             xml_lenient,
+            defines: Vec::new(),
         };
-        Importer::for_path(path).load(path, &options)
+        Scene::load_with(path, &options)
+    }
+
+    /// Reads a scene file with every import option (see [`ImportOptions`]).
+    pub fn load_with(path: &Path, options: &ImportOptions) -> Result<Scene, SceneError> {
+        Importer::for_path(path).load(path, options)
     }
 
     /// Parses and validates scene text. `path` is used for messages and to resolve relative paths.

@@ -16,6 +16,10 @@ pub struct ImportOptions {
     /// Mitsuba XML: skip unknown elements, plugins and parameters with a warning each, instead of refusing
     /// the file.
     pub xml_lenient: bool,
+    /// Mitsuba XML: `<default>` parameters set on the command line (`-D name=value`), in the order given.
+    /// They win over the file's own `<default>`s, as on Mitsuba's command line; the first of a repeated
+    /// name wins.
+    pub defines: Vec<(String, String)>,
 }
 
 /// Where a line of translated TOML came from: the file, its 1-based line, and the element as written

@@ -57,7 +57,7 @@ pub fn to_toml(
 ) -> Result<Translated, SceneError> {
     let main = absolute(path);
     let main_dir = main.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mut parser = Parser::new(options.xml_lenient, main_dir.clone());
+    let mut parser = Parser::new(options.xml_lenient, main_dir.clone(), &options.defines);
     let scene = parser.main_file(path)?;
     let refer_dir = toml_dir.map(absolute).unwrap_or_else(|| main_dir.clone());
     let warnings = std::mem::take(&mut parser.warnings);

@@ -36,8 +36,12 @@ const OBJECT_TAGS: &[&str] = &[
 pub(super) struct Parser {
     lenient: bool,
     pub(super) warnings: Vec<String>,
-    /// `<default>`s seen so far, first definition wins (as Mitsuba's).
+    /// Parameters: the command line's (`-D name=value`) first, then the `<default>`s seen so far; the
+    /// first definition of a name wins, as in Mitsuba (whose command line overrides `<default>`).
     params: Vec<(String, String)>,
+    /// The command line's parameter names, and whether the file declared or used each: one it never
+    /// mentions is a warning (a misspelt `-D` would otherwise change nothing, silently).
+    defines: Vec<(String, bool)>,
     pub(super) ids: HashMap<String, Rc<Obj>>,
     /// The files being read, outermost first (canonical paths), to find include cycles.
     chain: Vec<PathBuf>,
@@ -185,15 +189,29 @@ fn snake_case(name: &str) -> String {
 
 impl Parser {
     /// A parser for a scene whose main file is in `main_dir` (absolute).
-    pub(super) fn new(lenient: bool, main_dir: PathBuf) -> Parser {
+    pub(super) fn new(lenient: bool, main_dir: PathBuf, defines: &[(String, String)]) -> Parser {
+        let mut params: Vec<(String, String)> = Vec::new();
+        for (n, v) in defines {
+            if !params.iter().any(|(m, _)| m == n) {
+                params.push((n.clone(), v.clone()));
+            }
+        }
         Parser {
             lenient,
             warnings: Vec::new(),
-            params: Vec::new(),
+            defines: params.iter().map(|(n, _)| (n.clone(), false)).collect(),
+            params,
             ids: HashMap::new(),
             chain: Vec::new(),
             main_dir,
             depth: 0,
+        }
+    }
+
+    /// Notes that the file declares or uses parameter `name` (see `defines`).
+    fn mention(&mut self, name: &str) {
+        if let Some(d) = self.defines.iter_mut().find(|(n, _)| n == name) {
+            d.1 = true;
         }
     }
 
@@ -227,7 +245,7 @@ impl Parser {
         required: &[&str],
     ) -> Result<Attrs, SceneError> {
         let loc = self.loc(src, node, Self::describe(node));
-        let mut params: Vec<&(String, String)> = self.params.iter().collect();
+        let mut params = self.params.clone();
         params.sort_by_key(|(n, _)| std::cmp::Reverse(n.len()));
         let mut out = Vec::new();
         for a in node.attributes() {
@@ -248,7 +266,11 @@ impl Parser {
             let mut value = a.value().to_string();
             if value.contains('$') {
                 for (n, v) in &params {
-                    value = value.replace(&format!("${n}"), v);
+                    let reference = format!("${n}");
+                    if value.contains(&reference) {
+                        self.mention(n);
+                        value = value.replace(&reference, v);
+                    }
                 }
                 if value.contains('$') {
                     return Err(loc.error(
@@ -300,6 +322,12 @@ impl Parser {
         src.upgrade = self.version(&loc, attrs.get("version"))?;
         let mut props = Vec::new();
         self.children(&src, root, &mut props)?;
+        for (name, _) in self.defines.iter().filter(|(_, seen)| !seen) {
+            self.warnings.push(format!(
+                "{}: -D {name}=...: the scene has no <default name=\"{name}\"> and no attribute uses ${name}; the parameter changes nothing",
+                path.display()
+            ));
+        }
         Ok(Obj {
             tag: "scene".into(),
             kind: "scene".into(),
@@ -397,6 +425,7 @@ impl Parser {
                 if !self.params.iter().any(|(n, _)| n == name) {
                     self.params.push((name.to_string(), value.to_string()));
                 }
+                self.mention(name);
                 Ok(())
             }
             "include" => self.include(src, node, loc, out),
