@@ -59,6 +59,7 @@ fn ray_inverse(d: vec3<f32>) -> vec3<f32> {
 fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
     var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
     let inv_d = ray_inverse(d);
+    let tr = triangle_ray(o, d);
     var sp = 0u;
     var node = 0u; // the next reference to visit, or BVH_NONE: pop one
     var first = 0u; // triangles [first, end) of the leaf being tested
@@ -107,7 +108,7 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
         // One triangle of the current leaf: the same watertight test as the brute-force loop, so both
         // find the same closest hit.
         let tri = triangles[first];
-        let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
+        let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
         if th.t < hit.t {
             // (A hit the surface's opacity lets through is no hit: scene.wgsl, hit_is_transparent.)
             let candidate = Hit(th.t, PRIM_TRIANGLE, first, th.b);

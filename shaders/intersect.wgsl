@@ -87,10 +87,17 @@ fn component(v: vec3<f32>, k: u32) -> f32 {
     return select(select(v.x, v.y, k == 1u), v.z, k == 2u);
 }
 
-fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>,
-                      t_min: f32, t_max: f32) -> TriangleHit {
-    let miss = TriangleHit(T_MISS, vec3<f32>(0.0));
-    // kz: the dimension where |d| is largest; kx, ky the other two, swapped to keep the winding.
+// The part of the watertight test that depends on the ray alone (Woop et al. §3.1: done once per ray, not
+// per triangle): kz, the dimension where |d| is largest, kx and ky the other two (swapped to keep the
+// winding when d points down kz), and the shear (sx, sy, sz) that maps d to +z.
+struct TriangleRay {
+    o: vec3<f32>,
+    d: vec3<f32>,
+    k: vec3<u32>, // kx, ky, kz
+    s: vec3<f32>, // sx, sy, sz
+}
+
+fn triangle_ray(o: vec3<f32>, d: vec3<f32>) -> TriangleRay {
     let ad = abs(d);
     var kz = 2u;
     if ad.x > ad.y && ad.x > ad.z {
@@ -106,9 +113,28 @@ fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, 
         kx = ky;
         ky = tmp;
     }
-    let sx = component(d, kx) / dz;
-    let sy = component(d, ky) / dz;
-    let sz = 1.0 / dz;
+    let s = vec3<f32>(component(d, kx) / dz, component(d, ky) / dz, 1.0 / dz);
+    return TriangleRay(o, d, vec3<u32>(kx, ky, kz), s);
+}
+
+fn intersect_triangle(o: vec3<f32>, d: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>,
+                      t_min: f32, t_max: f32) -> TriangleHit {
+    return intersect_triangle_ray(triangle_ray(o, d), v0, v1, v2, t_min, t_max);
+}
+
+// intersect_triangle for a ray whose per-ray part is computed (triangle_ray): the BVH walk and the loops
+// over triangles test many triangles with one ray.
+fn intersect_triangle_ray(r: TriangleRay, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, t_min: f32,
+                          t_max: f32) -> TriangleHit {
+    let miss = TriangleHit(T_MISS, vec3<f32>(0.0));
+    let o = r.o;
+    let d = r.d;
+    let kx = r.k.x;
+    let ky = r.k.y;
+    let kz = r.k.z;
+    let sx = r.s.x;
+    let sy = r.s.y;
+    let sz = r.s.z;
 
     let a = v0 - o;
     let bb = v1 - o;
@@ -321,30 +347,21 @@ fn is_inf_or_nan(x: f32) -> bool {
 
 fn intersect_aabb(o: vec3<f32>, inv_d: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>, t_max: f32) -> f32 {
     let widen = 1.0 + 2.0 * gamma_n(3.0);
-    var t0 = 0.0;
-    var t1 = t_max;
-    for (var k = 0u; k < 3u; k++) {
-        let ok = component(o, k);
-        let lk = component(lo, k);
-        let hk = component(hi, k);
-        let ik = component(inv_d, k);
-        if is_inf_or_nan(ik) {
-            if ok < lk || ok > hk {
-                return T_MISS;
-            }
-            continue;
-        }
-        var t_near = (lk - ok) * ik;
-        var t_far = (hk - ok) * ik;
-        if t_near > t_far {
-            let tmp = t_near;
-            t_near = t_far;
-            t_far = tmp;
-        }
-        t_far *= widen;
-        t0 = max(t0, t_near);
-        t1 = min(t1, t_far);
+    // All three slabs at once, as vectors (one instruction per operation for the three axes, no
+    // branches). A parallel axis's slab is decided by position; its products (possibly 0 * inf = NaN)
+    // are formed but replaced by a slab that never binds (0 for the entry, t_max for the exit), so
+    // nothing depends on min/max of a NaN. The folds run in the axis order x, y, z: min and max are exact,
+    // so the result is the same whatever the order, bit for bit.
+    let parallel = (bitcast<vec3<u32>>(inv_d) & vec3<u32>(0x7f800000u)) == vec3<u32>(0x7f800000u);
+    if any(parallel & ((o < lo) | (o > hi))) {
+        return T_MISS;
     }
+    let t_lo = (lo - o) * inv_d;
+    let t_hi = (hi - o) * inv_d;
+    let t_near = select(min(t_lo, t_hi), vec3<f32>(0.0), parallel);
+    let t_far = select(max(t_lo, t_hi) * widen, vec3<f32>(t_max), parallel);
+    let t0 = max(max(max(0.0, t_near.x), t_near.y), t_near.z);
+    let t1 = min(min(min(t_max, t_far.x), t_far.y), t_far.z);
     if t0 > t1 {
         return T_MISS;
     }

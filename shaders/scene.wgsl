@@ -58,9 +58,10 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
         }
     }
     if HAS_TRIANGLE_LOOP {
+        let tr = triangle_ray(o, d);
         for (var i = 0u; i < triangle_count(); i++) {
             let tri = triangles[i];
-            let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
+            let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
             if th.t < hit.t {
                 let candidate = Hit(th.t, PRIM_TRIANGLE, i, th.b);
                 if !hit_is_transparent(o, d, candidate, tri.material) {
@@ -91,9 +92,10 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
         }
     }
     if HAS_TRIANGLE_LOOP {
+        let tr = triangle_ray(o, d);
         for (var i = 0u; i < triangle_count(); i++) {
             let tri = triangles[i];
-            let th = intersect_triangle(o, d, tri.v0, tri.v1, tri.v2, 0.0, t_max);
+            let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, t_max);
             if th.t < t_max {
                 if !hit_is_transparent(o, d, Hit(th.t, PRIM_TRIANGLE, i, th.b), tri.material) {
                     return true;
