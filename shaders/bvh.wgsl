@@ -1,26 +1,29 @@
 // bvh.wgsl: the triangle BVH (built on the host by src/scene/bvh.rs, nodes in `bvh_nodes`), walked without
 // recursion.
 //
-// Node 0 is the root and is always an interior node. An interior node stores the boxes of both children,
-// so one visit tests both boxes, goes on with the nearer child that the ray enters, and pushes the other
-// (with its entry distance) on a small stack; a popped entry is skipped when the closest hit found since
-// is nearer than where the ray enters its box (Aila & Laine, "Understanding the Efficiency of Ray
-// Traversal on GPUs", HPG 2009, for the two-box node; pbrt-v4 §7.3.5 for the stack walk). Leaves are
-// ranges of at most 4 triangles in `triangles`.
+// The tree is 4 wide: node 0 is the root and is always an interior node; an interior node stores the
+// boxes of its (up to) four children as four-lane vectors, so one visit tests all four boxes at once,
+// goes on with the nearest child the ray enters and pushes the others (with their entry distances) on a
+// small stack, farthest first; a popped entry is skipped when the closest hit found since is nearer than
+// where the ray enters its box (Aila & Laine, "Understanding the Efficiency of Ray Traversal on GPUs",
+// HPG 2009, for storing the children's boxes in the parent; Dammertz et al. 2008 and Embree's BVH4 for the
+// width; pbrt-v4 §7.3.5 for the stack walk). Leaves are ranges of at most 4 triangles in `triangles`.
 //
 // A child reference with BVH_LEAF set is a leaf, first = (ref & ~BVH_LEAF) >> BVH_LEAF_COUNT_BITS and
-// count = (ref & BVH_LEAF_COUNT_MASK) + 1; otherwise it is a node index. (Mirrors src/scene/bvh.rs.)
+// count = (ref & BVH_LEAF_COUNT_MASK) + 1; BVH_NONE is an unused slot; otherwise it is a node index.
+// (Mirrors src/scene/bvh.rs.)
 //
 // requires: scene_data.wgsl, intersect.wgsl, opacity.wgsl
 const BVH_LEAF: u32 = 0x80000000u;
 const BVH_LEAF_COUNT_BITS: u32 = 2u;
 const BVH_LEAF_COUNT_MASK: u32 = 3u;
 const BVH_NONE: u32 = 0xffffffffu;
-// The host bounds the tree's depth to fit (src/scene/bvh.rs): at most one entry per level is pending.
+// The host checks that the tree fits (src/scene/bvh.rs, Bvh::wide): at most (children - 1) entries per
+// level of the current path are pending.
 const BVH_STACK_SIZE: u32 = 64u;
 // Lavapipe ends all loops of an invocation after 65535 iterations in total, and the renderer bounds a
 // ray cast's iterations before rendering, so one traversal runs at most this many iterations: one interior
-// node or one triangle each. Typical rays need a few dozen to a few hundred (src/scene/bvh.rs, MAX_STEPS,
+// node (four boxes) or one triangle each. Typical rays need a few dozen to a few hundred (src/scene/bvh.rs, MAX_STEPS,
 // explains the choice; tests/shader_bvh.rs measures it).
 const BVH_MAX_STEPS: u32 = 2048u;
 
@@ -53,12 +56,50 @@ fn ray_inverse(d: vec3<f32>) -> vec3<f32> {
     return select(1.0 / d, signed_inf, abs(d) < vec3<f32>(1.17549435e-38));
 }
 
+// The distances at which the ray enters the four child boxes of `n` (0 when the origin is inside), or
+// T_MISS for a box it misses within (0, t_max) and for an unused slot: intersect_aabb's conservative slab
+// test, lane k for child k, the same arithmetic in the same order, so each lane is bit for bit what
+// intersect_aabb returns for that box. `parallel` marks the axes where inv_d is ±inf (ray_parallel_axes).
+fn intersect_boxes4(o: vec3<f32>, inv_d: vec3<f32>, parallel: vec3<bool>, n: BvhNode, t_max: f32) -> vec4<f32> {
+    let widen = 1.0 + 2.0 * gamma_n(3.0);
+    let xl = (n.lo_x - o.x) * inv_d.x;
+    let xh = (n.hi_x - o.x) * inv_d.x;
+    let yl = (n.lo_y - o.y) * inv_d.y;
+    let yh = (n.hi_y - o.y) * inv_d.y;
+    let zl = (n.lo_z - o.z) * inv_d.z;
+    let zh = (n.hi_z - o.z) * inv_d.z;
+    // A parallel axis's slab never binds (entry 0, exit t_max); the origin's position decides it.
+    let near_x = select(min(xl, xh), vec4<f32>(0.0), parallel.x);
+    let near_y = select(min(yl, yh), vec4<f32>(0.0), parallel.y);
+    let near_z = select(min(zl, zh), vec4<f32>(0.0), parallel.z);
+    let far_x = select(max(xl, xh) * widen, vec4<f32>(t_max), parallel.x);
+    let far_y = select(max(yl, yh) * widen, vec4<f32>(t_max), parallel.y);
+    let far_z = select(max(zl, zh) * widen, vec4<f32>(t_max), parallel.z);
+    let ox = vec4<f32>(o.x);
+    let oy = vec4<f32>(o.y);
+    let oz = vec4<f32>(o.z);
+    let no = vec4<bool>(false);
+    let outside = select(no, (ox < n.lo_x) | (ox > n.hi_x), parallel.x)
+        | select(no, (oy < n.lo_y) | (oy > n.hi_y), parallel.y)
+        | select(no, (oz < n.lo_z) | (oz > n.hi_z), parallel.z);
+    let t0 = max(max(max(vec4<f32>(0.0), near_x), near_y), near_z);
+    let t1 = min(min(min(vec4<f32>(t_max), far_x), far_y), far_z);
+    let miss = outside | (t0 > t1) | (n.child == vec4<u32>(BVH_NONE));
+    return select(t0, vec4<f32>(T_MISS), miss);
+}
+
+// Which axes of inv_d (ray_inverse) are ±inf: the ray is parallel to those slabs.
+fn ray_parallel_axes(inv_d: vec3<f32>) -> vec3<bool> {
+    return (bitcast<vec3<u32>>(inv_d) & vec3<u32>(0x7f800000u)) == vec3<u32>(0x7f800000u);
+}
+
 // The closest triangle hit along o + t d with t in (0, t_max), or with any_hit the first one found (for
 // shadow rays, which only ask whether something is in the way). Returns a Hit of kind PRIM_TRIANGLE whose
 // prim_index is the triangle's index in `triangles`, or PRIM_NONE.
 fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
     var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
     let inv_d = ray_inverse(d);
+    let parallel = ray_parallel_axes(inv_d);
     let tr = triangle_ray(o, d);
     var sp = 0u;
     var node = 0u; // the next reference to visit, or BVH_NONE: pop one
@@ -80,25 +121,55 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
             }
             if (node & BVH_LEAF) == 0u {
                 let n = bvh_nodes[node];
-                let t_cull = hit.t * BVH_CULL_SLACK;
-                let ta = intersect_aabb(o, inv_d, n.lo_a, n.hi_a, t_cull);
-                let tb = intersect_aabb(o, inv_d, n.lo_b, n.hi_b, t_cull);
-                let in_a = ta < T_MISS;
-                let in_b = tb < T_MISS;
-                if in_a && in_b {
-                    // Nearest child first; the other waits on the stack with its entry distance.
-                    let a_first = ta <= tb;
-                    bvh_stack_ref[sp] = select(n.child_a, n.child_b, a_first);
-                    bvh_stack_t[sp] = max(ta, tb);
-                    sp += 1u;
-                    node = select(n.child_b, n.child_a, a_first);
-                } else if in_a {
-                    node = n.child_a;
-                } else if in_b {
-                    node = n.child_b;
-                } else {
-                    node = BVH_NONE;
+                let t = intersect_boxes4(o, inv_d, parallel, n, hit.t * BVH_CULL_SLACK);
+                // Sort the four (distance, child) pairs by distance, misses (T_MISS) last: a five-exchange
+                // sorting network (Knuth, TAOCP 3, §5.3.4), strict comparisons so that equal distances keep
+                // the children's order.
+                var ta = t.x;
+                var tb = t.y;
+                var tc = t.z;
+                var td = t.w;
+                var ca = n.child.x;
+                var cb = n.child.y;
+                var cc = n.child.z;
+                var cd = n.child.w;
+                if tb < ta {
+                    let t_ = ta; ta = tb; tb = t_;
+                    let c_ = ca; ca = cb; cb = c_;
                 }
+                if td < tc {
+                    let t_ = tc; tc = td; td = t_;
+                    let c_ = cc; cc = cd; cd = c_;
+                }
+                if tc < ta {
+                    let t_ = ta; ta = tc; tc = t_;
+                    let c_ = ca; ca = cc; cc = c_;
+                }
+                if td < tb {
+                    let t_ = tb; tb = td; td = t_;
+                    let c_ = cb; cb = cd; cd = c_;
+                }
+                if tc < tb {
+                    let t_ = tb; tb = tc; tc = t_;
+                    let c_ = cb; cb = cc; cc = c_;
+                }
+                // The farthest waits deepest on the stack; the nearest is visited next.
+                if td < T_MISS {
+                    bvh_stack_ref[sp] = cd;
+                    bvh_stack_t[sp] = td;
+                    sp += 1u;
+                }
+                if tc < T_MISS {
+                    bvh_stack_ref[sp] = cc;
+                    bvh_stack_t[sp] = tc;
+                    sp += 1u;
+                }
+                if tb < T_MISS {
+                    bvh_stack_ref[sp] = cb;
+                    bvh_stack_t[sp] = tb;
+                    sp += 1u;
+                }
+                node = select(BVH_NONE, ca, ta < T_MISS);
                 continue;
             }
             first = (node & ~BVH_LEAF) >> BVH_LEAF_COUNT_BITS;

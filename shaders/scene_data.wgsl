@@ -60,14 +60,13 @@ struct Triangle {
 // Triangle meshes (see src/scene/bvh.rs and src/kernel/upload.rs). An interior BVH node holds the boxes of its
 // two children; a child reference is a node index, or a leaf (BVH_LEAF set, see bvh.wgsl).
 struct BvhNode {
-    lo_a: vec3<f32>,
-    child_a: u32,
-    hi_a: vec3<f32>,
-    child_b: u32,
-    lo_b: vec3<f32>,
-    _pad0: u32,
-    hi_b: vec3<f32>,
-    _pad1: u32,
+    lo_x: vec4<f32>,
+    hi_x: vec4<f32>,
+    lo_y: vec4<f32>,
+    hi_y: vec4<f32>,
+    lo_z: vec4<f32>,
+    hi_z: vec4<f32>,
+    child: vec4<u32>,
 }
 
 const NO_MESH: u32 = 0xffffffffu;

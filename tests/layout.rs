@@ -640,7 +640,7 @@ fn mesh_structs_match_wgsl() {
         "BvhNode",
         "GpuBvhNode",
         size_of::<GpuBvhNode>(),
-        fields!(GpuBvhNode: lo_a, child_a, hi_a, child_b, lo_b, _pad0, hi_b, _pad1),
+        fields!(GpuBvhNode: lo_x, hi_x, lo_y, hi_y, lo_z, hi_z, child),
     );
     check_storage_array(
         &module,

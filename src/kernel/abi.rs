@@ -218,20 +218,21 @@ pub struct GpuAccum {
     pub sum_sq_c: [f32; 3],
 }
 
-/// Mirrors `BvhNode` in scene_data.wgsl: an interior node of the triangle BVH with the boxes of both its
-/// children, so that the traversal can order and cull them before fetching them (see `scene::bvh`).
-/// `child_a` / `child_b` are node indices, or leaf references with `scene::bvh::LEAF` set.
+/// Mirrors `BvhNode` in scene_data.wgsl: an interior node of the 4-wide triangle BVH (`scene::bvh::WideNode`)
+/// with the boxes of its children as four-lane vectors per bound (structure of arrays: `lo_x[k]` is child
+/// k's lower x), so that the walk tests the four boxes with vector arithmetic, and orders and culls them
+/// before fetching them. `child[k]` is a node index, a leaf reference with `scene::bvh::LEAF` set, or
+/// `scene::bvh::NO_CHILD` for an unused slot.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuBvhNode {
-    pub lo_a: [f32; 3],
-    pub child_a: u32,
-    pub hi_a: [f32; 3],
-    pub child_b: u32,
-    pub lo_b: [f32; 3],
-    pub _pad0: u32,
-    pub hi_b: [f32; 3],
-    pub _pad1: u32,
+    pub lo_x: [f32; 4],
+    pub hi_x: [f32; 4],
+    pub lo_y: [f32; 4],
+    pub hi_y: [f32; 4],
+    pub lo_z: [f32; 4],
+    pub hi_z: [f32; 4],
+    pub child: [u32; 4],
 }
 
 /// No mesh: `GpuMeshFace::mesh` of a triangle that has no shading data (a `[[triangle]]` or a flat,
@@ -482,7 +483,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
 ];
 
 const _: () = assert!(std::mem::size_of::<GpuParams>() == 144);
-const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuMeshFace>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);
 const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);

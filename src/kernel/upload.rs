@@ -679,22 +679,25 @@ impl GpuScene {
         if !faces.is_empty() {
             self.mesh_faces = tree.order.iter().map(|&i| faces[i as usize]).collect();
         }
-        self.bvh_nodes = tree
-            .nodes
+        let wide = tree.wide();
+        self.bvh_nodes = wide
             .iter()
-            .map(|n| GpuBvhNode {
-                lo_a: n.bounds[0].lo.into(),
-                child_a: n.child[0],
-                hi_a: n.bounds[0].hi.into(),
-                child_b: n.child[1],
-                lo_b: n.bounds[1].lo.into(),
-                hi_b: n.bounds[1].hi.into(),
-                ..Default::default()
+            .map(|n| {
+                let lane = |f: &dyn Fn(&bvh::Aabb) -> f32| std::array::from_fn(|k| f(&n.bounds[k]));
+                GpuBvhNode {
+                    lo_x: lane(&|b| b.lo.x),
+                    hi_x: lane(&|b| b.hi.x),
+                    lo_y: lane(&|b| b.lo.y),
+                    hi_y: lane(&|b| b.hi.y),
+                    lo_z: lane(&|b| b.lo.z),
+                    hi_z: lane(&|b| b.hi.z),
+                    child: n.child,
+                }
             })
             .collect();
         self.stats = SceneStats {
             triangles: total,
-            bvh_nodes: tree.nodes.len(),
+            bvh_nodes: wide.len(),
             bvh_leaves: tree.leaves,
             bvh_depth: tree.depth,
             bvh_build_ms: tree.build_seconds * 1e3,

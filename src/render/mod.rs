@@ -63,15 +63,15 @@ pub const MAX_PATHS_IN_FLIGHT: u64 = 1 << 20;
 /// cap is what lets a 10^6-triangle mesh fit lavapipe's budget, and it is far above what a ray needs in
 /// a SAH tree (about 2 log2(N) nodes and a few leaves; `tests/shader_bvh.rs` measures it). A small tree needs
 /// fewer: a walk visits each interior node at most once, tests each triangle at most once, skips at most
-/// one stacked entry per interior node and ends with one more iteration, so it runs at most
-/// 2 nodes + triangles + 1 iterations. With the course's settings (5 bounces, one light) a mesh of any
+/// three stacked entries per interior node (the tree is 4 wide) and ends with one more iteration, so it
+/// runs at most 4 nodes + triangles + 1 iterations. With the course's settings (5 bounces, one light) a mesh of any
 /// size costs at most 12 walks, 24,576 iterations.
 pub fn worst_case_loop_iterations(gpu: &GpuScene, max_bounces: u32) -> u64 {
     let triangles = gpu.triangles.len() as u64;
     let walk = if triangles == 0 {
         0
     } else {
-        (2 * gpu.bvh_nodes.len() as u64 + triangles + 1)
+        (crate::scene::bvh::WIDTH as u64 * gpu.bvh_nodes.len() as u64 + triangles + 1)
             .min(u64::from(crate::scene::bvh::MAX_STEPS))
     };
     let per_query = gpu.spheres.len() as u64 + walk;

@@ -1,5 +1,6 @@
 //! A bounding volume hierarchy over triangles, built on the host with the binned surface area heuristic
-//! and flattened into the array of two-box nodes that `shaders/bvh.wgsl` walks.
+//! as a binary tree, then collapsed into the 4-wide tree ([`WideNode`], [`Bvh::wide`]) whose nodes
+//! `shaders/bvh.wgsl` walks.
 //!
 //! **The surface area heuristic** (Goldsmith & Salmon 1987; MacDonald & Booth 1990; as in pbrt-v4 §7.3,
 //! Pharr, Jakob & Humphreys 2023). For a ray that passes through a node's box B, the probability that it
@@ -98,7 +99,8 @@ impl Aabb {
     }
 }
 
-/// An interior node: the boxes and references of its two children (see [`LEAF`]).
+/// An interior node of the binary tree the builder makes: the boxes and references of its two children
+/// (see [`LEAF`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Node {
     pub bounds: [Aabb; 2],
@@ -401,6 +403,98 @@ impl Bvh {
     }
 }
 
+/// Children per node of the tree the shader walks ([`WideNode`]).
+pub const WIDTH: usize = 4;
+/// An unused child slot of a [`WideNode`] (its box is empty; the shader skips it by this reference).
+pub const NO_CHILD: u32 = u32::MAX;
+
+/// A node of the 4-wide tree the shader walks: up to [`WIDTH`] children, each a node index or a leaf
+/// reference ([`LEAF`]), with their boxes; unused slots are [`NO_CHILD`].
+///
+/// **Why 4 wide** (Dammertz et al., "Shallow Bounding Volume Hierarchies for Fast SIMD Ray Tracing of
+/// Incoherent Rays", 2008; Wald et al. 2008; Embree's BVH4): one visit tests four boxes with 4-lane vector
+/// arithmetic, and a walk visits about half as many nodes as in the binary tree (the depth is about
+/// halved), so the walk's per-iteration costs (the loop itself, the node fetch, the stack) are paid about
+/// half as often. docs/performance.md has the measurement that decided it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WideNode {
+    pub bounds: [Aabb; WIDTH],
+    pub child: [u32; WIDTH],
+}
+
+impl Bvh {
+    /// The 4-wide tree of this binary one, with the same leaves (so the same triangle order): each wide
+    /// node takes a binary node's two children and, while it has fewer than four, replaces its child of
+    /// largest surface area that is an interior node by that node's two children (the greedy collapse of
+    /// Wald, Benthin & Boulos 2008 and pbrt-v3's discussion of wide BVHs). Node 0 is the root.
+    ///
+    /// The shader's stack ([`STACK_SIZE`] entries) holds, for every node on the current path, the children
+    /// it has not yet visited: at most (children - 1) per node. The collapse checks the largest sum along
+    /// any root-to-leaf path; in the rare tree where it exceeds the stack (a deep, median-split chain),
+    /// it keeps the binary nodes instead (two children each, one pending per level, which the binary
+    /// tree's depth bound already fits).
+    pub fn wide(&self) -> Vec<WideNode> {
+        if self.nodes.is_empty() {
+            return Vec::new();
+        }
+        let mut out = Vec::with_capacity(self.nodes.len() / 2 + 1);
+        self.collapse(0, true, &mut out);
+        if wide_stack_need(&out, 0) > STACK_SIZE {
+            out.clear();
+            self.collapse(0, false, &mut out);
+        }
+        out
+    }
+
+    /// Appends the wide node for binary node `node` (and, after it, its subtrees); returns its index.
+    fn collapse(&self, node: usize, expand: bool, out: &mut Vec<WideNode>) -> u32 {
+        let n = &self.nodes[node];
+        let mut kids: Vec<(u32, Aabb)> = vec![(n.child[0], n.bounds[0]), (n.child[1], n.bounds[1])];
+        while expand && kids.len() < WIDTH {
+            let widest = kids
+                .iter()
+                .enumerate()
+                .filter(|(_, (r, _))| r & LEAF == 0)
+                .max_by(|(_, (_, a)), (_, (_, b))| a.surface_area().total_cmp(&b.surface_area()))
+                .map(|(i, _)| i);
+            let Some(i) = widest else { break };
+            let inner = &self.nodes[kids[i].0 as usize];
+            kids[i] = (inner.child[0], inner.bounds[0]);
+            kids.insert(i + 1, (inner.child[1], inner.bounds[1]));
+        }
+        let index = out.len();
+        out.push(WideNode {
+            bounds: [Aabb::EMPTY; WIDTH],
+            child: [NO_CHILD; WIDTH],
+        });
+        for (k, (r, b)) in kids.into_iter().enumerate() {
+            let r = if r & LEAF != 0 {
+                r
+            } else {
+                self.collapse(r as usize, expand, out)
+            };
+            out[index].child[k] = r;
+            out[index].bounds[k] = b;
+        }
+        index as u32
+    }
+}
+
+/// The most traversal-stack entries a walk of the wide tree below `node` can hold: (children - 1) at each
+/// node of a root-to-leaf path, summed, the largest over all paths.
+pub fn wide_stack_need(nodes: &[WideNode], node: usize) -> usize {
+    let n = &nodes[node];
+    let used = n.child.iter().filter(|&&c| c != NO_CHILD).count();
+    let below = n
+        .child
+        .iter()
+        .filter(|&&c| c != NO_CHILD && c & LEAF == 0)
+        .map(|&c| wide_stack_need(nodes, c as usize))
+        .max()
+        .unwrap_or(0);
+    used.saturating_sub(1) + below
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -484,6 +578,73 @@ mod tests {
             assert_eq!(bvh.leaf_ranges().len(), bvh.leaves);
             assert_eq!(bvh.nodes.len() + 1, bvh.leaves, "a binary tree");
         }
+        check_wide(tris, bvh);
+    }
+
+    /// The wide tree: the binary tree's leaves, each reached once; every child's box the binary tree's
+    /// box of the same subtree (so it holds the subtree's triangles); unused slots only after used ones;
+    /// and the stack need within the shader's stack.
+    fn check_wide(tris: &[[Vec3; 3]], bvh: &Bvh) {
+        let wide = bvh.wide();
+        fn leaves(wide: &[WideNode], node: usize, out: &mut Vec<u32>) -> Vec<Vec3> {
+            let mut points = Vec::new();
+            let n = &wide[node];
+            let used = n.child.iter().take_while(|&&c| c != NO_CHILD).count();
+            assert!(used >= 2, "a wide node has at least two children");
+            assert!(n.child[used..].iter().all(|&c| c == NO_CHILD));
+            for k in 0..used {
+                let below = if n.child[k] & LEAF != 0 {
+                    out.push(n.child[k]);
+                    vec![]
+                } else {
+                    leaves(wide, n.child[k] as usize, out)
+                };
+                for p in &below {
+                    assert!(n.bounds[k].contains(&Aabb { lo: *p, hi: *p }));
+                }
+                points.extend(below);
+                points.push(n.bounds[k].lo);
+                points.push(n.bounds[k].hi);
+            }
+            points
+        }
+        let mut wide_leaves = Vec::new();
+        leaves(&wide, 0, &mut wide_leaves);
+        // The leaves' triangles lie in their boxes: a leaf's box is its slot's box.
+        fn leaf_boxes(wide: &[WideNode]) -> Vec<(u32, Aabb)> {
+            wide.iter()
+                .flat_map(|n| {
+                    n.child
+                        .iter()
+                        .zip(n.bounds)
+                        .filter(|(c, _)| **c != NO_CHILD && **c & LEAF != 0)
+                })
+                .map(|(c, b)| (*c, b))
+                .collect()
+        }
+        for (r, b) in leaf_boxes(&wide) {
+            let first = ((r & !LEAF) >> LEAF_COUNT_BITS) as usize;
+            let count = (r & LEAF_COUNT_MASK) as usize + 1;
+            for k in first..first + count {
+                for v in tris[bvh.order[k] as usize] {
+                    assert!(b.contains(&Aabb { lo: v, hi: v }));
+                }
+            }
+        }
+        let mut binary: Vec<u32> = Vec::new();
+        let mut stack = vec![0u32];
+        while let Some(r) = stack.pop() {
+            if r & LEAF != 0 {
+                binary.push(r);
+            } else {
+                stack.extend(bvh.nodes[r as usize].child);
+            }
+        }
+        wide_leaves.sort_unstable();
+        binary.sort_unstable();
+        assert_eq!(wide_leaves, binary, "the same leaves, once each");
+        assert!(wide_stack_need(&wide, 0) <= STACK_SIZE);
+        assert!(wide.len() <= bvh.nodes.len());
     }
 
     #[test]
@@ -521,5 +682,35 @@ mod tests {
             .collect();
         let bvh = build(&tris);
         check_invariants(&tris, &bvh);
+    }
+
+    #[test]
+    fn the_wide_tree_has_about_half_the_depth_and_nodes() {
+        let tris = random_triangles(20_000, 7);
+        let bvh = build(&tris);
+        let wide = bvh.wide();
+        fn depth(wide: &[WideNode], node: usize) -> usize {
+            1 + wide[node]
+                .child
+                .iter()
+                .filter(|&&c| c != NO_CHILD && c & LEAF == 0)
+                .map(|&c| depth(wide, c as usize))
+                .max()
+                .unwrap_or(0)
+        }
+        let d = depth(&wide, 0);
+        // (Measured: 19,693 binary nodes of depth 17 become 9,510 wide nodes of depth 9. Not a third: a
+        // binary node whose children are both leaves stays a two-child node.)
+        assert!(
+            wide.len() * 20 <= bvh.nodes.len() * 11,
+            "{} of {} nodes",
+            wide.len(),
+            bvh.nodes.len()
+        );
+        assert!(
+            d * 2 <= bvh.depth + 2,
+            "wide depth {d}, binary {}",
+            bvh.depth
+        );
     }
 }
