@@ -68,6 +68,7 @@ ROOT = HERE.parent.parent
 sys.path.insert(0, str(HERE))
 
 import mitsuba_scene as ms  # noqa: E402
+import mitsuba_xml as mx  # noqa: E402
 
 TARGETS = (0.05, 0.02, 0.01)
 
@@ -177,13 +178,14 @@ def is_mitsuba(label: str) -> bool:
 
 
 class Mitsuba:
-    def __init__(self, dr, mi, scene_dict: dict, sampler: str = "independent"):
+    def __init__(self, dr, mi, scene_dict: dict | None, sampler: str = "independent", scene=None):
         self.dr, self.mi, self.sampler = dr, mi, sampler
         # One label per sampler ("Mitsuba 3" alone is the independent sampler, as in earlier runs).
         self.label = MITSUBA if sampler == "independent" else f"{MITSUBA} {sampler}"
         self._counts: dict[int, int] = {}
         dr.set_flag(dr.JitFlag.KernelHistory, True)
-        self.scene = mi.load_dict(scene_dict)
+        # A scene dict (the TOML scenes, translated), or a scene Mitsuba loaded already (an XML file).
+        self.scene = scene if scene is not None else mi.load_dict(scene_dict)
         t = time.perf_counter()
         self._render(1, seed=999_999)  # warm-up: kernel compilation (or Dr.Jit cache load), not timed
         self.warmup_seconds = time.perf_counter() - t
@@ -360,7 +362,7 @@ def default_scenes() -> list[Path]:
 
 def resolve_scene(s: str) -> Path:
     p = Path(s)
-    if p.suffix == ".toml" and p.exists():
+    if p.suffix in (".toml", ".xml") and p.exists():
         return p
     for cand in [ROOT / "scenes" / f"{s}.toml", *sorted((ROOT / "scenes").glob(f"{s}*.toml"))]:
         if cand.exists():
@@ -425,6 +427,9 @@ def main() -> int:
                     help="render the reference batches with every --vkpath-config (not only the first) and "
                     "check each against Mitsuba's (the unbiasedness table gets a row per config); costs "
                     "--ref-spp more samples per extra config and scene")
+    ap.add_argument("--xml-filter", choices=["box", "file"], default="box",
+                    help="Mitsuba XML scenes: a one-pixel box filter on both sides (default), or the file's own "
+                         "(Mitsuba splats it over several pixels, vkpath samples it; see mitsuba_xml.py)")
     ap.add_argument("--seed-base", type=int, default=0,
                     help="added to every seed, for an independent repetition of a run")
     ap.add_argument("--repeat", type=int, default=1,
@@ -488,7 +493,7 @@ def main() -> int:
         "vkpath_commit": commit + (" (+ uncommitted changes)" if dirty else ""),
         "mitsuba": f"{mi.__version__} llvm_ad_rgb, drjit {dr.__version__}, "
                    f"LLVM {Path(llvm).name}",
-        "size": f"{size}x{size} (box filter)",
+        "size": f"{size} wide (box filter{'' if a.xml_filter == 'box' else '; XML scenes: the file filter'})",
         "ladder": f"1..{max_spp} spp (doubling)",
         "reference": f"{ref_spp} spp from each renderer in {batches} batches (mean of both)",
         "mitsuba_samplers": " ".join(a.mitsuba_samplers),
@@ -500,42 +505,67 @@ def main() -> int:
     seen: dict[str, str] = {}
     aliases: dict[str, list[str]] = {}
     for scene_path in scenes:
-        name = scene_path.stem
-        raw = ms.load_toml(scene_path)
-        reasons = ms.unsupported_reasons(raw)
-        if reasons:
-            skipped.append((name, "; ".join(reasons)))
-            print(f"## {name}: skipped: {'; '.join(reasons)}", flush=True)
-            continue
-        r = ms.resolved(raw)
-        w = size
-        h = max(1, round(size * r["image"]["height"] / r["image"]["width"]))
-        over = ms.with_overrides(raw, scene_path.parent, filter="box", width=w, height=h)
-        # Several course steps differ only in what the comparison overrides (filter, samples, seed) or in
-        # the display transform (gamma, exposure): render each distinct scene once.
-        key = ms.render_key(over)
-        if key in seen:
-            aliases[seen[key]].append(name)
-            print(f"## {name}: the same scene as {seen[key]} once the filter is box; not rendered again",
-                  flush=True)
-            continue
-        seen[key] = name
-        aliases[name] = []
-        toml_path = tmp / f"{name}.toml"
-        toml_path.write_text(ms.dump_toml(over))
-        max_bounces = ms.resolved(over)["render"]["max_bounces"]
-        print(f"## {name}: {w}x{h}, max_bounces {max_bounces} (Mitsuba max_depth {max_bounces + 1}, "
-              f"rr_depth {a.rr_depth})", flush=True)
+        if scene_path.suffix == ".xml":
+            # A Mitsuba scene file, read by each renderer's own importer (mitsuba_xml.py): its filter,
+            # max_depth and everything else as the file says; only the size, the sampler and rr_depth are
+            # the comparison's. Bitterli's exports are all called scene.xml: their folder names them.
+            name = scene_path.parent.name if scene_path.stem == "scene" else scene_path.stem
+            fw, fh = mx.film_size(scene_path)
+            w = size
+            h = max(1, round(size * fh / fw))
+            depth = mx.max_depth(scene_path)
+            aliases[name] = []
+            print(f"## {name}: {w}x{h}, Mitsuba XML, max_depth {depth}, rr_depth {a.rr_depth}, filter "
+                  f"{a.xml_filter}", flush=True)
+            box = a.xml_filter == "box"
+            # vkpath reads Mitsuba's stratified samplers as its Sobol' sampler, its default (the TOML scenes'
+            # too): each renderer with its own best sampler.
+            vk_scene = mx.copy(scene_path, tmp / name / "vkpath.xml", w, h, "multijitter", a.rr_depth, box)
+            vk_args = []
 
-        vks = [Vkpath(vkpath_bin, label, extra, toml_path, tmp) for label, extra in configs]
+            def mitsuba_for(sampler: str, scene_path=scene_path, name=name, w=w, h=h, box=box) -> Mitsuba:
+                c = mx.copy(scene_path, tmp / name / f"{sampler}.xml", w, h, sampler, a.rr_depth, box)
+                return Mitsuba(dr, mi, None, sampler, scene=mi.load_file(str(c)))
+        else:
+            name = scene_path.stem
+            raw = ms.load_toml(scene_path)
+            reasons = ms.unsupported_reasons(raw)
+            if reasons:
+                skipped.append((name, "; ".join(reasons)))
+                print(f"## {name}: skipped: {'; '.join(reasons)}", flush=True)
+                continue
+            r = ms.resolved(raw)
+            w = size
+            h = max(1, round(size * r["image"]["height"] / r["image"]["width"]))
+            over = ms.with_overrides(raw, scene_path.parent, filter="box", width=w, height=h)
+            # Several course steps differ only in what the comparison overrides (filter, samples, seed) or
+            # in the display transform (gamma, exposure): render each distinct scene once.
+            key = ms.render_key(over)
+            if key in seen:
+                aliases[seen[key]].append(name)
+                print(f"## {name}: the same scene as {seen[key]} once the filter is box; not rendered again",
+                      flush=True)
+                continue
+            seen[key] = name
+            aliases[name] = []
+            vk_scene = tmp / f"{name}.toml"
+            vk_scene.write_text(ms.dump_toml(over))
+            vk_args = []
+            max_bounces = ms.resolved(over)["render"]["max_bounces"]
+            print(f"## {name}: {w}x{h}, max_bounces {max_bounces} (Mitsuba max_depth {max_bounces + 1}, "
+                  f"rr_depth {a.rr_depth})", flush=True)
+
+            def mitsuba_for(sampler: str, over=over, name=name) -> Mitsuba:
+                return Mitsuba(dr, mi, ms.mitsuba_dict(mi, over, spp=1, tmp_dir=tmp / name,
+                                                       rr_depth=a.rr_depth, sampler=sampler), sampler)
+
+        vks = [Vkpath(vkpath_bin, label, [*vk_args, *extra], vk_scene, tmp) for label, extra in configs]
         for v in vks:
             v.render(1, seed=999_999)  # warm-up (page cache, driver), not recorded
         # No `samples_per_pass`: Mitsuba 3.6 deprecates it and splits a large render into passes itself.
         # The reference batches use the independent sampler (its batches are independent estimates); the
         # ladders every sampler asked for.
-        mits = {sampler: Mitsuba(dr, mi, ms.mitsuba_dict(mi, over, spp=1, tmp_dir=tmp / name,
-                                                         rr_depth=a.rr_depth, sampler=sampler), sampler)
-                for sampler in dict.fromkeys(["independent", *a.mitsuba_samplers])}
+        mits = {sampler: mitsuba_for(sampler) for sampler in dict.fromkeys(["independent", *a.mitsuba_samplers])}
         mit = mits["independent"]
 
         # 1. The common reference and the unbiasedness check. Batches alternate between the renderers
