@@ -2,7 +2,8 @@
 // recursion.
 //
 // The tree is 4 wide: node 0 is the root and is always an interior node; an interior node stores the
-// boxes of its (up to) four children as four-lane vectors, so one visit tests all four boxes at once,
+// boxes of its (up to) four children, quantised to a byte per plane (Ylitie, Karras & Laine 2017), and one
+// visit decodes and tests all four boxes at once with four-lane vectors,
 // goes on with the nearest child the ray enters and pushes the others (with their entry distances) on a
 // small stack, farthest first; a popped entry is skipped when the closest hit found since is nearer than
 // where the ray enters its box (Aila & Laine, "Understanding the Efficiency of Ray Traversal on GPUs",
@@ -56,18 +57,48 @@ fn ray_inverse(d: vec3<f32>) -> vec3<f32> {
     return select(1.0 / d, signed_inf, abs(d) < vec3<f32>(1.17549435e-38));
 }
 
-// The distances at which the ray enters the four child boxes of `n` (0 when the origin is inside), or
-// T_MISS for a box it misses within (0, t_max) and for an unused slot: intersect_aabb's conservative slab
-// test, lane k for child k, the same arithmetic in the same order, so each lane is bit for bit what
+// The four child boxes of a node, decoded (src/scene/bvh.rs, QuantisedNode): plane = origin + q scale per
+// axis, q the child's byte of the plane's word, scale = 2^(e - 127) built from its exponent bits. The
+// product is exact and the sum correctly rounded, so these are the boxes the host checked to contain the
+// children (scene::bvh::quantise).
+struct Boxes4 {
+    lo_x: vec4<f32>,
+    hi_x: vec4<f32>,
+    lo_y: vec4<f32>,
+    hi_y: vec4<f32>,
+    lo_z: vec4<f32>,
+    hi_z: vec4<f32>,
+}
+
+fn bytes4(w: u32) -> vec4<f32> {
+    return vec4<f32>((vec4<u32>(w) >> vec4<u32>(0u, 8u, 16u, 24u)) & vec4<u32>(0xffu));
+}
+
+fn decode_boxes(n: BvhNode) -> Boxes4 {
+    let s = bitcast<vec3<f32>>(((vec3<u32>(n.exponents) >> vec3<u32>(0u, 8u, 16u)) & vec3<u32>(0xffu)) << vec3<u32>(23u));
+    return Boxes4(
+        n.origin.x + bytes4(n.planes_xy.x) * s.x,
+        n.origin.x + bytes4(n.planes_xy.y) * s.x,
+        n.origin.y + bytes4(n.planes_xy.z) * s.y,
+        n.origin.y + bytes4(n.planes_xy.w) * s.y,
+        n.origin.z + bytes4(n.planes_z.x) * s.z,
+        n.origin.z + bytes4(n.planes_z.y) * s.z,
+    );
+}
+
+// The distances at which the ray enters the four boxes (0 when the origin is inside), or T_MISS for a
+// box it misses within (0, t_max) and for an unused slot (child BVH_NONE): intersect_aabb's conservative
+// slab test, lane k for box k, the same arithmetic in the same order, so each lane is bit for bit what
 // intersect_aabb returns for that box. `parallel` marks the axes where inv_d is ±inf (ray_parallel_axes).
-fn intersect_boxes4(o: vec3<f32>, inv_d: vec3<f32>, parallel: vec3<bool>, n: BvhNode, t_max: f32) -> vec4<f32> {
+fn intersect_boxes4(o: vec3<f32>, inv_d: vec3<f32>, parallel: vec3<bool>, b: Boxes4, child: vec4<u32>,
+                    t_max: f32) -> vec4<f32> {
     let widen = 1.0 + 2.0 * gamma_n(3.0);
-    let xl = (n.lo_x - o.x) * inv_d.x;
-    let xh = (n.hi_x - o.x) * inv_d.x;
-    let yl = (n.lo_y - o.y) * inv_d.y;
-    let yh = (n.hi_y - o.y) * inv_d.y;
-    let zl = (n.lo_z - o.z) * inv_d.z;
-    let zh = (n.hi_z - o.z) * inv_d.z;
+    let xl = (b.lo_x - o.x) * inv_d.x;
+    let xh = (b.hi_x - o.x) * inv_d.x;
+    let yl = (b.lo_y - o.y) * inv_d.y;
+    let yh = (b.hi_y - o.y) * inv_d.y;
+    let zl = (b.lo_z - o.z) * inv_d.z;
+    let zh = (b.hi_z - o.z) * inv_d.z;
     // A parallel axis's slab never binds (entry 0, exit t_max); the origin's position decides it.
     let near_x = select(min(xl, xh), vec4<f32>(0.0), parallel.x);
     let near_y = select(min(yl, yh), vec4<f32>(0.0), parallel.y);
@@ -79,12 +110,12 @@ fn intersect_boxes4(o: vec3<f32>, inv_d: vec3<f32>, parallel: vec3<bool>, n: Bvh
     let oy = vec4<f32>(o.y);
     let oz = vec4<f32>(o.z);
     let no = vec4<bool>(false);
-    let outside = select(no, (ox < n.lo_x) | (ox > n.hi_x), parallel.x)
-        | select(no, (oy < n.lo_y) | (oy > n.hi_y), parallel.y)
-        | select(no, (oz < n.lo_z) | (oz > n.hi_z), parallel.z);
+    let outside = select(no, (ox < b.lo_x) | (ox > b.hi_x), parallel.x)
+        | select(no, (oy < b.lo_y) | (oy > b.hi_y), parallel.y)
+        | select(no, (oz < b.lo_z) | (oz > b.hi_z), parallel.z);
     let t0 = max(max(max(vec4<f32>(0.0), near_x), near_y), near_z);
     let t1 = min(min(min(vec4<f32>(t_max), far_x), far_y), far_z);
-    let miss = outside | (t0 > t1) | (n.child == vec4<u32>(BVH_NONE));
+    let miss = outside | (t0 > t1) | (child == vec4<u32>(BVH_NONE));
     return select(t0, vec4<f32>(T_MISS), miss);
 }
 
@@ -121,7 +152,7 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
             }
             if (node & BVH_LEAF) == 0u {
                 let n = bvh_nodes[node];
-                let t = intersect_boxes4(o, inv_d, parallel, n, hit.t * BVH_CULL_SLACK);
+                let t = intersect_boxes4(o, inv_d, parallel, decode_boxes(n), n.child, hit.t * BVH_CULL_SLACK);
                 // Sort the four (distance, child) pairs by distance, misses (T_MISS) last: a five-exchange
                 // sorting network (Knuth, TAOCP 3, §5.3.4), strict comparisons so that equal distances keep
                 // the children's order.

@@ -60,12 +60,12 @@ struct Triangle {
 // Triangle meshes (see src/scene/bvh.rs and src/kernel/upload.rs). An interior BVH node holds the boxes of its
 // two children; a child reference is a node index, or a leaf (BVH_LEAF set, see bvh.wgsl).
 struct BvhNode {
-    lo_x: vec4<f32>,
-    hi_x: vec4<f32>,
-    lo_y: vec4<f32>,
-    hi_y: vec4<f32>,
-    lo_z: vec4<f32>,
-    hi_z: vec4<f32>,
+    origin: vec3<f32>,
+    exponents: u32,
+    planes_xy: vec4<u32>,
+    planes_z: vec2<u32>,
+    _pad0: u32,
+    _pad1: u32,
     child: vec4<u32>,
 }
 

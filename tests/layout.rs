@@ -640,7 +640,7 @@ fn mesh_structs_match_wgsl() {
         "BvhNode",
         "GpuBvhNode",
         size_of::<GpuBvhNode>(),
-        fields!(GpuBvhNode: lo_x, hi_x, lo_y, hi_y, lo_z, hi_z, child),
+        fields!(GpuBvhNode: origin, exponents, planes_xy, planes_z, _pad, child),
     );
     check_storage_array(
         &module,

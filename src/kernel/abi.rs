@@ -218,20 +218,22 @@ pub struct GpuAccum {
     pub sum_sq_c: [f32; 3],
 }
 
-/// Mirrors `BvhNode` in scene_data.wgsl: an interior node of the 4-wide triangle BVH (`scene::bvh::WideNode`)
-/// with the boxes of its children as four-lane vectors per bound (structure of arrays: `lo_x[k]` is child
-/// k's lower x), so that the walk tests the four boxes with vector arithmetic, and orders and culls them
-/// before fetching them. `child[k]` is a node index, a leaf reference with `scene::bvh::LEAF` set, or
+/// Mirrors `BvhNode` in scene_data.wgsl: an interior node of the 4-wide triangle BVH with its children's
+/// boxes quantised (`scene::bvh::QuantisedNode`: plane = origin + q 2^(e - 127), q one byte per child and
+/// plane), so that the walk fetches 14 words a node instead of 28 and tests the four boxes with vector
+/// arithmetic. `child[k]` is a node index, a leaf reference with `scene::bvh::LEAF` set, or
 /// `scene::bvh::NO_CHILD` for an unused slot.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuBvhNode {
-    pub lo_x: [f32; 4],
-    pub hi_x: [f32; 4],
-    pub lo_y: [f32; 4],
-    pub hi_y: [f32; 4],
-    pub lo_z: [f32; 4],
-    pub hi_z: [f32; 4],
+    pub origin: [f32; 3],
+    /// Biased exponents of the x, y, z scales in bits 0-7, 8-15, 16-23.
+    pub exponents: u32,
+    /// Child k's planes in byte k of: lo_x, hi_x, lo_y, hi_y.
+    pub planes_xy: [u32; 4],
+    /// ... and of lo_z, hi_z.
+    pub planes_z: [u32; 2],
+    pub _pad: [u32; 2],
     pub child: [u32; 4],
 }
 
@@ -483,7 +485,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
 ];
 
 const _: () = assert!(std::mem::size_of::<GpuParams>() == 144);
-const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 112);
+const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuMeshFace>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);
 const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);
