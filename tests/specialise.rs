@@ -167,7 +167,7 @@ fn absent_features_leave_no_code() {
     let trimmed = function_names(&features);
     let generic = function_names(&FeatureSet::generic());
     for f in [
-        "intersect_triangle",
+        "intersect_triangle_ray",
         "fresnel_dielectric",
         "refract_dir",
         "sample_cone_local",
