@@ -610,6 +610,34 @@ fn command_line_defines_set_xml_default_parameters() {
     }
 }
 
+/// An area emitter declared at the top level with an id and referenced from a shape (as Mitsuba's own
+/// cbox-rgb.xml does) emits through that shape; without an id it is still refused (it belongs to no shape).
+#[test]
+fn a_top_level_area_emitter_with_an_id_emits_through_the_shapes_that_refer_to_it() {
+    let s = load(
+        r#"<shape type="sphere"><ref id="glow"/></shape>
+           <shape type="sphere"><point name="center" x="3" y="0" z="0"/></shape>
+           <emitter type="area" id="glow"><rgb name="radiance" value="3, 2, 1"/></emitter>"#,
+    );
+    let lamp = &s.materials[s.spheres[0].material as usize];
+    let e = lamp.emission.expect("the referring sphere emits");
+    assert_eq!(e.radiance, Vec3::new(3.0, 2.0, 1.0));
+    assert!(
+        s.materials[s.spheres[1].material as usize]
+            .emission
+            .is_none()
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let body = r#"<shape type="sphere"/>
+           <emitter type="area"><rgb name="radiance" value="3, 2, 1"/></emitter>"#;
+    let e = error_in(dir.path(), body);
+    assert!(e.contains("area emitter directly in the scene"), "{e}");
+    assert!(
+        e.contains(&format!("line {}", line_of(body, "<emitter"))),
+        "{e}"
+    );
+}
+
 /// Every refusal: the file, the line, the element and what vkpath reads instead.
 #[test]
 fn errors_name_the_file_the_line_and_the_element() {

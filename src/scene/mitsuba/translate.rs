@@ -59,6 +59,13 @@ impl Tr<'_> {
                 "sensor" => sensors.push(obj),
                 "integrator" => integrators.push(obj),
                 "shape" => shapes.push(obj),
+                // An area emitter declared with an id at the top level (Mitsuba's own cbox-rgb.xml) is a
+                // definition, as a BSDF there is: it emits through the shapes that refer to it by
+                // `<ref id>` (shapes.rs reads it there), and is not an emitter of its own.
+                "emitter"
+                    if obj.kind == "area"
+                        && matches!(p.value, Value::Object(_))
+                        && self.ids.values().any(|o| std::rc::Rc::ptr_eq(o, &obj)) => {}
                 "emitter" => emitters.push(obj),
                 // Definitions that shapes refer to by id.
                 "bsdf" | "texture" => {}
