@@ -119,6 +119,28 @@ fn intersect_boxes4(o: vec3<f32>, inv_d: vec3<f32>, parallel: vec3<bool>, b: Box
     return select(t0, vec4<f32>(T_MISS), miss);
 }
 
+// One compare-exchange of the sorting network in bvh_intersect: the pairs (ta, ca), (tb, cb) in ascending
+// order of distance (strict: equal distances keep their order).
+fn bvh_order(ta: ptr<function, f32>, tb: ptr<function, f32>, ca: ptr<function, u32>, cb: ptr<function, u32>) {
+    if *tb < *ta {
+        let t = *ta;
+        *ta = *tb;
+        *tb = t;
+        let c = *ca;
+        *ca = *cb;
+        *cb = c;
+    }
+}
+
+// Pushes a child the ray enters (t < T_MISS) with its entry distance.
+fn bvh_push(sp: ptr<function, u32>, child: u32, t: f32) {
+    if t < T_MISS {
+        bvh_stack_ref[*sp] = child;
+        bvh_stack_t[*sp] = t;
+        *sp += 1u;
+    }
+}
+
 // Which axes of inv_d (ray_inverse) are ±inf: the ray is parallel to those slabs.
 fn ray_parallel_axes(inv_d: vec3<f32>) -> vec3<bool> {
     return (bitcast<vec3<u32>>(inv_d) & vec3<u32>(0x7f800000u)) == vec3<u32>(0x7f800000u);
@@ -164,42 +186,15 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
                 var cb = n.child.y;
                 var cc = n.child.z;
                 var cd = n.child.w;
-                if tb < ta {
-                    let t_ = ta; ta = tb; tb = t_;
-                    let c_ = ca; ca = cb; cb = c_;
-                }
-                if td < tc {
-                    let t_ = tc; tc = td; td = t_;
-                    let c_ = cc; cc = cd; cd = c_;
-                }
-                if tc < ta {
-                    let t_ = ta; ta = tc; tc = t_;
-                    let c_ = ca; ca = cc; cc = c_;
-                }
-                if td < tb {
-                    let t_ = tb; tb = td; td = t_;
-                    let c_ = cb; cb = cd; cd = c_;
-                }
-                if tc < tb {
-                    let t_ = tb; tb = tc; tc = t_;
-                    let c_ = cb; cb = cc; cc = c_;
-                }
+                bvh_order(&ta, &tb, &ca, &cb);
+                bvh_order(&tc, &td, &cc, &cd);
+                bvh_order(&ta, &tc, &ca, &cc);
+                bvh_order(&tb, &td, &cb, &cd);
+                bvh_order(&tb, &tc, &cb, &cc);
                 // The farthest waits deepest on the stack; the nearest is visited next.
-                if td < T_MISS {
-                    bvh_stack_ref[sp] = cd;
-                    bvh_stack_t[sp] = td;
-                    sp += 1u;
-                }
-                if tc < T_MISS {
-                    bvh_stack_ref[sp] = cc;
-                    bvh_stack_t[sp] = tc;
-                    sp += 1u;
-                }
-                if tb < T_MISS {
-                    bvh_stack_ref[sp] = cb;
-                    bvh_stack_t[sp] = tb;
-                    sp += 1u;
-                }
+                bvh_push(&sp, cd, td);
+                bvh_push(&sp, cc, tc);
+                bvh_push(&sp, cb, tb);
                 node = select(BVH_NONE, ca, ta < T_MISS);
                 continue;
             }
