@@ -4,8 +4,8 @@ Mitsuba's ladders), the integrator's `rr_depth` (Mitsuba's default is 5, vkpath'
 a custom default integrator (`<default name="integrator">`, which Bitterli's exports set to their own
 plugin; Mitsuba's command line overrides it with `-D integrator=path`) set to `path`, the reconstruction
 filter set to `box` unless the file's is asked for, and file names made absolute (the copy lives in the
-comparison's tmp/ folder). The camera, `max_depth`, the materials and the meshes are the file's. The
-original is never written.
+comparison's tmp/ folder). The camera, `max_depth`, the materials and the meshes are the file's. Includes are inlined (the film may be in one).
+The original is never written.
 
 Why the filter: Mitsuba's film splats each sample into every pixel its filter covers (a tent of radius 1
 covers four), vkpath importance-samples the filter and puts each sample into one pixel (pbrt-v4's way).
@@ -51,10 +51,45 @@ def _named(parent: ET.Element, tag: str, *names: str) -> ET.Element | None:
     return None
 
 
+def _inlined(path: Path, main: Path | None = None, depth: int = 0) -> ET.Element:
+    """The file's root with every `<include>` replaced by the included file's elements (recursively) and
+    every `filename` made absolute: one self-contained scene, whatever folder the copy is written to.
+    Relative names resolve from the main file's folder, as Mitsuba's file resolver does (Mitsuba's own
+    fragments/shapes.xml names `meshes/...` beside the main file), else from the including file's."""
+    if depth > 16:
+        raise ValueError(f"{path}: includes nested more than 16 deep")
+    main = main or path.resolve().parent
+    own = path.resolve().parent
+
+    def resolve(name: str) -> str:
+        first = main / name
+        return str(first if first.exists() or not (own / name).exists() else own / name)
+
+    root = ET.parse(path).getroot()
+    for e in root.iter("string"):
+        if e.get("name") == "filename" and "$" not in e.get("value", ""):
+            e.set("value", resolve(e.get("value")))
+
+    def expand(parent: ET.Element) -> None:
+        for i, child in reversed(list(enumerate(parent))):
+            if child.tag == "include" and "filename" in child.attrib:
+                included = _inlined(Path(resolve(child.get("filename"))), main, depth + 1)
+                # A file whose root is not a <scene> is one element (Mitsuba's rule).
+                parts = list(included) if included.tag == "scene" else [included]
+                parent.remove(child)
+                for k, part in enumerate(parts):
+                    parent.insert(i + k, part)
+            else:
+                expand(child)
+
+    expand(root)
+    return root
+
+
 def film_size(path: Path) -> tuple[int, int]:
     """The film's width and height as the file gives them (`$resx` resolved by its `<default>`s;
     Mitsuba's default 768x576 for a missing one)."""
-    root = ET.parse(path).getroot()
+    root = _inlined(path)
     defaults = _defaults(root)
     film = _film(root)
     size = []
@@ -67,12 +102,12 @@ def film_size(path: Path) -> tuple[int, int]:
 def custom_integrator(path: Path) -> bool:
     """Whether the file's integrator is given by a `<default name="integrator">` (Bitterli's exports name a
     custom plugin there, which Mitsuba's command line overrides with `-D integrator=path`)."""
-    return "integrator" in _defaults(ET.parse(path).getroot())
+    return "integrator" in _defaults(_inlined(path))
 
 
 def max_depth(path: Path) -> int:
     """The integrator's max_depth (-1, Mitsuba's default, when absent)."""
-    root = ET.parse(path).getroot()
+    root = _inlined(path)
     integrator = root.find("integrator")
     if integrator is None:
         return -1
@@ -83,15 +118,8 @@ def max_depth(path: Path) -> int:
 def copy(path: Path, out: Path, width: int, height: int, sampler: str, rr_depth: int, box: bool) -> Path:
     """Writes the copy the renderers read (see the module comment) to `out` and returns it; `box`: the
     filter becomes a one-pixel box."""
-    tree = ET.parse(path)
+    tree = ET.ElementTree(_inlined(path))
     root = tree.getroot()
-    folder = path.resolve().parent
-    for e in root.iter("string"):
-        if e.get("name") == "filename" and "$" not in e.get("value", ""):
-            e.set("value", str(folder / e.get("value")))
-    for e in root.iter("include"):
-        if "filename" in e.attrib:
-            e.set("filename", str(folder / e.get("filename")))
     for d in root.iter("default"):
         if d.get("name") == "integrator":
             d.set("value", "path")
