@@ -338,13 +338,10 @@ fn spawn_ray_to(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, p_to: vec3<f32>) -> 
 // product, and the reciprocal the caller took), so it is within a relative gamma(3) of the exact one;
 // scaling every far distance by 1 + 2 gamma(3) makes the computed interval contain the exact interval,
 // so a ray that meets the box is never culled by rounding. An axis where inv_d is ±inf (an axis-parallel
-// ray) is decided by position alone, lo <= o <= hi: the product 0 * inf = NaN is never formed, and no
-// result depends on how min/max or comparisons treat NaN (undefined in SPIR-V / WGSL). A flat box
+// ray) is decided by position alone, lo <= o <= hi: its products (0 * inf = NaN where o lies on a slab
+// plane) are replaced by select before anything uses them, so no result depends on how min/max or
+// comparisons treat NaN (undefined in SPIR-V / WGSL). A flat box
 // (lo == hi on an axis) is a valid box: its slab interval is a single distance, widened as above.
-fn is_inf_or_nan(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) == 0x7f800000u;
-}
-
 fn intersect_aabb(o: vec3<f32>, inv_d: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>, t_max: f32) -> f32 {
     let widen = 1.0 + 2.0 * gamma_n(3.0);
     // All three slabs at once, as vectors (one instruction per operation for the three axes, no
