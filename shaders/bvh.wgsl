@@ -61,15 +61,6 @@ fn ray_inverse(d: vec3<f32>) -> vec3<f32> {
 // axis, q the child's byte of the plane's word, scale = 2^(e - 127) built from its exponent bits. The
 // product is exact and the sum correctly rounded, so these are the boxes the host checked to contain the
 // children (scene::bvh::quantise).
-struct Boxes4 {
-    lo_x: vec4<f32>,
-    hi_x: vec4<f32>,
-    lo_y: vec4<f32>,
-    hi_y: vec4<f32>,
-    lo_z: vec4<f32>,
-    hi_z: vec4<f32>,
-}
-
 fn bytes4(w: u32) -> vec4<f32> {
     return vec4<f32>((vec4<u32>(w) >> vec4<u32>(0u, 8u, 16u, 24u)) & vec4<u32>(0xffu));
 }
@@ -84,39 +75,6 @@ fn decode_boxes(n: BvhNode) -> Boxes4 {
         n.origin.z + bytes4(n.planes_z.x) * s.z,
         n.origin.z + bytes4(n.planes_z.y) * s.z,
     );
-}
-
-// The distances at which the ray enters the four boxes (0 when the origin is inside), or T_MISS for a
-// box it misses within (0, t_max) and for an unused slot (child BVH_NONE): intersect_aabb's conservative
-// slab test, lane k for box k, the same arithmetic in the same order, so each lane is bit for bit what
-// intersect_aabb returns for that box. `parallel` marks the axes where inv_d is ±inf (ray_parallel_axes).
-fn intersect_boxes4(o: vec3<f32>, inv_d: vec3<f32>, parallel: vec3<bool>, b: Boxes4, child: vec4<u32>,
-                    t_max: f32) -> vec4<f32> {
-    let widen = 1.0 + 2.0 * gamma_n(3.0);
-    let xl = (b.lo_x - o.x) * inv_d.x;
-    let xh = (b.hi_x - o.x) * inv_d.x;
-    let yl = (b.lo_y - o.y) * inv_d.y;
-    let yh = (b.hi_y - o.y) * inv_d.y;
-    let zl = (b.lo_z - o.z) * inv_d.z;
-    let zh = (b.hi_z - o.z) * inv_d.z;
-    // A parallel axis's slab never binds (entry 0, exit t_max); the origin's position decides it.
-    let near_x = select(min(xl, xh), vec4<f32>(0.0), parallel.x);
-    let near_y = select(min(yl, yh), vec4<f32>(0.0), parallel.y);
-    let near_z = select(min(zl, zh), vec4<f32>(0.0), parallel.z);
-    let far_x = select(max(xl, xh) * widen, vec4<f32>(t_max), parallel.x);
-    let far_y = select(max(yl, yh) * widen, vec4<f32>(t_max), parallel.y);
-    let far_z = select(max(zl, zh) * widen, vec4<f32>(t_max), parallel.z);
-    let ox = vec4<f32>(o.x);
-    let oy = vec4<f32>(o.y);
-    let oz = vec4<f32>(o.z);
-    let no = vec4<bool>(false);
-    let outside = select(no, (ox < b.lo_x) | (ox > b.hi_x), parallel.x)
-        | select(no, (oy < b.lo_y) | (oy > b.hi_y), parallel.y)
-        | select(no, (oz < b.lo_z) | (oz > b.hi_z), parallel.z);
-    let t0 = max(max(max(vec4<f32>(0.0), near_x), near_y), near_z);
-    let t1 = min(min(min(vec4<f32>(t_max), far_x), far_y), far_z);
-    let miss = outside | (t0 > t1) | (child == vec4<u32>(BVH_NONE));
-    return select(t0, vec4<f32>(T_MISS), miss);
 }
 
 // One compare-exchange of the sorting network in bvh_intersect: the pairs (ta, ca), (tb, cb) in ascending
@@ -139,11 +97,6 @@ fn bvh_push(sp: ptr<function, u32>, child: u32, t: f32) {
         bvh_stack_t[*sp] = t;
         *sp += 1u;
     }
-}
-
-// Which axes of inv_d (ray_inverse) are ±inf: the ray is parallel to those slabs.
-fn ray_parallel_axes(inv_d: vec3<f32>) -> vec3<bool> {
-    return (bitcast<vec3<u32>>(inv_d) & vec3<u32>(0x7f800000u)) == vec3<u32>(0x7f800000u);
 }
 
 // The closest triangle hit along o + t d with t in (0, t_max), or with any_hit the first one found (for
@@ -174,7 +127,8 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
             }
             if (node & BVH_LEAF) == 0u {
                 let n = bvh_nodes[node];
-                let t = intersect_boxes4(o, inv_d, parallel, decode_boxes(n), n.child, hit.t * BVH_CULL_SLACK);
+                let boxes = intersect_boxes4(o, inv_d, parallel, decode_boxes(n), hit.t * BVH_CULL_SLACK);
+                let t = select(boxes, vec4<f32>(T_MISS), n.child == vec4<u32>(BVH_NONE)); // unused slots
                 // Sort the four (distance, child) pairs by distance, misses (T_MISS) last: a five-exchange
                 // sorting network (Knuth, TAOCP 3, §5.3.4), strict comparisons so that equal distances keep
                 // the children's order.

@@ -343,24 +343,55 @@ fn spawn_ray_to(p: vec3<f32>, err: vec3<f32>, n: vec3<f32>, p_to: vec3<f32>) -> 
 // comparisons treat NaN (undefined in SPIR-V / WGSL). A flat box
 // (lo == hi on an axis) is a valid box: its slab interval is a single distance, widened as above.
 fn intersect_aabb(o: vec3<f32>, inv_d: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>, t_max: f32) -> f32 {
+    // One box is lane x of the four-box test the BVH walk runs (the same arithmetic, so what
+    // tests/shader_intersect.rs checks here is what the renderer computes).
+    let b = Boxes4(vec4<f32>(lo.x), vec4<f32>(hi.x), vec4<f32>(lo.y), vec4<f32>(hi.y), vec4<f32>(lo.z),
+                   vec4<f32>(hi.z));
+    return intersect_boxes4(o, inv_d, ray_parallel_axes(inv_d), b, t_max).x;
+}
+
+// Four boxes, as four-lane vectors per bound (lane k: box k); the BVH walk's node decodes into it.
+struct Boxes4 {
+    lo_x: vec4<f32>,
+    hi_x: vec4<f32>,
+    lo_y: vec4<f32>,
+    hi_y: vec4<f32>,
+    lo_z: vec4<f32>,
+    hi_z: vec4<f32>,
+}
+
+// Which axes of inv_d are ±inf: the ray is parallel to those slabs.
+fn ray_parallel_axes(inv_d: vec3<f32>) -> vec3<bool> {
+    return (bitcast<vec3<u32>>(inv_d) & vec3<u32>(0x7f800000u)) == vec3<u32>(0x7f800000u);
+}
+
+// The slab test above for four boxes at once: lane k is the distance at which the ray enters box k (0
+// when the origin is inside), or T_MISS. All three axes as vectors, no branches: a parallel axis's
+// products (possibly 0 * inf = NaN) are formed but replaced by a slab that never binds (0 for the entry,
+// t_max for the exit), and the origin's position decides it. The folds run in the axis order x, y, z;
+// min and max are exact, so the result does not depend on the order. `parallel`: ray_parallel_axes.
+fn intersect_boxes4(o: vec3<f32>, inv_d: vec3<f32>, parallel: vec3<bool>, b: Boxes4, t_max: f32) -> vec4<f32> {
     let widen = 1.0 + 2.0 * gamma_n(3.0);
-    // All three slabs at once, as vectors (one instruction per operation for the three axes, no
-    // branches). A parallel axis's slab is decided by position; its products (possibly 0 * inf = NaN)
-    // are formed but replaced by a slab that never binds (0 for the entry, t_max for the exit), so
-    // nothing depends on min/max of a NaN. The folds run in the axis order x, y, z: min and max are exact,
-    // so the result is the same whatever the order, bit for bit.
-    let parallel = (bitcast<vec3<u32>>(inv_d) & vec3<u32>(0x7f800000u)) == vec3<u32>(0x7f800000u);
-    if any(parallel & ((o < lo) | (o > hi))) {
-        return T_MISS;
-    }
-    let t_lo = (lo - o) * inv_d;
-    let t_hi = (hi - o) * inv_d;
-    let t_near = select(min(t_lo, t_hi), vec3<f32>(0.0), parallel);
-    let t_far = select(max(t_lo, t_hi) * widen, vec3<f32>(t_max), parallel);
-    let t0 = max(max(max(0.0, t_near.x), t_near.y), t_near.z);
-    let t1 = min(min(min(t_max, t_far.x), t_far.y), t_far.z);
-    if t0 > t1 {
-        return T_MISS;
-    }
-    return t0;
+    let xl = (b.lo_x - o.x) * inv_d.x;
+    let xh = (b.hi_x - o.x) * inv_d.x;
+    let yl = (b.lo_y - o.y) * inv_d.y;
+    let yh = (b.hi_y - o.y) * inv_d.y;
+    let zl = (b.lo_z - o.z) * inv_d.z;
+    let zh = (b.hi_z - o.z) * inv_d.z;
+    let near_x = select(min(xl, xh), vec4<f32>(0.0), parallel.x);
+    let near_y = select(min(yl, yh), vec4<f32>(0.0), parallel.y);
+    let near_z = select(min(zl, zh), vec4<f32>(0.0), parallel.z);
+    let far_x = select(max(xl, xh) * widen, vec4<f32>(t_max), parallel.x);
+    let far_y = select(max(yl, yh) * widen, vec4<f32>(t_max), parallel.y);
+    let far_z = select(max(zl, zh) * widen, vec4<f32>(t_max), parallel.z);
+    let ox = vec4<f32>(o.x);
+    let oy = vec4<f32>(o.y);
+    let oz = vec4<f32>(o.z);
+    let no = vec4<bool>(false);
+    let outside = select(no, (ox < b.lo_x) | (ox > b.hi_x), parallel.x)
+        | select(no, (oy < b.lo_y) | (oy > b.hi_y), parallel.y)
+        | select(no, (oz < b.lo_z) | (oz > b.hi_z), parallel.z);
+    let t0 = max(max(max(vec4<f32>(0.0), near_x), near_y), near_z);
+    let t1 = min(min(min(vec4<f32>(t_max), far_x), far_y), far_z);
+    return select(t0, vec4<f32>(T_MISS), outside | (t0 > t1));
 }

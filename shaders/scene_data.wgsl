@@ -57,8 +57,9 @@ struct Triangle {
     _pad1: u32,
 }
 
-// Triangle meshes (see src/scene/bvh.rs and src/kernel/upload.rs). An interior BVH node holds the boxes of its
-// two children; a child reference is a node index, or a leaf (BVH_LEAF set, see bvh.wgsl).
+// Triangle meshes (see src/scene/bvh.rs and src/kernel/upload.rs). An interior BVH node holds the quantised
+// boxes of its (up to) four children; a child reference is a node index, a leaf (BVH_LEAF set) or BVH_NONE
+// (see bvh.wgsl).
 struct BvhNode {
     origin: vec3<f32>,
     exponents: u32,
