@@ -126,7 +126,7 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
                 node = bvh_stack_ref[sp];
             }
             if (node & BVH_LEAF) == 0u {
-                let n = bvh_nodes[node];
+                let n = bvh_node_at(node);
                 let boxes = intersect_boxes4(o, inv_d, parallel, decode_boxes(n), hit.t * BVH_CULL_SLACK);
                 let t = select(boxes, vec4<f32>(T_MISS), n.child == vec4<u32>(BVH_NONE)); // unused slots
                 // Sort the four (distance, child) pairs by distance, misses (T_MISS) last: a five-exchange
@@ -158,7 +158,7 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
         }
         // One triangle of the current leaf: the same watertight test as the brute-force loop, so both
         // find the same closest hit.
-        let tri = triangles[first];
+        let tri = triangle_at(first);
         let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
         if th.t < hit.t {
             // (A hit the surface's opacity lets through is no hit: scene.wgsl, hit_is_transparent.)

@@ -1,10 +1,10 @@
 // features.wgsl: the kernel's specialisation constants, one per feature a scene may or may not use.
 //
-// Each is a pipeline-overridable constant. The generic kernel keeps the defaults (everything on); for a
-// given scene the host sets each from the scene's feature set (src/kernel/features.rs, one table row per
-// constant below), naga folds them into constants, and src/kernel/specialise.rs prunes every
-// `if FEATURE { ... }` whose condition became `false` before the SPIR-V is written: an absent feature
-// leaves no code at all. Guards are written `if HAS_X { if runtime_test { ... } }` so that the outer
+// Each is a pipeline-overridable constant. The generic kernel keeps the defaults (everything on but
+// HAS_SPLIT_ARRAYS); for a given scene the host sets each from the scene's feature set
+// (src/kernel/features.rs, one table row per constant below), naga folds them into constants, and
+// src/kernel/specialise.rs prunes every `if FEATURE { ... }` whose condition became `false` before the
+// SPIR-V is written: an absent feature leaves no code at all. Guards are written `if HAS_X { if runtime_test { ... } }` so that the outer
 // condition is a bare constant. A present feature runs exactly the generic code, so both kernels give the
 // same bits. tests/layout.rs holds this list against the Rust table, both ways.
 //
@@ -42,6 +42,11 @@ override HAS_ENVIRONMENT_MAP: bool = true; // the environment light has a map (l
 override HAS_LENS: bool = true; // aperture > 0
 override HAS_ORTHOGRAPHIC: bool = true; // camera.type = "orthographic"
 override HAS_ROULETTE: bool = true;
+// Some scene array is larger than one binding's part (scene_data.wgsl, triangle_at and its siblings).
+// Not a feature but the arrays' layout, and the one override whose default is off: the generic kernel
+// reads every array from one binding unless the scene needs more (src/kernel/features.rs,
+// FeatureSet::generic explains why).
+override HAS_SPLIT_ARRAYS: bool = false;
 // Exactly one material kind (counting emitters) / one light kind in the scene: the kind tests go.
 override SINGLE_MATERIAL_KIND: bool = false;
 override SINGLE_LIGHT_KIND: bool = false;

@@ -19,7 +19,7 @@ fn sphere_uv(q: vec3<f32>, radius: f32) -> vec2<f32> {
 fn triangle_face(i: u32) -> MeshFace {
     var face = MeshFace(vec3<u32>(0u), NO_MESH);
     if i < arrayLength(&mesh_faces) {
-        face = mesh_faces[i];
+        face = mesh_face_at(i);
     }
     return face;
 }
@@ -36,9 +36,9 @@ fn triangle_uv(i: u32, b: vec3<f32>) -> vec2<f32> {
     if HAS_MESH_SHADING {
         let face = triangle_face(i);
         if face_has_uv(face) {
-            let v0 = mesh_vertices[face.vertices.x];
-            let v1 = mesh_vertices[face.vertices.y];
-            let v2 = mesh_vertices[face.vertices.z];
+            let v0 = mesh_vertex_at(face.vertices.x);
+            let v1 = mesh_vertex_at(face.vertices.y);
+            let v2 = mesh_vertex_at(face.vertices.z);
             uv = b.x * vec2<f32>(v0.u, v0.v) + b.y * vec2<f32>(v1.u, v1.v) + b.z * vec2<f32>(v2.u, v2.v);
         }
     }

@@ -60,7 +60,7 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
     if HAS_TRIANGLE_LOOP {
         let tr = triangle_ray(o, d);
         for (var i = 0u; i < triangle_count(); i++) {
-            let tri = triangles[i];
+            let tri = triangle_at(i);
             let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
             if th.t < hit.t {
                 let candidate = Hit(th.t, PRIM_TRIANGLE, i, th.b);
@@ -94,7 +94,7 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
     if HAS_TRIANGLE_LOOP {
         let tr = triangle_ray(o, d);
         for (var i = 0u; i < triangle_count(); i++) {
-            let tri = triangles[i];
+            let tri = triangle_at(i);
             let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, t_max);
             if th.t < t_max {
                 if !hit_is_transparent(o, d, Hit(th.t, PRIM_TRIANGLE, i, th.b), tri.material) {
@@ -139,7 +139,7 @@ fn mesh_normal(v: MeshVertex) -> vec3<f32> {
 }
 
 fn triangle_surface(hit: Hit) -> Surface {
-    let tri = triangles[hit.prim_index];
+    let tri = triangle_at(hit.prim_index);
     let sp = triangle_surface_point(tri.v0, tri.v1, tri.v2, hit.b);
     let n = triangle_normal(tri.v0, tri.v1, tri.v2);
     var s = Surface(sp.p, sp.err, n, tri.material, n, false, vec2<f32>(0.0));
@@ -152,9 +152,9 @@ fn triangle_surface(hit: Hit) -> Surface {
                 // is continuous across edges. A mix that vanishes (opposed or missing normals) keeps
                 // the geometric normal.
                 let b = hit.b;
-                let ns = b.x * mesh_normal(mesh_vertices[face.vertices.x])
-                       + b.y * mesh_normal(mesh_vertices[face.vertices.y])
-                       + b.z * mesh_normal(mesh_vertices[face.vertices.z]);
+                let ns = b.x * mesh_normal(mesh_vertex_at(face.vertices.x))
+                       + b.y * mesh_normal(mesh_vertex_at(face.vertices.y))
+                       + b.z * mesh_normal(mesh_vertex_at(face.vertices.z));
                 let len2 = dot(ns, ns);
                 if len2 > 1.0e-12 {
                     let unit = ns * inverseSqrt(len2);
@@ -202,7 +202,7 @@ fn surface_derivatives(hit: Hit, s: Surface) -> SurfaceDerivatives {
     }
     if HAS_TRIANGLES {
         if hit.prim_kind == PRIM_TRIANGLE {
-            out = triangle_derivatives(triangles[hit.prim_index], triangle_uv_deltas(hit.prim_index));
+            out = triangle_derivatives(triangle_at(hit.prim_index), triangle_uv_deltas(hit.prim_index));
         }
     }
     return out;
@@ -221,9 +221,9 @@ fn triangle_uv_deltas(i: u32) -> TriangleUvDeltas {
     if HAS_MESH_SHADING {
         let face = triangle_face(i);
         if face_has_uv(face) {
-            let a = mesh_vertices[face.vertices.x];
-            let b = mesh_vertices[face.vertices.y];
-            let c = mesh_vertices[face.vertices.z];
+            let a = mesh_vertex_at(face.vertices.x);
+            let b = mesh_vertex_at(face.vertices.y);
+            let c = mesh_vertex_at(face.vertices.z);
             out = TriangleUvDeltas(vec2<f32>(a.u - c.u, a.v - c.v), vec2<f32>(b.u - c.u, b.v - c.v), true);
         }
     }
@@ -339,7 +339,7 @@ fn modified_surface(hit: Hit, s: Surface) -> Surface {
 fn emission_texture(tri: u32, p: vec3<f32>) -> vec3<f32> {
     var scale = vec3<f32>(1.0);
     if HAS_EMISSIVE_TEXTURES {
-        let t = triangles[tri];
+        let t = triangle_at(tri);
         let texture = material_textures_of(t.material).emission_texture;
         if texture != NO_TEXTURE {
             let e1 = t.v1 - t.v0;
@@ -414,7 +414,7 @@ fn surface_tangent(hit: Hit, n: vec3<f32>) -> vec3<f32> {
     }
     if HAS_TRIANGLES {
         if hit.prim_kind == PRIM_TRIANGLE {
-            let tri = triangles[hit.prim_index];
+            let tri = triangle_at(hit.prim_index);
             t = tri.v1 - tri.v0;
             let uv = triangle_uv_deltas(hit.prim_index);
             if uv.from_vertices {
@@ -436,7 +436,7 @@ fn hit_material(hit: Hit) -> u32 {
                 return spheres[hit.prim_index].material;
             }
         }
-        return triangles[hit.prim_index].material;
+        return triangle_at(hit.prim_index).material;
     }
     return spheres[hit.prim_index].material;
 }
@@ -511,7 +511,7 @@ fn emitter_light_pdf(hit: Hit, p: vec3<f32>, p_sphere: u32, wi: vec3<f32>, strat
     }
     if HAS_TRIANGLE_LIGHTS {
         if hit.prim_kind == PRIM_TRIANGLE && params.triangle_light != NO_LIGHT {
-            let tri = triangles[hit.prim_index];
+            let tri = triangle_at(hit.prim_index);
             let mat = materials[tri.material];
             let total = lights[params.triangle_light].radius;
             let pick = triangle_light_power(tri.v0, tri.v1, tri.v2, mat.emission, mat.flags) / total;

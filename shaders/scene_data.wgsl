@@ -4,7 +4,7 @@
 // src/kernel/abi.rs; tests/layout.rs holds each Rust layout against the layout naga reflects. The host
 // binds every buffer by the name it has here (src/render/mod.rs), never by number.
 //
-// requires: bsdf.wgsl, lights.wgsl, accumulate.wgsl
+// requires: features.wgsl, bsdf.wgsl, lights.wgsl, accumulate.wgsl
 //
 // (lights/triangles.wgsl and lights/environment.wgsl declare the buffers only those lights read.)
 
@@ -166,6 +166,105 @@ struct Hit {
 @group(0) @binding(11) var<storage, read> texels: array<u32>;
 @group(0) @binding(16) var<storage, read> textures: array<TextureInfo>;
 @group(0) @binding(17) var<storage, read> material_textures: array<MaterialTextures>;
+
+// Arrays larger than one storage binding may hold (Vulkan guarantees 2^27 bytes) are read through
+// several: part k of an array holds its elements [k 2^BITS, (k + 1) 2^BITS), part 0 under the array's
+// own name above (src/kernel/abi.rs, SPLIT_ARRAYS, fixes the names, sizes and counts). The kernel reads
+// each through its accessor below, which picks the part by the index's high bits; a scene whose arrays
+// fit one part each has no HAS_SPLIT_ARRAYS, and its kernel reads the arrays directly.
+const TRIANGLE_PART_BITS: u32 = 21u;
+const BVH_NODE_PART_BITS: u32 = 21u;
+const MESH_FACE_PART_BITS: u32 = 23u;
+const MESH_VERTEX_PART_BITS: u32 = 22u;
+const TEXEL_PART_BITS: u32 = 25u;
+@group(0) @binding(21) var<storage, read> triangles_1: array<Triangle>;
+@group(0) @binding(22) var<storage, read> triangles_2: array<Triangle>;
+@group(0) @binding(23) var<storage, read> triangles_3: array<Triangle>;
+@group(0) @binding(24) var<storage, read> triangles_4: array<Triangle>;
+@group(0) @binding(25) var<storage, read> triangles_5: array<Triangle>;
+@group(0) @binding(26) var<storage, read> triangles_6: array<Triangle>;
+@group(0) @binding(27) var<storage, read> triangles_7: array<Triangle>;
+@group(0) @binding(28) var<storage, read> bvh_nodes_1: array<BvhNode>;
+@group(0) @binding(29) var<storage, read> bvh_nodes_2: array<BvhNode>;
+@group(0) @binding(30) var<storage, read> bvh_nodes_3: array<BvhNode>;
+@group(0) @binding(31) var<storage, read> mesh_faces_1: array<MeshFace>;
+@group(0) @binding(32) var<storage, read> mesh_vertices_1: array<MeshVertex>;
+@group(0) @binding(33) var<storage, read> mesh_vertices_2: array<MeshVertex>;
+@group(0) @binding(34) var<storage, read> mesh_vertices_3: array<MeshVertex>;
+@group(0) @binding(35) var<storage, read> texels_1: array<u32>;
+@group(0) @binding(36) var<storage, read> texels_2: array<u32>;
+@group(0) @binding(37) var<storage, read> texels_3: array<u32>;
+
+fn part_mask(bits: u32) -> u32 {
+    return (1u << bits) - 1u;
+}
+
+fn triangle_at(i: u32) -> Triangle {
+    if HAS_SPLIT_ARRAYS {
+        let j = i & part_mask(TRIANGLE_PART_BITS);
+        switch i >> TRIANGLE_PART_BITS {
+            case 0u: { return triangles[j]; }
+            case 1u: { return triangles_1[j]; }
+            case 2u: { return triangles_2[j]; }
+            case 3u: { return triangles_3[j]; }
+            case 4u: { return triangles_4[j]; }
+            case 5u: { return triangles_5[j]; }
+            case 6u: { return triangles_6[j]; }
+            default: { return triangles_7[j]; }
+        }
+    }
+    return triangles[i];
+}
+
+fn bvh_node_at(i: u32) -> BvhNode {
+    if HAS_SPLIT_ARRAYS {
+        let j = i & part_mask(BVH_NODE_PART_BITS);
+        switch i >> BVH_NODE_PART_BITS {
+            case 0u: { return bvh_nodes[j]; }
+            case 1u: { return bvh_nodes_1[j]; }
+            case 2u: { return bvh_nodes_2[j]; }
+            default: { return bvh_nodes_3[j]; }
+        }
+    }
+    return bvh_nodes[i];
+}
+
+fn mesh_face_at(i: u32) -> MeshFace {
+    if HAS_SPLIT_ARRAYS {
+        let j = i & part_mask(MESH_FACE_PART_BITS);
+        switch i >> MESH_FACE_PART_BITS {
+            case 0u: { return mesh_faces[j]; }
+            default: { return mesh_faces_1[j]; }
+        }
+    }
+    return mesh_faces[i];
+}
+
+fn mesh_vertex_at(i: u32) -> MeshVertex {
+    if HAS_SPLIT_ARRAYS {
+        let j = i & part_mask(MESH_VERTEX_PART_BITS);
+        switch i >> MESH_VERTEX_PART_BITS {
+            case 0u: { return mesh_vertices[j]; }
+            case 1u: { return mesh_vertices_1[j]; }
+            case 2u: { return mesh_vertices_2[j]; }
+            default: { return mesh_vertices_3[j]; }
+        }
+    }
+    return mesh_vertices[i];
+}
+
+fn texel_at(i: u32) -> u32 {
+    if HAS_SPLIT_ARRAYS {
+        let j = i & part_mask(TEXEL_PART_BITS);
+        switch i >> TEXEL_PART_BITS {
+            case 0u: { return texels[j]; }
+            case 1u: { return texels_1[j]; }
+            case 2u: { return texels_2[j]; }
+            default: { return texels_3[j]; }
+        }
+    }
+    return texels[i];
+}
 
 // The render target: per-pixel running sums, and which samples the current dispatch traces over which
 // pixels. An image too large for one buffer or one dispatch is cut (src/render/mod.rs, "Tiles"): each

@@ -41,9 +41,9 @@ fn texel_linear(tex: TextureInfo, x: u32, y: u32) -> vec3<f32> {
     var c = vec4<f32>(0.0);
     if (tex.flags & TEXTURE_HALF) != 0u {
         let w = tex.offset + 2u * i;
-        c = vec4<f32>(unpack2x16float(texels[w]), unpack2x16float(texels[w + 1u]));
+        c = vec4<f32>(unpack2x16float(texel_at(w)), unpack2x16float(texel_at(w + 1u)));
     } else {
-        c = unpack4x8unorm(texels[tex.offset + i]);
+        c = unpack4x8unorm(texel_at(tex.offset + i));
     }
     var rgb = c.rgb;
     if (tex.flags & TEXTURE_SRGB) != 0u {

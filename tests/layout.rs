@@ -733,3 +733,52 @@ fn mesh_structs_match_wgsl() {
         size_of::<GpuMaterialTextures>(),
     );
 }
+
+/// Every part of every array split across bindings (abi::SPLIT_ARRAYS) is a storage binding of the
+/// production kernel with part 0's element type and the host's element size, each part fits the 2^27
+/// bytes every Vulkan device can bind, and the kernel declares no part the table lacks.
+#[test]
+fn split_arrays_match_wgsl() {
+    use vkpath::kernel::abi::SPLIT_ARRAYS;
+    let module = parsed_kernel();
+    let ty_of = |name: &str| {
+        let (_, var) = module
+            .global_variables
+            .iter()
+            .find(|(_, v)| v.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("the production kernel has no global `{name}`"));
+        assert!(
+            matches!(var.space, naga::AddressSpace::Storage { .. }),
+            "{name}"
+        );
+        var.ty
+    };
+    for a in &SPLIT_ARRAYS {
+        assert_eq!(a.parts[0], a.name);
+        assert!(a.part_elements() * a.element_bytes <= 1 << 27, "{}", a.name);
+        let TypeInner::Array { stride, .. } = module.types[ty_of(a.name)].inner else {
+            panic!("`{}` is not an array", a.name)
+        };
+        assert_eq!(stride as usize, a.element_bytes, "{}", a.name);
+        for part in a.parts {
+            assert_eq!(
+                ty_of(part),
+                ty_of(a.name),
+                "`{part}` and `{}` differ",
+                a.name
+            );
+        }
+    }
+    for (_, v) in module.global_variables.iter() {
+        let name = v.name.as_deref().unwrap_or("");
+        if let Some((base, k)) = name.rsplit_once('_')
+            && k.parse::<usize>().is_ok()
+        {
+            let a = SPLIT_ARRAYS.iter().find(|a| a.name == base);
+            assert!(
+                a.is_some_and(|a| a.parts.contains(&name)),
+                "the kernel declares `{name}`, which abi::SPLIT_ARRAYS does not list"
+            );
+        }
+    }
+}

@@ -327,6 +327,100 @@ fn a_million_triangles_fit_the_loop_budget() {
     assert!(small < 100, "{small}");
 }
 
+// ----- arrays larger than one binding -----
+
+/// A quad tessellated into more triangles than one storage binding holds (abi::SPLIT_ARRAYS: 2^21
+/// triangles a part; Vulkan guarantees only 128 MiB a binding) renders as the same quad made of two
+/// triangles: the triangles past the first part are read from the second binding, where they are.
+/// Lit directly by a point light, both images are the same up to the rounding of the hit points; a part
+/// read wrong or not at all leaves a hole the size of its share of the quad (here 13 %).
+#[test]
+fn a_mesh_larger_than_one_binding_renders_as_the_same_quad() {
+    use vkpath::kernel::abi::{SPLIT_ARRAYS, split_array};
+    let head = r#"
+[camera]
+position = [0, 0, 50]
+look_at = [0, 0, 0]
+fov = 60
+[image]
+width = 32
+height = 32
+[render]
+max_bounces = 1
+filter = "none"
+[materials]
+white = { type = "diffuse", albedo = [0.8, 0.8, 0.8] }
+[[light]]
+type = "point"
+position = [-10, 15, 30]
+power = 50000.0
+"#;
+    // A grid of g x g cells over [-20, 20]^2 at z = 0, two triangles a cell, facing the camera.
+    let quad = |g: u32| {
+        let mut scene = common::scene(head);
+        let positions = (0..=g)
+            .flat_map(|j| (0..=g).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                Vec3::new(i as f32, j as f32, 0.0) * (40.0 / g as f32) - Vec3::new(20.0, 20.0, 0.0)
+            })
+            .collect();
+        let triangles = (0..g)
+            .flat_map(|j| (0..g).map(move |i| (i, j)))
+            .flat_map(|(i, j)| {
+                let v = |di: u32, dj: u32| (j + dj) * (g + 1) + i + di;
+                [[v(0, 0), v(1, 0), v(1, 1)], [v(0, 0), v(1, 1), v(0, 1)]]
+            })
+            .collect();
+        scene.meshes.push(vkpath::scene::Mesh {
+            obj: "generated".into(),
+            positions,
+            normals: Vec::new(),
+            uvs: Vec::new(),
+            triangles,
+            material: 0,
+            texture: None,
+            maps: Default::default(),
+        });
+        scene
+    };
+    let fine = quad(1100);
+    let part = split_array("triangles").unwrap().part_elements();
+    let gpu = GpuScene::build(&fine);
+    assert!(
+        gpu.triangles.len() > part,
+        "{} triangles",
+        gpu.triangles.len()
+    );
+    assert!(
+        FeatureSet::of(&gpu, &params_for(&fine, 1))
+            .has(vkpath::kernel::features::Feature::SplitArrays)
+    );
+    assert!(
+        SPLIT_ARRAYS
+            .iter()
+            .all(|a| a.part_elements() * a.element_bytes <= 1 << 27)
+    );
+    drop(gpu);
+    let a = render(&fine, 2);
+    let b = render(&quad(1), 2);
+    let (mut diff, mut total, mut lit) = (0.0f64, 0.0f64, 0);
+    for (p, q) in a.mean.iter().zip(&b.mean) {
+        for c in 0..3 {
+            diff += (p[c] as f64 - q[c] as f64).abs();
+            total += q[c] as f64;
+        }
+        lit += usize::from(q[0] > 0.0);
+    }
+    assert!(
+        lit > 400,
+        "the quad covers most of the image: {lit} pixels lit"
+    );
+    assert!(
+        diff < 1e-4 * total,
+        "split mesh vs two triangles: |difference| {diff} of {total}"
+    );
+}
+
 // ----- the example scene -----
 
 const GLOBE_W: u32 = 128;

@@ -46,7 +46,7 @@ fn mesh_scene(positions: Vec<Vec3>, normals: Vec<Vec3>, triangles: Vec<[u32; 3]>
     s
 }
 
-/// A test kernel over a GpuScene's buffers (bindings 0-4, 7-11 as the renderer binds them).
+/// A test kernel over a GpuScene's buffers, uploaded by the renderer's own `upload_scene`.
 struct SceneKernel {
     ctx: Arc<GpuContext>,
     kernel: Kernel,
@@ -63,46 +63,9 @@ impl SceneKernel {
         params.num_lights = gpu.lights.len() as u32;
         let source = library::assemble_text("test kernel", test_source).unwrap();
         let compiled = specialise::compile(&source).expect("test kernel compiles");
-        let kernel = Kernel::new(&ctx, &compiled).unwrap();
-        let s = |name, bytes: &[u8]| Buffer::storage_from(&ctx, name, bytes).unwrap();
-        let buffers = vec![
-            (
-                "params",
-                Buffer::uniform_from(&ctx, "params", &params).unwrap(),
-            ),
-            ("spheres", s("spheres", bytemuck::cast_slice(&gpu.spheres))),
-            (
-                "triangles",
-                s("triangles", bytemuck::cast_slice(&gpu.triangles)),
-            ),
-            (
-                "materials",
-                s("materials", bytemuck::cast_slice(&gpu.materials)),
-            ),
-            ("lights", s("lights", bytemuck::cast_slice(&gpu.lights))),
-            ("bvh_nodes", s("bvh", bytemuck::cast_slice(&gpu.bvh_nodes))),
-            (
-                "mesh_faces",
-                s("faces", bytemuck::cast_slice(&gpu.mesh_faces)),
-            ),
-            (
-                "mesh_vertices",
-                s("vertices", bytemuck::cast_slice(&gpu.mesh_vertices)),
-            ),
-            ("meshes", s("meshes", bytemuck::cast_slice(&gpu.meshes))),
-            ("texels", s("texels", bytemuck::cast_slice(&gpu.texels))),
-            (
-                "textures",
-                s("textures", bytemuck::cast_slice(&gpu.textures)),
-            ),
-            (
-                "material_textures",
-                s(
-                    "material_textures",
-                    bytemuck::cast_slice(&gpu.material_textures),
-                ),
-            ),
-        ];
+        let mut kernel = Kernel::new(&ctx, &compiled).unwrap();
+        // The scene's buffers as the renderer uploads them (every part of the split arrays included).
+        let buffers = vkpath::render::upload_scene(&ctx, &mut kernel, &gpu, &params).unwrap();
         let k = SceneKernel {
             ctx,
             kernel,

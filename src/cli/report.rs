@@ -24,7 +24,7 @@ pub fn shown_paths(paths: &[PathBuf]) -> Vec<String> {
 
 /// Which kernel a renderer runs, for reports: specialised and generic kernels give the same bits.
 pub fn kernel_name(features: &FeatureSet) -> &'static str {
-    if *features == FeatureSet::generic() {
+    if features.is_generic() {
         "generic"
     } else {
         "specialised"

@@ -426,10 +426,114 @@ pub const BOUNCE_CAP: u32 = 1024;
 /// against naga's layout).
 pub const PATH_STATE_BYTES: u64 = 96;
 
+/// Arrays split across bindings (`SPLIT_ARRAYS`): each part holds 2^bits elements.
+pub const TRIANGLE_PART_BITS: u32 = 21;
+pub const BVH_NODE_PART_BITS: u32 = 21;
+pub const MESH_FACE_PART_BITS: u32 = 23;
+pub const MESH_VERTEX_PART_BITS: u32 = 22;
+pub const TEXEL_PART_BITS: u32 = 25;
+
+/// A scene array the kernel reads through several storage bindings, because a large scene's array can
+/// exceed what one binding may hold: Vulkan guarantees only `maxStorageBufferRange` >= 2^27 bytes (128
+/// MiB), which is exactly lavapipe's limit, and 10^7 triangles take 457 MiB. Part k holds elements
+/// [k 2^part_bits, (k + 1) 2^part_bits) under the WGSL name `parts[k]`, and every part is at most 2^27
+/// bytes, so the split fits any Vulkan device. The shader reads the array through one accessor
+/// (`triangle_at`, ... in scene_data.wgsl) that picks the part by the index's high bits, a switch the
+/// specialised kernel of a scene whose arrays fit one part does not have (`HAS_SPLIT_ARRAYS`). The part
+/// counts bound the scene: 8 x 2^21 = 16.8 M triangles, with room for their nodes, faces, vertices (when
+/// shared by about two triangles each, as in closed meshes) and 512 MiB of texels.
+pub struct SplitArray {
+    /// The array's name (`GpuScene`'s field, and the WGSL name of part 0).
+    pub name: &'static str,
+    pub element_bytes: usize,
+    pub part_bits: u32,
+    /// The WGSL binding name of each part.
+    pub parts: &'static [&'static str],
+}
+
+impl SplitArray {
+    pub const fn part_elements(&self) -> usize {
+        1 << self.part_bits
+    }
+
+    /// The most elements the parts hold.
+    pub const fn max_elements(&self) -> usize {
+        self.parts.len() << self.part_bits
+    }
+
+    /// The bytes of part `k` of the array whose bytes are `bytes` (empty past its end).
+    pub fn part<'a>(&self, bytes: &'a [u8], k: usize) -> &'a [u8] {
+        let n = self.part_elements() * self.element_bytes;
+        &bytes[(k * n).min(bytes.len())..((k + 1) * n).min(bytes.len())]
+    }
+
+    /// Whether `elements` need more than the first part.
+    pub const fn needs_split(&self, elements: usize) -> bool {
+        elements > self.part_elements()
+    }
+}
+
+pub const SPLIT_ARRAYS: [SplitArray; 5] = [
+    SplitArray {
+        name: "triangles",
+        element_bytes: std::mem::size_of::<GpuTriangle>(),
+        part_bits: TRIANGLE_PART_BITS,
+        parts: &[
+            "triangles",
+            "triangles_1",
+            "triangles_2",
+            "triangles_3",
+            "triangles_4",
+            "triangles_5",
+            "triangles_6",
+            "triangles_7",
+        ],
+    },
+    SplitArray {
+        name: "bvh_nodes",
+        element_bytes: std::mem::size_of::<GpuBvhNode>(),
+        part_bits: BVH_NODE_PART_BITS,
+        parts: &["bvh_nodes", "bvh_nodes_1", "bvh_nodes_2", "bvh_nodes_3"],
+    },
+    SplitArray {
+        name: "mesh_faces",
+        element_bytes: std::mem::size_of::<GpuMeshFace>(),
+        part_bits: MESH_FACE_PART_BITS,
+        parts: &["mesh_faces", "mesh_faces_1"],
+    },
+    SplitArray {
+        name: "mesh_vertices",
+        element_bytes: std::mem::size_of::<GpuMeshVertex>(),
+        part_bits: MESH_VERTEX_PART_BITS,
+        parts: &[
+            "mesh_vertices",
+            "mesh_vertices_1",
+            "mesh_vertices_2",
+            "mesh_vertices_3",
+        ],
+    },
+    SplitArray {
+        name: "texels",
+        element_bytes: std::mem::size_of::<u32>(),
+        part_bits: TEXEL_PART_BITS,
+        parts: &["texels", "texels_1", "texels_2", "texels_3"],
+    },
+];
+
+/// The split array named `name`, if it is one.
+pub fn split_array(name: &str) -> Option<&'static SplitArray> {
+    SPLIT_ARRAYS.iter().find(|a| a.name == name)
+}
+
 /// Every integer constant the host and the WGSL share, by its name in both: `tests/layout.rs` checks each
 /// against the value naga parses from the production kernel. (The `MAT_*` kinds are generated into the
 /// WGSL from the registry, `scene::bsdfs`, and checked against it there.)
 pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
+    ("TRIANGLE_PART_BITS", TRIANGLE_PART_BITS),
+    ("BVH_NODE_PART_BITS", BVH_NODE_PART_BITS),
+    ("MESH_FACE_PART_BITS", MESH_FACE_PART_BITS),
+    ("MESH_VERTEX_PART_BITS", MESH_VERTEX_PART_BITS),
+    ("TEXEL_PART_BITS", TEXEL_PART_BITS),
     ("MATERIAL_TWO_SIDED_EMISSION", MATERIAL_TWO_SIDED_EMISSION),
     ("MATERIAL_SCHLICK", MATERIAL_SCHLICK),
     ("BSDF_REFLECTION", BSDF_REFLECTION),

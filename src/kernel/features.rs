@@ -40,6 +40,7 @@ pub enum Feature {
     Lens,
     Orthographic,
     Roulette,
+    SplitArrays,
     /// A material kind (`MAT_*`), a row of the registry (`scene::bsdfs`).
     Material(u32),
     /// A light kind (`LIGHT_*`), a row of the light registry (`kernel::light_kinds`).
@@ -258,6 +259,19 @@ const AFTER_LIGHTS: &[FeatureRow] = &[
         needed: |_, p| p.roulette_depth <= p.max_bounces,
         reported: true,
     },
+    FeatureRow {
+        // Some array is larger than its first binding (abi::SPLIT_ARRAYS): every access picks a part.
+        feature: Feature::SplitArrays,
+        name: "split_arrays",
+        constant: "HAS_SPLIT_ARRAYS",
+        group: Group::Other,
+        needed: |g, _| {
+            SPLIT_ARRAYS
+                .iter()
+                .any(|a| a.needs_split(g.array_len(a.name)))
+        },
+        reported: false,
+    },
 ];
 
 /// The feature table: the rows above, with a row per material kind of the material registry
@@ -399,11 +413,36 @@ pub struct FeatureSet {
 
 impl FeatureSet {
     /// Everything on, every knob read at run time: the one kernel that renders any scene.
+    ///
+    /// Every feature but one: [`Feature::SplitArrays`] is how the scene's arrays are laid out across
+    /// bindings, not something the scene's light transport uses, and reading every array through its
+    /// part switch multiplies the driver's compile time of the all-features kernel (on lavapipe, from
+    /// seconds to over ten minutes: every inlined texel and vertex fetch becomes a switch over bindings).
+    /// So the generic kernel reads each array from one binding, like the WGSL default, and
+    /// [`FeatureSet::generic_for`] adds the split for a scene that needs it.
     pub fn generic() -> FeatureSet {
-        FeatureSet {
+        let mut set = FeatureSet {
             on: u64::MAX >> (64 - features().len()),
             knobs: [None; KNOBS.len()],
-        }
+        };
+        set.set(Feature::SplitArrays, false);
+        set
+    }
+
+    /// Whether this is the generic kernel (for `scene`: whatever its arrays' layout).
+    pub fn is_generic(&self) -> bool {
+        let mut set = *self;
+        set.set(Feature::SplitArrays, false);
+        set == FeatureSet::generic()
+    }
+
+    /// The generic kernel for `scene`: [`FeatureSet::generic`], with the split arrays where the scene's
+    /// arrays need them.
+    pub fn generic_for(scene: &GpuScene, params: &GpuParams) -> FeatureSet {
+        let mut set = FeatureSet::generic();
+        let split = FeatureSet::of(scene, params).has(Feature::SplitArrays);
+        set.set(Feature::SplitArrays, split);
+        set
     }
 
     /// What `scene` (as uploaded, with its parameters) needs. Material kinds count only when an object
@@ -537,8 +576,12 @@ impl FeatureSet {
     /// A short name of the kernel for reports: `generic`, or the features it keeps and the knobs it
     /// fixes, e.g. `spheres+diffuse+point_lights+roulette/filter=2,sampler=0,light_sampling=0`.
     pub fn kernel_name(&self) -> String {
-        if *self == FeatureSet::generic() {
-            return "generic".into();
+        if self.is_generic() {
+            return if self.has(Feature::SplitArrays) {
+                "generic+split_arrays".into()
+            } else {
+                "generic".into()
+            };
         }
         let on: Vec<&str> = features()
             .iter()
@@ -594,7 +637,11 @@ mod tests {
     #[test]
     fn generic_has_everything_and_reads_every_knob() {
         let g = FeatureSet::generic();
-        assert!(features().iter().all(|r| g.has(r.feature)));
+        assert!(
+            features()
+                .iter()
+                .all(|r| g.has(r.feature) == (r.feature != Feature::SplitArrays))
+        );
         assert!(g.absent().is_empty());
         assert_eq!(g.kernel_name(), "generic");
         let consts = g.pipeline_constants();

@@ -21,6 +21,7 @@ use crate::scene::{
     Mesh, Projection, Roughness, Sampler, Scene, Texture, TextureRef,
 };
 use glam::Vec3;
+use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::sync::Arc;
 
@@ -65,6 +66,38 @@ pub struct GpuScene {
     /// The emissive triangles' index in `lights`, or NO_LIGHT.
     pub triangle_light: u32,
     pub stats: SceneStats,
+}
+
+impl GpuScene {
+    /// The large arrays, by their WGSL names (part 0's, for those split across bindings:
+    /// `abi::SPLIT_ARRAYS`), as the bytes the renderer uploads to device-local memory.
+    pub fn large_arrays(&self) -> [(&'static str, &[u8]); 8] {
+        [
+            ("triangles", bytemuck::cast_slice(&self.triangles)),
+            ("bvh_nodes", bytemuck::cast_slice(&self.bvh_nodes)),
+            ("mesh_faces", bytemuck::cast_slice(&self.mesh_faces)),
+            ("mesh_vertices", bytemuck::cast_slice(&self.mesh_vertices)),
+            ("texels", bytemuck::cast_slice(&self.texels)),
+            (
+                "light_triangles",
+                bytemuck::cast_slice(&self.light_triangles),
+            ),
+            ("env_texels", bytemuck::cast_slice(&self.env_texels)),
+            ("env_cdf", bytemuck::cast_slice(&self.env_cdf)),
+        ]
+    }
+
+    /// The elements of the split array `name` (0 for any other name).
+    pub fn array_len(&self, name: &str) -> usize {
+        match name {
+            "triangles" => self.triangles.len(),
+            "bvh_nodes" => self.bvh_nodes.len(),
+            "mesh_faces" => self.mesh_faces.len(),
+            "mesh_vertices" => self.mesh_vertices.len(),
+            "texels" => self.texels.len(),
+            _ => 0,
+        }
+    }
 }
 
 /// A material as the shader has it. Glossy materials whose GGX alpha is below [`SMOOTH_ALPHA`] on both
@@ -683,7 +716,7 @@ impl GpuScene {
         let started = std::time::Instant::now();
         let wide = tree.wide();
         self.bvh_nodes = wide
-            .iter()
+            .par_iter()
             .map(|n| {
                 let q = bvh::quantise(n);
                 GpuBvhNode {

@@ -15,7 +15,8 @@ pub mod tiles;
 use crate::film::Film;
 use crate::gpu::{Buffer, Command, GpuContext, GpuError, Kernel, upload_device_local};
 use crate::kernel::abi::{
-    GpuAccum, GpuParams, GpuPassConstants, PATH_STATE_BYTES, SAMPLE_FAULT_COUNTERS,
+    GpuAccum, GpuParams, GpuPassConstants, PATH_STATE_BYTES, SAMPLE_FAULT_COUNTERS, SPLIT_ARRAYS,
+    split_array,
 };
 use crate::kernel::features::FeatureSet;
 use crate::kernel::specialise::CompiledShader;
@@ -332,7 +333,7 @@ fn allocate_strips(
 /// Uploads the arrays the (specialised) kernel still reads, each under its WGSL name: a scene without
 /// triangles has no triangle buffer at all. The big mesh arrays (64 bytes per BVH node, 48 per
 /// triangle) live in device-local memory, uploaded through a staging copy.
-fn upload_scene(
+pub fn upload_scene(
     ctx: &Arc<GpuContext>,
     kernel: &mut Kernel,
     gpu: &GpuScene,
@@ -363,22 +364,22 @@ fn upload_scene(
             bytemuck::cast_slice(&gpu.material_textures),
         )?);
     }
-    let big: [(&'static str, &[u8]); 8] = [
-        ("triangles", bytemuck::cast_slice(&gpu.triangles)),
-        ("bvh_nodes", bytemuck::cast_slice(&gpu.bvh_nodes)),
-        ("mesh_faces", bytemuck::cast_slice(&gpu.mesh_faces)),
-        ("mesh_vertices", bytemuck::cast_slice(&gpu.mesh_vertices)),
-        ("texels", bytemuck::cast_slice(&gpu.texels)),
-        (
-            "light_triangles",
-            bytemuck::cast_slice(&gpu.light_triangles),
-        ),
-        ("env_texels", bytemuck::cast_slice(&gpu.env_texels)),
-        ("env_cdf", bytemuck::cast_slice(&gpu.env_cdf)),
-    ];
-    for (name, bytes) in big {
-        if kernel.uses(name) {
-            bound.push((name, upload_device_local(ctx, kernel, name, bytes)?));
+    for (name, bytes) in gpu.large_arrays() {
+        match split_array(name) {
+            // Each part the kernel reads (all of them in the generic kernel, empty past the data).
+            Some(split) => {
+                for (k, &part) in split.parts.iter().enumerate() {
+                    if kernel.uses(part) {
+                        let data = split.part(bytes, k);
+                        bound.push((part, upload_device_local(ctx, kernel, part, data)?));
+                    }
+                }
+            }
+            None => {
+                if kernel.uses(name) {
+                    bound.push((name, upload_device_local(ctx, kernel, name, bytes)?));
+                }
+            }
         }
     }
     Ok(bound)
@@ -431,7 +432,7 @@ impl Renderer {
         check_loop_budget(ctx, &gpu)?;
         let params = render_params(scene, &gpu, options);
         let features = if options.generic {
-            FeatureSet::generic()
+            FeatureSet::generic_for(&gpu, &params)
         } else {
             FeatureSet::of(&gpu, &params)
         };
@@ -1049,57 +1050,100 @@ fn check_device_memory(
         triangle_light: _,
         stats: _,
     } = gpu;
-    let arrays: [(&str, u64); 14] = [
-        ("spheres", std::mem::size_of_val(spheres.as_slice()) as u64),
+    let arrays: [(&str, &str, u64); 14] = [
         (
+            "spheres",
+            "spheres",
+            std::mem::size_of_val(spheres.as_slice()) as u64,
+        ),
+        (
+            "triangles",
             "triangles",
             std::mem::size_of_val(triangles.as_slice()) as u64,
         ),
         (
             "materials",
+            "materials",
             std::mem::size_of_val(materials.as_slice()) as u64,
         ),
-        ("lights", std::mem::size_of_val(lights.as_slice()) as u64),
+        (
+            "lights",
+            "lights",
+            std::mem::size_of_val(lights.as_slice()) as u64,
+        ),
         (
             "BVH nodes",
+            "bvh_nodes",
             std::mem::size_of_val(bvh_nodes.as_slice()) as u64,
         ),
         (
             "mesh faces",
+            "mesh_faces",
             std::mem::size_of_val(mesh_faces.as_slice()) as u64,
         ),
         (
             "mesh vertices",
+            "mesh_vertices",
             std::mem::size_of_val(mesh_vertices.as_slice()) as u64,
         ),
-        ("meshes", std::mem::size_of_val(meshes.as_slice()) as u64),
+        (
+            "meshes",
+            "meshes",
+            std::mem::size_of_val(meshes.as_slice()) as u64,
+        ),
         (
             "texture table",
+            "textures",
             std::mem::size_of_val(textures.as_slice()) as u64,
         ),
         (
             "material textures",
+            "material_textures",
             std::mem::size_of_val(material_textures.as_slice()) as u64,
         ),
         (
             "texture texels",
+            "texels",
             std::mem::size_of_val(texels.as_slice()) as u64,
         ),
         (
             "emissive triangles",
+            "light_triangles",
             std::mem::size_of_val(light_triangles.as_slice()) as u64,
         ),
         (
             "environment map texels",
+            "env_texels",
             std::mem::size_of_val(env_texels.as_slice()) as u64,
         ),
         (
             "environment map distribution",
+            "env_cdf",
             std::mem::size_of_val(env_cdf.as_slice()) as u64,
         ),
     ];
     let mib = |b: u64| b as f64 / f64::from(1 << 20);
-    for (name, bytes) in arrays {
+    // The arrays split across bindings (abi::SPLIT_ARRAYS) are limited by their parts, each of which
+    // fits any Vulkan device's range.
+    for split in &SPLIT_ARRAYS {
+        let n = gpu.array_len(split.name);
+        if n > split.max_elements() {
+            return Err(GpuError::Limit(format!(
+                "the scene has {n} {} (each {} bytes), more than the {} the renderer can bind ({} \
+                 storage buffers of {} each). Use a smaller scene, or split it into instances of \
+                 smaller meshes.",
+                split.name.replace('_', " "),
+                split.element_bytes,
+                split.max_elements(),
+                split.parts.len(),
+                split.part_elements(),
+            )));
+        }
+    }
+    for (name, wgsl_name, bytes) in arrays {
+        if split_array(wgsl_name).is_some() {
+            continue;
+        }
         if bytes > range {
             return Err(GpuError::Limit(format!(
                 "the scene's {name} take {bytes} bytes ({:.0} MiB), more than the {range} bytes one \
@@ -1110,7 +1154,7 @@ fn check_device_memory(
             )));
         }
     }
-    let scene_bytes: u64 = arrays.iter().map(|(_, b)| b).sum();
+    let scene_bytes: u64 = arrays.iter().map(|(_, _, b)| b).sum();
     let accum = layout.total_bytes();
     // The staging buffer is host-visible; on a discrete GPU it is not device memory, but counting it
     // keeps the check simple and errs on the side of refusing.

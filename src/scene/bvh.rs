@@ -126,16 +126,32 @@ struct Prim {
     centroid: Vec3,
 }
 
-struct Builder {
-    prims: Vec<Prim>,
-    order: Vec<u32>,
-    nodes: Vec<Node>,
+/// Subtrees over at least this many triangles build their two halves on two threads (rayon's `join`);
+/// smaller ones build on the thread they are on. Large enough that the relocation of a finished half's
+/// nodes (see [`Builder::fill`]) and rayon's scheduling stay small next to the work split.
+const PARALLEL_MIN: usize = 1 << 14;
+
+/// Leaves and depth of a (sub)tree, summed over the parts built on different threads.
+#[derive(Clone, Copy, Default)]
+struct TreeStats {
     leaves: usize,
     depth: usize,
 }
 
+/// What the builder reads: every triangle's box and centroid (never written, shared by the threads).
+struct Builder<'a> {
+    prims: &'a [Prim],
+}
+
 /// Builds the hierarchy over `triangles` (each three vertices).
+///
+/// **In parallel, with the same tree as one thread**: a node's two halves are disjoint ranges of `order`,
+/// so above [`PARALLEL_MIN`] triangles they are built at once on rayon's pool, each into its own node
+/// array, and appended parent-left-right, which is the depth-first order the one-thread walk produces
+/// (references to the appended nodes are shifted by where they land). The splits depend only on the
+/// triangles, so the tree, the order and the bits of every render are the same on any number of threads.
 pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
+    use rayon::prelude::*;
     let start = Instant::now();
     let n = triangles.len();
     if n == 0 {
@@ -146,7 +162,7 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
         "the scene parser caps triangles"
     );
     let prims: Vec<Prim> = triangles
-        .iter()
+        .par_iter()
         .map(|t| {
             let mut b = Aabb::EMPTY;
             t.iter().for_each(|&p| b.grow(p));
@@ -157,47 +173,48 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
             }
         })
         .collect();
-    let mut builder = Builder {
-        prims,
-        order: (0..n as u32).collect(),
-        nodes: Vec::with_capacity(n / 2 + 1),
-        leaves: 0,
-        depth: 0,
-    };
-    builder.nodes.push(Node {
+    let builder = Builder { prims: &prims };
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    let mut nodes = Vec::with_capacity(n / 2 + 1);
+    nodes.push(Node {
         bounds: [Aabb::EMPTY; 2],
         child: [0; 2],
     });
+    let mut stats = TreeStats::default();
     // The root is always an interior node (the shader starts at node 0). A single triangle gets the
     // same leaf on both sides, which costs one repeated test and changes no result.
     if n == 1 {
-        let leaf = builder.leaf(0, 1);
-        let b = builder.prims[0].bounds;
-        builder.nodes[0] = Node {
+        let leaf = Builder::leaf(0, 1);
+        let b = prims[0].bounds;
+        nodes[0] = Node {
             bounds: [b, b],
             child: [leaf, leaf],
         };
-        builder.leaves = 1;
-        builder.depth = 1;
+        stats = TreeStats {
+            leaves: 1,
+            depth: 1,
+        };
     } else {
-        let (bounds, centroids) = builder.bounds(0, n);
-        let split = builder.choose_split(0, n, &bounds, &centroids, 1);
-        builder.fill(0, 0, n, 1, &centroids, split);
+        let (bounds, centroids) = builder.bounds(&order);
+        let split = builder.choose_split(&order, &bounds, &centroids, 1);
+        builder.fill(
+            0, &mut order, 0, 1, &centroids, split, &mut nodes, &mut stats,
+        );
     }
     Bvh {
-        nodes: builder.nodes,
-        order: builder.order,
-        leaves: builder.leaves,
-        depth: builder.depth,
+        nodes,
+        order,
+        leaves: stats.leaves,
+        depth: stats.depth,
         build_seconds: start.elapsed().as_secs_f64(),
     }
 }
 
-impl Builder {
-    fn bounds(&self, start: usize, end: usize) -> (Aabb, Aabb) {
+impl Builder<'_> {
+    fn bounds(&self, order: &[u32]) -> (Aabb, Aabb) {
         let mut b = Aabb::EMPTY;
         let mut c = Aabb::EMPTY;
-        for &i in &self.order[start..end] {
+        for &i in order {
             let p = &self.prims[i as usize];
             b = b.union(&p.bounds);
             c.grow(p.centroid);
@@ -205,7 +222,8 @@ impl Builder {
         (b, c)
     }
 
-    fn leaf(&self, start: usize, end: usize) -> u32 {
+    /// The leaf over triangles `[start, end)` of the final order.
+    fn leaf(start: usize, end: usize) -> u32 {
         debug_assert!(end > start && end - start <= MAX_LEAF);
         LEAF | ((start as u32) << LEAF_COUNT_BITS) | (end - start - 1) as u32
     }
@@ -213,8 +231,7 @@ impl Builder {
     /// The split `subtree` and the root use: binned SAH, or the median below [`SAH_MAX_DEPTH`] (None).
     fn choose_split(
         &self,
-        start: usize,
-        end: usize,
+        order: &[u32],
         bounds: &Aabb,
         centroids: &Aabb,
         depth: usize,
@@ -222,48 +239,79 @@ impl Builder {
         if depth >= SAH_MAX_DEPTH {
             None
         } else {
-            self.best_sah_split(start, end, bounds, centroids)
+            self.best_sah_split(order, bounds, centroids)
         }
     }
 
-    /// Builds the subtree over `order[start..end]` and returns its reference and box.
-    fn subtree(&mut self, start: usize, end: usize, depth: usize) -> (u32, Aabb) {
-        let (bounds, centroids) = self.bounds(start, end);
-        let n = end - start;
-        let split = self.choose_split(start, end, &bounds, &centroids, depth);
+    /// Builds the subtree over `order` (the final order's triangles `base ..`), appending its interior
+    /// nodes to `out` depth-first, and returns its reference and box.
+    fn subtree(
+        &self,
+        order: &mut [u32],
+        base: usize,
+        depth: usize,
+        out: &mut Vec<Node>,
+        stats: &mut TreeStats,
+    ) -> (u32, Aabb) {
+        let (bounds, centroids) = self.bounds(order);
+        let n = order.len();
+        let split = self.choose_split(order, &bounds, &centroids, depth);
         // SAH: a leaf costs n triangle tests; a split costs what best_sah_split computed.
         if n <= MAX_LEAF && split.is_none_or(|(cost, _, _)| cost >= n as f64) {
-            self.leaves += 1;
-            return (self.leaf(start, end), bounds);
+            stats.leaves += 1;
+            return (Self::leaf(base, base + n), bounds);
         }
-        let index = self.nodes.len();
-        self.nodes.push(Node {
+        let index = out.len();
+        out.push(Node {
             bounds: [Aabb::EMPTY; 2],
             child: [0; 2],
         });
-        self.fill(index, start, end, depth, &centroids, split);
+        self.fill(index, order, base, depth, &centroids, split, out, stats);
         (index as u32, bounds)
     }
 
-    /// Makes node `index` the interior node over `order[start..end]`: partitions by `split` (or at the
-    /// median) and builds both subtrees.
+    /// Makes node `out[index]` the interior node over `order`: partitions by `split` (or at the median)
+    /// and builds both subtrees, on two threads when `order` is large (see [`build`]).
+    #[allow(clippy::too_many_arguments)]
     fn fill(
-        &mut self,
+        &self,
         index: usize,
-        start: usize,
-        end: usize,
+        order: &mut [u32],
+        base: usize,
         depth: usize,
         centroids: &Aabb,
         split: Option<(f64, usize, usize)>,
+        out: &mut Vec<Node>,
+        stats: &mut TreeStats,
     ) {
-        self.depth = self.depth.max(depth);
+        stats.depth = stats.depth.max(depth);
         let mid = match split {
-            Some((_, axis, plane)) => self.partition(start, end, centroids, axis, plane),
-            None => self.median(start, end, centroids),
+            Some((_, axis, plane)) => self.partition(order, centroids, axis, plane),
+            None => self.median(order, centroids),
         };
-        let (left, lb) = self.subtree(start, mid, depth + 1);
-        let (right, rb) = self.subtree(mid, end, depth + 1);
-        self.nodes[index] = Node {
+        let n = order.len();
+        let (lo, hi) = order.split_at_mut(mid);
+        let ((left, lb), (right, rb)) = if n >= PARALLEL_MIN {
+            let half = |order: &mut [u32], base: usize| {
+                let mut nodes = Vec::new();
+                let mut s = TreeStats::default();
+                let (r, b) = self.subtree(order, base, depth + 1, &mut nodes, &mut s);
+                (r, b, nodes, s)
+            };
+            let ((l, lb, ln, ls), (r, rb, rn, rs)) =
+                rayon::join(|| half(lo, base), || half(hi, base + mid));
+            for s in [ls, rs] {
+                stats.leaves += s.leaves;
+                stats.depth = stats.depth.max(s.depth);
+            }
+            ((append(out, ln, l), lb), (append(out, rn, r), rb))
+        } else {
+            (
+                self.subtree(lo, base, depth + 1, out, stats),
+                self.subtree(hi, base + mid, depth + 1, out, stats),
+            )
+        };
+        out[index] = Node {
             bounds: [lb, rb],
             child: [left, right],
         };
@@ -274,12 +322,11 @@ impl Builder {
         (((c - lo) as f64 * scale) as usize).min(BINS - 1)
     }
 
-    /// The cheapest binned SAH split of `order[start..end]`: (cost, axis, last bin on the left), or None
-    /// when all centroids coincide. Costs are in units of one triangle test (see the module comment).
+    /// The cheapest binned SAH split of `order`: (cost, axis, last bin on the left), or None when all
+    /// centroids coincide. Costs are in units of one triangle test (see the module comment).
     fn best_sah_split(
         &self,
-        start: usize,
-        end: usize,
+        order: &[u32],
         bounds: &Aabb,
         centroids: &Aabb,
     ) -> Option<(f64, usize, usize)> {
@@ -294,7 +341,7 @@ impl Builder {
             let scale = BINS as f64 / extent;
             let mut counts = [0usize; BINS];
             let mut boxes = [Aabb::EMPTY; BINS];
-            for &i in &self.order[start..end] {
+            for &i in order {
                 let p = &self.prims[i as usize];
                 let b = Self::bin(p.centroid[axis], lo, scale);
                 counts[b] += 1;
@@ -323,7 +370,7 @@ impl Builder {
                         / area
                 } else {
                     // Every triangle is a point (zero-area box): any split costs the same.
-                    1.0 + (end - start) as f64
+                    1.0 + order.len() as f64
                 };
                 if best.is_none_or(|(c, _, _)| cost < c) {
                     best = Some((cost, axis, k));
@@ -334,35 +381,28 @@ impl Builder {
     }
 
     /// Puts the triangles whose centroid falls in bins 0..=plane first; returns where the rest start.
-    fn partition(
-        &mut self,
-        start: usize,
-        end: usize,
-        centroids: &Aabb,
-        axis: usize,
-        plane: usize,
-    ) -> usize {
+    fn partition(&self, order: &mut [u32], centroids: &Aabb, axis: usize, plane: usize) -> usize {
         let lo = centroids.lo[axis];
         let scale = BINS as f64 / (centroids.hi[axis] - lo) as f64;
-        let (mut i, mut j) = (start, end);
+        let (mut i, mut j) = (0, order.len());
         while i < j {
-            let c = self.prims[self.order[i] as usize].centroid[axis];
+            let c = self.prims[order[i] as usize].centroid[axis];
             if Self::bin(c, lo, scale) <= plane {
                 i += 1;
             } else {
                 j -= 1;
-                self.order.swap(i, j);
+                order.swap(i, j);
             }
         }
         // best_sah_split only returns planes with triangles on both sides.
-        debug_assert!(i > start && i < end);
+        debug_assert!(i > 0 && i < order.len());
         i
     }
 
     /// Splits at the median centroid along the longest axis of the centroids' box (any order when they
     /// all coincide): both halves are non-empty and at most half the size, rounded up.
-    fn median(&mut self, start: usize, end: usize, centroids: &Aabb) -> usize {
-        let mid = start + (end - start) / 2;
+    fn median(&self, order: &mut [u32], centroids: &Aabb) -> usize {
+        let mid = order.len() / 2;
         let extent = centroids.hi - centroids.lo;
         let axis = if extent.x >= extent.y && extent.x >= extent.z {
             0
@@ -372,13 +412,25 @@ impl Builder {
             2
         };
         if extent[axis] > 0.0 {
-            let prims = &self.prims;
-            self.order[start..end].select_nth_unstable_by(mid - start, |&a, &b| {
+            let prims = self.prims;
+            order.select_nth_unstable_by(mid, |&a, &b| {
                 prims[a as usize].centroid[axis].total_cmp(&prims[b as usize].centroid[axis])
             });
         }
         mid
     }
+}
+
+/// Appends `nodes` (a subtree built on its own, its references relative to its first node) to `out`,
+/// shifting its interior references by where it lands; returns the subtree's reference in `out`.
+fn append(out: &mut Vec<Node>, nodes: Vec<Node>, reference: u32) -> u32 {
+    let offset = out.len() as u32;
+    let shift = |r: u32| if r & LEAF != 0 { r } else { r + offset };
+    out.extend(nodes.into_iter().map(|n| Node {
+        bounds: n.bounds,
+        child: n.child.map(shift),
+    }));
+    shift(reference)
 }
 
 impl Bvh {
@@ -760,6 +812,27 @@ mod tests {
                 assert!(bvh.leaves as f64 > n as f64 / MAX_LEAF as f64);
             }
         }
+    }
+
+    /// The halves built on other threads are stitched back in the one-thread depth-first order: one
+    /// thread and the whole pool make the same nodes, order, leaf count and depth (so the same bits).
+    #[test]
+    fn parallel_build_makes_the_one_thread_tree() {
+        let tris = random_triangles(4 * PARALLEL_MIN + 123, 7);
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| build(&tris));
+        let many = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap()
+            .install(|| build(&tris));
+        check_invariants(&tris, &many);
+        assert_eq!(one.nodes, many.nodes);
+        assert_eq!(one.order, many.order);
+        assert_eq!((one.leaves, one.depth), (many.leaves, many.depth));
     }
 
     #[test]
