@@ -281,6 +281,37 @@ fn shapes_are_placed_by_their_transforms() {
     assert!((area - PI).abs() < 1e-5, "{area}");
 }
 
+/// An `obj` shape's to_world that scales unevenly or shears becomes the mesh's `matrix` (a similarity
+/// stays scale / rotate / translate); one that mirrors is refused, naming its element: Mitsuba turns a
+/// mirrored mesh's faces around, vkpath's `matrix` keeps their fronts.
+#[test]
+fn mesh_transforms_that_stretch_become_matrices_and_mirrors_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "tri.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    let s = load_in(
+        dir.path(),
+        r#"<shape type="obj"><string name="filename" value="tri.obj"/>
+            <transform name="to_world"><scale x="2" y="3" z="1"/><rotate z="1" angle="90"/><translate x="1"/></transform></shape>"#,
+    );
+    // scale (2, 3, 1), then a quarter turn about z ((x, y) -> (-y, x)), then x + 1.
+    let p = &s.meshes[0].positions;
+    assert_close(p[0], Vec3::new(1.0, 0.0, 0.0));
+    assert_close(p[1], Vec3::new(1.0, 2.0, 0.0));
+    assert_close(p[2], Vec3::new(-2.0, 0.0, 0.0));
+    let body = r#"<shape type="obj"><string name="filename" value="tri.obj"/>
+            <transform name="to_world"><scale x="-1"/></transform></shape>"#;
+    let message = error_in(dir.path(), body);
+    assert!(message.contains("mirrors"), "{message}");
+    assert!(
+        message.contains(&format!("line {}", line_of(body, "<scale x=\"-1\""))),
+        "{message}"
+    );
+}
+
 #[test]
 fn bsdfs_and_emitters_map_to_materials_and_lights() {
     let dir = tempfile::tempdir().unwrap();

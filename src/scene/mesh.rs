@@ -1,6 +1,6 @@
 //! Triangle meshes: a mesh file as read, in its own coordinates ([`ObjMesh`], whatever the format:
 //! `obj`, `ply` and `gltf` read one, `mesh_file` picks the reader), the materials it brings and what is
-//! wrong with it, and the [`Mesh`] it becomes once placed in the scene by a similarity transform, with
+//! wrong with it, and the [`Mesh`] it becomes once placed in the scene by an affine transform ([`Placement`]), with
 //! per-vertex shading normals and optional textures.
 //!
 //! Everything here is host data in `f32`/glam types; `kernel::upload` flattens it into the triangle, BVH and
@@ -8,7 +8,7 @@
 //! them into a `SceneError` that also names the scene file, its line and the `[[mesh]]` key.
 
 use super::image_texture::Texture;
-use glam::{DMat3, DVec3, Vec3};
+use glam::{DAffine3, DMat3, DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -175,18 +175,23 @@ impl ObjError {
     }
 }
 
-/// Where a mesh goes: scaled uniformly about the OBJ's origin, rotated about x, then y, then z (degrees,
-/// right-handed), then translated. A point p becomes `Rz Ry Rx (scale p) + translate`.
+/// Where a mesh goes. `Srt`: scaled uniformly about the OBJ's origin, rotated about x, then y, then z
+/// (degrees, right-handed), then translated: a point p becomes `Rz Ry Rx (scale p) + translate`.
+/// `Matrix`: any invertible affine map (`matrix` in a `[[mesh]]` or `[[instance]]`, Mitsuba's `to_world`),
+/// non-uniform scales, shears and mirrors included.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Placement {
-    pub scale: f32,
-    pub rotate_deg: Vec3,
-    pub translate: Vec3,
+pub enum Placement {
+    Srt {
+        scale: f32,
+        rotate_deg: Vec3,
+        translate: Vec3,
+    },
+    Matrix(DAffine3),
 }
 
 impl Default for Placement {
     fn default() -> Self {
-        Placement {
+        Placement::Srt {
             scale: 1.0,
             rotate_deg: Vec3::ZERO,
             translate: Vec3::ZERO,
@@ -195,46 +200,89 @@ impl Default for Placement {
 }
 
 impl Placement {
-    /// The rotation, in f64 so that composing it rounds once.
-    fn rotation(&self) -> DMat3 {
-        let r = self.rotate_deg.as_dvec3() * (std::f64::consts::PI / 180.0);
-        DMat3::from_rotation_z(r.z) * DMat3::from_rotation_y(r.y) * DMat3::from_rotation_x(r.x)
+    /// Where a point of the file goes, in f64 so that composing the transform rounds once.
+    fn point(&self, p: DVec3) -> DVec3 {
+        match self {
+            Placement::Srt {
+                scale,
+                rotate_deg,
+                translate,
+            } => srt_rotation(*rotate_deg) * (p * f64::from(*scale)) + translate.as_dvec3(),
+            Placement::Matrix(m) => m.transform_point3(p),
+        }
+    }
+
+    /// The map of normals: the rotation (a uniform scale changes no direction), or the inverse
+    /// transpose of the matrix's linear part, which keeps a normal perpendicular to the transformed
+    /// surface under non-uniform scales and shears (pbrt-v4 §3.10.3).
+    fn normal_map(&self) -> DMat3 {
+        match self {
+            Placement::Srt { rotate_deg, .. } => srt_rotation(*rotate_deg),
+            Placement::Matrix(m) => m.matrix3.inverse().transpose(),
+        }
+    }
+
+    /// Whether the transform mirrors (its determinant is negative): the triangles' winding is then
+    /// reversed, so that the side a face's counter-clockwise winding called its front stays its front
+    /// (pbrt-v4's `transformSwapsHandedness`); vertex normals, mapped by the inverse transpose, agree.
+    pub fn mirrors(&self) -> bool {
+        matches!(self, Placement::Matrix(m) if m.matrix3.determinant() < 0.0)
     }
 }
 
-/// The OBJ mesh placed in the world. With `smooth`, shading normals are the OBJ's (rotated: a uniform
-/// scale does not change directions) when it gives one for every vertex, else computed (see
-/// [`vertex_normals`]). `keep_uvs` keeps the texture coordinates (the caller has checked they exist).
-pub fn place(
-    obj: &ObjMesh,
-    placement: &Placement,
-    smooth: bool,
-    keep_uvs: bool,
-) -> (Vec<Vec3>, Vec<Vec3>, Vec<[f32; 2]>) {
-    let rotation = placement.rotation();
-    let scale = f64::from(placement.scale);
-    let translate = placement.translate.as_dvec3();
+/// The rotation of an `Srt` placement, in f64.
+fn srt_rotation(rotate_deg: Vec3) -> DMat3 {
+    let r = rotate_deg.as_dvec3() * (std::f64::consts::PI / 180.0);
+    DMat3::from_rotation_z(r.z) * DMat3::from_rotation_y(r.y) * DMat3::from_rotation_x(r.x)
+}
+
+/// The mesh file placed in the world: positions, shading normals, uvs and triangles. With `smooth`,
+/// shading normals are the file's (mapped by [`Placement::normal_map`]) when it gives one for every
+/// vertex, else computed (see [`vertex_normals`]). `keep_uvs` keeps the texture coordinates (the caller
+/// has checked they exist). A mirroring placement reverses each triangle's winding.
+pub fn place(obj: &ObjMesh, placement: &Placement, smooth: bool, keep_uvs: bool) -> PlacedMesh {
     let positions: Vec<Vec3> = obj
         .positions
         .iter()
-        .map(|p| (rotation * (p.as_dvec3() * scale) + translate).as_vec3())
+        .map(|p| placement.point(p.as_dvec3()).as_vec3())
         .collect();
+    let triangles: Vec<[u32; 3]> = if placement.mirrors() {
+        obj.triangles.iter().map(|&[a, b, c]| [a, c, b]).collect()
+    } else {
+        obj.triangles.clone()
+    };
     let normals = if !smooth {
         Vec::new()
     } else {
         match &obj.normals {
-            Some(given) => given
-                .iter()
-                .map(|n| unit_or_zero(rotation * n.as_dvec3()))
-                .collect(),
-            None => vertex_normals(&positions, &obj.triangles),
+            Some(given) => {
+                let m = placement.normal_map();
+                given
+                    .iter()
+                    .map(|n| unit_or_zero(m * n.as_dvec3()))
+                    .collect()
+            }
+            None => vertex_normals(&positions, &triangles),
         }
     };
     let uvs = match (&obj.uvs, keep_uvs) {
         (Some(uvs), true) => uvs.clone(),
         _ => Vec::new(),
     };
-    (positions, normals, uvs)
+    PlacedMesh {
+        positions,
+        normals,
+        uvs,
+        triangles,
+    }
+}
+
+/// What [`place`] makes of a mesh file.
+pub struct PlacedMesh {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<[f32; 2]>,
+    pub triangles: Vec<[u32; 3]>,
 }
 
 fn unit_or_zero(v: DVec3) -> Vec3 {
@@ -302,12 +350,13 @@ mod tests {
             triangles: vec![[0, 0, 0]],
             ..ObjMesh::default()
         };
-        let p = Placement {
+        let p = Placement::Srt {
             scale: 2.0,
             rotate_deg: Vec3::new(90.0, 0.0, 90.0),
             translate: Vec3::new(0.0, 0.0, 5.0),
         };
-        let (pos, nrm, _) = place(&obj, &p, true, false);
+        let placed = place(&obj, &p, true, false);
+        let (pos, nrm) = (placed.positions, placed.normals);
         // Rx(90) leaves x alone, Rz(90) turns x into y: 2 x -> 2 y, then + 5 z.
         assert!(
             (pos[0] - Vec3::new(0.0, 2.0, 5.0)).length() < 1e-6,
@@ -315,7 +364,7 @@ mod tests {
             pos[0]
         );
         assert!((nrm[0] - Vec3::Y).length() < 1e-6);
-        let p = Placement {
+        let p = Placement::Srt {
             scale: 1.0,
             rotate_deg: Vec3::new(90.0, 90.0, 0.0),
             translate: Vec3::ZERO,
@@ -325,7 +374,52 @@ mod tests {
             ..obj
         };
         // Rx(90): y -> z; then Ry(90): z -> x.
-        let (pos, _, _) = place(&obj_y, &p, false, false);
+        let pos = place(&obj_y, &p, false, false).positions;
         assert!((pos[0] - Vec3::X).length() < 1e-6, "{:?}", pos[0]);
+    }
+
+    /// A matrix placement: a non-uniform scale maps normals by the inverse transpose (a 45-degree
+    /// face of a mesh stretched 2x along x gets the normal of the stretched face), and a mirror keeps
+    /// each face's front outward by reversing its winding.
+    #[test]
+    fn matrix_placement_maps_normals_by_the_inverse_transpose_and_mirrors_keep_fronts() {
+        // The triangle x + y = 1 in the z = 0.. plane, normal (1, 1, 0)/sqrt 2, wound counter-clockwise
+        // seen from that side.
+        let obj = ObjMesh {
+            positions: vec![Vec3::X, Vec3::Y, Vec3::new(1.0, 0.0, 1.0)],
+            normals: Some(vec![Vec3::new(1.0, 1.0, 0.0).normalize(); 3]),
+            uvs: None,
+            triangles: vec![[0, 1, 2]],
+            ..ObjMesh::default()
+        };
+        let face_normal = |m: &PlacedMesh| {
+            let [a, b, c] = m.triangles[0].map(|i| m.positions[i as usize]);
+            (b - a).cross(c - a).normalize()
+        };
+        assert!(
+            (face_normal(&place(&obj, &Placement::default(), true, false))
+                - obj.normals.as_ref().unwrap()[0])
+                .length()
+                < 1e-6
+        );
+        let stretch = Placement::Matrix(DAffine3::from_scale(DVec3::new(2.0, 1.0, 1.0)));
+        let placed = place(&obj, &stretch, true, false);
+        // The stretched face is x/2 + y = 1: normal (1/2, 1, 0) normalised.
+        let expected = Vec3::new(0.5, 1.0, 0.0).normalize();
+        assert!(
+            (placed.normals[0] - expected).length() < 1e-6,
+            "{:?}",
+            placed.normals[0]
+        );
+        assert!((face_normal(&placed) - expected).length() < 1e-6);
+        let mirror = Placement::Matrix(DAffine3::from_scale(DVec3::new(-1.0, 1.0, 1.0)));
+        assert!(mirror.mirrors() && !stretch.mirrors());
+        let placed = place(&obj, &mirror, true, false);
+        let expected = Vec3::new(-1.0, 1.0, 0.0).normalize();
+        assert!((placed.normals[0] - expected).length() < 1e-6);
+        assert!(
+            (face_normal(&placed) - expected).length() < 1e-6,
+            "the mirrored face's front turned inward"
+        );
     }
 }

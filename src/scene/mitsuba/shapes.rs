@@ -173,12 +173,17 @@ impl Tr<'_> {
                         "emitter",
                     ],
                 )?;
-                let (scale, rotate, translate) = placement(&m).ok_or_else(|| {
-                    xf_loc.error(
-                        "the mesh's to_world is not a uniform scale, rotation and translation (it scales unevenly, shears or mirrors)",
-                        "vkpath places a [[mesh]] by a uniform scale, a rotation and a translation: bake other transforms into the mesh file.",
-                    )
-                })?;
+                // A similarity as scale / rotate / translate; any other transform that keeps the
+                // handedness as a `matrix`. A mirror is refused: Mitsuba keeps a mesh's face normals on
+                // the side its winding gives (so a one-sided emitter turns around), where vkpath's
+                // `matrix` keeps the front a face had before (pbrt-v4's convention).
+                let srt = placement(&m);
+                if srt.is_none() && DMat3::from_mat4(m).determinant() <= 0.0 {
+                    return Err(xf_loc.error(
+                        "the mesh's to_world mirrors it (or is singular)",
+                        "Mitsuba turns a mirrored mesh's faces around and vkpath keeps their fronts: bake the mirror into the mesh file.",
+                    ));
+                }
                 let file_ref = self.refer(&file);
                 let texture_ref = texture.as_ref().map(|(t, l)| (self.refer(t), l));
                 let o = &mut self.out_shapes;
@@ -186,9 +191,22 @@ impl Tr<'_> {
                 o.line("[[mesh]]", loc);
                 o.line(format!("obj       = {file_ref}"), Some(floc));
                 o.line(format!("material  = {material}"), loc);
-                o.line(format!("scale     = {}", num(scale)), Some(&xf_loc));
-                o.line(format!("rotate    = {}", vec3(rotate)), Some(&xf_loc));
-                o.line(format!("translate = {}", vec3(translate)), Some(&xf_loc));
+                match srt {
+                    Some((scale, rotate, translate)) => {
+                        o.line(format!("scale     = {}", num(scale)), Some(&xf_loc));
+                        o.line(format!("rotate    = {}", vec3(rotate)), Some(&xf_loc));
+                        o.line(format!("translate = {}", vec3(translate)), Some(&xf_loc));
+                    }
+                    None => {
+                        let rows: Vec<String> = (0..4)
+                            .map(|i| {
+                                let r = m.row(i);
+                                format!("{}, {}, {}, {}", num(r.x), num(r.y), num(r.z), num(r.w))
+                            })
+                            .collect();
+                        o.line(format!("matrix    = [{}]", rows.join(",  ")), Some(&xf_loc));
+                    }
+                }
                 o.line(format!("smooth    = {}", !face_normals), loc);
                 if let Some((t, tloc)) = texture_ref {
                     o.line(format!("texture   = {t}"), Some(tloc));

@@ -2,15 +2,15 @@
 //! materials that a mesh's own (MTL or glTF) materials become.
 
 use super::error::SceneError;
-use super::raw::{RawMesh, RawSphere, RawTriangle};
+use super::raw::{RawInstance, RawMatrix, RawMesh, RawSphere, RawTriangle, RawVec3};
 use super::{Checker, LoadedFiles};
 use crate::scene::image_texture::{Texture, load_texture};
 use crate::scene::mesh::{self, Mesh, MeshMaps, ObjMesh, Placement};
 use crate::scene::mesh_file;
 use crate::scene::texture::MaterialTextures;
 use crate::scene::{Bsdf, ConductorFresnel, Emission, Material, Roughness, Sphere, Triangle};
-use glam::Vec3;
-use std::path::Path;
+use glam::{DAffine3, DMat4, Vec3};
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use toml::Spanned;
 
@@ -21,6 +21,25 @@ pub(super) struct MeshTable {
     pub(super) meshes: Vec<Mesh>,
     pub(super) materials: Vec<(String, Material)>,
     pub(super) warnings: Vec<String>,
+    /// What `[[instance]]`s of this mesh place again: the file, its parts and their materials.
+    pub(super) source: MeshSource,
+}
+
+/// A `[[mesh]]` before placement: its file's parts (one per material) and how they are shaded, which an
+/// `[[instance]]` places again with its own transform.
+#[derive(Default)]
+pub(super) struct MeshSource {
+    pub(super) obj_path: PathBuf,
+    pub(super) smooth: bool,
+    pub(super) parts: Vec<MeshPart>,
+}
+
+/// One material's faces of a mesh file.
+pub(super) struct MeshPart {
+    obj: Arc<ObjMesh>,
+    material: u32,
+    texture: Option<Arc<Texture>>,
+    maps: MeshMaps,
 }
 
 /// The scene material for an MTL material, and whether a value had to be clipped (colours to [0, 1],
@@ -141,23 +160,13 @@ impl Checker<'_> {
             Some(name) => Some(self.material_index(name, &key("material"), names)?),
             None => None,
         };
-        let scale = m.scale.as_ref().map_or(Ok(1.0), |s| {
-            self.number_unless(
-                s,
-                &key("scale"),
-                |s| s <= 0.0,
-                "the scale must be > 0",
-                "scale is a uniform factor applied to the OBJ's coordinates; 1 keeps them.",
-            )
-        })?;
-        let rotate_deg = m
-            .rotate
-            .as_ref()
-            .map_or(Ok(glam::Vec3::ZERO), |r| self.vec3(r, &key("rotate")))?;
-        let translate = m
-            .translate
-            .as_ref()
-            .map_or(Ok(glam::Vec3::ZERO), |t| self.vec3(t, &key("translate")))?;
+        let placement = self.placement(
+            &format!("mesh[{i}]"),
+            m.matrix.as_ref(),
+            m.scale.as_ref(),
+            m.rotate.as_ref(),
+            m.translate.as_ref(),
+        )?;
         let smooth = m.smooth.as_ref().is_none_or(|s| *s.get_ref());
 
         let obj_path = base.join(m.obj.get_ref());
@@ -334,45 +343,14 @@ impl Checker<'_> {
             maps.normal_scale = self.number(s, &key("normal_scale"))?;
         }
 
-        let placement = Placement {
-            scale,
-            rotate_deg,
-            translate,
+        let mut table = MeshTable {
+            source: MeshSource {
+                obj_path: obj_path.clone(),
+                smooth,
+                parts: Vec::new(),
+            },
+            ..MeshTable::default()
         };
-        let place =
-            |obj: &ObjMesh, material: u32, texture: Option<Arc<Texture>>, maps: MeshMaps| {
-                // (Texture coordinates are kept for the material's own textures too.)
-                let textured = texture.is_some()
-                    || !materials
-                        .get(material as usize)
-                        .is_none_or(|m| m.textures.is_plain())
-                    || maps.emissive.is_some()
-                    || maps.metallic_roughness.is_some()
-                    || maps.normal.is_some();
-                let (positions, normals, uvs) = mesh::place(obj, &placement, smooth, textured);
-                if let Some(p) = positions.iter().find(|p| !p.is_finite()) {
-                    return Err(self.error(
-                        raw.span(),
-                        &format!("mesh[{i}]"),
-                        format!(
-                            "placing {} overflows 32-bit floats (a vertex lands at {p})",
-                            obj_path.display()
-                        ),
-                        "Use a smaller scale or translation.",
-                    ));
-                }
-                Ok(Mesh {
-                    obj: obj_path.clone(),
-                    positions,
-                    normals,
-                    uvs,
-                    triangles: obj.triangles.clone(),
-                    material,
-                    texture,
-                    maps,
-                })
-            };
-        let mut table = MeshTable::default();
         table.warnings.extend(
             obj.notes
                 .iter()
@@ -380,8 +358,19 @@ impl Checker<'_> {
         );
         if let Some(material) = material {
             // The scene's material applies to every face, whatever the OBJ's MTL says.
-            table.meshes.push(place(&obj, material, texture, maps)?);
-            return Ok(table);
+            table.source.parts.push(MeshPart {
+                obj,
+                material,
+                texture,
+                maps,
+            });
+            return self.place_table(
+                table,
+                &placement,
+                materials,
+                raw.span(),
+                &format!("mesh[{i}]"),
+            );
         }
         if obj.materials.is_empty() {
             let Some(problem) = &obj.mtl_problem else {
@@ -494,11 +483,211 @@ impl Checker<'_> {
                 (Bsdf::Dielectric { .. }, Some(_)) if material.emission.is_none() => None,
                 (_, t) => t,
             };
-            let sub = obj.subset(id);
-            table.meshes.push(place(&sub, index, texture, maps)?);
+            table.source.parts.push(MeshPart {
+                obj: Arc::new(obj.subset(id)),
+                material: index,
+                texture,
+                maps,
+            });
             table.materials.push((name, material));
         }
+        // (The MTL materials are not in `materials` yet: the parts look theirs up in the table.)
+        let mut all = materials.to_vec();
+        all.extend(table.materials.iter().map(|(_, m)| m.clone()));
+        self.place_table(table, &placement, &all, raw.span(), &format!("mesh[{i}]"))
+    }
+
+    /// Places every part of `table.source` by `placement` into `table.meshes`.
+    fn place_table(
+        &self,
+        mut table: MeshTable,
+        placement: &Placement,
+        materials: &[Material],
+        span: std::ops::Range<usize>,
+        label: &str,
+    ) -> Result<MeshTable, SceneError> {
+        for part in &table.source.parts {
+            let placed = self.place_part(
+                &table.source,
+                part,
+                None,
+                placement,
+                materials,
+                span.clone(),
+                label,
+            )?;
+            table.meshes.push(placed);
+        }
         Ok(table)
+    }
+
+    /// One part of a mesh placed by `placement`, in its own material or in `material` instead.
+    #[allow(clippy::too_many_arguments)]
+    fn place_part(
+        &self,
+        source: &MeshSource,
+        part: &MeshPart,
+        material: Option<u32>,
+        placement: &Placement,
+        materials: &[Material],
+        span: std::ops::Range<usize>,
+        label: &str,
+    ) -> Result<Mesh, SceneError> {
+        let material = material.unwrap_or(part.material);
+        // (Texture coordinates are kept for the material's own textures too.)
+        let textured = part.texture.is_some()
+            || !materials
+                .get(material as usize)
+                .is_none_or(|m| m.textures.is_plain())
+            || part.maps.emissive.is_some()
+            || part.maps.metallic_roughness.is_some()
+            || part.maps.normal.is_some();
+        let placed = mesh::place(&part.obj, placement, source.smooth, textured);
+        if let Some(p) = placed.positions.iter().find(|p| !p.is_finite()) {
+            return Err(self.error(
+                span,
+                label,
+                format!(
+                    "placing {} overflows 32-bit floats (a vertex lands at {p})",
+                    source.obj_path.display()
+                ),
+                "Use a smaller scale or translation.",
+            ));
+        }
+        Ok(Mesh {
+            obj: source.obj_path.clone(),
+            positions: placed.positions,
+            normals: placed.normals,
+            uvs: placed.uvs,
+            triangles: placed.triangles,
+            material,
+            texture: part.texture.clone(),
+            maps: part.maps.clone(),
+        })
+    }
+
+    /// A `[[mesh]]`'s or `[[instance]]`'s transform: `matrix` (row-major, affine, invertible), or
+    /// `scale` (uniform, > 0), `rotate` (degrees about x, then y, then z) and `translate`; not both.
+    pub(super) fn placement(
+        &self,
+        table: &str,
+        matrix: Option<&Spanned<RawMatrix>>,
+        scale: Option<&Spanned<f32>>,
+        rotate: Option<&Spanned<RawVec3>>,
+        translate: Option<&Spanned<RawVec3>>,
+    ) -> Result<Placement, SceneError> {
+        let key = |field: &str| format!("{table}.{field}");
+        if let Some(m) = matrix {
+            if scale.is_some() || rotate.is_some() || translate.is_some() {
+                return Err(self.error(
+                    m.span(),
+                    &key("matrix"),
+                    "matrix is given together with scale, rotate or translate",
+                    "Give either a matrix (the whole transform) or scale / rotate / translate, not both.",
+                ));
+            }
+            let RawMatrix(rows) = *m.get_ref();
+            let bad = |problem: &str| {
+                Err(self.error(
+                    m.span(),
+                    &key("matrix"),
+                    problem.to_string(),
+                    "matrix is 16 numbers, a 4 x 4 affine transform row by row: the last row is [0, 0, 0, 1], \
+                     the translation is the last column, and the 3 x 3 part must be invertible (mirrors and \
+                     non-uniform scales are fine).",
+                ))
+            };
+            if rows.iter().any(|v| !v.is_finite()) {
+                return bad("the matrix has a number that is not finite");
+            }
+            if rows[12..] != [0.0, 0.0, 0.0, 1.0] {
+                return bad("the matrix's last row is not [0, 0, 0, 1] (a projective matrix)");
+            }
+            // glam's matrices are column-major: the file's rows are the transpose's columns.
+            let affine = DAffine3::from_mat4(DMat4::from_cols_array(&rows).transpose());
+            let det = affine.matrix3.determinant();
+            // Relative to the size of the entries: a matrix that flattens the mesh has no inverse
+            // transpose for its normals.
+            let size = affine
+                .matrix3
+                .to_cols_array()
+                .iter()
+                .fold(0.0f64, |a, v| a.max(v.abs()));
+            if det.abs() <= 1e-12 * size.powi(3) || !det.is_finite() {
+                return bad("the matrix is singular (it flattens the mesh)");
+            }
+            return Ok(Placement::Matrix(affine));
+        }
+        let scale = scale.map_or(Ok(1.0), |s| {
+            self.number_unless(
+                s,
+                &key("scale"),
+                |s| s <= 0.0,
+                "the scale must be > 0",
+                "scale is a uniform factor applied to the OBJ's coordinates; 1 keeps them.",
+            )
+        })?;
+        let rotate_deg = rotate.map_or(Ok(Vec3::ZERO), |r| self.vec3(r, &key("rotate")))?;
+        let translate = translate.map_or(Ok(Vec3::ZERO), |t| self.vec3(t, &key("translate")))?;
+        Ok(Placement::Srt {
+            scale,
+            rotate_deg,
+            translate,
+        })
+    }
+
+    /// An `[[instance]]`: the named mesh's parts placed again by the instance's transform, in the
+    /// instance's material when it gives one.
+    pub(super) fn instance(
+        &self,
+        i: usize,
+        raw: &Spanned<RawInstance>,
+        sources: &[(String, MeshSource)],
+        names: &[String],
+        materials: &[Material],
+    ) -> Result<Vec<Mesh>, SceneError> {
+        let r = raw.get_ref();
+        let label = format!("instance[{i}]");
+        let wanted = r.mesh.get_ref();
+        let Some((_, source)) = sources.iter().find(|(name, _)| name == wanted) else {
+            let known: Vec<&str> = sources.iter().map(|(n, _)| n.as_str()).collect();
+            return Err(self.error(
+                r.mesh.span(),
+                &format!("{label}.mesh"),
+                format!("no [[mesh]] is named \"{wanted}\""),
+                if known.is_empty() {
+                    "Give the [[mesh]] to instance a `name = \"...\"`.".to_string()
+                } else {
+                    format!("The named meshes are: {}.", known.join(", "))
+                },
+            ));
+        };
+        let material = match &r.material {
+            Some(name) => Some(self.material_index(name, &format!("{label}.material"), names)?),
+            None => None,
+        };
+        let placement = self.placement(
+            &label,
+            r.matrix.as_ref(),
+            r.scale.as_ref(),
+            r.rotate.as_ref(),
+            r.translate.as_ref(),
+        )?;
+        source
+            .parts
+            .iter()
+            .map(|part| {
+                self.place_part(
+                    source,
+                    part,
+                    material,
+                    &placement,
+                    materials,
+                    raw.span(),
+                    &label,
+                )
+            })
+            .collect()
     }
 }
 

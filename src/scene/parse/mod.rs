@@ -128,6 +128,16 @@ impl Checker<'_> {
         let mut meshes = Vec::with_capacity(raw.mesh.len());
         let mut total = triangles.len();
         let mut warnings = Vec::new();
+        // Named meshes, for [[instance]]s.
+        let mut sources: Vec<(String, geometry::MeshSource)> = Vec::new();
+        let too_many = |span: Range<usize>, table: &str| {
+            self.error(
+                span,
+                table,
+                format!("the scene has more than {} triangles", mesh::MAX_TRIANGLES),
+                "Use fewer or simpler meshes (or fewer instances).",
+            )
+        };
         for (i, mesh) in raw.mesh.iter().enumerate() {
             let table = self.mesh(
                 i,
@@ -143,12 +153,7 @@ impl Checker<'_> {
                 .map(|m| m.triangles.len())
                 .sum::<usize>();
             if total > mesh::MAX_TRIANGLES {
-                return Err(self.error(
-                    mesh.span(),
-                    &format!("mesh[{i}]"),
-                    format!("the scene has more than {} triangles", mesh::MAX_TRIANGLES),
-                    "Use fewer or simpler meshes.",
-                ));
+                return Err(too_many(mesh.span(), &format!("mesh[{i}]")));
             }
             meshes.extend(table.meshes);
             for (name, material) in table.materials {
@@ -156,6 +161,25 @@ impl Checker<'_> {
                 materials.push(material);
             }
             warnings.extend(table.warnings);
+            if let Some(name) = &mesh.get_ref().name {
+                if sources.iter().any(|(n, _)| n == name.get_ref()) {
+                    return Err(self.error(
+                        name.span(),
+                        &format!("mesh[{i}].name"),
+                        format!("two [[mesh]] tables are named \"{}\"", name.get_ref()),
+                        "Give each [[mesh]] its own name: an [[instance]] names the one it places again.",
+                    ));
+                }
+                sources.push((name.get_ref().clone(), table.source));
+            }
+        }
+        for (i, instance) in raw.instance.iter().enumerate() {
+            let placed = self.instance(i, instance, &sources, &material_names, &materials)?;
+            total += placed.iter().map(|m| m.triangles.len()).sum::<usize>();
+            if total > mesh::MAX_TRIANGLES {
+                return Err(too_many(instance.span(), &format!("instance[{i}]")));
+            }
+            meshes.extend(placed);
         }
         let mut lights = Vec::with_capacity(raw.light.len());
         for (i, light) in raw.light.iter().enumerate() {

@@ -25,6 +25,8 @@ pub(super) struct RawScene {
     #[serde(default)]
     pub(super) mesh: Vec<Spanned<RawMesh>>,
     #[serde(default)]
+    pub(super) instance: Vec<Spanned<RawInstance>>,
+    #[serde(default)]
     pub(super) light: Vec<Spanned<RawLight>>,
     pub(super) environment: Option<Spanned<RawEnvironment>>,
 }
@@ -145,6 +147,10 @@ pub(super) struct RawTriangle {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawMesh {
     pub(super) obj: Spanned<String>,
+    /// Optional: a name `[[instance]]` tables refer to.
+    pub(super) name: Option<Spanned<String>>,
+    /// A row-major 4 x 4 affine transform, instead of scale / rotate / translate.
+    pub(super) matrix: Option<Spanned<RawMatrix>>,
     /// Optional when the OBJ has MTL materials (they are used then).
     pub(super) material: Option<Spanned<String>>,
     pub(super) scale: Option<Spanned<f32>>,
@@ -159,6 +165,19 @@ pub(super) struct RawMesh {
     /// A tangent-space normal map (linear data), and the factor of its x and y (default 1).
     pub(super) normal_map: Option<Spanned<String>>,
     pub(super) normal_scale: Option<Spanned<f32>>,
+}
+
+/// `[[instance]]`: a named `[[mesh]]` placed once more, by its own transform, optionally in another
+/// material.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawInstance {
+    pub(super) mesh: Spanned<String>,
+    pub(super) matrix: Option<Spanned<RawMatrix>>,
+    pub(super) scale: Option<Spanned<f32>>,
+    pub(super) rotate: Option<Spanned<RawVec3>>,
+    pub(super) translate: Option<Spanned<RawVec3>>,
+    pub(super) material: Option<Spanned<String>>,
 }
 
 /// Flat for the same reason as [`RawMaterial`].
@@ -190,6 +209,23 @@ impl<'de> Deserialize<'de> for RawVec3 {
             Err(_) => Err(serde::de::Error::invalid_length(
                 numbers.len(),
                 &"an array of 3 numbers",
+            )),
+        }
+    }
+}
+
+/// A TOML array of exactly 16 numbers: a 4 x 4 matrix, row-major (integers accepted).
+#[derive(Clone, Copy)]
+pub(super) struct RawMatrix(pub(super) [f64; 16]);
+
+impl<'de> Deserialize<'de> for RawMatrix {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let numbers = Vec::<f64>::deserialize(deserializer)?;
+        match <[f64; 16]>::try_from(numbers.as_slice()) {
+            Ok(m) => Ok(RawMatrix(m)),
+            Err(_) => Err(serde::de::Error::invalid_length(
+                numbers.len(),
+                &"an array of 16 numbers (a 4 x 4 matrix, row by row)",
             )),
         }
     }
