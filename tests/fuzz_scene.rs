@@ -437,6 +437,19 @@ fn check_scene_answer(result: Result<Scene, vkpath::scene::SceneError>, file: &s
                     } => {
                         assert!(finite(center) && radius > 0.0 && power > 0.0 && finite(color));
                     }
+                    vkpath::scene::Light::Spot {
+                        position,
+                        axis,
+                        intensity,
+                        color,
+                        cutoff_deg,
+                        beam_deg,
+                    } => {
+                        assert!(finite(position) && finite(axis) && finite(color));
+                        assert!((axis.length() - 1.0).abs() < 1e-5);
+                        assert!(intensity > 0.0 && intensity.is_finite());
+                        assert!(0.0 < beam_deg && beam_deg <= cutoff_deg && cutoff_deg <= 90.0);
+                    }
                     vkpath::scene::Light::Directional {
                         direction,
                         irradiance,

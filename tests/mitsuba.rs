@@ -312,6 +312,55 @@ fn mesh_transforms_that_stretch_become_matrices_and_mirrors_are_refused() {
     );
 }
 
+/// Mitsuba's `spot` (intensity W/sr on the axis, local +z of its to_world, cutoff_angle and beam_width
+/// in degrees) is vkpath's spot light; the TOML form refuses power and intensity together and a beam
+/// wider than the cutoff, naming the key.
+#[test]
+fn spot_emitters_become_spot_lights() {
+    let s = load(
+        r#"<emitter type="spot"><rgb name="intensity" value="2, 4, 8"/><float name="cutoff_angle" value="30"/>
+            <transform name="to_world"><lookat origin="0, 5, 0" target="0, 0, 0" up="0, 0, 1"/></transform></emitter>"#,
+    );
+    let [
+        Light::Spot {
+            position,
+            axis,
+            intensity,
+            color,
+            cutoff_deg,
+            beam_deg,
+        },
+    ] = s.lights[..]
+    else {
+        panic!("{:?}", s.lights)
+    };
+    assert_close(position, Vec3::new(0.0, 5.0, 0.0));
+    assert_close(axis, Vec3::new(0.0, -1.0, 0.0));
+    assert!((intensity - 8.0).abs() < 1e-5);
+    assert_close(color, Vec3::new(0.25, 0.5, 1.0));
+    assert_eq!((cutoff_deg, beam_deg), (30.0, 22.5)); // Mitsuba's default beam: 3/4 of the cutoff
+    let dir = tempfile::tempdir().unwrap();
+    for (keys, key) in [
+        ("power = 10.0\nintensity = 2.0", "light[0].intensity"),
+        (
+            "power = 10.0\ncutoff_angle = 20.0\nbeam_width = 25.0",
+            "light[0].beam_width",
+        ),
+        ("power = 10.0\ncutoff_angle = 95.0", "light[0].cutoff_angle"),
+    ] {
+        let toml = format!(
+            "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n\
+             [[light]]\ntype = \"spot\"\nposition = [0, 2, 0]\nlook_at = [0, 0, 0]\n{keys}\n"
+        );
+        let p = write(dir.path(), "spot.toml", &toml);
+        let message = Scene::load(&p)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(message.contains(key), "{key}: {message}");
+    }
+}
+
 #[test]
 fn bsdfs_and_emitters_map_to_materials_and_lights() {
     let dir = tempfile::tempdir().unwrap();

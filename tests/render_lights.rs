@@ -366,3 +366,101 @@ fn polygon_irradiance_formula_checks_out() {
     let e = polygon_irradiance([0.0; 3], [0.0, 1.0, 0.0], &sq, 1.0);
     assert!((e / PI - 1.0).abs() < 1e-5, "{e}");
 }
+
+/// A spot light (Mitsuba's falloff: full intensity to the beam angle, linear in the angle to zero at the
+/// cutoff) above a diffuse floor, seen straight down by an orthographic camera through pixel centres:
+/// each floor pixel reflects a/pi E with E = I f(theta) cos(theta) / r^2, I = power / Omega and Omega
+/// the falloff's solid angle, integrated here by quadrature (independently of the closed form the
+/// renderer uses). A delta light and max_bounces 1: one sample per pixel is exact up to rounding.
+/// Given by its on-axis `intensity` instead, the same image.
+#[test]
+fn a_spot_light_lights_the_floor_by_its_falloff_and_power() {
+    let (a, h, power, cutoff, beam) = (0.5f64, 2.0f64, 30.0f64, 40.0f64, 25.0f64);
+    let falloff = |t: f64| {
+        let (c, b) = (cutoff.to_radians(), beam.to_radians());
+        if t >= c {
+            0.0
+        } else if t <= b {
+            1.0
+        } else {
+            (c - t) / (c - b)
+        }
+    };
+    // Omega = 2 pi integral_0^pi f(t) sin t dt, midpoint rule.
+    let n = 200_000;
+    let dt = PI / n as f64;
+    let omega: f64 = (0..n)
+        .map(|k| {
+            let t = (k as f64 + 0.5) * dt;
+            falloff(t) * t.sin() * dt
+        })
+        .sum::<f64>()
+        * 2.0
+        * PI;
+    let intensity = power / omega;
+    let size = 48u32;
+    let head = format!(
+        r#"
+[camera]
+type = "orthographic"
+position = [0.0, 10.0, 0.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, -1.0]
+extent = 4.0
+[image]
+width = {size}
+height = {size}
+[render]
+samples = 1
+max_bounces = 1
+filter = "none"
+[materials]
+grey = {{ type = "diffuse", albedo = [{a}, {a}, {a}] }}
+[[triangle]]
+vertices = [[-50.0, 0.0, -50.0], [50.0, 0.0, 50.0], [50.0, 0.0, -50.0]]
+material = "grey"
+[[triangle]]
+vertices = [[-50.0, 0.0, -50.0], [-50.0, 0.0, 50.0], [50.0, 0.0, 50.0]]
+material = "grey"
+[[light]]
+type = "spot"
+position = [0.0, {h}, 0.0]
+look_at = [0.0, 0.0, 0.0]
+cutoff_angle = {cutoff}
+beam_width = {beam}
+"#
+    );
+    let by_power = render(&scene(&format!("{head}power = {power}\n")));
+    let by_intensity = render(&scene(&format!("{head}intensity = {intensity}\n")));
+    let (mut lit, mut dark, mut worst) = (0, 0, 0.0f64);
+    for py in 0..size {
+        for px in 0..size {
+            let x = (2.0 * (px as f64 + 0.5) / size as f64 - 1.0) * 2.0;
+            let z = -(1.0 - 2.0 * (py as f64 + 0.5) / size as f64) * 2.0;
+            let r = (x * x + z * z + h * h).sqrt();
+            let theta = (h / r).acos();
+            let expected = a / PI * intensity * falloff(theta) * (h / r) / (r * r);
+            for film in [&by_power, &by_intensity] {
+                let got = film.pixel(px, py)[0] as f64;
+                if expected == 0.0 {
+                    assert_eq!(got, 0.0, "pixel ({px},{py}) outside the cone");
+                    dark += 1;
+                } else {
+                    // The shading point is where the ray hit, within the floor's rounding bound (its
+                    // vertices at +-50: ~1e-5), which moves theta by ~1e-6 rad and f by ~1e-5 where
+                    // f falls: 1e-4 of the unattenuated value allows for it.
+                    let full = a / PI * intensity * (h / r) / (r * r);
+                    let err = (got - expected).abs() / expected;
+                    assert!(
+                        (got - expected).abs() <= 1e-3 * expected + 1e-4 * full,
+                        "pixel ({px},{py}) at ({x}, {z}): {got} vs {expected}"
+                    );
+                    worst = worst.max(err);
+                    lit += 1;
+                }
+            }
+        }
+    }
+    println!("spot: {lit} lit and {dark} dark pixel checks, worst relative error {worst:.2e}");
+    assert!(lit > 800 && dark > 800, "{lit} lit, {dark} dark");
+}

@@ -39,7 +39,7 @@ struct Light {
     // sphere radius; directional: 1 - cos of the cone's half-angle (0 for a delta light); triangles:
     // their total power (triangle_light_power summed)
     radius: f32,
-    // point: radiant intensity I = P color / (4 pi) (W/sr); sphere: radiance Le = P color / (4 pi^2 r^2);
+    // point: radiant intensity I = P color / (4 pi) (W/sr); spot: I on its axis; sphere: radiance Le = P color / (4 pi^2 r^2);
     // directional: the irradiance E color (delta) or the disc's radiance E color / (pi sin^2 a);
     // environment: its radiance (with a map: the map's multiplier)
     intensity: vec3<f32>,
@@ -49,6 +49,11 @@ struct Light {
     map_width: u32, // environment: the map's size in pixels; 0 x 0 without a map
     map_height: u32,
     _pad0: u32,
+    // spot: the unit axis its cone opens around, 1 / (cutoff - beam) (the angles in radians), and
+    // (cos, sin) of the cutoff and of the beam half-angles (lights/spot.wgsl)
+    axis: vec3<f32>,
+    spot_inv_width: f32,
+    spot_cone: vec4<f32>,
 }
 
 // How sphere lights are sampled (params.light_sampling, `render.light_sampling`): read from params by

@@ -167,6 +167,7 @@ pub const LIGHT_SPHERE: u32 = light_kinds::kind("sphere");
 pub const LIGHT_DIRECTIONAL: u32 = light_kinds::kind("directional");
 pub const LIGHT_TRIANGLES: u32 = light_kinds::kind("triangles");
 pub const LIGHT_ENVIRONMENT: u32 = light_kinds::kind("environment");
+pub const LIGHT_SPOT: u32 = light_kinds::kind("spot");
 /// No light: `GpuParams::environment_light` of a scene without an environment.
 pub const NO_LIGHT: u32 = u32::MAX;
 
@@ -184,6 +185,11 @@ pub struct GpuLight {
     pub map_width: u32,
     pub map_height: u32,
     pub _pad0: u32,
+    /// Spot light: the unit axis of its cone, 1 / (cutoff - beam) (radians), and (cos, sin) of the
+    /// cutoff and the beam half-angles.
+    pub axis: [f32; 3],
+    pub spot_inv_width: f32,
+    pub spot_cone: [f32; 4],
 }
 
 /// Mirrors `LightTriangle` in lights/triangles.wgsl: one emissive triangle (its vertices as in `triangles`, its
@@ -544,6 +550,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL),
     ("LIGHT_TRIANGLES", LIGHT_TRIANGLES),
     ("LIGHT_ENVIRONMENT", LIGHT_ENVIRONMENT),
+    ("LIGHT_SPOT", LIGHT_SPOT),
     ("NO_LIGHT", NO_LIGHT),
     ("CAMERA_PERSPECTIVE", CAMERA_PERSPECTIVE),
     ("CAMERA_ORTHOGRAPHIC", CAMERA_ORTHOGRAPHIC),
@@ -599,5 +606,5 @@ const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuLightTriangle>() == 64);
-const _: () = assert!(std::mem::size_of::<GpuLight>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuLight>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuAccum>() == 96);

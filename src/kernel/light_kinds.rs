@@ -62,6 +62,12 @@ pub const LIGHTS: &[LightKind] = &[
         source: include_str!("../../shaders/lights/environment.wgsl"),
         feature: "environment",
     },
+    LightKind {
+        // A point light whose intensity falls off from its axis to a cutoff angle (Mitsuba's `spot`).
+        name: "spot",
+        source: include_str!("../../shaders/lights/spot.wgsl"),
+        feature: "spot_lights",
+    },
 ];
 
 /// Files the kinds' files require that are not kinds themselves (shared code).

@@ -100,6 +100,23 @@ impl GpuScene {
     }
 }
 
+/// The solid angle a spot light's falloff covers, Omega = integral of f(theta) over the sphere, so that
+/// a spot of on-axis intensity I emits P = I Omega. With f = 1 out to the beam angle b and
+/// (c - theta) / (c - b) from there to the cutoff c (radians):
+/// Omega = 2 pi [integral_0^b sin t dt + integral_b^c (c - t)/(c - b) sin t dt]
+///       = 2 pi [1 - (sin c - sin b) / (c - b)]
+/// (the second integral by parts: (c - b) cos b - (sin c - sin b)); as b -> c it tends to the cap's
+/// 2 pi (1 - cos c).
+pub fn spot_cone_solid_angle(cutoff_deg: f64, beam_deg: f64) -> f64 {
+    let (c, b) = (cutoff_deg.to_radians(), beam_deg.to_radians());
+    let tau = std::f64::consts::TAU;
+    if c - b < 1e-6 {
+        // 1 - cos c without cancellation.
+        return tau * 2.0 * (c / 2.0).sin().powi(2);
+    }
+    tau * (1.0 - (c.sin() - b.sin()) / (c - b))
+}
+
 /// A material as the shader has it. Glossy materials whose GGX alpha is below [`SMOOTH_ALPHA`] on both
 /// axes are uploaded as their smooth forms (a dielectric as MAT_DIELECTRIC, whose code is the course's
 /// glass; a conductor with a delta lobe), and so is a dielectric of ior 1 (no interface at all).
@@ -380,6 +397,32 @@ impl GpuScene {
                         index: sphere_index,
                         ..Default::default()
                     });
+                }
+                Light::Spot {
+                    position,
+                    axis,
+                    intensity,
+                    color,
+                    cutoff_deg,
+                    beam_deg,
+                } => {
+                    // The cone's trigonometry in f64 here: the shader only multiplies and takes one
+                    // atan2 of a small angle (lights/spot.wgsl), so the falloff is accurate to its
+                    // relative rounding, where the GPU's cos and acos of the angles would not be.
+                    let (c, b) = (
+                        f64::from(cutoff_deg).to_radians(),
+                        f64::from(beam_deg).to_radians(),
+                    );
+                    let inv_width = if c > b { 1.0 / (c - b) } else { 0.0 };
+                    g.lights.push(GpuLight {
+                        position: position.into(),
+                        intensity: (color * intensity).into(),
+                        kind: LIGHT_SPOT,
+                        axis: axis.normalize().into(),
+                        spot_inv_width: inv_width as f32,
+                        spot_cone: [c.cos(), c.sin(), b.cos(), b.sin()].map(|v| v as f32),
+                        ..Default::default()
+                    })
                 }
                 Light::Directional {
                     direction,

@@ -425,6 +425,17 @@ pub enum Light {
         color: Vec3,
         angle_deg: f32,
     },
+    /// A spot: a point at `position` radiating `intensity * color` W/sr along its unit `axis`, the
+    /// same out to `beam_deg` from the axis, falling linearly in the angle to 0 at `cutoff_deg` (Mitsuba
+    /// 3's `spot`; 0 < beam_deg <= cutoff_deg <= 90).
+    Spot {
+        position: Vec3,
+        axis: Vec3,
+        intensity: f32,
+        color: Vec3,
+        cutoff_deg: f32,
+        beam_deg: f32,
+    },
 }
 
 impl Scene {

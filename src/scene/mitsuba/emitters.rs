@@ -32,6 +32,36 @@ impl Tr<'_> {
                 );
                 o.line(format!("color    = {}", vec3(color)), loc);
             }
+            "spot" => {
+                // Mitsuba's spot emits along its to_world's local +z from its origin: intensity I
+                // (W/sr) on the axis, full out to beam_width, linear in the angle to 0 at cutoff_angle
+                // (degrees; defaults 20 and 3/4 of the cutoff): vkpath's spot light, the same falloff.
+                let intensity = self.color(&args, "intensity", DVec3::ONE)?;
+                let (position, target) = match args.transform("to_world")? {
+                    Some((x, _)) => (
+                        x.m.transform_point3(DVec3::ZERO),
+                        x.m.transform_point3(DVec3::Z),
+                    ),
+                    None => (DVec3::ZERO, DVec3::Z),
+                };
+                let cutoff = args.float_or("cutoff_angle", 20.0)?;
+                let beam = args.float_or("beam_width", 0.75 * cutoff)?;
+                self.finish(
+                    &args,
+                    &["intensity", "to_world", "cutoff_angle", "beam_width"],
+                )?;
+                let (i, color) = power_and_color(1.0, intensity);
+                let o = &mut self.out_lights;
+                o.line("", None);
+                o.line("[[light]]", loc);
+                o.line("type         = \"spot\"", loc);
+                o.line(format!("position     = {}", vec3(position)), loc);
+                o.line(format!("look_at      = {}", vec3(target)), loc);
+                o.line(format!("intensity    = {}", num(i)), loc);
+                o.line(format!("cutoff_angle = {}", num(cutoff)), loc);
+                o.line(format!("beam_width   = {}", num(beam)), loc);
+                o.line(format!("color        = {}", vec3(color)), loc);
+            }
             "directional" => {
                 let irradiance = self.color(&args, "irradiance", DVec3::ONE)?;
                 let direction = match (args.vector("direction")?, args.transform("to_world")?) {

@@ -194,6 +194,10 @@ pub(super) struct RawLight {
     pub(super) direction: Option<Spanned<RawVec3>>,
     pub(super) irradiance: Option<Spanned<f32>>,
     pub(super) angle: Option<Spanned<f32>>,
+    pub(super) look_at: Option<Spanned<RawVec3>>,
+    pub(super) intensity: Option<Spanned<f32>>,
+    pub(super) cutoff_angle: Option<Spanned<f32>>,
+    pub(super) beam_width: Option<Spanned<f32>>,
 }
 
 /// A TOML array of exactly three numbers (integers accepted). serde's own `[f32; 3]` silently ignores
