@@ -451,7 +451,8 @@ fn bsdfs_and_emitters_map_to_materials_and_lights() {
         Bsdf::Plastic {
             albedo: Vec3::new(0.5, 0.1, 0.1),
             ior: 1.5,
-            roughness: Roughness::SMOOTH
+            roughness: Roughness::SMOOTH,
+            nonlinear: true,
         }
     );
     let lamp = &s.materials[s.spheres[7].material as usize];
@@ -510,17 +511,24 @@ fn bsdfs_and_emitters_map_to_materials_and_lights() {
 #[test]
 fn approximations_are_refused_unless_lenient_and_model_differences_are_warnings() {
     let dir = tempfile::tempdir().unwrap();
-    // Mitsuba's default Beckmann distribution and linear plastic: refused, or read with a warning.
-    for body in [
-        r#"<shape type="sphere"><bsdf type="roughconductor"><string name="material" value="Al"/></bsdf></shape>"#,
-        r#"<shape type="sphere"><bsdf type="plastic"/></shape>"#,
-    ] {
+    // Mitsuba's default Beckmann distribution: refused, or read with a warning.
+    {
+        let body = r#"<shape type="sphere"><bsdf type="roughconductor"><string name="material" value="Al"/></bsdf></shape>"#;
         let e = error_in(dir.path(), body);
         assert!(e.contains("--xml-lenient"), "{e}");
         let p = write(dir.path(), "scene.xml", &scene_xml(body));
         let s = Scene::load_with_options(&p, None, true).unwrap();
         assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     }
+    // Mitsuba's default linear plastic is read as such.
+    let s = load(r#"<shape type="sphere"><bsdf type="plastic"/></shape>"#);
+    assert!(matches!(
+        s.materials[s.spheres[0].material as usize].bsdf,
+        Bsdf::Plastic {
+            nonlinear: false,
+            ..
+        }
+    ));
     let s = load(
         r#"<shape type="sphere"><bsdf type="roughplastic"><string name="distribution" value="ggx"/>
              <boolean name="nonlinear" value="true"/><float name="alpha" value="0.25"/></bsdf></shape>"#,

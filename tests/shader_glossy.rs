@@ -70,10 +70,15 @@ fn rough_glass(ior: f32, r: f32) -> GpuMaterial {
 }
 
 fn plastic(albedo: f32, r: f32) -> GpuMaterial {
+    plastic_of(albedo, r, true)
+}
+
+fn plastic_of(albedo: f32, r: f32, nonlinear: bool) -> GpuMaterial {
     material(Bsdf::Plastic {
         albedo: Vec3::splat(albedo),
         ior: 1.5,
         roughness: Roughness::isotropic(r),
+        nonlinear,
     })
 }
 
@@ -347,6 +352,42 @@ fn white_furnace_plastic() {
             assert!(
                 (got - want).abs() <= 5.0 * se + 5e-4,
                 "plastic r {r}, cos_o {cos_o}: albedo {got} +- {se} vs {want}"
+            );
+        }
+    }
+}
+
+/// A smooth grey plastic (albedo a = 0.4, ior 1.5): the coat reflects F(cos_o) and the base
+/// a (1 - F(cos_o)) (1 - Fdr_int) / (1 - a Fdr_int) when its internal reflections are tinted again at each
+/// bounce (nonlinear), a (1 - F(cos_o)) when not (linear: Mitsuba's default), Fdr_int the internal
+/// reflectance's cosine-weighted mean 2 int_0^1 F(c, 1/1.5) c dc by quadrature here.
+#[test]
+fn grey_plastic_linear_and_nonlinear_albedos() {
+    const N: usize = 1 << 20;
+    let a = 0.4f64;
+    let steps = 100_000;
+    let fdr_int: f64 = (0..steps)
+        .map(|k| {
+            let c = (k as f64 + 0.5) / steps as f64;
+            2.0 * fresnel_dielectric(c, 1.0 / 1.5) * c / steps as f64
+        })
+        .sum();
+    let mut seed = 450;
+    for cos_o in [1.0, 0.5, 0.1] {
+        let f = fresnel_dielectric(cos_o, 1.5);
+        for nonlinear in [true, false] {
+            let diffuse = if nonlinear {
+                a * (1.0 - f) * (1.0 - fdr_int) / (1.0 - a * fdr_int)
+            } else {
+                a * (1.0 - f)
+            };
+            let want = f + diffuse;
+            let setup = Setup::new(plastic_of(a as f32, 0.0, nonlinear), cos_o);
+            let (got, se) = albedo_gpu(&setup, seed, N);
+            seed += 1;
+            assert!(
+                (got - want).abs() <= 5.0 * se + 5e-4,
+                "nonlinear {nonlinear}, cos_o {cos_o}: albedo {got} +- {se} vs {want}"
             );
         }
     }

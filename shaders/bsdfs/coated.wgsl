@@ -12,7 +12,9 @@
 // the base, and leaves it (1 - F(cos_o)), with the internal reflections at the coat summed as a geometric
 // series, gives
 //   fd = (1 - F(cos_i)) (1 - F(cos_o)) a / (pi eta^2 (1 - a Fdr_int)),
-// where Fdr_int = the cosine-weighted hemispherical average of the coat's reflectance seen from inside
+// or with MATERIAL_LINEAR (Mitsuba's `nonlinear = false`, its default) 1 - Fdr_int in place of
+// 1 - a Fdr_int: linear in a, the internal reflections not tinted again at each bounce. Fdr_int is the
+// cosine-weighted hemispherical average of the coat's reflectance seen from inside
 // (computed once on the host, `fdr_int`) and 1 / eta^2 the compression of solid angle on leaving.
 // Energy: with a = 1 and a smooth coat the diffuse albedo is exactly 1 - F(cos_o) (since
 // eta^2 (1 - Fdr_int) = 1 - Fdr_ext), so the material reflects all the light at every angle. A rough coat
@@ -54,7 +56,10 @@ fn coated_diffuse(mat: Material, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     if mat.kind == MAT_PLASTIC {
         let t = (1.0 - fresnel_dielectric(wi.z, mat.ior)) * (1.0 - fresnel_dielectric(wo.z, mat.ior));
         let a = mat.albedo;
-        return a * (t * INV_PI / (mat.ior * mat.ior)) / (vec3<f32>(1.0) - a * mat.fdr_int);
+        // Nonlinear: each internal reflection meets the base again, a geometric series in a Fdr_int;
+        // linear (Mitsuba's default): the series without the albedo, 1 / (1 - Fdr_int).
+        let tint = select(a, vec3<f32>(1.0), (mat.flags & MATERIAL_LINEAR) != 0u);
+        return a * (t * INV_PI / (mat.ior * mat.ior)) / (vec3<f32>(1.0) - tint * mat.fdr_int);
     }
     let h = normalize(wo + wi);
     return mat.albedo * ((1.0 - mat.metallic) * (1.0 - gltf_dielectric_fresnel(dot(wo, h))) * INV_PI);

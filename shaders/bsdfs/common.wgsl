@@ -45,6 +45,8 @@ const MATERIAL_TWO_SIDED_EMISSION: u32 = 1u;
 // Material::flags: a conductor's Fresnel is Schlick's from `albedo` (the reflectance at normal
 // incidence, a base colour) rather than the exact one from eta + i k.
 const MATERIAL_SCHLICK: u32 = 2u;
+// A plastic whose base's internal reflections are not tinted by its albedo (bsdfs/coated.wgsl).
+const MATERIAL_LINEAR: u32 = 4u;
 
 // One material's parameters, as uploaded (`materials` in scene_data.wgsl; GpuMaterial in Rust). What a
 // field means depends on the kind; unused fields are zero.
@@ -57,7 +59,7 @@ struct Material {
     alpha_x: f32, // GGX roughness alpha (= roughness^2) along the tangent
     k: vec3<f32>, // conductor: imaginary part (extinction coefficient), per channel
     alpha_y: f32, // GGX alpha along the bitangent (= alpha_x when isotropic)
-    flags: u32, // MATERIAL_TWO_SIDED_EMISSION | MATERIAL_SCHLICK
+    flags: u32, // MATERIAL_TWO_SIDED_EMISSION | MATERIAL_SCHLICK | MATERIAL_LINEAR
     metallic: f32, // metallic_roughness: the metal's weight in [0, 1]
     fdr_int: f32, // plastic: the coat's internal diffuse reflectance (see plastic_eval)
     _pad0: u32,

@@ -122,6 +122,9 @@ pub const MATERIAL_TWO_SIDED_EMISSION: u32 = 1;
 /// `GpuMaterial::flags`: a conductor's Fresnel is Schlick's, from `albedo` as the reflectance at normal
 /// incidence.
 pub const MATERIAL_SCHLICK: u32 = 2;
+/// GpuMaterial::flags: a plastic whose base's internal reflections are not tinted by its albedo
+/// (Mitsuba's `nonlinear = false`; bsdfs/coated.wgsl).
+pub const MATERIAL_LINEAR: u32 = 4;
 
 /// GGX alpha below which a glossy surface is uploaded (and shaded) as smooth: a delta lobe
 /// (`SMOOTH_ALPHA` in microfacet.wgsl, which says why).
@@ -542,6 +545,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("TEXEL_PART_BITS", TEXEL_PART_BITS),
     ("MATERIAL_TWO_SIDED_EMISSION", MATERIAL_TWO_SIDED_EMISSION),
     ("MATERIAL_SCHLICK", MATERIAL_SCHLICK),
+    ("MATERIAL_LINEAR", MATERIAL_LINEAR),
     ("BSDF_REFLECTION", BSDF_REFLECTION),
     ("BSDF_TRANSMISSION", BSDF_TRANSMISSION),
     ("BSDF_DELTA", BSDF_DELTA),

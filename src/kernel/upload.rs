@@ -163,8 +163,12 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             albedo,
             ior,
             roughness,
+            nonlinear,
         } => {
             g.kind = MAT_PLASTIC;
+            if !nonlinear {
+                g.flags |= MATERIAL_LINEAR;
+            }
             g.albedo = albedo.into();
             g.ior = ior;
             g.fdr_int = fresnel_diffuse_reflectance(1.0 / ior as f64) as f32;
@@ -915,6 +919,7 @@ mod tests {
             albedo: Vec3::splat(0.5),
             ior: 1.5,
             roughness: Roughness::SMOOTH,
+            nonlinear: true,
         }));
         assert_eq!((plastic.kind, plastic.alpha_x), (MAT_PLASTIC, 0.0));
         assert!((plastic.fdr_int as f64 - fresnel_diffuse_reflectance(1.0 / 1.5)).abs() < 1e-7);

@@ -297,11 +297,14 @@ pub enum Bsdf {
         roughness: Roughness,
         tint: Vec3,
     },
-    /// A diffuse base of `albedo` under a dielectric coat of index `ior` (shaders/bsdfs/plastic.wgsl).
+    /// A diffuse base of `albedo` under a dielectric coat of index `ior` (shaders/bsdfs/plastic.wgsl);
+    /// `nonlinear`: the light reflected back and forth between base and coat is tinted by the albedo at
+    /// each bounce (Mitsuba's `nonlinear = true`; false is Mitsuba's default, linear in the albedo).
     Plastic {
         albedo: Vec3,
         ior: f32,
         roughness: Roughness,
+        nonlinear: bool,
     },
     /// glTF 2.0's metallic-roughness material (the specification's Appendix B).
     MetallicRoughness {

@@ -296,20 +296,11 @@ impl Tr<'_> {
                         "Remove it.",
                     ));
                 }
-                // vkpath's plastic is Mitsuba's with nonlinear = true (the base's internal reflections
-                // tinted by its albedo: a / (1 - a Fdr)); Mitsuba's default is false.
-                match args.boolean("nonlinear")? {
-                    Some((true, _)) => {}
-                    other => {
-                        let l = other.map_or(&obj.loc, |(_, l)| l).clone();
-                        self.approximate(
-                            &l,
-                            "nonlinear = false (Mitsuba's default): vkpath's plastic is Mitsuba's nonlinear one".into(),
-                            "Add <boolean name=\"nonlinear\" value=\"true\"/>.",
-                        )?;
-                    }
-                }
+                // Mitsuba's nonlinear (default false): whether the base's internal reflections are
+                // tinted by its albedo, a / (1 - a Fdr) rather than a / (1 - Fdr); vkpath's too.
+                let nonlinear = args.boolean("nonlinear")?.is_some_and(|(n, _)| n);
                 lines.push(at("type = \"plastic\"".into()));
+                lines.push(at(format!("nonlinear = {nonlinear}")));
                 match self.color_tex(&args, "diffuse_reflectance", DVec3::splat(0.5))? {
                     ColorTex::Color(c) => lines.push(at(format!("albedo = {}", vec3(c)))),
                     ColorTex::Bitmap(p, l) => {

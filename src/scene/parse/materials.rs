@@ -166,12 +166,21 @@ impl Checker<'_> {
                     files,
                     &mut textures.roughness,
                 )?;
+                let nonlinear = m.nonlinear.as_ref().is_none_or(|n| *n.get_ref());
                 (
-                    vec!["albedo", "ior", "roughness", EMISSION[0], EMISSION[1]],
+                    vec![
+                        "albedo",
+                        "ior",
+                        "roughness",
+                        "nonlinear",
+                        EMISSION[0],
+                        EMISSION[1],
+                    ],
                     Bsdf::Plastic {
                         albedo,
                         ior,
                         roughness,
+                        nonlinear,
                     },
                 )
             }
@@ -259,6 +268,7 @@ impl Checker<'_> {
             ("albedo", m.albedo.as_ref().map(Spanned::span)),
             ("tint", m.tint.as_ref().map(Spanned::span)),
             ("ior", m.ior.as_ref().map(Spanned::span)),
+            ("nonlinear", m.nonlinear.as_ref().map(Spanned::span)),
             ("preset", m.preset.as_ref().map(Spanned::span)),
             ("eta", m.eta.as_ref().map(Spanned::span)),
             ("k", m.k.as_ref().map(Spanned::span)),

@@ -93,6 +93,9 @@ pub(super) struct RawMaterial {
     pub(super) albedo: Option<Spanned<RawParam<RawVec3>>>,
     pub(super) tint: Option<Spanned<RawParam<RawVec3>>>,
     pub(super) ior: Option<Spanned<f32>>,
+    /// `plastic`: whether the base's internal reflections are tinted by its albedo (Mitsuba's
+    /// `nonlinear`).
+    pub(super) nonlinear: Option<Spanned<bool>>,
     /// `conductor`: a named metal, or its complex index of refraction, or a base colour (Schlick).
     pub(super) preset: Option<Spanned<String>>,
     pub(super) eta: Option<Spanned<RawVec3>>,
