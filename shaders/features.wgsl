@@ -35,6 +35,8 @@ override HAS_MESH_SHADING: bool = true;
 // Some glossy material has a different roughness along the tangent and the bitangent: the integrator
 // then computes a tangent per hit (surface_tangent, scene.wgsl).
 override HAS_ANISOTROPY: bool = true;
+// Some glossy material's microfacets follow Beckmann's distribution rather than GGX's (microfacet.wgsl).
+override HAS_BECKMANN: bool = true;
 override HAS_EMISSION: bool = true; // some surface emits (an emitter, or any material with `emission`)
 // Lights: each kind's override (HAS_POINT_LIGHTS, HAS_SPHERE_LIGHTS, ...) is generated beside its LIGHT_*
 // constant from the light registry (light_kinds.wgsl; src/kernel/light_kinds.rs).

@@ -1,8 +1,10 @@
-// microfacet.wgsl: the GGX (Trowbridge–Reitz) microfacet distribution and the Fresnel terms of the glossy
-// materials (bsdfs/): the normal distribution D, Smith's masking-shadowing G1 and G2, sampling by the
-// distribution of visible normals, and Fresnel for conductors (complex index) and Schlick's form.
+// microfacet.wgsl: the microfacet distributions of the glossy materials (bsdfs/), GGX (Trowbridge–Reitz)
+// and Beckmann, and their Fresnel terms: the normal distribution D, Smith's masking-shadowing G1 and G2,
+// sampling by the distribution of visible normals, and Fresnel for conductors (complex index) and
+// Schlick's form. The materials call the microfacet_* functions, which pick the distribution a
+// material's Microfacet names (Beckmann's code only in kernels whose scene has it: HAS_BECKMANN).
 //
-// requires: sampling.wgsl
+// requires: sampling.wgsl, features.wgsl
 //
 // Everything here works in the local shading frame: z is the shading normal, x the tangent along which
 // the roughness is alpha_x, y the bitangent (alpha_y). A user's `roughness` r maps to alpha = r^2 (the
@@ -90,6 +92,197 @@ fn ggx_sample_visible(wo: vec3<f32>, alpha: vec2<f32>, u: vec2<f32>) -> vec3<f32
     let p2 = (1.0 - s) * sqrt(max(0.0, 1.0 - p1 * p1)) + s * r * sin(phi);
     let nh = p1 * t1 + p2 * t2 + sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2)) * vh;
     return normalize(vec3<f32>(alpha.x * nh.x, alpha.y * nh.y, max(1e-6, nh.z)));
+}
+
+// --- Beckmann ---------------------------------------------------------------------------------------
+// Beckmann & Spizzichino 1963, anisotropic as in Walter et al. 2007 and Heitz 2014 (§5.2): the slopes of
+// the microfacets are Gaussian, D(h) = exp(-((hx/ax)^2 + (hy/ay)^2) / hz^2) / (pi ax ay hz^4), normalised
+// as GGX's (the integral of D(h) hz is 1). Mitsuba 3's default distribution.
+
+// erfc(x) for x >= 0 (Abramowitz & Stegun 7.1.26: |error| <= 1.5e-7, from a rational function of
+// t = 1 / (1 + p x) times exp(-x^2), so that it stays accurate in the tail where 1 - erf(x) cancels).
+fn erfc_nonneg(x: f32) -> f32 {
+    let t = 1.0 / (1.0 + 0.3275911 * x);
+    let poly = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
+    return poly * exp(-x * x);
+}
+
+fn erf_approx(x: f32) -> f32 {
+    return sign(x) * (1.0 - erfc_nonneg(abs(x)));
+}
+
+// The inverse error function on (-1, 1) (Giles, "Approximating the erfinv function", GPU Computing Gems
+// 2011: the single-precision polynomials in w = -ln(1 - x^2), relative error about 1e-7 before rounding).
+fn erfinv_approx(x: f32) -> f32 {
+    var w = -log(max((1.0 - x) * (1.0 + x), 1e-30));
+    var p: f32;
+    if w < 5.0 {
+        w = w - 2.5;
+        p = 2.81022636e-08;
+        p = 3.43273939e-07 + p * w;
+        p = -3.5233877e-06 + p * w;
+        p = -4.39150654e-06 + p * w;
+        p = 0.00021858087 + p * w;
+        p = -0.00125372503 + p * w;
+        p = -0.00417768164 + p * w;
+        p = 0.246640727 + p * w;
+        p = 1.50140941 + p * w;
+    } else {
+        w = sqrt(w) - 3.0;
+        p = -0.000200214257;
+        p = 0.000100950558 + p * w;
+        p = 0.00134934322 + p * w;
+        p = -0.00367342844 + p * w;
+        p = 0.00573950773 + p * w;
+        p = -0.0076224613 + p * w;
+        p = 0.00943887047 + p * w;
+        p = 1.00167406 + p * w;
+        p = 2.83297682 + p * w;
+    }
+    return p * x;
+}
+
+const INV_SQRT_PI: f32 = 0.56418958354775628695;
+
+fn beckmann_d(h: vec3<f32>, alpha: vec2<f32>) -> f32 {
+    if h.z <= 0.0 {
+        return 0.0;
+    }
+    let c2 = h.z * h.z;
+    let t = (h.x * h.x / (alpha.x * alpha.x) + h.y * h.y / (alpha.y * alpha.y)) / c2;
+    return exp(-t) / (PI * alpha.x * alpha.y * c2 * c2);
+}
+
+// Smith's Lambda for Beckmann (Heitz 2014, eq. 80): with a = 1 / (alpha(w) tan theta) =
+// |wz| / sqrt(ax^2 wx^2 + ay^2 wy^2), Lambda = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi)), written as
+// (exp(-a^2) / (a sqrt(pi)) - erfc(a)) / 2 so that erf's cancellation near 1 is avoided; it falls below
+// 1e-7 past a = 3.5 (0 there, and at normal incidence).
+fn beckmann_lambda(w: vec3<f32>, alpha: vec2<f32>) -> f32 {
+    let s = sqrt(alpha.x * alpha.x * w.x * w.x + alpha.y * alpha.y * w.y * w.y);
+    if w.z == 0.0 {
+        return 3.4e38; // grazing: everything is masked (G1 = 0)
+    }
+    let a = abs(w.z) / s;
+    if !(a < 3.5) {
+        return 0.0; // (also s = 0: a is +inf)
+    }
+    return max(0.0, 0.5 * (exp(-a * a) * INV_SQRT_PI / a - erfc_nonneg(a)));
+}
+
+// A visible slope of the isotropic, unit-roughness Beckmann distribution seen from a direction in the
+// xz-plane at cosine cos_t (> 0) from the normal: the microfacet normal is normalize(-sx, -sy, 1). The
+// slopes visible from that direction are distributed as D's slopes weighted by the projected area
+// max(0, cos_t - sx sin_t) (Heitz & d'Eon, "Importance Sampling Microfacet-Based BSDFs using the
+// Distribution of Visible Normals", EGSR 2014). sy is independent of sx: a standard Gaussian of variance
+// 1/2, erfinv(2 u.y - 1). sx has the marginal CDF, in b = erf(sx) on [-1, erf(cot)],
+//   C(b) = (1 + b + tan_t exp(-erfinv(b)^2) / sqrt(pi)) / (1 + erf(cot) + tan_t exp(-cot^2) / sqrt(pi)),
+// inverted at u.x by Newton's method safeguarded by bisection, from Jakob's fitted initial guess
+// ("An Improved Visible Normal Sampling Routine for the Beckmann Distribution", 2014).
+fn beckmann_sample_slope(cos_t: f32, u: vec2<f32>) -> vec2<f32> {
+    if cos_t > 0.9999 {
+        // Seen from straight above, every slope is visible alike: a 2D Gaussian by Box-Muller.
+        let r = sqrt(-log(max(1.0 - u.x, 1e-30)));
+        let phi = TWO_PI * u.y;
+        return vec2<f32>(r * cos(phi), r * sin(phi));
+    }
+    let sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+    let tan_t = sin_t / cos_t;
+    let cot_t = cos_t / sin_t;
+    var lo = -1.0;
+    var hi = erf_approx(cot_t);
+    let goal = max(u.x, 1e-6);
+    let theta = acos(cos_t);
+    let fit = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
+    var b = hi - (1.0 + hi) * pow(1.0 - goal, fit);
+    let norm = 1.0 / (1.0 + hi + INV_SQRT_PI * tan_t * exp(-cot_t * cot_t));
+    for (var k = 0; k < 10; k++) {
+        if !(b >= lo && b <= hi) {
+            b = 0.5 * (lo + hi);
+        }
+        let x = erfinv_approx(b);
+        let value = norm * (1.0 + b + INV_SQRT_PI * tan_t * exp(-x * x)) - goal;
+        if abs(value) < 1e-5 {
+            break;
+        }
+        if value > 0.0 {
+            hi = b;
+        } else {
+            lo = b;
+        }
+        b -= value / (norm * (1.0 - x * tan_t));
+    }
+    return vec2<f32>(erfinv_approx(b), erfinv_approx(2.0 * max(u.y, 1e-6) - 1.0));
+}
+
+// A microfacet normal drawn from Beckmann's D_wo (wo.z > 0): stretch wo to unit roughness, sample a
+// visible slope in the frame where wo lies in the xz-plane, turn it back by wo's azimuth, unstretch
+// (slopes scale by alpha), and make the normal of the slope.
+fn beckmann_sample_visible(wo: vec3<f32>, alpha: vec2<f32>, u: vec2<f32>) -> vec3<f32> {
+    let ws = normalize(vec3<f32>(alpha.x * wo.x, alpha.y * wo.y, wo.z));
+    let slope = beckmann_sample_slope(ws.z, u);
+    let len2 = ws.x * ws.x + ws.y * ws.y;
+    var c = 1.0;
+    var s = 0.0;
+    if len2 > 0.0 {
+        let inv = inverseSqrt(len2);
+        c = ws.x * inv;
+        s = ws.y * inv;
+    }
+    let sx = alpha.x * (c * slope.x - s * slope.y);
+    let sy = alpha.y * (s * slope.x + c * slope.y);
+    return normalize(vec3<f32>(-sx, -sy, 1.0));
+}
+
+// --- The distribution a material names -------------------------------------------------------------
+
+struct Microfacet {
+    alpha: vec2<f32>,
+    beckmann: bool,
+}
+
+fn microfacet_d(h: vec3<f32>, m: Microfacet) -> f32 {
+    if HAS_BECKMANN {
+        if m.beckmann {
+            return beckmann_d(h, m.alpha);
+        }
+    }
+    return ggx_d(h, m.alpha);
+}
+
+fn microfacet_lambda(w: vec3<f32>, m: Microfacet) -> f32 {
+    if HAS_BECKMANN {
+        if m.beckmann {
+            return beckmann_lambda(w, m.alpha);
+        }
+    }
+    return ggx_lambda(w, m.alpha);
+}
+
+// G1 = 1 / (1 + Lambda(w)); height-correlated G2 = 1 / (1 + Lambda(wo) + Lambda(wi)) (Heitz 2014, eq. 99)
+// for either distribution.
+fn microfacet_g1(w: vec3<f32>, m: Microfacet) -> f32 {
+    return 1.0 / (1.0 + microfacet_lambda(w, m));
+}
+
+fn microfacet_g2(wo: vec3<f32>, wi: vec3<f32>, m: Microfacet) -> f32 {
+    return 1.0 / (1.0 + microfacet_lambda(wo, m) + microfacet_lambda(wi, m));
+}
+
+// D_wo(h) = G1(wo) max(0, wo.h) D(h) / wo.z (Heitz 2014, eq. 38), for either distribution.
+fn microfacet_visible_pdf(wo: vec3<f32>, h: vec3<f32>, m: Microfacet) -> f32 {
+    if wo.z <= 0.0 {
+        return 0.0;
+    }
+    return microfacet_g1(wo, m) * max(0.0, dot(wo, h)) * microfacet_d(h, m) / wo.z;
+}
+
+fn microfacet_sample_visible(wo: vec3<f32>, m: Microfacet, u: vec2<f32>) -> vec3<f32> {
+    if HAS_BECKMANN {
+        if m.beckmann {
+            return beckmann_sample_visible(wo, m.alpha, u);
+        }
+    }
+    return ggx_sample_visible(wo, m.alpha, u);
 }
 
 // --- Fresnel ---------------------------------------------------------------------------------------

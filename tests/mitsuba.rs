@@ -511,16 +511,29 @@ fn bsdfs_and_emitters_map_to_materials_and_lights() {
 #[test]
 fn approximations_are_refused_unless_lenient_and_model_differences_are_warnings() {
     let dir = tempfile::tempdir().unwrap();
-    // Mitsuba's default Beckmann distribution: refused, or read with a warning.
+    // Mitsuba's default, full Oren-Nayar roughdiffuse: refused, or read with a warning.
     {
-        let body = r#"<shape type="sphere"><bsdf type="roughconductor"><string name="material" value="Al"/></bsdf></shape>"#;
+        let body = r#"<shape type="sphere"><bsdf type="roughdiffuse"/></shape>"#;
         let e = error_in(dir.path(), body);
         assert!(e.contains("--xml-lenient"), "{e}");
         let p = write(dir.path(), "scene.xml", &scene_xml(body));
         let s = Scene::load_with_options(&p, None, true).unwrap();
         assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     }
-    // Mitsuba's default linear plastic is read as such.
+    // Mitsuba's default Beckmann distribution and linear plastic are read as such.
+    let s = load(
+        r#"<shape type="sphere"><bsdf type="roughconductor"><string name="material" value="Al"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="roughdielectric"><string name="distribution" value="ggx"/></bsdf></shape>"#,
+    );
+    let roughness = |i: usize| match s.materials[s.spheres[i].material as usize].bsdf {
+        Bsdf::Conductor { roughness, .. } | Bsdf::Dielectric { roughness, .. } => roughness,
+        ref other => panic!("{other:?}"),
+    };
+    assert!(roughness(0).beckmann && !roughness(1).beckmann);
+    assert!(
+        (roughness(0).u - 0.1f32.sqrt()).abs() < 1e-6,
+        "Mitsuba's default alpha 0.1"
+    );
     let s = load(r#"<shape type="sphere"><bsdf type="plastic"/></shape>"#);
     assert!(matches!(
         s.materials[s.spheres[0].material as usize].bsdf,

@@ -242,6 +242,15 @@ fn key_of_another_material_type_is_rejected() {
 }
 
 #[test]
+fn microfacet_distribution_is_ggx_or_beckmann_on_microfacet_materials_only() {
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n\n[materials]\nau = { type = \"conductor\", preset = \"gold\", roughness = 0.3, distribution = \"phong\" }  # line 7\n";
+    let err = expect_error_exact(text, 7, "materials.au.distribution");
+    assert!(err.to_string().contains("beckmann"), "{err}");
+    let text = "[camera]\nposition = [0, 0, 10]\nlook_at = [0, 0, 0]\nfov = 60\n\n[materials]\nred = { type = \"diffuse\", albedo = [1, 0, 0], distribution = \"beckmann\" }  # line 7\n";
+    expect_error_exact(text, 7, "materials.red.distribution");
+}
+
+#[test]
 fn key_of_another_light_type_is_rejected() {
     let text = with_base(
         "[[light]]\ntype = \"point\"\nposition = [0, 5, 0]\nradius = 2   # line 12\npower = 10\n",

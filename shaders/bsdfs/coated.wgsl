@@ -93,7 +93,7 @@ fn coated_at(mat: Material, wo: vec3<f32>, wi: vec3<f32>) -> CoatedEval {
         r.f = coated_diffuse(mat, wo, wi);
         r.pdf = (1.0 - p_s) * wi.z * INV_PI;
         if !microfacet_smooth(alpha) {
-            let g = ggx_reflection(wo, wi, alpha);
+            let g = ggx_reflection(wo, wi, material_microfacet(mat));
             r.f += coated_specular_fresnel(mat, g.cos_oh) * g.f;
             r.pdf += p_s * g.pdf;
         }
@@ -116,7 +116,7 @@ fn coated_sample(mat: Material, wo_w: vec3<f32>, sh: Shading, rng: ptr<function,
                 let weight = coated_specular_fresnel(mat, wo.z) / p_s;
                 s = BsdfSample(reflect_dir(-wo_w, fr.n), weight, p_s, BSDF_REFLECTION | BSDF_DELTA);
             } else {
-                wi = reflect_dir(-wo, ggx_sample_visible(wo, alpha, u));
+                wi = reflect_dir(-wo, microfacet_sample_visible(wo, material_microfacet(mat), u));
             }
         } else {
             let r = sqrt(u.x);

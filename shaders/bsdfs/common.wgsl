@@ -47,6 +47,8 @@ const MATERIAL_TWO_SIDED_EMISSION: u32 = 1u;
 const MATERIAL_SCHLICK: u32 = 2u;
 // A plastic whose base's internal reflections are not tinted by its albedo (bsdfs/coated.wgsl).
 const MATERIAL_LINEAR: u32 = 4u;
+// Material::flags: Beckmann microfacets instead of GGX (microfacet.wgsl).
+const MATERIAL_BECKMANN: u32 = 8u;
 
 // One material's parameters, as uploaded (`materials` in scene_data.wgsl; GpuMaterial in Rust). What a
 // field means depends on the kind; unused fields are zero.
@@ -59,7 +61,7 @@ struct Material {
     alpha_x: f32, // GGX roughness alpha (= roughness^2) along the tangent
     k: vec3<f32>, // conductor: imaginary part (extinction coefficient), per channel
     alpha_y: f32, // GGX alpha along the bitangent (= alpha_x when isotropic)
-    flags: u32, // MATERIAL_TWO_SIDED_EMISSION | MATERIAL_SCHLICK | MATERIAL_LINEAR
+    flags: u32, // MATERIAL_TWO_SIDED_EMISSION | MATERIAL_SCHLICK | MATERIAL_LINEAR | MATERIAL_BECKMANN
     metallic: f32, // metallic_roughness: the metal's weight in [0, 1]
     fdr_int: f32, // plastic: the coat's internal diffuse reflectance (see plastic_eval)
     _pad0: u32,
@@ -70,6 +72,11 @@ struct Material {
 // the clamp does not change.)
 fn material_alpha(mat: Material) -> vec2<f32> {
     return max(vec2<f32>(mat.alpha_x, mat.alpha_y), vec2<f32>(1e-4));
+}
+
+// The material's microfacet distribution: its alpha, and GGX or Beckmann (microfacet.wgsl).
+fn material_microfacet(mat: Material) -> Microfacet {
+    return Microfacet(material_alpha(mat), (mat.flags & MATERIAL_BECKMANN) != 0u);
 }
 
 // The radiance the material emits towards a viewer on its front side (`front`: the side the geometric
@@ -179,7 +186,8 @@ fn to_local(f: Frame, v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(dot(v, f.t), dot(v, f.b), dot(v, f.n));
 }
 
-// --- The GGX reflection lobe (shared by conductor, plastic and metallic_roughness) -----------------
+// --- The microfacet reflection lobe (shared by conductor, plastic and metallic_roughness) -----------
+// (GGX, or Beckmann where the material says so: the D, G and sampling of microfacet.wgsl.)
 // f_r(wo, wi) = F(wo.h) D(h) G2(wo, wi) / (4 cos_o cos_i), h = (wo + wi) / |wo + wi| (Cook & Torrance
 // 1982; Walter et al. 2007, eq. 20). Sampled through the visible normals: h ~ D_wo, wi = reflect(wo, h),
 // so pdf(wi) = D_wo(h) / (4 wo.h) (the Jacobian of the reflection, Walter eq. 14), and
@@ -192,15 +200,15 @@ struct GgxReflection {
 }
 
 // The lobe at (wo, wi) in the local frame; all zero unless both are above the surface.
-fn ggx_reflection(wo: vec3<f32>, wi: vec3<f32>, alpha: vec2<f32>) -> GgxReflection {
+fn ggx_reflection(wo: vec3<f32>, wi: vec3<f32>, m: Microfacet) -> GgxReflection {
     var r = GgxReflection(0.0, 0.0, 0.0);
     let sum = wo + wi;
     if wo.z > 0.0 && wi.z > 0.0 && dot(sum, sum) > 0.0 {
         let h = normalize(sum);
-        let d = ggx_d(h, alpha);
+        let d = microfacet_d(h, m);
         r.cos_oh = max(0.0, dot(wo, h));
-        r.f = d * ggx_g2(wo, wi, alpha) / (4.0 * wo.z * wi.z);
-        r.pdf = ggx_g1(wo, alpha) * d / (4.0 * wo.z);
+        r.f = d * microfacet_g2(wo, wi, m) / (4.0 * wo.z * wi.z);
+        r.pdf = microfacet_g1(wo, m) * d / (4.0 * wo.z);
     }
     return r;
 }

@@ -28,9 +28,9 @@ fn conductor_sample(mat: Material, wo_w: vec3<f32>, sh: Shading, rng: ptr<functi
             s = BsdfSample(reflect_dir(-wo_w, fr.n), conductor_fresnel(mat, wo.z), 1.0,
                            BSDF_REFLECTION | BSDF_DELTA);
         } else {
-            let h = ggx_sample_visible(wo, alpha, u);
+            let h = microfacet_sample_visible(wo, material_microfacet(mat), u);
             let wi = reflect_dir(-wo, h);
-            let r = ggx_reflection(wo, wi, alpha);
+            let r = ggx_reflection(wo, wi, material_microfacet(mat));
             if r.pdf > 0.0 {
                 let weight = conductor_fresnel(mat, r.cos_oh) * (r.f * wi.z / r.pdf);
                 s = BsdfSample(frame_to_world(fr, wi), weight, r.pdf, BSDF_REFLECTION);
@@ -46,7 +46,7 @@ fn conductor_eval(mat: Material, wo: vec3<f32>, wi: vec3<f32>, sh: Shading) -> v
     if microfacet_smooth(alpha) {
         return vec3<f32>(0.0);
     }
-    let r = ggx_reflection(to_local(fr, wo), to_local(fr, wi), alpha);
+    let r = ggx_reflection(to_local(fr, wo), to_local(fr, wi), material_microfacet(mat));
     return conductor_fresnel(mat, r.cos_oh) * r.f;
 }
 
@@ -56,7 +56,7 @@ fn conductor_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, sh: Shading) -> f3
     if microfacet_smooth(alpha) {
         return 0.0;
     }
-    return ggx_reflection(to_local(fr, wo), to_local(fr, wi), alpha).pdf;
+    return ggx_reflection(to_local(fr, wo), to_local(fr, wi), material_microfacet(mat)).pdf;
 }
 
 // The reflectance at normal incidence, F(1), times the tint.

@@ -36,7 +36,7 @@ fn rough_dielectric_sample(mat: Material, wo_w: vec3<f32>, sh: Shading, rng: ptr
         let eta = rough_dielectric_eta(mat, sh.entering);
         let wo = to_local(fr, wo_w);
         if wo.z > 0.0 {
-            let h = ggx_sample_visible(wo, alpha, u);
+            let h = microfacet_sample_visible(wo, material_microfacet(mat), u);
             let cos_oh = dot(wo, h);
             let f = fresnel_dielectric(cos_oh, eta);
             var wi = vec3<f32>(0.0);
@@ -46,7 +46,7 @@ fn rough_dielectric_sample(mat: Material, wo_w: vec3<f32>, sh: Shading, rng: ptr
                 wi = reflect_dir(-wo, h);
                 if wi.z > 0.0 {
                     flags = BSDF_REFLECTION;
-                    pdf = ggx_visible_pdf(wo, h, alpha) * f / (4.0 * cos_oh);
+                    pdf = microfacet_visible_pdf(wo, h, material_microfacet(mat)) * f / (4.0 * cos_oh);
                 }
             } else {
                 wi = refract_dir(-wo, h, eta);
@@ -54,11 +54,11 @@ fn rough_dielectric_sample(mat: Material, wo_w: vec3<f32>, sh: Shading, rng: ptr
                 let denom = cos_ih + cos_oh / eta;
                 if wi.z < 0.0 && cos_ih < 0.0 && denom != 0.0 {
                     flags = BSDF_TRANSMISSION;
-                    pdf = ggx_visible_pdf(wo, h, alpha) * (1.0 - f) * abs(cos_ih) / (denom * denom);
+                    pdf = microfacet_visible_pdf(wo, h, material_microfacet(mat)) * (1.0 - f) * abs(cos_ih) / (denom * denom);
                 }
             }
             if flags != 0u && pdf > 0.0 {
-                let weight = ggx_g2(wo, wi, alpha) / ggx_g1(wo, alpha);
+                let weight = microfacet_g2(wo, wi, material_microfacet(mat)) / microfacet_g1(wo, material_microfacet(mat));
                 s = BsdfSample(frame_to_world(fr, wi), vec3<f32>(weight), pdf, flags);
             }
         }
@@ -77,7 +77,7 @@ fn rough_dielectric_at(mat: Material, wo: vec3<f32>, wi: vec3<f32>, entering: bo
     let alpha = material_alpha(mat);
     let eta = rough_dielectric_eta(mat, entering);
     if wo.z > 0.0 && wi.z > 0.0 {
-        let g = ggx_reflection(wo, wi, alpha);
+        let g = ggx_reflection(wo, wi, material_microfacet(mat));
         let f = fresnel_dielectric(g.cos_oh, eta);
         r = RoughDielectricEval(f * g.f, f * g.pdf);
     } else if wo.z > 0.0 && wi.z < 0.0 {
@@ -91,10 +91,10 @@ fn rough_dielectric_at(mat: Material, wo: vec3<f32>, wi: vec3<f32>, entering: bo
             // Only microfacets that face wo and that wi crosses from below.
             if cos_oh > 0.0 && cos_ih < 0.0 && denom != 0.0 {
                 let t = 1.0 - fresnel_dielectric(cos_oh, eta);
-                let d = ggx_d(h, alpha);
+                let d = microfacet_d(h, material_microfacet(mat));
                 let jac = abs(cos_ih) / (denom * denom);
-                r.f = t * d * ggx_g2(wo, wi, alpha) * jac * cos_oh / (wo.z * abs(wi.z));
-                r.pdf = t * ggx_visible_pdf(wo, h, alpha) * jac;
+                r.f = t * d * microfacet_g2(wo, wi, material_microfacet(mat)) * jac * cos_oh / (wo.z * abs(wi.z));
+                r.pdf = t * microfacet_visible_pdf(wo, h, material_microfacet(mat)) * jac;
             }
         }
     }

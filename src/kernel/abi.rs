@@ -125,6 +125,9 @@ pub const MATERIAL_SCHLICK: u32 = 2;
 /// GpuMaterial::flags: a plastic whose base's internal reflections are not tinted by its albedo
 /// (Mitsuba's `nonlinear = false`; bsdfs/coated.wgsl).
 pub const MATERIAL_LINEAR: u32 = 4;
+/// GpuMaterial::flags: the microfacet normals follow Beckmann's distribution, not GGX's
+/// (microfacet.wgsl).
+pub const MATERIAL_BECKMANN: u32 = 8;
 
 /// GGX alpha below which a glossy surface is uploaded (and shaded) as smooth: a delta lobe
 /// (`SMOOTH_ALPHA` in microfacet.wgsl, which says why).
@@ -546,6 +549,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("MATERIAL_TWO_SIDED_EMISSION", MATERIAL_TWO_SIDED_EMISSION),
     ("MATERIAL_SCHLICK", MATERIAL_SCHLICK),
     ("MATERIAL_LINEAR", MATERIAL_LINEAR),
+    ("MATERIAL_BECKMANN", MATERIAL_BECKMANN),
     ("BSDF_REFLECTION", BSDF_REFLECTION),
     ("BSDF_TRANSMISSION", BSDF_TRANSMISSION),
     ("BSDF_DELTA", BSDF_DELTA),

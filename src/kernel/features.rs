@@ -35,6 +35,7 @@ pub enum Feature {
     BumpMaps,
     Opacity,
     Anisotropy,
+    Beckmann,
     Emission,
     EnvironmentMap,
     Lens,
@@ -211,6 +212,15 @@ const AFTER_MATERIALS: &[FeatureRow] = &[
         constant: "HAS_ANISOTROPY",
         group: Group::Other,
         needed: |g, _| used_materials(g).any(|m| m.alpha_x != m.alpha_y),
+        reported: true,
+    },
+    FeatureRow {
+        // Some glossy material's microfacets are Beckmann's (microfacet.wgsl), not GGX's.
+        feature: Feature::Beckmann,
+        name: "beckmann",
+        constant: "HAS_BECKMANN",
+        group: Group::Other,
+        needed: |g, _| used_materials(g).any(|m| m.flags & MATERIAL_BECKMANN != 0),
         reported: true,
     },
     FeatureRow {

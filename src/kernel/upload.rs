@@ -126,6 +126,9 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         let (ax, ay) = r.alpha();
         let smooth = ax.max(ay) < SMOOTH_ALPHA;
         (g.alpha_x, g.alpha_y) = if smooth { (0.0, 0.0) } else { (ax, ay) };
+        if r.beckmann && !smooth {
+            g.flags |= MATERIAL_BECKMANN;
+        }
         smooth
     };
     match m.bsdf {
@@ -909,7 +912,7 @@ mod tests {
         );
         let metal = gpu_material(&Material::from(Bsdf::Conductor {
             fresnel: ConductorFresnel::Schlick { f0: Vec3::ONE },
-            roughness: Roughness { u: 0.1, v: 0.5 },
+            roughness: Roughness::anisotropic(0.1, 0.5),
             tint: Vec3::ONE,
         }));
         assert_eq!(metal.kind, MAT_CONDUCTOR);

@@ -325,18 +325,37 @@ pub enum Bsdf {
 }
 
 /// A microfacet roughness as scenes give it: perceptual, in [0, 1], along the surface's tangent (`u`)
-/// and bitangent (`v`); the GGX alpha is its square on each axis.
+/// and bitangent (`v`); the alpha is its square on each axis. `beckmann`: the microfacet normals follow
+/// Beckmann's distribution instead of GGX's (`distribution = "beckmann"`, Mitsuba's default).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Roughness {
     pub u: f32,
     pub v: f32,
+    pub beckmann: bool,
 }
 
 impl Roughness {
-    pub const SMOOTH: Roughness = Roughness { u: 0.0, v: 0.0 };
+    pub const SMOOTH: Roughness = Roughness {
+        u: 0.0,
+        v: 0.0,
+        beckmann: false,
+    };
 
     pub fn isotropic(r: f32) -> Roughness {
-        Roughness { u: r, v: r }
+        Roughness {
+            u: r,
+            v: r,
+            beckmann: false,
+        }
+    }
+
+    /// A GGX roughness with a different value along the tangent (`u`) and the bitangent (`v`).
+    pub fn anisotropic(u: f32, v: f32) -> Roughness {
+        Roughness {
+            u,
+            v,
+            beckmann: false,
+        }
     }
 
     /// The GGX alpha along the tangent and the bitangent: roughness^2.

@@ -48,23 +48,20 @@ impl Tr<'_> {
 
     /// A microfacet BSDF's roughness: vkpath's perceptual roughness r has GGX alpha = r^2, so
     /// r = sqrt(alpha). Mitsuba's default distribution is Beckmann, which vkpath does not have.
-    fn roughness(&mut self, args: &Args, obj: &Obj) -> Result<f64, SceneError> {
-        match args.string("distribution")? {
-            None => self.approximate(
-                &obj.loc,
-                "Mitsuba's default microfacet distribution is Beckmann; vkpath's is GGX".into(),
-                "Add <string name=\"distribution\" value=\"ggx\"/> to read it as GGX.",
-            )?,
-            Some(("ggx", _)) => {}
+    /// A rough BSDF's `alpha` as vkpath's roughness sqrt(alpha), and its TOML `distribution` line:
+    /// Beckmann (Mitsuba's default) or GGX.
+    fn roughness(&mut self, args: &Args, obj: &Obj) -> Result<(f64, String), SceneError> {
+        let distribution = match args.string("distribution")? {
+            None | Some(("beckmann", _)) => "beckmann",
+            Some(("ggx", _)) => "ggx",
             Some((d, l)) => {
-                let l = l.clone();
-                self.approximate(
-                    &l,
-                    format!("the microfacet distribution \"{d}\": vkpath's is GGX"),
-                    "Use distribution ggx.",
-                )?
+                return Err(l.error(
+                    format!("unknown microfacet distribution \"{d}\""),
+                    "Mitsuba 3 has \"beckmann\" (its default) and \"ggx\".",
+                ));
             }
-        }
+        };
+        let line = format!("distribution = \"{distribution}\"");
         let _ = args.boolean("sample_visible")?;
         if let Some(p) = args.prop("alpha_u").or_else(|| args.prop("alpha_v")) {
             return Err(p.loc.error(
@@ -80,7 +77,7 @@ impl Tr<'_> {
                 "Give alpha in [0, 1].",
             ));
         }
-        Ok(a.sqrt())
+        Ok((a.sqrt(), line))
     }
 
     /// A BSDF as vkpath material keys; refused when it holds itself through `<ref>`s (a cycle, which
@@ -213,7 +210,7 @@ impl Tr<'_> {
                                 lines.push(at("type = \"conductor\"".into()));
                                 lines.push(at(format!("preset = \"{p}\"")));
                             }
-                            None if rough.is_none_or(|r| r == 0.0) => {
+                            None if rough.as_ref().is_none_or(|(r, _)| *r == 0.0) => {
                                 // Reflectance 1 times specular_reflectance: vkpath's mirror and its tint.
                                 lines.push(at("type = \"mirror\"".into()));
                                 lines.push(at(format!("tint = {}", vec3(tint))));
@@ -231,8 +228,9 @@ impl Tr<'_> {
                     // specular_reflectance multiplies the Fresnel reflectance: vkpath's conductor tint.
                     lines.push(at(format!("tint = {}", vec3(tint))));
                 }
-                if let Some(r) = rough {
+                if let Some((r, distribution)) = rough {
                     lines.push(at(format!("roughness = {}", num(r))));
+                    lines.push(at(distribution));
                 }
                 let known: &[&str] = if kind == "conductor" {
                     &["material", "eta", "k", "specular_reflectance"]
@@ -264,8 +262,9 @@ impl Tr<'_> {
                 lines.push(at("type = \"dielectric\"".into()));
                 lines.push(at(format!("ior = {}", num(ior))));
                 if kind == "roughdielectric" {
-                    let r = self.roughness(&args, obj)?;
+                    let (r, distribution) = self.roughness(&args, obj)?;
                     lines.push(at(format!("roughness = {}", num(r))));
+                    lines.push(at(distribution));
                 }
                 let known: &[&str] = if kind == "dielectric" {
                     &[
@@ -312,8 +311,9 @@ impl Tr<'_> {
                 }
                 lines.push(at(format!("ior = {}", num(ior))));
                 if kind == "roughplastic" {
-                    let r = self.roughness(&args, obj)?;
+                    let (r, distribution) = self.roughness(&args, obj)?;
                     lines.push(at(format!("roughness = {}", num(r))));
+                    lines.push(at(distribution));
                     if r > 0.0 {
                         self.warnings.push(obj.loc.warning(
                             "vkpath's rough plastic is not Mitsuba's roughplastic: it keeps the smooth coat's \

@@ -100,8 +100,10 @@ impl Checker<'_> {
                     files,
                     &mut textures.roughness,
                 )?;
+                let roughness =
+                    self.distribution(&m.distribution, &key("distribution"), roughness)?;
                 (
-                    vec!["ior", "roughness", EMISSION[0], EMISSION[1]],
+                    vec!["ior", "roughness", "distribution", EMISSION[0], EMISSION[1]],
                     Bsdf::Dielectric { ior, roughness },
                 )
             }
@@ -131,18 +133,22 @@ impl Checker<'_> {
                         "k",
                         "base_color",
                         "roughness",
+                        "distribution",
                         "tint",
                         EMISSION[0],
                         EMISSION[1],
                     ],
                     Bsdf::Conductor {
                         fresnel,
-                        roughness: self.roughness(
-                            &m.roughness,
-                            &key("roughness"),
-                            files,
-                            &mut textures.roughness,
-                        )?,
+                        roughness: {
+                            let r = self.roughness(
+                                &m.roughness,
+                                &key("roughness"),
+                                files,
+                                &mut textures.roughness,
+                            )?;
+                            self.distribution(&m.distribution, &key("distribution"), r)?
+                        },
                         tint,
                     },
                 )
@@ -166,12 +172,15 @@ impl Checker<'_> {
                     files,
                     &mut textures.roughness,
                 )?;
+                let roughness =
+                    self.distribution(&m.distribution, &key("distribution"), roughness)?;
                 let nonlinear = m.nonlinear.as_ref().is_none_or(|n| *n.get_ref());
                 (
                     vec![
                         "albedo",
                         "ior",
                         "roughness",
+                        "distribution",
                         "nonlinear",
                         EMISSION[0],
                         EMISSION[1],
@@ -212,7 +221,7 @@ impl Checker<'_> {
                         files,
                         &mut textures.roughness,
                     )? {
-                        Roughness { u, v } if u == v => u,
+                        Roughness { u, v, .. } if u == v => u,
                         _ => {
                             return Err(self.error(
                                 r.span(),
@@ -269,6 +278,7 @@ impl Checker<'_> {
             ("tint", m.tint.as_ref().map(Spanned::span)),
             ("ior", m.ior.as_ref().map(Spanned::span)),
             ("nonlinear", m.nonlinear.as_ref().map(Spanned::span)),
+            ("distribution", m.distribution.as_ref().map(Spanned::span)),
             ("preset", m.preset.as_ref().map(Spanned::span)),
             ("eta", m.eta.as_ref().map(Spanned::span)),
             ("k", m.k.as_ref().map(Spanned::span)),
@@ -421,7 +431,7 @@ impl Checker<'_> {
                             files,
                             &mut textures.roughness,
                         )? {
-                            iso @ Roughness { u, v } if u == v => iso,
+                            iso @ Roughness { u, v, .. } if u == v => iso,
                             _ => {
                                 return Err(self.error(
                                     r.span(),

@@ -245,6 +245,31 @@ impl Checker<'_> {
 
     /// `roughness`: absent (smooth), one number or two, each in [0, 1], or a texture (both axes; its
     /// factor, default 1, is the constant).
+    /// A microfacet material's `distribution`: "ggx" (the default) or "beckmann", set on `roughness`.
+    pub(super) fn distribution(
+        &self,
+        raw: &Option<Spanned<String>>,
+        key: &str,
+        roughness: Roughness,
+    ) -> Result<Roughness, SceneError> {
+        let beckmann = match raw.as_ref().map(|d| (d, d.get_ref().as_str())) {
+            None | Some((_, "ggx")) => false,
+            Some((_, "beckmann")) => true,
+            Some((d, other)) => {
+                return Err(self.error(
+                    d.span(),
+                    key,
+                    format!("unknown microfacet distribution \"{other}\""),
+                    "Use \"ggx\" (the default) or \"beckmann\".",
+                ));
+            }
+        };
+        Ok(Roughness {
+            beckmann,
+            ..roughness
+        })
+    }
+
     pub(super) fn roughness(
         &self,
         raw: &Option<Spanned<RawRoughness>>,
@@ -286,7 +311,7 @@ impl Checker<'_> {
                  [u, v] gives a different roughness along the tangent and the bitangent.",
             )?;
         }
-        Ok(Roughness { u, v })
+        Ok(Roughness::anisotropic(u, v))
     }
 }
 

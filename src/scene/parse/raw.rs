@@ -96,6 +96,8 @@ pub(super) struct RawMaterial {
     /// `plastic`: whether the base's internal reflections are tinted by its albedo (Mitsuba's
     /// `nonlinear`).
     pub(super) nonlinear: Option<Spanned<bool>>,
+    /// The microfacet materials: "ggx" (default) or "beckmann".
+    pub(super) distribution: Option<Spanned<String>>,
     /// `conductor`: a named metal, or its complex index of refraction, or a base colour (Schlick).
     pub(super) preset: Option<Spanned<String>>,
     pub(super) eta: Option<Spanned<RawVec3>>,
