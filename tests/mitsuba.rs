@@ -361,6 +361,45 @@ fn spot_emitters_become_spot_lights() {
     }
 }
 
+/// Mitsuba's `direct` integrator is path tracing with max_depth 2 (the same expectation): the scene gets
+/// max_bounces 1 and renders the same bits as the file with `<integrator type="path">` at max_depth 2;
+/// its per-point sample counts are read past with a warning, hide_emitters is refused.
+#[test]
+fn the_direct_integrator_is_path_tracing_at_max_depth_two() {
+    let body = |integrator: &str| {
+        format!(
+            r#"{integrator}
+            <shape type="sphere"><bsdf type="diffuse"/></shape>
+            <emitter type="point"><point name="position" value="0, 3, 3"/><rgb name="intensity" value="5"/></emitter>"#
+        )
+    };
+    let direct = load(&body(
+        r#"<integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>"#,
+    ));
+    let path = load(&body(
+        r#"<integrator type="path"><integer name="max_depth" value="2"/></integrator>"#,
+    ));
+    assert_eq!(direct.render.max_bounces, 1);
+    assert!(
+        direct
+            .warnings
+            .iter()
+            .any(|w| w.contains("emitter_samples")),
+        "{:?}",
+        direct.warnings
+    );
+    let render = |s: &Scene| common::render_passes(s, &Default::default(), 1, 4).mean;
+    assert_eq!(render(&direct), render(&path));
+    let dir = tempfile::tempdir().unwrap();
+    let e = error_in(
+        dir.path(),
+        &body(
+            r#"<integrator type="direct"><boolean name="hide_emitters" value="true"/></integrator>"#,
+        ),
+    );
+    assert!(e.contains("hide_emitters"), "{e}");
+}
+
 #[test]
 fn bsdfs_and_emitters_map_to_materials_and_lights() {
     let dir = tempfile::tempdir().unwrap();

@@ -205,6 +205,9 @@ impl Tr<'_> {
     }
 
     fn integrator(&mut self, obj: &Obj) -> Result<(i64, String), SceneError> {
+        if obj.kind == "direct" {
+            return self.direct_integrator(obj);
+        }
         if obj.kind != "path" {
             let problem = format!(
                 "vkpath is a path tracer: it does not read Mitsuba's integrator \"{}\"",
@@ -245,5 +248,43 @@ impl Tr<'_> {
                 "max_depth counts path segments: 1 shows the emitters only, 2 is direct light.",
             )),
         }
+    }
+
+    /// Mitsuba's `direct` integrator: the emitters seen directly plus direct illumination, by emitter
+    /// and BSDF samples weighted by multiple importance sampling. Its expectation is the path tracer's
+    /// at max_depth 2 (one scattering event, the light sampled and the BSDF sampled towards emitters,
+    /// MIS-weighted), which is what vkpath renders (max_bounces 1). Its sample counts per shading point
+    /// (emitter_samples, bsdf_samples, shading_samples) change only the noise: read past with a warning.
+    fn direct_integrator(&mut self, obj: &Obj) -> Result<(i64, String), SceneError> {
+        let args = Args::new(obj);
+        if let Some((true, loc)) = args.boolean("hide_emitters")? {
+            return Err(loc.error(
+                "hide_emitters = true: vkpath always shows the emitters the camera sees",
+                "Remove hide_emitters (or set it to false).",
+            ));
+        }
+        for name in ["emitter_samples", "bsdf_samples", "shading_samples"] {
+            if let Some((n, loc)) = args.int(name)?
+                && n != 1
+            {
+                self.warnings.push(loc.warning(format!(
+                    "{name} = {n} is not used: vkpath takes one light and one BSDF sample per path \
+                     (the same image in expectation; raise the samples per pixel instead)"
+                )));
+            }
+        }
+        self.finish(
+            &args,
+            &[
+                "hide_emitters",
+                "emitter_samples",
+                "bsdf_samples",
+                "shading_samples",
+            ],
+        )?;
+        Ok((
+            1,
+            "Mitsuba's direct integrator: path tracing with max_depth 2".into(),
+        ))
     }
 }
