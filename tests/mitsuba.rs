@@ -400,6 +400,43 @@ fn the_direct_integrator_is_path_tracing_at_max_depth_two() {
     assert!(e.contains("hide_emitters"), "{e}");
 }
 
+/// `<path value="...">` adds a folder to the file resolver, relative to the file naming it: a mesh and an
+/// include found there; a folder that does not exist is an error naming the element's line.
+#[test]
+fn path_elements_add_folders_to_search() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("assets/deeper")).unwrap();
+    write(
+        &dir.path().join("assets"),
+        "tri.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    write(
+        &dir.path().join("assets/deeper"),
+        "light.xml",
+        r#"<scene version="3.0.0"><emitter type="point"><point name="position" value="0, 2, 2"/></emitter></scene>"#,
+    );
+    let s = load_in(
+        dir.path(),
+        r#"<path value="assets"/><path value="assets/deeper"/>
+        <include filename="light.xml"/>
+        <shape type="obj"><string name="filename" value="tri.obj"/></shape>"#,
+    );
+    assert_eq!((s.meshes.len(), s.lights.len()), (1, 1));
+    assert!(
+        s.meshes[0].obj.ends_with("assets/tri.obj"),
+        "{:?}",
+        s.meshes[0].obj
+    );
+    let body = r#"<path value="nowhere"/>"#;
+    let message = error_in(dir.path(), body);
+    assert!(message.contains("nowhere"), "{message}");
+    assert!(
+        message.contains(&format!("line {}", line_of(body, "nowhere"))),
+        "{message}"
+    );
+}
+
 #[test]
 fn bsdfs_and_emitters_map_to_materials_and_lights() {
     let dir = tempfile::tempdir().unwrap();

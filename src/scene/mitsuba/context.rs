@@ -26,7 +26,8 @@ pub(super) struct Tr<'p> {
     pub(super) ids: &'p HashMap<String, Rc<Obj>>,
     pub(super) lenient: bool,
     pub(super) warnings: Vec<String>,
-    pub(super) main_dir: PathBuf,
+    /// Where files are found after beside the file naming them (`Parser::search_dirs`).
+    pub(super) search_dirs: Vec<PathBuf>,
     pub(super) refer_dir: PathBuf,
     /// Material name by (BSDF object, emitted radiance): shapes that share both share the material.
     pub(super) materials: HashMap<(usize, [u64; 3]), (String, Option<Bitmap>)>,
@@ -43,19 +44,19 @@ pub(super) struct Tr<'p> {
 impl<'p> Tr<'p> {
     /// A translator of the objects `ids` names (and of those they hold), its warnings so far `warnings`
     /// (the reader's); files are found as Mitsuba's resolver finds them (beside the naming file, else in
-    /// `main_dir`) and written relative to `refer_dir`.
+    /// `search_dirs`: the `<path>` folders, then the main file's) and written relative to `refer_dir`.
     pub(super) fn new(
         ids: &'p HashMap<String, Rc<Obj>>,
         lenient: bool,
         warnings: Vec<String>,
-        main_dir: PathBuf,
+        search_dirs: Vec<PathBuf>,
         refer_dir: PathBuf,
     ) -> Tr<'p> {
         Tr {
             ids,
             lenient,
             warnings,
-            main_dir,
+            search_dirs,
             refer_dir,
             materials: HashMap::new(),
             material_names: Vec::new(),
@@ -153,7 +154,7 @@ impl<'p> Tr<'p> {
     }
 
     pub(super) fn file(&self, name: &str, loc: &Loc) -> PathBuf {
-        resolve(name, &loc.file, &self.main_dir).unwrap_or_else(|| {
+        resolve(name, &loc.file, &self.search_dirs).unwrap_or_else(|| {
             let p = Path::new(name);
             if p.is_absolute() {
                 p.to_path_buf()

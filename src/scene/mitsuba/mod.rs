@@ -61,11 +61,12 @@ pub fn to_toml(
     let scene = parser.main_file(path)?;
     let refer_dir = toml_dir.map(absolute).unwrap_or_else(|| main_dir.clone());
     let warnings = std::mem::take(&mut parser.warnings);
+    let search_dirs = parser.search_dirs();
     let mut tr = Tr::new(
         &parser.ids,
         options.xml_lenient,
         warnings,
-        main_dir,
+        search_dirs,
         refer_dir,
     );
     let toml = tr.toml(&scene, path, options.camera)?;

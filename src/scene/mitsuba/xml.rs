@@ -46,6 +46,9 @@ pub(super) struct Parser {
     /// The files being read, outermost first (canonical paths), to find include cycles.
     chain: Vec<PathBuf>,
     main_dir: PathBuf,
+    /// The folders `<path>` elements added, in the order read (searched newest first, before the main
+    /// file's folder).
+    paths: Vec<PathBuf>,
     /// How many elements deep the walk is (across includes), against [`MAX_XML_DEPTH`].
     depth: usize,
 }
@@ -188,6 +191,17 @@ fn snake_case(name: &str) -> String {
 }
 
 impl Parser {
+    /// Where files are looked for after beside the naming file: the `<path>` folders, newest first, then
+    /// the main file's folder (Mitsuba's file resolver, which `<path>` prepends to).
+    pub(super) fn search_dirs(&self) -> Vec<PathBuf> {
+        self.paths
+            .iter()
+            .rev()
+            .cloned()
+            .chain(std::iter::once(self.main_dir.clone()))
+            .collect()
+    }
+
     /// A parser for a scene whose main file is in `main_dir` (absolute).
     pub(super) fn new(lenient: bool, main_dir: PathBuf, defines: &[(String, String)]) -> Parser {
         let mut params: Vec<(String, String)> = Vec::new();
@@ -204,6 +218,7 @@ impl Parser {
             ids: HashMap::new(),
             chain: Vec::new(),
             main_dir,
+            paths: Vec::new(),
             depth: 0,
         }
     }
@@ -579,7 +594,26 @@ impl Parser {
                 });
                 Ok(())
             }
-            "alias" | "path" => self.unknown(loc, format!("<{tag}> is not read by vkpath")),
+            "path" => {
+                // Mitsuba's file resolver gains a folder: relative to the file that names it.
+                let a = self.attrs(src, node, &["value"], &["value"])?;
+                let value = a.get("value").unwrap_or("");
+                let p = Path::new(value);
+                let dir = if p.is_absolute() {
+                    p.to_path_buf()
+                } else {
+                    absolute(&absolute(&src.file).parent().unwrap_or(Path::new("")).join(p))
+                };
+                if !dir.is_dir() {
+                    return Err(loc.error(
+                        format!("the <path> folder \"{value}\" does not exist ({})", dir.display()),
+                        "A <path> adds a folder to search for files; it is relative to the file that names it.",
+                    ));
+                }
+                self.paths.push(dir);
+                Ok(())
+            }
+            "alias" => self.unknown(loc, format!("<{tag}> is not read by vkpath")),
             other => self.unknown(loc, format!("<{other}> is not a Mitsuba 3 element vkpath reads")),
         }
     }
@@ -596,12 +630,12 @@ impl Parser {
     ) -> Result<(), SceneError> {
         let a = self.attrs(src, node, &["filename"], &["filename"])?;
         let name = a.get("filename").unwrap_or("");
-        let Some(target) = resolve(name, &src.file, &self.main_dir) else {
+        let Some(target) = resolve(name, &src.file, &self.search_dirs()) else {
             return Err(loc.error(
                 format!(
                     "the included file \"{name}\" was not found (looked beside {} and in {})",
                     src.file.display(),
-                    self.main_dir.display()
+                    listed_dirs(&self.search_dirs())
                 ),
                 "Check the include's filename: it is relative to the including file.",
             ));
@@ -851,9 +885,10 @@ fn xyz(a: &Attrs, default: f64) -> Result<DVec3, String> {
     Ok(DVec3::from_array(out))
 }
 
-/// A file named in `file`: absolute as given, else beside `file`, else in the main file's folder (the
-/// first that exists). None when none exists.
-pub(super) fn resolve(name: &str, file: &Path, main_dir: &Path) -> Option<PathBuf> {
+/// A file named in `file`: absolute as given, else beside `file`, else in the first of `dirs` (the
+/// `<path>` folders, newest first, then the main file's folder: Parser::search_dirs) where it exists.
+/// None when none has it.
+pub(super) fn resolve(name: &str, file: &Path, dirs: &[PathBuf]) -> Option<PathBuf> {
     let p = Path::new(name);
     if name.is_empty() {
         return None;
@@ -862,11 +897,21 @@ pub(super) fn resolve(name: &str, file: &Path, main_dir: &Path) -> Option<PathBu
         return p.exists().then(|| p.to_path_buf());
     }
     let beside = absolute(file).parent().map(|d| d.join(p));
-    [beside, Some(main_dir.join(p))]
-        .into_iter()
+    std::iter::once(beside)
+        .chain(dirs.iter().map(|d| Some(d.join(p))))
         .flatten()
         .map(|c| absolute(&c))
         .find(|c| c.exists())
+}
+
+/// Folders for a message: "a, b and c".
+fn listed_dirs(dirs: &[PathBuf]) -> String {
+    let shown: Vec<String> = dirs.iter().map(|d| d.display().to_string()).collect();
+    match shown.split_last() {
+        Some((last, rest)) if !rest.is_empty() => format!("{} and {last}", rest.join(", ")),
+        Some((last, _)) => last.clone(),
+        None => String::new(),
+    }
 }
 
 #[cfg(test)]
