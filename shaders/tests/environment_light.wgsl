@@ -29,7 +29,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let c = input[i];
     let light = Light(vec3<f32>(c.l0.x, c.l0.y, 0.0), 0.0, c.l1.xyz, LIGHT_ENVIRONMENT, 0u, u32(c.l0.z),
-                      u32(c.l0.w), 0u);
+                      u32(c.l0.w), 0u, vec3<f32>(0.0, 0.0, 1.0), 0.0, vec4<f32>(0.0));
     var rng = rng_new(i, 0u, u32(c.l1.w));
     let ls = environment_sample(light, u32(c.q.w), rng_next2(&rng));
     var o: Out;

@@ -30,7 +30,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let c = input[i];
-    let light = Light(c.l0.xyz, c.l0.w, c.l1.xyz, u32(c.l1.w), 0u, 0u, 0u, 0u);
+    let light = Light(c.l0.xyz, c.l0.w, c.l1.xyz, u32(c.l1.w), 0u, 0u, 0u, 0u, vec3<f32>(0.0, 0.0, 1.0), 0.0,
+                      vec4<f32>(0.0));
     let strategy = u32(c.p.w);
     var rng = rng_new(i, 0u, u32(c.q.w));
     let ls = light_sample_li(light, c.p.xyz, strategy, &rng);
