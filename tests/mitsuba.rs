@@ -437,6 +437,70 @@ fn path_elements_add_folders_to_search() {
     );
 }
 
+/// Mitsuba's thindielectric is vkpath's thin_dielectric (int_ior over ext_ior, air by default); a tint
+/// is refused.
+#[test]
+fn mitsuba_0_5_films_keep_their_banner_and_edge_parameters() {
+    // Bitterli's living room (a Mitsuba 0.5 export) gives its film banner and high_quality_edges; Mitsuba
+    // 0.6 read both, Mitsuba 3 refuses them. vkpath reads them in files whose version is below 2.0.
+    let film = |version: &str, banner: &str| {
+        format!(
+            r#"<?xml version="1.0"?>
+<scene version="{version}">
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <film type="hdrfilm">
+            <integer name="width" value="40"/><integer name="height" value="20"/>
+            <boolean name="banner" value="{banner}"/>
+            <boolean name="highQualityEdges" value="true"/>
+            <boolean name="attachLog" value="false"/>
+        </film>
+    </sensor>
+    <shape type="sphere"><bsdf type="diffuse"/></shape>
+</scene>
+"#
+        )
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let old = write(dir.path(), "old.xml", &film("0.5.0", "false"));
+    let s = Scene::load(&old).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!((s.image.width, s.image.height), (40, 20));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let logo = write(dir.path(), "logo.xml", &film("0.5.0", "true"));
+    let s = Scene::load(&logo).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("line 7") && w.contains("banner = true")),
+        "{:?}",
+        s.warnings
+    );
+    // A Mitsuba 3 file: refused as Mitsuba 3 refuses it, naming the parameter and its line.
+    let new = write(dir.path(), "new.xml", &film("3.0.0", "false"));
+    let Err(e) = Scene::load(&new) else {
+        panic!("a Mitsuba 3 film with banner loaded")
+    };
+    let e = e.to_string();
+    assert!(e.contains("line 7") && e.contains("\"banner\""), "{e}");
+}
+
+#[test]
+fn thindielectric_is_a_thin_pane() {
+    let s = load(
+        r#"<shape type="sphere"><bsdf type="thindielectric"><float name="int_ior" value="1.6"/></bsdf></shape>"#,
+    );
+    match s.materials[s.spheres[0].material as usize].bsdf {
+        Bsdf::ThinDielectric { ior } => assert!((ior - 1.6 / 1.000277).abs() < 1e-5, "{ior}"),
+        ref other => panic!("{other:?}"),
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let e = error_in(
+        dir.path(),
+        r#"<shape type="sphere"><bsdf type="thindielectric"><rgb name="specular_transmittance" value="0.5"/></bsdf></shape>"#,
+    );
+    assert!(e.contains("specular_transmittance"), "{e}");
+}
+
 #[test]
 fn bsdfs_and_emitters_map_to_materials_and_lights() {
     let dir = tempfile::tempdir().unwrap();

@@ -480,6 +480,47 @@ fn grey_plastic_linear_and_nonlinear_albedos() {
     }
 }
 
+/// A thin pane (Mitsuba's thindielectric): every sample reflects about ns or passes straight through
+/// (wi = -wo exactly), with weight 1, and the fraction reflected is 2R / (1 + R), R the f64 Fresnel
+/// reflectance at cos_o (the internal reflections summed), within 5 standard errors.
+#[test]
+fn thin_dielectric_reflects_two_r_over_one_plus_r_and_passes_straight_through() {
+    use vkpath::kernel::abi::{BSDF_REFLECTION, BSDF_TRANSMISSION};
+    const N: usize = 1 << 18;
+    for (k, cos_o) in [1.0f64, 0.5, 0.1].into_iter().enumerate() {
+        let setup = Setup::new(material(Bsdf::ThinDielectric { ior: 1.5 }), cos_o);
+        let r = fresnel_dielectric(cos_o, 1.5);
+        let want = 2.0 * r / (1.0 + r);
+        let mirror = setup.mirror();
+        let mut reflected = 0usize;
+        for o in setup.samples(900 + k as u32, N) {
+            let flags = o.w[3] as u32;
+            assert_eq!(&o.w[..3], &[1.0, 1.0, 1.0], "cos_o {cos_o}: weight");
+            let wi = [o.s[0] as f64, o.s[1] as f64, o.s[2] as f64];
+            if flags & BSDF_REFLECTION != 0 {
+                reflected += 1;
+                assert!(
+                    (0..3).all(|i| (wi[i] - mirror[i]).abs() < 1e-5),
+                    "{wi:?} vs {mirror:?}"
+                );
+            } else {
+                assert!(flags & BSDF_TRANSMISSION != 0, "flags {flags}");
+                assert!(
+                    (0..3).all(|i| (wi[i] + setup.wo[i]).abs() < 1e-6),
+                    "{wi:?} vs -{:?}",
+                    setup.wo
+                );
+            }
+        }
+        let got = reflected as f64 / N as f64;
+        let se = (want * (1.0 - want) / N as f64).sqrt();
+        assert!(
+            (got - want).abs() <= 5.0 * se + 1e-6,
+            "cos_o {cos_o}: reflected {got} vs {want} (se {se})"
+        );
+    }
+}
+
 /// A rough dielectric of ior 1 has no interface: every sample passes straight through (wi = -wo) with
 /// weight 1, whatever the roughness, in both directions. (The host uploads it as the smooth dielectric;
 /// the shader's rough kind, given it directly, must do the same.)

@@ -188,6 +188,7 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             set_alpha(&mut g, Roughness::isotropic(roughness));
         }
         Bsdf::Black => g.kind = MAT_EMITTER,
+        Bsdf::ThinDielectric { ior } => (g.kind, g.ior) = (MAT_THIN_DIELECTRIC, ior),
         Bsdf::Registered {
             kind,
             albedo,

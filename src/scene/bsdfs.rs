@@ -136,6 +136,13 @@ pub const BSDFS: &[BsdfKind] = &[
             ],
         },
     },
+    BsdfKind {
+        // A thin pane of glass: reflection and straight transmission (Mitsuba's `thindielectric`).
+        name: "thin_dielectric",
+        source: include_str!("../../shaders/bsdfs/thin_dielectric.wgsl"),
+        feature: "thin_dielectric",
+        keys: Keys::Builtin,
+    },
 ];
 
 /// Files the kinds' files require that are not kinds themselves (shared code).

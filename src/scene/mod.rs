@@ -297,6 +297,11 @@ pub enum Bsdf {
         roughness: Roughness,
         tint: Vec3,
     },
+    /// A thin pane of a dielectric of index `ior` (shaders/bsdfs/thin_dielectric.wgsl): light reflects
+    /// (with the internal reflections summed) or passes straight through.
+    ThinDielectric {
+        ior: f32,
+    },
     /// A diffuse base of `albedo` under a dielectric coat of index `ior` (shaders/bsdfs/plastic.wgsl);
     /// `nonlinear`: the light reflected back and forth between base and coat is tinted by the albedo at
     /// each bounce (Mitsuba's `nonlinear = true`; false is Mitsuba's default, linear in the albedo).

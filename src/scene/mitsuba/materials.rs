@@ -247,6 +247,31 @@ impl Tr<'_> {
                 };
                 self.finish(&args, known)?;
             }
+            "thindielectric" => {
+                // A thin pane: the same model as Mitsuba's (reflection with the internal reflections
+                // summed, 2R / (1 + R), and straight transmission).
+                let ior = self.ior(&args, "int_ior", "bk7")? / self.ior(&args, "ext_ior", "air")?;
+                for name in ["specular_reflectance", "specular_transmittance"] {
+                    if self.color(&args, name, DVec3::ONE)? != DVec3::ONE {
+                        let p = args.prop(name).map_or(&obj.loc, |p| &p.loc);
+                        return Err(p.error(
+                            format!("{name} other than 1: vkpath's dielectrics have no tint"),
+                            "Remove it.",
+                        ));
+                    }
+                }
+                lines.push(at("type = \"thin_dielectric\"".into()));
+                lines.push(at(format!("ior = {}", num(ior))));
+                self.finish(
+                    &args,
+                    &[
+                        "int_ior",
+                        "ext_ior",
+                        "specular_reflectance",
+                        "specular_transmittance",
+                    ],
+                )?;
+            }
             "dielectric" | "roughdielectric" => {
                 // vkpath's ior is the interior's over the exterior's (the outside medium has ior 1).
                 let ior = self.ior(&args, "int_ior", "bk7")? / self.ior(&args, "ext_ior", "air")?;
@@ -346,7 +371,7 @@ impl Tr<'_> {
             _ => {
                 self.unsupported(
                     obj,
-                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, plastic, roughplastic and twosided",
+                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic and twosided",
                 )?;
                 return Ok(None);
             }

@@ -110,6 +110,9 @@ pub(super) struct Obj {
     pub(super) kind: String,
     pub(super) loc: Loc,
     pub(super) props: Vec<Prop>,
+    /// Written for Mitsuba below 2.0 (its file's `version`): the parameters Mitsuba 0.5/0.6 accepted
+    /// and Mitsuba 3 dropped (a film's `banner`) are read too.
+    pub(super) legacy: bool,
 }
 
 /// Names quoted and listed for a message: `"a", "b" and "c"` (`none` for no name).

@@ -325,6 +325,20 @@ impl Tr<'_> {
             let _ = args.string(name)?;
         }
         let _ = args.boolean("sample_border")?;
+        // Mitsuba 0.5/0.6's film parameters, read in files written for them (Mitsuba 3 refuses them):
+        // high_quality_edges is Mitsuba 3's sample_border (samples beyond the edge splat into the border
+        // pixels; vkpath samples each pixel's filter whole, so its edges are as good either way);
+        // attach_log stored the render log in the EXR; banner drew Mitsuba's logo into the image, which
+        // vkpath does not (a warning when asked for).
+        if obj.legacy {
+            let _ = args.boolean("high_quality_edges")?;
+            let _ = args.boolean("attach_log")?;
+            if let Some((true, loc)) = args.boolean("banner")? {
+                self.warnings.push(loc.warning(
+                    "banner = true: vkpath does not draw Mitsuba 0.5's logo into the image; rendered without it",
+                ));
+            }
+        }
         let rfilter = args.object("rfilter", self.ids)?;
         let filter = match rfilter {
             None => ("gaussian", Some(0.5)),
@@ -368,7 +382,11 @@ impl Tr<'_> {
                 "pixel_format",
                 "component_format",
                 "sample_border",
-            ],
+                // Mitsuba 0.x files only:
+                "banner",
+                "high_quality_edges",
+                "attach_log",
+            ][..if obj.legacy { 10 } else { 7 }],
         )?;
         Ok(FilmOut {
             width,

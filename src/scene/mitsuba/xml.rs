@@ -348,6 +348,7 @@ impl Parser {
             kind: "scene".into(),
             loc,
             props,
+            legacy: src.upgrade,
         })
     }
 
@@ -572,6 +573,7 @@ impl Parser {
                     kind: a.get("type").unwrap_or("").to_string(),
                     loc: loc.clone(),
                     props,
+                    legacy: src.upgrade,
                 });
                 if let Some(id) = a.get("id") {
                     if let Some(prev) = self.ids.get(id) {

@@ -248,6 +248,16 @@ impl Checker<'_> {
                 )
             }
             "emitter" => (vec!["radiance", "two_sided"], Bsdf::Black),
+            "thin_dielectric" => {
+                let ior = match &m.ior {
+                    Some(ior) => self.ior(ior, &key("ior"))?,
+                    None => 1.5,
+                };
+                (
+                    vec!["ior", EMISSION[0], EMISSION[1]],
+                    Bsdf::ThinDielectric { ior },
+                )
+            }
             other if bsdfs::by_toml_type(other).is_some() => {
                 let (kind, row) = bsdfs::by_toml_type(other).expect("matched");
                 self.registered_material(kind, row, name, raw, files, &mut textures)?
@@ -266,6 +276,7 @@ impl Checker<'_> {
                     format!("unknown material type \"{other}\""),
                     format!(
                         "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior), \
+                         \"thin_dielectric\" (optional ior), \
                          \"conductor\" (with preset, eta and k, or base_color), \"plastic\" (with albedo), \
                          \"metallic_roughness\", \"emitter\" (with radiance), or {} (see docs/scene-format.md).",
                         registered.join(", ")
