@@ -879,6 +879,47 @@ fn a_top_level_area_emitter_with_an_id_emits_through_the_shapes_that_refer_to_it
     );
 }
 
+/// Spectra given by wavelengths (Mitsuba's cbox.xml) become the RGB colours Mitsuba's RGB variants load:
+/// a reflectance weighted by D65 and clamped to [0, 1] (a flat one is grey), an emitter's radiance
+/// unweighted and unclamped above (a flat one keeps its luminance, sRGB's Y row).
+#[test]
+fn spectra_given_by_wavelengths_become_mitsubas_rgb() {
+    let s = load(
+        r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="360:0.5, 830:0.5"/></bsdf></shape>
+           <shape type="sphere"><point name="center" x="3" y="0" z="0"/>
+               <bsdf type="diffuse"><spectrum name="reflectance" value="400:3, 700:3"/></bsdf>
+               <emitter type="area"><spectrum name="radiance" value="360:4, 830:4"/></emitter></shape>"#,
+    );
+    let albedo = |i: usize| match s.materials[s.spheres[i].material as usize].bsdf {
+        Bsdf::Diffuse { albedo } => albedo,
+        ref other => panic!("{other:?}"),
+    };
+    let grey = albedo(0);
+    assert!(
+        (grey.max_element() - grey.min_element()) < 2e-3 && (grey.x - 0.5).abs() < 2e-3,
+        "{grey}"
+    );
+    assert_eq!(albedo(1), Vec3::ONE, "a reflectance of 3 clamps to 1");
+    let e = s.materials[s.spheres[1].material as usize]
+        .emission
+        .expect("emits")
+        .radiance;
+    let y = 0.212671 * e.x + 0.715160 * e.y + 0.072169 * e.z;
+    assert!((y - 4.0).abs() < 1e-4, "{e}: luminance {y}");
+    let dir = tempfile::tempdir().unwrap();
+    for bad in ["400:0.5", "500:0.5, 400:0.6", "400:0.5, 500:x"] {
+        let body = format!(
+            r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="{bad}"/></bsdf></shape>"#
+        );
+        let e = error_in(dir.path(), &body);
+        assert!(
+            e.contains("wavelength:value pairs")
+                && e.contains(&format!("line {}", line_of(&body, "<spectrum"))),
+            "{e}"
+        );
+    }
+}
+
 /// Every refusal: the file, the line, the element and what vkpath reads instead.
 #[test]
 fn errors_name_the_file_the_line_and_the_element() {

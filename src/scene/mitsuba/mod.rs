@@ -34,6 +34,7 @@ mod materials;
 mod objects;
 mod sensor;
 mod shapes;
+mod spectra;
 mod toml_out;
 mod translate;
 mod xml;

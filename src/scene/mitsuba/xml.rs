@@ -6,6 +6,7 @@
 //! that is the translation's.
 
 use super::objects::{Loc, Obj, Prop, SEE_DOCS, Value, Xf, listed};
+use super::spectra::spectrum_to_rgb;
 use crate::scene::toml_text::absolute;
 use crate::scene::{SceneError, read_scene_text};
 use glam::{DMat3, DMat4, DVec3};
@@ -516,18 +517,36 @@ impl Parser {
             }
             "spectrum" if node.attribute("type").is_none() => {
                 let a = self.attrs(src, node, &["name", "value", "filename"], &["name"])?;
-                let problem = "vkpath reads a uniform <spectrum value=\"x\"> (one number) only: it renders in RGB";
-                let hint = "Give the colour as <rgb name=\"...\" value=\"r, g, b\"/> instead.";
+                let name = a.get("name").unwrap_or("").to_string();
                 if a.get("filename").is_some() {
-                    return Err(loc.error(problem, hint));
+                    return Err(loc.error(
+                        "a spectrum from a file: vkpath reads spectra written in the element only",
+                        "Give value=\"400:0.5, 500:0.6, ...\" (wavelength:value pairs) or <rgb>.",
+                    ));
                 }
                 let v = a.get("value").unwrap_or("");
-                let Some(x) = parse_float(v) else {
-                    return Err(loc.error(format!("{problem}, not value=\"{v}\""), hint));
+                if let Some(x) = parse_float(v) {
+                    out.push(Prop {
+                        name,
+                        value: Value::Spectrum(x),
+                        loc,
+                    });
+                    return Ok(());
+                }
+                // Wavelength:value pairs, as the colour Mitsuba's RGB variants make of them (spectra.rs):
+                // bounded (a reflectance) unless inside an emitter or an index of refraction.
+                let Some(samples) = spectrum_samples(v) else {
+                    return Err(loc.error(
+                        format!("value=\"{v}\" is neither one number nor wavelength:value pairs in increasing wavelength (nm), two at least"),
+                        "Write value=\"0.5\" or value=\"400:0.343, 404:0.445, ...\".",
+                    ));
                 };
+                let in_emitter =
+                    node.parent_element().map(|p| p.tag_name().name()) == Some("emitter");
+                let unbounded = in_emitter || ["eta", "k", "int_ior", "ext_ior"].contains(&name.as_str());
                 out.push(Prop {
-                    name: a.get("name").unwrap_or("").to_string(),
-                    value: Value::Spectrum(x),
+                    name,
+                    value: Value::Rgb(spectrum_to_rgb(&samples, !unbounded)),
                     loc,
                 });
                 Ok(())
@@ -554,7 +573,7 @@ impl Parser {
                 if t == "spectrum" {
                     return self.unknown(
                         loc,
-                        "a <spectrum type=...> plugin: vkpath renders in RGB and reads uniform spectra only".into(),
+                        "a <spectrum type=...> plugin: vkpath renders in RGB and reads uniform spectra and wavelength:value lists only".into(),
                     );
                 }
                 let a = self.attrs(src, node, &["type", "id", "name"], &["type"])?;
@@ -856,6 +875,21 @@ fn look_at(origin: DVec3, target: DVec3, up: Option<DVec3>) -> Option<DMat4> {
 /// A finite number as Mitsuba's parser reads one.
 pub(super) fn parse_float(s: &str) -> Option<f64> {
     s.trim().parse::<f64>().ok().filter(|x| x.is_finite())
+}
+
+/// A spectrum's `value` as (wavelength, value) pairs: `l:v` separated by commas or spaces, in
+/// increasing wavelength, two at least; None otherwise.
+fn spectrum_samples(s: &str) -> Option<Vec<(f64, f64)>> {
+    let pairs: Option<Vec<(f64, f64)>> = s
+        .split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|t| !t.is_empty())
+        .map(|t| {
+            let (l, v) = t.split_once(':')?;
+            Some((parse_float(l)?, parse_float(v)?))
+        })
+        .collect();
+    let pairs = pairs?;
+    (pairs.len() >= 2 && pairs.windows(2).all(|w| w[0].0 < w[1].0)).then_some(pairs)
 }
 
 /// Numbers separated by commas and/or white space (Mitsuba's tokenizer); None if one is not a number.
