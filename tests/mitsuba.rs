@@ -12,6 +12,7 @@ use std::path::Path;
 use vkpath::Scene;
 use vkpath::scene::NO_BOUNCE_LIMIT;
 use vkpath::scene::mitsuba;
+use vkpath::scene::texture::{Channel, TextureFilter, Wrap};
 use vkpath::scene::translated::ImportOptions;
 use vkpath::scene::{Bsdf, ConductorFresnel, Filter, Light, Projection, Roughness, Sampler};
 
@@ -602,7 +603,12 @@ fn bsdfs_and_emitters_map_to_materials_and_lights() {
     // The mesh: placed by scale 2, rotation -90 about x, translation; flat; textured.
     let m = &s.meshes[0];
     assert!(m.normals.is_empty(), "face_normals: flat");
-    assert!(m.texture.is_some());
+    let tex = s.materials[m.material as usize]
+        .textures
+        .albedo
+        .as_ref()
+        .expect("the reflectance bitmap is the material's albedo texture");
+    assert!(tex.srgb && tex.channel == Channel::Rgb);
     let mut ys: Vec<f32> = m.positions.iter().map(|p| p.y).collect();
     ys.dedup_by(|a, b| (*a - *b).abs() < 1e-5);
     assert_eq!(ys.len(), 1);
@@ -646,6 +652,80 @@ fn bsdfs_and_emitters_map_to_materials_and_lights() {
     let s =
         load(r#"<emitter type="constant"><rgb name="radiance" value="0.5, 0.6, 0.7"/></emitter>"#);
     assert_eq!(s.environment.radiance, Vec3::new(0.5, 0.6, 0.7));
+}
+
+/// Mitsuba's mask is vkpath's stochastic opacity (no cut-off) on the nested BSDF; a bitmap opacity is
+/// read as Mitsuba's eval_1 reads it, the luminance of the sRGB-decoded colour (an image's alpha is not
+/// read). Bitmap keys: filter_type nearest, wrap_mode clamp/mirror and raw become filter, wrap and the
+/// colour space. Textures on a shape without uvs are refused.
+#[test]
+fn masks_and_bitmaps_become_opacity_and_texture_references() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 100, 50, 0]))
+        .save(dir.path().join("leaf.png"))
+        .unwrap();
+    write(
+        dir.path(),
+        "quad.obj",
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n",
+    );
+    let s = load_in(
+        dir.path(),
+        r#"
+        <shape type="sphere"><bsdf type="mask"><float name="opacity" value="0.25"/>
+            <bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.8"/></bsdf></bsdf></bsdf></shape>
+        <shape type="obj"><string name="filename" value="quad.obj"/>
+            <bsdf type="mask"><texture name="opacity" type="bitmap"><string name="filename" value="leaf.png"/></texture>
+                <bsdf type="diffuse"><texture name="reflectance" type="bitmap"><string name="filename" value="leaf.png"/>
+                    <string name="filter_type" value="nearest"/><string name="wrap_mode" value="clamp"/>
+                    <boolean name="raw" value="true"/></texture></bsdf></bsdf></shape>"#,
+    );
+    let sphere = &s.materials[s.spheres[0].material as usize];
+    assert_eq!(
+        sphere.bsdf,
+        Bsdf::Diffuse {
+            albedo: Vec3::splat(0.8)
+        }
+    );
+    assert_eq!(sphere.textures.opacity_value, 0.25);
+    assert_eq!(
+        sphere.textures.alpha_cutoff, None,
+        "stochastic, as Mitsuba's mask"
+    );
+    let quad = &s.materials[s.meshes[0].material as usize].textures;
+    let opacity = quad.opacity.as_ref().expect("a textured opacity");
+    assert!(opacity.srgb && opacity.channel == Channel::Luminance);
+    assert_eq!(quad.alpha_cutoff, None);
+    let albedo = quad.albedo.as_ref().expect("a textured reflectance");
+    assert!(!albedo.srgb, "raw: linear");
+    assert_eq!(
+        (albedo.filter, albedo.wrap),
+        (TextureFilter::Nearest, Wrap::Clamp)
+    );
+    // A textured mask on a sphere (no uvs), a mask in a mask, an unknown wrap mode: refused.
+    for (body, needle, want) in [
+        (
+            r#"<shape type="sphere"><bsdf type="mask"><texture name="opacity" type="bitmap"><string name="filename" value="leaf.png"/></texture><bsdf type="diffuse"/></bsdf></shape>"#,
+            "<shape",
+            "textures meshes",
+        ),
+        (
+            r#"<shape type="sphere"><bsdf type="mask"><bsdf type="mask"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#,
+            "<bsdf type=\"mask\"><bsdf",
+            "a mask inside a mask",
+        ),
+        (
+            r#"<shape type="obj"><string name="filename" value="quad.obj"/><bsdf type="diffuse"><texture name="reflectance" type="bitmap"><string name="filename" value="leaf.png"/><string name="wrap_mode" value="zero"/></texture></bsdf></shape>"#,
+            "<shape",
+            "wrap_mode \"zero\"",
+        ),
+    ] {
+        let e = error_in(dir.path(), body);
+        assert!(
+            e.contains(want) && e.contains(&format!("line {}", line_of(body, needle))),
+            "{e}"
+        );
+    }
 }
 
 #[test]

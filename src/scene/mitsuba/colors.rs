@@ -1,5 +1,5 @@
-//! Colour parameters: an `<rgb>`, a uniform `<spectrum>`, a `<float>` (a grey), or a texture: `srgb` (a
-//! colour) or `bitmap` (a file, which vkpath applies to a mesh).
+//! Colour and scalar parameters: an `<rgb>`, a `<spectrum>`, a `<float>` (a grey), or a texture: `srgb`
+//! (a colour) or `bitmap` (a file: a texture reference of vkpath's material, read at the mesh's uv).
 
 use super::args::{Args, resolve_ref};
 use super::context::Tr;
@@ -8,11 +8,23 @@ use crate::scene::SceneError;
 use glam::DVec3;
 use std::path::PathBuf;
 
-/// A colour parameter: a colour, or a bitmap texture's file (which vkpath applies per mesh).
+/// A colour parameter: a colour, or a bitmap texture.
 #[derive(Clone, Debug)]
 pub(super) enum ColorTex {
     Color(DVec3),
-    Bitmap(PathBuf, Loc),
+    Bitmap(Bitmap),
+}
+
+/// A `bitmap` texture as Mitsuba 3 reads it: the file, its `filter_type` (bilinear or nearest), its
+/// `wrap_mode` (repeat, mirror or clamp: vkpath's names too) and `raw` (8-bit texels not decoded from
+/// sRGB), and the element naming the file.
+#[derive(Clone, Debug)]
+pub(super) struct Bitmap {
+    pub(super) path: PathBuf,
+    pub(super) loc: Loc,
+    nearest: bool,
+    wrap: String,
+    raw: bool,
 }
 
 impl Tr<'_> {
@@ -25,8 +37,8 @@ impl Tr<'_> {
     ) -> Result<DVec3, SceneError> {
         match self.color_tex(args, name, default)? {
             ColorTex::Color(c) => Ok(c),
-            ColorTex::Bitmap(_, loc) => Err(loc.error(
-                format!("a bitmap texture as \"{name}\": vkpath textures a diffuse or plastic reflectance only"),
+            ColorTex::Bitmap(b) => Err(b.loc.error(
+                format!("a bitmap texture as \"{name}\": vkpath reads textures for reflectances, a mask's opacity and a bump map's height only"),
                 "Give a colour (<rgb>) here.",
             )),
         }
@@ -85,30 +97,35 @@ impl Tr<'_> {
                     ));
                 };
                 let path = self.file(file, floc);
-                if let Some((true, l)) = targs.boolean("raw")? {
-                    return Err(l.error(
-                        "raw = true: vkpath decodes 8-bit textures as sRGB (and EXR/HDR as linear) always",
-                        "Remove raw, or store the texture linear in an EXR file.",
-                    ));
-                }
-                if let Some((f, l)) = targs.string("filter_type")?
-                    && f != "bilinear"
-                {
-                    return Err(l.error(
-                        format!("filter_type \"{f}\": vkpath filters textures bilinearly"),
-                        "Remove filter_type (bilinear is the default).",
-                    ));
-                }
-                if let Some((w, l)) = targs.string("wrap_mode")?
-                    && w != "repeat"
-                {
-                    return Err(l.error(
-                        format!("wrap_mode \"{w}\": vkpath repeats textures"),
-                        "Remove wrap_mode (repeat is the default).",
-                    ));
-                }
+                let raw = targs.boolean("raw")?.is_some_and(|(r, _)| r);
+                let nearest = match targs.string("filter_type")? {
+                    None | Some(("bilinear", _)) => false,
+                    Some(("nearest", _)) => true,
+                    Some((f, l)) => {
+                        return Err(l.error(
+                            format!("filter_type \"{f}\" is not one of Mitsuba's"),
+                            "Give \"bilinear\" (the default) or \"nearest\".",
+                        ));
+                    }
+                };
+                let wrap = match targs.string("wrap_mode")? {
+                    None => "repeat",
+                    Some((w @ ("repeat" | "mirror" | "clamp"), _)) => w,
+                    Some((w, l)) => {
+                        return Err(l.error(
+                            format!("wrap_mode \"{w}\" is not one of Mitsuba's"),
+                            "Give \"repeat\" (the default), \"mirror\" or \"clamp\".",
+                        ));
+                    }
+                };
                 self.finish(&targs, &["filename", "raw", "filter_type", "wrap_mode"])?;
-                ColorTex::Bitmap(path, floc.clone())
+                ColorTex::Bitmap(Bitmap {
+                    path,
+                    loc: floc.clone(),
+                    nearest,
+                    wrap: wrap.to_string(),
+                    raw,
+                })
             }
             _ => {
                 return Err(obj.loc.error(
@@ -118,5 +135,35 @@ impl Tr<'_> {
             }
         };
         Ok(out)
+    }
+}
+
+impl Tr<'_> {
+    /// A bitmap as a vkpath texture reference (an inline TOML table) with Mitsuba's meaning: 8-bit
+    /// texels are sRGB-decoded unless `raw`, floating-point files (EXR, HDR) are linear; a `scalar`
+    /// parameter reads the luminance of the decoded colour (Mitsuba's `eval_1`; an image's alpha is not
+    /// read, as Mitsuba does not).
+    pub(super) fn texture_ref(&self, b: &Bitmap, scalar: bool) -> String {
+        let mut keys = vec![format!("texture = {}", self.refer(&b.path))];
+        let float_file = b
+            .path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr") || e.eq_ignore_ascii_case("hdr"));
+        if scalar {
+            keys.push("channel = \"luminance\"".into());
+            if !b.raw && !float_file {
+                keys.push("color_space = \"srgb\"".into());
+            }
+        } else if b.raw && !float_file {
+            keys.push("color_space = \"linear\"".into());
+        }
+        if b.nearest {
+            keys.push("filter = \"nearest\"".into());
+        }
+        if b.wrap != "repeat" {
+            keys.push(format!("wrap = \"{}\"", b.wrap));
+        }
+        format!("{{ {} }}", keys.join(", "))
     }
 }

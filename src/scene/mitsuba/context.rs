@@ -15,9 +15,6 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
-/// A bitmap texture's file, and the element that names it.
-pub(super) type Bitmap = (PathBuf, Loc);
-
 /// How far from orthogonal (or from equal lengths) a transform's axes may be, relative to their length.
 pub(super) const ORTHO_TOL: f64 = 1e-3;
 
@@ -29,8 +26,9 @@ pub(super) struct Tr<'p> {
     /// Where files are found after beside the file naming them (`Parser::search_dirs`).
     pub(super) search_dirs: Vec<PathBuf>,
     pub(super) refer_dir: PathBuf,
-    /// Material name by (BSDF object, emitted radiance): shapes that share both share the material.
-    pub(super) materials: HashMap<(usize, [u64; 3]), (String, Option<Bitmap>)>,
+    /// Material name by (BSDF object, emitted radiance): shapes that share both share the material; and
+    /// the element of a bitmap it reads, if it reads one (only meshes have the uvs to read it at).
+    pub(super) materials: HashMap<(usize, [u64; 3]), (String, Option<Loc>)>,
     pub(super) material_names: Vec<String>,
     pub(super) out_materials: TomlOut,
     pub(super) out_shapes: TomlOut,

@@ -4,7 +4,7 @@
 
 use super::args::Args;
 use super::colors::ColorTex;
-use super::context::{Bitmap, Tr};
+use super::context::Tr;
 use super::objects::{Loc, Obj, Value};
 use super::toml_out::{num, vec3};
 use crate::scene::SceneError;
@@ -12,11 +12,12 @@ use crate::scene::toml_text::toml_string;
 use glam::DVec3;
 use std::rc::Rc;
 
-/// A BSDF as vkpath material keys (`key = value` lines), and its bitmap texture.
+/// A BSDF as vkpath material keys (`key = value` lines), and the element of a bitmap it reads, if any
+/// (the shape must then be a mesh, whose uvs it is read at).
 #[derive(Clone)]
 struct MatOut {
     lines: Vec<(String, Loc)>,
-    texture: Option<Bitmap>,
+    textured: Option<Loc>,
 }
 
 impl Tr<'_> {
@@ -112,7 +113,7 @@ impl Tr<'_> {
         let args = Args::new(obj);
         let at = |s: String| (s, obj.loc.clone());
         let mut lines = Vec::new();
-        let mut texture = None;
+        let mut textured = None;
         let kind = obj.kind.as_str();
         match kind {
             "twosided" => {
@@ -126,17 +127,56 @@ impl Tr<'_> {
                     )),
                 };
             }
+            "mask" => {
+                // Mitsuba's mask: the nested BSDF where a ray stops, with probability `opacity`
+                // (default 0.5), else the ray passes on unchanged (a null interaction): vkpath's
+                // opacity without alpha_cutoff, the same stochastic transparency.
+                let inner = args.objects("bsdf", self.ids)?;
+                let [(b, _)] = inner.as_slice() else {
+                    return Err(obj.loc.error(
+                        "a mask BSDF with other than one nested BSDF",
+                        "Nest exactly one BSDF.",
+                    ));
+                };
+                let opacity = match self.color_tex(&args, "opacity", DVec3::splat(0.5))? {
+                    ColorTex::Color(c) => {
+                        if c.x != c.y || c.y != c.z {
+                            let p = args.prop("opacity").map_or(&obj.loc, |p| &p.loc);
+                            return Err(p.error(
+                                "a coloured opacity: Mitsuba reads a mask's opacity as one number",
+                                "Give <float name=\"opacity\" value=\"...\"/>.",
+                            ));
+                        }
+                        num(c.x)
+                    }
+                    ColorTex::Bitmap(b) => {
+                        textured = Some(b.loc.clone());
+                        self.texture_ref(&b, true)
+                    }
+                };
+                self.finish(&args, &["opacity", "bsdf"])?;
+                let Some(mut out) = self.bsdf(b)? else {
+                    return Ok(None);
+                };
+                if out.lines.iter().any(|(l, _)| l.starts_with("opacity")) {
+                    return Err(obj.loc.error(
+                        "a mask inside a mask",
+                        "Give one mask, its opacity the product of the two.",
+                    ));
+                }
+                out.lines.push(at(format!("opacity = {opacity}")));
+                out.textured = out.textured.or(textured);
+                return Ok(Some(out));
+            }
             "diffuse" | "roughdiffuse" => {
                 let rough = kind == "roughdiffuse";
                 let vkpath_type = if rough { "rough_diffuse" } else { "diffuse" };
                 lines.push(at(format!("type = \"{vkpath_type}\"")));
                 match self.color_tex(&args, "reflectance", DVec3::splat(0.5))? {
                     ColorTex::Color(c) => lines.push(at(format!("albedo = {}", vec3(c)))),
-                    ColorTex::Bitmap(p, l) => {
-                        lines.push(at(
-                            "albedo = [0.5, 0.5, 0.5]   # replaced by the texture".into()
-                        ));
-                        texture = Some((p, l));
+                    ColorTex::Bitmap(b) => {
+                        lines.push(at(format!("albedo = {}", self.texture_ref(&b, false))));
+                        textured = Some(b.loc);
                     }
                 }
                 if rough {
@@ -327,11 +367,9 @@ impl Tr<'_> {
                 lines.push(at(format!("nonlinear = {nonlinear}")));
                 match self.color_tex(&args, "diffuse_reflectance", DVec3::splat(0.5))? {
                     ColorTex::Color(c) => lines.push(at(format!("albedo = {}", vec3(c)))),
-                    ColorTex::Bitmap(p, l) => {
-                        lines.push(at(
-                            "albedo = [0.5, 0.5, 0.5]   # replaced by the texture".into()
-                        ));
-                        texture = Some((p, l));
+                    ColorTex::Bitmap(b) => {
+                        lines.push(at(format!("albedo = {}", self.texture_ref(&b, false))));
+                        textured = Some(b.loc);
                     }
                 }
                 lines.push(at(format!("ior = {}", num(ior))));
@@ -371,23 +409,24 @@ impl Tr<'_> {
             _ => {
                 self.unsupported(
                     obj,
-                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic and twosided",
+                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided and mask",
                 )?;
                 return Ok(None);
             }
         }
-        Ok(Some(MatOut { lines, texture }))
+        Ok(Some(MatOut { lines, textured }))
     }
 
     /// The material of a shape with `bsdf` (Mitsuba's default: diffuse, reflectance 0.5) and `emission`
-    /// (an area emitter's radiance): its name in [materials], written the first time, and its texture.
+    /// (an area emitter's radiance): its name in [materials], written the first time, and the element of
+    /// the bitmap it reads, if any.
     pub(super) fn material(
         &mut self,
         bsdf: Option<&Rc<Obj>>,
         emission: Option<(DVec3, &Loc)>,
         shape_name: &str,
         shape_loc: &Loc,
-    ) -> Result<(String, Option<Bitmap>), SceneError> {
+    ) -> Result<(String, Option<Loc>), SceneError> {
         let key = (
             bsdf.map_or(0, |b| Rc::as_ptr(b) as usize),
             emission.map_or([u64::MAX; 3], |(e, _)| e.to_array().map(f64::to_bits)),
@@ -407,7 +446,7 @@ impl Tr<'_> {
                     shape_loc.clone(),
                 ),
             ],
-            texture: None,
+            textured: None,
         });
         let id = bsdf.and_then(|b| {
             self.ids
@@ -439,8 +478,8 @@ impl Tr<'_> {
             o.line(format!("emission = {}", vec3(e)), Some(loc));
         }
         self.materials
-            .insert(key, (name.clone(), out.texture.clone()));
-        Ok((name, out.texture))
+            .insert(key, (name.clone(), out.textured.clone()));
+        Ok((name, out.textured))
     }
 }
 

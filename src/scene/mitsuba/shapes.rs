@@ -185,7 +185,6 @@ impl Tr<'_> {
                     ));
                 }
                 let file_ref = self.refer(&file);
-                let texture_ref = texture.as_ref().map(|(t, l)| (self.refer(t), l));
                 let o = &mut self.out_shapes;
                 o.line("", None);
                 o.line("[[mesh]]", loc);
@@ -208,9 +207,6 @@ impl Tr<'_> {
                     }
                 }
                 o.line(format!("smooth    = {}", !face_normals), loc);
-                if let Some((t, tloc)) = texture_ref {
-                    o.line(format!("texture   = {t}"), Some(tloc));
-                }
             }
         }
         Ok(())
