@@ -766,11 +766,8 @@ fn approximations_are_refused_unless_lenient_and_model_differences_are_warnings(
         r#"<shape type="sphere"><bsdf type="roughplastic"><string name="distribution" value="ggx"/>
              <boolean name="nonlinear" value="true"/><float name="alpha" value="0.25"/></bsdf></shape>"#,
     );
-    assert!(
-        s.warnings[0].contains("rough plastic is not Mitsuba's"),
-        "{:?}",
-        s.warnings
-    );
+    // Mitsuba's rough-coat model is vkpath's: no warning.
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     // Lenient: unknown elements, plugins and parameters are skipped, each with a warning naming it.
     let p = write(
         dir.path(),

@@ -213,9 +213,10 @@ fn texture_lookups_match_an_f64_reference() {
 }
 
 /// A one-texel texture of value c renders the same bits as the constant c, specialised and generic, on a
-/// plastic lit by a sun (albedo and roughness both from it): an f16 texel (EXR) holds c = 0.625 exactly,
-/// and the nearest filter returns it unweighted. (Bilinear weights of one texel sum to 1 only up to
-/// rounding.)
+/// glTF metallic-roughness surface lit by a sun (base colour, roughness and metallic all from it): an f16
+/// texel (EXR) holds c = 0.625 exactly, and the nearest filter returns it unweighted. (Bilinear weights
+/// of one texel sum to 1 only up to rounding. Not a rough plastic: its coat's transmittance is tabulated
+/// for a constant roughness, and a textured one keeps the smooth coat's.)
 #[test]
 fn a_constant_texture_renders_the_constant() {
     let dir = tempfile::tempdir().unwrap();
@@ -228,12 +229,12 @@ fn a_constant_texture_renders_the_constant() {
         "[[light]]\ntype = \"directional\"\ndirection = [-0.3, -0.2, -1.0]\nirradiance = 3.0\n";
     let mesh = "[[mesh]]\nobj = \"square.obj\"\nmaterial = \"m\"\n";
     let constant = format!(
-        "{}[materials]\nm = {{ type = \"plastic\", albedo = [{value:?}, {value:?}, {value:?}], roughness = {value:?} }}\n{mesh}{light}",
+        "{}[materials]\nm = {{ type = \"metallic_roughness\", base_color = [{value:?}, {value:?}, {value:?}], roughness = {value:?}, metallic = {value:?} }}\n{mesh}{light}",
         square_view(16, 4, 2)
     );
     let textured = format!(
-        "{}[materials]\nm = {{ type = \"plastic\", albedo = {{ texture = \"c.exr\", filter = \"nearest\" }}, \
-         roughness = {{ texture = \"c.exr\", filter = \"nearest\" }} }}\n{mesh}{light}",
+        "{}[materials]\nm = {{ type = \"metallic_roughness\", base_color = {{ texture = \"c.exr\", filter = \"nearest\" }}, \
+         roughness = {{ texture = \"c.exr\", filter = \"nearest\" }}, metallic = {{ texture = \"c.exr\", filter = \"nearest\" }} }}\n{mesh}{light}",
         square_view(16, 4, 2)
     );
     for generic in [false, true] {

@@ -17,13 +17,14 @@
 // cosine-weighted hemispherical average of the coat's reflectance seen from inside
 // (computed once on the host, `fdr_int`) and 1 / eta^2 the compression of solid angle on leaving.
 // Energy: with a = 1 and a smooth coat the diffuse albedo is exactly 1 - F(cos_o) (since
-// eta^2 (1 - Fdr_int) = 1 - Fdr_ext), so the material reflects all the light at every angle. A rough coat
-// gives E(cos_o) = E_ggx(cos_o) + 1 - F(cos_o), E_ggx the albedo of the coat's GGX lobe (Fresnel-weighted):
-// within a fraction of a percent of 1 (above or below) near normal incidence, where the coat reflects
-// little, but well below 1 at grazing angles, where F(cos_o) is large and single-scattering GGX loses much
-// of it to masking; the diffuse transmission uses the smooth interface's 1 - F (Mitsuba's `roughplastic`
-// uses the rough coat's own transmittance instead, and loses energy differently). tests/shader_glossy.rs
-// measures E against an f64 quadrature of this model.
+// eta^2 (1 - Fdr_int) = 1 - Fdr_ext), so the material reflects all the light at every angle.
+// A rough coat (MATERIAL_ROUGH_COAT; Mitsuba 3's `roughplastic`) lets light through with its own
+// transmittance T(cos), the refracted part of its microfacet lobe (less than 1 - F: light the facets
+// mask is lost), in place of 1 - F(cos), and Fdr_int is its rough internal reflectance (both computed
+// once on the host, src/kernel/coat.rs, which gives the integrals; T tabulated in `coat`):
+//   fd = T(cos_i) T(cos_o) a / (pi eta^2 (1 - a Fdr_int)).
+// The specular lobe is the coat's GGX or Beckmann reflection either way. tests/shader_glossy.rs measures
+// the albedo against an f64 quadrature of this model.
 //
 // metallic_roughness (glTF 2.0, Appendix B): metal_brdf = specular_brdf * Schlick(base, VdotH);
 // dielectric_brdf = mix(diffuse(base), specular_brdf, F_d(VdotH)) with F_d = 0.04 + 0.96 (1 - VdotH)^5
@@ -51,10 +52,31 @@ fn coated_specular_fresnel(mat: Material, c: f32) -> vec3<f32> {
     return mix(vec3<f32>(gltf_dielectric_fresnel(c)), fresnel_schlick(c, mat.albedo), mat.metallic);
 }
 
+// A rough coat's transmittance at cosine c in [0, 1]: its table (nodes at c_j = (j / 15)^2, denser
+// towards grazing, where it changes fastest) interpolated in x = 15 sqrt(c) by the Catmull-Rom cubic
+// through the four nearest nodes (the end nodes repeated beyond the table), within 5e-4 of the
+// function (src/kernel/coat.rs).
+fn coat_transmittance(mat: Material, c: f32) -> f32 {
+    let x = sqrt(clamp(c, 0.0, 1.0)) * f32(COAT_NODES - 1u);
+    let j = min(u32(x), COAT_NODES - 2u);
+    let u = x - f32(j);
+    let table = mat.coat;
+    let p0 = table[max(j, 1u) - 1u];
+    let p1 = table[j];
+    let p2 = table[j + 1u];
+    let p3 = table[min(j + 2u, COAT_NODES - 1u)];
+    return p1 + 0.5 * u * (p2 - p0 + u * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + u * (3.0 * (p1 - p2) + p3 - p0)));
+}
+
 // fd at (wo, wi), local frame, both above the surface.
 fn coated_diffuse(mat: Material, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     if mat.kind == MAT_PLASTIC {
-        let t = (1.0 - fresnel_dielectric(wi.z, mat.ior)) * (1.0 - fresnel_dielectric(wo.z, mat.ior));
+        var t = 0.0;
+        if (mat.flags & MATERIAL_ROUGH_COAT) != 0u {
+            t = coat_transmittance(mat, wi.z) * coat_transmittance(mat, wo.z);
+        } else {
+            t = (1.0 - fresnel_dielectric(wi.z, mat.ior)) * (1.0 - fresnel_dielectric(wo.z, mat.ior));
+        }
         let a = mat.albedo;
         // Nonlinear: each internal reflection meets the base again, a geometric series in a Fdr_int;
         // linear (Mitsuba's default): the series without the albedo, 1 / (1 - Fdr_int).

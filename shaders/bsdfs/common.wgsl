@@ -49,6 +49,10 @@ const MATERIAL_SCHLICK: u32 = 2u;
 const MATERIAL_LINEAR: u32 = 4u;
 // Material::flags: Beckmann microfacets instead of GGX (microfacet.wgsl).
 const MATERIAL_BECKMANN: u32 = 8u;
+// Material::flags: a rough plastic's coat transmits by its tabulated `coat` (bsdfs/coated.wgsl).
+const MATERIAL_ROUGH_COAT: u32 = 16u;
+// Entries of Material::coat (src/kernel/coat.rs).
+const COAT_NODES: u32 = 16u;
 
 // One material's parameters, as uploaded (`materials` in scene_data.wgsl; GpuMaterial in Rust). What a
 // field means depends on the kind; unused fields are zero.
@@ -61,10 +65,12 @@ struct Material {
     alpha_x: f32, // GGX roughness alpha (= roughness^2) along the tangent
     k: vec3<f32>, // conductor: imaginary part (extinction coefficient), per channel
     alpha_y: f32, // GGX alpha along the bitangent (= alpha_x when isotropic)
-    flags: u32, // MATERIAL_TWO_SIDED_EMISSION | MATERIAL_SCHLICK | MATERIAL_LINEAR | MATERIAL_BECKMANN
+    flags: u32, // MATERIAL_TWO_SIDED_EMISSION | MATERIAL_SCHLICK | MATERIAL_LINEAR | MATERIAL_BECKMANN | MATERIAL_ROUGH_COAT
     metallic: f32, // metallic_roughness: the metal's weight in [0, 1]
-    fdr_int: f32, // plastic: the coat's internal diffuse reflectance (see plastic_eval)
+    fdr_int: f32, // plastic: the coat's internal diffuse reflectance (bsdfs/coated.wgsl)
     _pad0: u32,
+    // plastic with MATERIAL_ROUGH_COAT: the rough coat's transmittance at mu_j = (j / 15)^2
+    coat: array<f32, COAT_NODES>,
 }
 
 // The GGX alpha on both axes, at least 1e-4 each: an anisotropic lobe may be smooth along one axis only

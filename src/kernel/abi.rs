@@ -6,6 +6,7 @@
 //! The compile-time asserts below pin the sizes; `tests/layout.rs` holds every field offset against the
 //! layout naga reflects from the WGSL.
 
+use super::coat::COAT_NODES;
 use super::light_kinds;
 use crate::scene::bsdfs;
 use bytemuck::{Pod, Zeroable};
@@ -129,6 +130,9 @@ pub const MATERIAL_LINEAR: u32 = 4;
 /// GpuMaterial::flags: the microfacet normals follow Beckmann's distribution, not GGX's
 /// (microfacet.wgsl).
 pub const MATERIAL_BECKMANN: u32 = 8;
+/// GpuMaterial::flags: a rough plastic whose light crosses its coat with the rough interface's own
+/// transmittance, tabulated in `coat` (Mitsuba's roughplastic; bsdfs/coated.wgsl), not the smooth 1 - F.
+pub const MATERIAL_ROUGH_COAT: u32 = 16;
 
 /// GGX alpha below which a glossy surface is uploaded (and shaded) as smooth: a delta lobe
 /// (`SMOOTH_ALPHA` in microfacet.wgsl, which says why).
@@ -162,9 +166,13 @@ pub struct GpuMaterial {
     pub flags: u32,
     /// metallic_roughness: the metal's weight.
     pub metallic: f32,
-    /// Plastic: the coat's internal diffuse reflectance, 2 \int_0^1 F(c, 1/ior) c dc.
+    /// Plastic: the coat's internal diffuse reflectance, 2 \int_0^1 F(c, 1/ior) c dc (a rough coat's:
+    /// `coat::coat_table`).
     pub fdr_int: f32,
     pub _pad0: u32,
+    /// A plastic with [`MATERIAL_ROUGH_COAT`]: its rough coat's transmittance T(mu) at
+    /// mu_j = (j / 15)^2 (`coat::coat_table`; bsdfs/coated.wgsl, coat_transmittance).
+    pub coat: [f32; COAT_NODES],
 }
 
 /// Light kinds: the rows of the light registry (`kernel::light_kinds`; `LIGHT_*` in the generated
@@ -551,6 +559,8 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("MATERIAL_SCHLICK", MATERIAL_SCHLICK),
     ("MATERIAL_LINEAR", MATERIAL_LINEAR),
     ("MATERIAL_BECKMANN", MATERIAL_BECKMANN),
+    ("MATERIAL_ROUGH_COAT", MATERIAL_ROUGH_COAT),
+    ("COAT_NODES", COAT_NODES as u32),
     ("BSDF_REFLECTION", BSDF_REFLECTION),
     ("BSDF_TRANSMISSION", BSDF_TRANSMISSION),
     ("BSDF_DELTA", BSDF_DELTA),
@@ -613,7 +623,7 @@ const _: () = assert!(std::mem::size_of::<GpuTextureInfo>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterialTextures>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 80);
+const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 144);
 const _: () = assert!(std::mem::size_of::<GpuLightTriangle>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuAccum>() == 96);

@@ -10,6 +10,7 @@
 
 pub mod abi;
 pub mod alias;
+pub mod coat;
 pub mod features;
 pub mod library;
 pub mod light_kinds;

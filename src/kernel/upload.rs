@@ -13,6 +13,7 @@
 
 use super::abi::*;
 use super::alias;
+use super::coat::coat_table;
 use crate::scene::bvh::{self, Bvh};
 use crate::scene::environment::channel_mean;
 use crate::scene::texture::{Channel, TextureFilter, Wrap};
@@ -175,7 +176,15 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             g.albedo = albedo.into();
             g.ior = ior;
             g.fdr_int = fresnel_diffuse_reflectance(1.0 / ior as f64) as f32;
-            set_alpha(&mut g, roughness);
+            let smooth = set_alpha(&mut g, roughness);
+            // A rough coat lets light through with its own transmittance (Mitsuba's roughplastic,
+            // kernel/coat.rs), tabulated for its one alpha: not for an anisotropic coat, nor for one
+            // whose roughness a texture varies, which keep the smooth interface's 1 - F.
+            if !smooth && roughness.u == roughness.v && m.textures.roughness.is_none() {
+                let alpha = f64::from(g.alpha_x);
+                (g.coat, g.fdr_int) = coat_table(f64::from(ior), alpha, roughness.beckmann);
+                g.flags |= MATERIAL_ROUGH_COAT;
+            }
         }
         Bsdf::MetallicRoughness {
             base_color,
@@ -215,8 +224,9 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
 }
 
 /// Unpolarised Fresnel reflectance of a smooth dielectric interface of relative index eta = n_t / n_i
-/// at incidence cosine c, in f64 (the shader's fresnel_dielectric, same formula).
-fn fresnel_dielectric(c: f64, eta: f64) -> f64 {
+/// at incidence cosine c, in f64 (the shader's fresnel_dielectric, same formula); 1 under total internal
+/// reflection.
+pub(super) fn fresnel_dielectric(c: f64, eta: f64) -> f64 {
     let sin2_t = (1.0 - c * c) / (eta * eta);
     if sin2_t >= 1.0 {
         return 1.0;

@@ -4,29 +4,8 @@
 /// Significance level of every chi-square test.
 pub const ALPHA: f64 = 1e-4;
 
-/// erfc(x), the Chebyshev fit of Numerical Recipes in C, 2nd ed., §6.2 (`erfcc`): fractional error below
-/// 1.2e-7 for every x, far finer than the statistics below need.
-pub fn erfc(x: f64) -> f64 {
-    let z = x.abs();
-    let t = 1.0 / (1.0 + 0.5 * z);
-    // Horner's rule for the degree-9 polynomial in t (coefficients from degree 1 up), written as a loop:
-    // the same operations in the same order as the nested form, which rustfmt is very slow to format.
-    const C: [f64; 9] = [
-        1.000_023_68,
-        0.374_091_96,
-        0.096_784_18,
-        -0.186_288_06,
-        0.278_868_07,
-        -1.135_203_98,
-        1.488_515_87,
-        -0.822_152_23,
-        0.170_872_77,
-    ];
-    let horner = C[..8].iter().rev().fold(C[8], |acc, &c| c + t * acc);
-    let poly = -z * z - 1.265_512_23 + t * horner;
-    let r = t * poly.exp();
-    if x >= 0.0 { r } else { 2.0 - r }
-}
+/// erfc(x): the library's (Numerical Recipes' Chebyshev fit, fractional error below 1.2e-7).
+pub use vkpath::kernel::coat::erfc;
 
 /// The z with P(Z > z) = p for a standard normal Z, by bisection on erfc (p < 0.5).
 pub fn normal_upper_quantile(p: f64) -> f64 {

@@ -47,6 +47,23 @@ impl Tr<'_> {
         }
     }
 
+    /// A dielectric's (smooth, rough or thin) relative index int_ior / ext_ior (vkpath's ior: the
+    /// interior's over the exterior's); a specular_reflectance or specular_transmittance other than 1 is
+    /// refused (vkpath's dielectrics have no tint).
+    fn untinted_dielectric_ior(&mut self, args: &Args, obj: &Obj) -> Result<f64, SceneError> {
+        let ior = self.ior(args, "int_ior", "bk7")? / self.ior(args, "ext_ior", "air")?;
+        for name in ["specular_reflectance", "specular_transmittance"] {
+            if self.color(args, name, DVec3::ONE)? != DVec3::ONE {
+                let p = args.prop(name).map_or(&obj.loc, |p| &p.loc);
+                return Err(p.error(
+                    format!("{name} other than 1: vkpath's dielectrics have no tint"),
+                    "Remove it.",
+                ));
+            }
+        }
+        Ok(ior)
+    }
+
     /// A microfacet BSDF's roughness: vkpath's perceptual roughness r has GGX alpha = r^2, so
     /// r = sqrt(alpha). Mitsuba's default distribution is Beckmann, which vkpath does not have.
     /// A rough BSDF's `alpha` as vkpath's roughness sqrt(alpha), and its TOML `distribution` line:
@@ -290,16 +307,7 @@ impl Tr<'_> {
             "thindielectric" => {
                 // A thin pane: the same model as Mitsuba's (reflection with the internal reflections
                 // summed, 2R / (1 + R), and straight transmission).
-                let ior = self.ior(&args, "int_ior", "bk7")? / self.ior(&args, "ext_ior", "air")?;
-                for name in ["specular_reflectance", "specular_transmittance"] {
-                    if self.color(&args, name, DVec3::ONE)? != DVec3::ONE {
-                        let p = args.prop(name).map_or(&obj.loc, |p| &p.loc);
-                        return Err(p.error(
-                            format!("{name} other than 1: vkpath's dielectrics have no tint"),
-                            "Remove it.",
-                        ));
-                    }
-                }
+                let ior = self.untinted_dielectric_ior(&args, obj)?;
                 lines.push(at("type = \"thin_dielectric\"".into()));
                 lines.push(at(format!("ior = {}", num(ior))));
                 self.finish(
@@ -313,17 +321,7 @@ impl Tr<'_> {
                 )?;
             }
             "dielectric" | "roughdielectric" => {
-                // vkpath's ior is the interior's over the exterior's (the outside medium has ior 1).
-                let ior = self.ior(&args, "int_ior", "bk7")? / self.ior(&args, "ext_ior", "air")?;
-                for name in ["specular_reflectance", "specular_transmittance"] {
-                    if self.color(&args, name, DVec3::ONE)? != DVec3::ONE {
-                        let p = args.prop(name).map_or(&obj.loc, |p| &p.loc);
-                        return Err(p.error(
-                            format!("{name} other than 1: vkpath's dielectrics have no tint"),
-                            "Remove it.",
-                        ));
-                    }
-                }
+                let ior = self.untinted_dielectric_ior(&args, obj)?;
                 lines.push(at("type = \"dielectric\"".into()));
                 lines.push(at(format!("ior = {}", num(ior))));
                 if kind == "roughdielectric" {
@@ -377,12 +375,6 @@ impl Tr<'_> {
                     let (r, distribution) = self.roughness(&args, obj)?;
                     lines.push(at(format!("roughness = {}", num(r))));
                     lines.push(at(distribution));
-                    if r > 0.0 {
-                        self.warnings.push(obj.loc.warning(
-                            "vkpath's rough plastic is not Mitsuba's roughplastic: it keeps the smooth coat's \
-                             transmission, so it reflects more (about 1% more at roughness 0.1, 18% at 0.5)",
-                        ));
-                    }
                 }
                 let known: &[&str] = if kind == "plastic" {
                     &[
