@@ -131,6 +131,11 @@ def copy(path: Path, out: Path, width: int, height: int, sampler: str, rr_depth:
         rr = ET.SubElement(integrator, "integer", {"name": "rr_depth"})
     rr.set("value", str(rr_depth))
     film = _film(root)
+    # Mitsuba 0.5/0.6 film parameters Mitsuba 3 refuses (Bitterli's living room gives them; vkpath reads
+    # them in a 0.x file): the copy drops them, changing nothing in the image but the 0.x logo.
+    for e in list(film):
+        if e.get("name") in ("banner", "high_quality_edges", "highQualityEdges", "attach_log", "attachLog"):
+            film.remove(e)
     for name, value in (("width", width), ("height", height)):
         e = _named(film, "integer", name)
         if e is None:
