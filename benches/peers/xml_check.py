@@ -124,6 +124,9 @@ def main() -> int:
     print(f"  largest |z| {worst:.2f} ({'within' if worst < 4 else 'BEYOND'} 4 standard errors)")
     print(f"  blocks of {a.block}x{a.block}: {beyond} of {z_blocks.size} beyond 4 sigma (noise predicts "
           f"{expected:.3f}); largest |z| {np.abs(z_blocks).max():.2f}")
+    for by_, bx_ in zip(*np.nonzero(np.abs(z_blocks) > 4)):
+        print(f"    block at pixel ({bx_ * a.block}, {by_ * a.block}): vkpath {v_blocks[by_, bx_]:.5f}, "
+              f"Mitsuba {m_blocks[by_, bx_]:.5f}, z {z_blocks[by_, bx_]:+.2f}")
     samples = width * height * a.spp
     eq = math.sqrt(var.mean() * v_time / (m_var.mean() * m_time))
     print(f"  vkpath {samples / v_time / 1e6:.3f} Msamples/s ({v_time:.1f} s, load and compile included), "
