@@ -384,6 +384,11 @@ fn path_step(path: ptr<function, Path>) -> bool {
     let on_sphere = select(NO_LIGHT, hit.prim_index, hit.prim_kind == PRIM_SPHERE);
     let f = facing(sp, d, hit);
     let n = f.n;
+    // A one-sided material (Mitsuba's BSDFs without `twosided`) is black from behind: the path ends on
+    // its back face, after the emission found there counted (above).
+    if (mat.flags & MATERIAL_ONE_SIDED) != 0u && !f.sh.entering {
+        return false;
+    }
     // The material's textured parameters at the hit (textured_material, scene.wgsl).
     mat = textured_material(mat, sp);
     let wo = -d;

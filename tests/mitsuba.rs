@@ -728,6 +728,28 @@ fn masks_and_bitmaps_become_opacity_and_texture_references() {
     }
 }
 
+/// Mitsuba's reflecting BSDFs scatter on their front face only unless wrapped in twosided (a mask
+/// around a twosided too); its dielectrics on both; a shape without a BSDF gets Mitsuba's one-sided
+/// default diffuse. vkpath's one_sided says the same.
+#[test]
+fn bsdfs_without_twosided_are_one_sided() {
+    let s = load(
+        r#"<shape type="sphere"><bsdf type="diffuse"/></shape>
+           <shape type="sphere"><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="dielectric"/></shape>
+           <shape type="sphere"><bsdf type="thindielectric"/></shape>
+           <shape type="sphere"><bsdf type="mask"><bsdf type="twosided"><bsdf type="roughplastic"/></bsdf></bsdf></shape>
+           <shape type="sphere"><bsdf type="mask"><bsdf type="conductor"/></bsdf></shape>
+           <shape type="sphere"/>"#,
+    );
+    let one_sided: Vec<bool> = s
+        .spheres
+        .iter()
+        .map(|sp| s.materials[sp.material as usize].textures.one_sided)
+        .collect();
+    assert_eq!(one_sided, [true, false, false, false, false, true, true]);
+}
+
 #[test]
 fn approximations_are_refused_unless_lenient_and_model_differences_are_warnings() {
     let dir = tempfile::tempdir().unwrap();
@@ -1335,8 +1357,8 @@ filter = "box"
 radiance = [0.2, 0.2, 0.2]
 [materials]
 white = {{ type = "diffuse", albedo = [0.8, 0.8, 0.8] }}
-shape1-sphere = {{ type = "conductor", preset = "gold", roughness = 0.5 }}
-shape2-sphere = {{ type = "diffuse", albedo = [0, 0, 0], emission = [10, 10, 10] }}
+shape1-sphere = {{ type = "conductor", preset = "gold", roughness = 0.5, one_sided = true }}
+shape2-sphere = {{ type = "diffuse", albedo = [0, 0, 0], emission = [10, 10, 10], one_sided = true }}
 [[triangle]]
 vertices = [[-2, 0, 2], [2, 0, 2], [2, 0, -2]]
 material = "white"

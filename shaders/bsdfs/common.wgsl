@@ -51,6 +51,8 @@ const MATERIAL_LINEAR: u32 = 4u;
 const MATERIAL_BECKMANN: u32 = 8u;
 // Material::flags: a rough plastic's coat transmits by its tabulated `coat` (bsdfs/coated.wgsl).
 const MATERIAL_ROUGH_COAT: u32 = 16u;
+// Material::flags: only the front face scatters; a path reaching the back ends (trace.wgsl, path_step).
+const MATERIAL_ONE_SIDED: u32 = 32u;
 // Entries of Material::coat (src/kernel/coat.rs).
 const COAT_NODES: u32 = 16u;
 

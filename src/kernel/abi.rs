@@ -133,6 +133,9 @@ pub const MATERIAL_BECKMANN: u32 = 8;
 /// GpuMaterial::flags: a rough plastic whose light crosses its coat with the rough interface's own
 /// transmittance, tabulated in `coat` (Mitsuba's roughplastic; bsdfs/coated.wgsl), not the smooth 1 - F.
 pub const MATERIAL_ROUGH_COAT: u32 = 16;
+/// GpuMaterial::flags: only the front face scatters; a path reaching the back ends there (trace.wgsl,
+/// path_step; Mitsuba's BSDFs without `twosided`).
+pub const MATERIAL_ONE_SIDED: u32 = 32;
 
 /// GGX alpha below which a glossy surface is uploaded (and shaded) as smooth: a delta lobe
 /// (`SMOOTH_ALPHA` in microfacet.wgsl, which says why).
@@ -560,6 +563,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("MATERIAL_LINEAR", MATERIAL_LINEAR),
     ("MATERIAL_BECKMANN", MATERIAL_BECKMANN),
     ("MATERIAL_ROUGH_COAT", MATERIAL_ROUGH_COAT),
+    ("MATERIAL_ONE_SIDED", MATERIAL_ONE_SIDED),
     ("COAT_NODES", COAT_NODES as u32),
     ("BSDF_REFLECTION", BSDF_REFLECTION),
     ("BSDF_TRANSMISSION", BSDF_TRANSMISSION),

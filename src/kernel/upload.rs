@@ -210,6 +210,9 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             (g.alpha_x, g.alpha_y) = roughness.alpha();
         }
     }
+    if m.textures.one_sided {
+        g.flags |= MATERIAL_ONE_SIDED;
+    }
     if let Some(Emission {
         radiance,
         two_sided,

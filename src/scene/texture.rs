@@ -129,6 +129,9 @@ pub struct MaterialTextures {
     pub bump: Option<(TextureRef, f32)>,
     /// A tangent-space normal map (linear) and the factor of its x and y.
     pub normal_map: Option<(TextureRef, f32)>,
+    /// Only the front face scatters (the side the geometric normal faces); a ray reaching the back is
+    /// absorbed (Mitsuba's BSDFs without `twosided`). False: both faces scatter alike.
+    pub one_sided: bool,
 }
 
 impl Default for MaterialTextures {
@@ -144,6 +147,7 @@ impl Default for MaterialTextures {
             alpha_cutoff: None,
             bump: None,
             normal_map: None,
+            one_sided: false,
         }
     }
 }

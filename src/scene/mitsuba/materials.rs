@@ -98,6 +98,18 @@ impl Tr<'_> {
         Ok((a.sqrt(), line))
     }
 
+    /// Whether a BSDF scatters on both faces in Mitsuba: a `twosided`, or a `mask` around one (a mask
+    /// inside a mask is refused by bsdf_unwrapped, which has read this one already).
+    fn two_sided(&self, obj: &Obj) -> bool {
+        match obj.kind.as_str() {
+            "twosided" => true,
+            "mask" => Args::new(obj)
+                .objects("bsdf", self.ids)
+                .is_ok_and(|inner| inner.first().is_some_and(|(b, _)| b.kind == "twosided")),
+            _ => false,
+        }
+    }
+
     /// A BSDF as vkpath material keys; refused when it holds itself through `<ref>`s (a cycle, which
     /// Mitsuba would also refuse) or nests more than [`super::xml::MAX_XML_DEPTH`] BSDFs deep through
     /// them (nesting written out is bounded by the reader already).
@@ -430,7 +442,7 @@ impl Tr<'_> {
             Some(b) => self.bsdf(b)?,
             None => None,
         };
-        let out = out.unwrap_or_else(|| MatOut {
+        let mut out = out.unwrap_or_else(|| MatOut {
             lines: vec![
                 ("type = \"diffuse\"".into(), shape_loc.clone()),
                 (
@@ -440,6 +452,16 @@ impl Tr<'_> {
             ],
             textured: None,
         });
+        // Mitsuba's reflecting BSDFs scatter on the front face only (black from behind) unless wrapped in
+        // twosided; its dielectrics scatter on both. vkpath's one_sided is the same rule.
+        let reflects_only = !out
+            .lines
+            .iter()
+            .any(|(l, _)| l == "type = \"dielectric\"" || l == "type = \"thin_dielectric\"");
+        if reflects_only && !bsdf.is_some_and(|b| self.two_sided(b)) {
+            let origin = bsdf.map_or(shape_loc, |b| &b.loc).clone();
+            out.lines.push(("one_sided = true".into(), origin));
+        }
         let id = bsdf.and_then(|b| {
             self.ids
                 .iter()

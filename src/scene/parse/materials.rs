@@ -45,7 +45,7 @@ impl Checker<'_> {
         // unknown key rather than silently ignored. Every type but `emitter` may also emit; every type
         // takes the surface modifiers.
         const EMISSION: [&str; 2] = ["emission", "two_sided_emission"];
-        const MODIFIERS: [&str; 4] = ["opacity", "alpha_cutoff", "bump", "normal_map"];
+        const MODIFIERS: [&str; 5] = ["opacity", "alpha_cutoff", "bump", "normal_map", "one_sided"];
         let (allowed, bsdf): (Vec<&str>, _) = match kind {
             "diffuse" => {
                 let albedo = self.required(
@@ -369,6 +369,7 @@ impl Checker<'_> {
                 &mut textures.opacity,
             )?;
         }
+        textures.one_sided = m.one_sided.as_ref().is_some_and(|o| *o.get_ref());
         if let Some(c) = &m.alpha_cutoff {
             textures.alpha_cutoff = Some(self.number_unless(
                 c,

@@ -118,6 +118,7 @@ pub(super) struct RawMaterial {
     pub(super) alpha_cutoff: Option<Spanned<f32>>,
     pub(super) bump: Option<Spanned<RawModifier>>,
     pub(super) normal_map: Option<Spanned<RawModifier>>,
+    pub(super) one_sided: Option<Spanned<bool>>,
 }
 
 impl RawMaterial {
