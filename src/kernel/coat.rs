@@ -33,8 +33,8 @@ use super::upload::fresnel_dielectric;
 /// Entries in a plastic's transmittance table (`GpuMaterial::coat`).
 pub const COAT_NODES: usize = 16;
 
-/// Gauss-Legendre nodes and weights on [-1, 1], 4 points.
-const GL4: [(f64, f64); 4] = [
+/// Gauss-Legendre nodes and weights on [-1, 1], 4 points (also upload.rs's Fdr quadrature).
+pub(super) const GL4: [(f64, f64); 4] = [
     (-0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
     (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
     (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),

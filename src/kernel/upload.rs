@@ -13,7 +13,7 @@
 
 use super::abi::*;
 use super::alias;
-use super::coat::coat_table;
+use super::coat::{GL4, coat_table};
 use crate::scene::bvh::{self, Bvh};
 use crate::scene::environment::channel_mean;
 use crate::scene::texture::{Channel, TextureFilter, Wrap};
@@ -247,12 +247,6 @@ pub(super) fn fresnel_dielectric(c: f64, eta: f64) -> f64 {
 /// c = c_crit + (1 - c_crit) u^2, which removes the square-root kink of cos_t at the critical angle (the
 /// integrand becomes smooth in u). Accurate to about 1e-12.
 pub fn fresnel_diffuse_reflectance(eta: f64) -> f64 {
-    const NODES: [(f64, f64); 4] = [
-        (-0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
-        (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-        (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
-        (0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
-    ];
     let c_crit = if eta < 1.0 {
         (1.0 - eta * eta).sqrt()
     } else {
@@ -262,7 +256,7 @@ pub fn fresnel_diffuse_reflectance(eta: f64) -> f64 {
     let mut sum = 0.0;
     for p in 0..panels {
         let (u0, u1) = (p as f64 / panels as f64, (p + 1) as f64 / panels as f64);
-        for (x, w) in NODES {
+        for (x, w) in GL4 {
             let u = 0.5 * (u0 + u1) + 0.5 * (u1 - u0) * x;
             let c = c_crit + (1.0 - c_crit) * u * u;
             let dc_du = 2.0 * (1.0 - c_crit) * u;

@@ -98,15 +98,22 @@ impl Tr<'_> {
         Ok((a.sqrt(), line))
     }
 
-    /// Whether a BSDF scatters on both faces in Mitsuba: a `twosided`, or a `mask` around one (a mask
-    /// inside a mask is refused by bsdf_unwrapped, which has read this one already).
+    /// Whether a BSDF scatters on both faces in Mitsuba: a `twosided`, a dielectric (smooth, rough or
+    /// thin: light meets them from either side), or a `mask` around one of those (a mask inside a mask is
+    /// refused by bsdf_unwrapped, which has read this one already). Mitsuba's other BSDFs reflect on the
+    /// front face only and are black from behind.
     fn two_sided(&self, obj: &Obj) -> bool {
+        let both_faces = |kind: &str| {
+            matches!(
+                kind,
+                "twosided" | "dielectric" | "roughdielectric" | "thindielectric"
+            )
+        };
         match obj.kind.as_str() {
-            "twosided" => true,
             "mask" => Args::new(obj)
                 .objects("bsdf", self.ids)
-                .is_ok_and(|inner| inner.first().is_some_and(|(b, _)| b.kind == "twosided")),
-            _ => false,
+                .is_ok_and(|inner| inner.first().is_some_and(|(b, _)| both_faces(&b.kind))),
+            kind => both_faces(kind),
         }
     }
 
@@ -452,13 +459,9 @@ impl Tr<'_> {
             ],
             textured: None,
         });
-        // Mitsuba's reflecting BSDFs scatter on the front face only (black from behind) unless wrapped in
-        // twosided; its dielectrics scatter on both. vkpath's one_sided is the same rule.
-        let reflects_only = !out
-            .lines
-            .iter()
-            .any(|(l, _)| l == "type = \"dielectric\"" || l == "type = \"thin_dielectric\"");
-        if reflects_only && !bsdf.is_some_and(|b| self.two_sided(b)) {
+        // Mitsuba's reflecting BSDFs, and its default for a shape without one, scatter on the front face
+        // only (black from behind) unless wrapped in twosided: vkpath's one_sided.
+        if !bsdf.is_some_and(|b| self.two_sided(b)) {
             let origin = bsdf.map_or(shape_loc, |b| &b.loc).clone();
             out.lines.push(("one_sided = true".into(), origin));
         }
