@@ -1107,9 +1107,9 @@ fn errors_name_the_file_the_line_and_the_element() {
     );
     check(
         "<shape type=\"sphere\">\n<emitter type=\"area\">\n<rgb name=\"radiance\" value=\"-1\"/></emitter></shape>",
-        "<emitter type=\"area\">",
-        "<emitter type=\"area\">",
-        &["emission"],
+        "<rgb name=\"radiance\"",
+        "<rgb name=\"radiance\">",
+        &["negative"],
     );
     check(
         "<shape type=\"obj\">\n<string name=\"filename\" value=\"absent.obj\"/></shape>",
@@ -1761,4 +1761,188 @@ fn deep_nesting_and_reference_cycles_are_refused_not_overflowed() {
         );
         assert!(!dir.path().join("deep.png").exists() && !dir.path().join("deep.toml").exists());
     }
+}
+
+/// Issue 31: expansions bounded by a multiple of the input. A `<default>` doubling the one before it 40
+/// times (a 1.5 kB file asking for a terabyte) and an include fan-out (12 files of 8 includes each:
+/// 8^11 reads) used to abort on allocation and to run for ever; each is now refused at the line where
+/// the bound is crossed. A parameter used many times over stays well inside the bound.
+#[test]
+fn expansion_bombs_and_include_fan_outs_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut bomb = String::from("<default name=\"a0\" value=\"xxxxxxxxxxxxxxxx\"/>\n");
+    for i in 1..=40 {
+        bomb += &format!(
+            "<default name=\"a{i}\" value=\"$a{}$a{}\"/>\n",
+            i - 1,
+            i - 1
+        );
+    }
+    bomb += "<shape type=\"sphere\"><string name=\"label\" value=\"$a40\"/></shape>";
+    let e = error_in(dir.path(), &bomb);
+    // The first default whose two uses of the one before (16 x 2^(i-1) bytes each, replacing the
+    // `$a{i-1}` written) take the total past 16 x the file plus 1 MiB: a16.
+    let budget = 16 * scene_xml(&bomb).len() + (1 << 20);
+    let mut added = 0;
+    let first = (1..=40)
+        .find(|i| {
+            added += 2 * (16 << (i - 1)) - 2 * format!("$a{}", i - 1).len();
+            added > budget
+        })
+        .unwrap();
+    assert_eq!(first, 16);
+    assert!(
+        e.contains("expands itself")
+            && e.contains(&format!(
+                "line {}",
+                line_of(&bomb, &format!("<default name=\"a{first}\""))
+            )),
+        "{e}"
+    );
+    for level in 0..12 {
+        let body = if level < 11 {
+            format!("<include filename=\"inc{}.xml\"/>", level + 1).repeat(8)
+        } else {
+            "<shape type=\"sphere\"/>".into()
+        };
+        write(
+            dir.path(),
+            &format!("inc{level}.xml"),
+            &format!("<scene version=\"3.0.0\">{body}</scene>"),
+        );
+    }
+    let started = std::time::Instant::now();
+    let e = error_in(dir.path(), r#"<include filename="inc0.xml"/>"#);
+    assert!(e.contains("more than 10000 <include>s"), "{e}");
+    assert!(started.elapsed().as_secs() < 60, "bounded, not merely slow");
+    // A 200-character parameter used 300 times (60 kB from a 12 kB file): read.
+    let body = format!(
+        "<default name=\"label\" value=\"{}\"/>\n{}<shape type=\"sphere\"/>",
+        "y".repeat(200),
+        (0..300)
+            .map(|i| format!("<default name=\"u{i}\" value=\"$label\"/>\n"))
+            .collect::<String>()
+    );
+    assert_eq!(load(&body).spheres.len(), 1);
+}
+
+/// Issue 31: what no shape uses is still read, as Mitsuba instantiates every object of a scene: an
+/// unknown plugin, a parameter nothing reads, an unknown texture, each refused at its line even where
+/// nothing refers to it (a warning with --xml-lenient). A light of negative intensity or radiance is
+/// refused instead of becoming a black light.
+#[test]
+fn unused_definitions_are_read_and_negative_lights_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let light = r#"<shape type="sphere"/><emitter type="point"><point name="position" x="0" y="0" z="3"/></emitter>"#;
+    for (def, needle, want) in [
+        (
+            r#"<bsdf type="frobnicate" id="x"><float name="bogus" value="1"/></bsdf>"#,
+            "frobnicate",
+            "bsdf plugin \"frobnicate\"",
+        ),
+        (
+            r#"<bsdf type="diffuse" id="d"><float name="bogosity" value="3"/></bsdf>"#,
+            "bogosity",
+            "bogosity",
+        ),
+        (r#"<texture type="nosuch" id="t"/>"#, "nosuch", "\"nosuch\""),
+        (
+            r#"<emitter type="point"><point name="position" x="0" y="0" z="3"/><rgb name="intensity" value="-3000"/></emitter>"#,
+            "-3000",
+            "negative",
+        ),
+        (
+            r#"<shape type="rectangle"><emitter type="area"><rgb name="radiance" value="1, -1, 1"/></emitter></shape>"#,
+            "radiance",
+            "negative",
+        ),
+        (
+            r#"<emitter type="directional"><vector name="direction" x="0" y="0" z="-1"/><float name="irradiance" value="-2"/></emitter>"#,
+            "irradiance",
+            "negative",
+        ),
+    ] {
+        let body = format!("{light}\n{def}");
+        let e = error_in(dir.path(), &body);
+        assert!(
+            e.contains(want) && e.contains(&format!("line {}", line_of(&body, needle))),
+            "{def}: {e}"
+        );
+    }
+    let p = write(
+        dir.path(),
+        "lenient.xml",
+        &scene_xml(&format!(
+            "{light}\n<bsdf type=\"frobnicate\" id=\"x\"/>\n<bsdf type=\"diffuse\" id=\"d\"><float name=\"bogosity\" value=\"3\"/></bsdf>"
+        )),
+    );
+    let s = Scene::load_with_options(&p, None, true).unwrap();
+    assert_eq!(s.warnings.len(), 2, "{:#?}", s.warnings);
+    assert!(s.warnings[0].contains("frobnicate") && s.warnings[1].contains("bogosity"));
+    // Used or not, a definition vkpath reads costs nothing: the same scene as without it.
+    let with = load(&format!(
+        "{light}\n<bsdf type=\"roughconductor\" id=\"spare\"/>"
+    ));
+    assert_eq!(with.materials.len(), load(light).materials.len());
+}
+
+/// Mitsuba's bumpmap and normalmap become the bump and normal_map modifiers of the BSDF they hold: the
+/// bump texture read as Mitsuba's eval_1 (luminance of the sRGB-decoded texels) with its scale, the
+/// normal map as given (raw: linear), and the two-sidedness of what they hold. Bitterli's staircase
+/// defines a bumpmap at the top level that no shape uses (its inner BSDF is used by id): that reads.
+#[test]
+fn bumpmaps_and_normalmaps_become_bump_and_normal_map_modifiers() {
+    let dir = tempfile::tempdir().unwrap();
+    image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]))
+        .save(dir.path().join("h.png"))
+        .unwrap();
+    write(
+        dir.path(),
+        "quad.obj",
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/4\n",
+    );
+    let quad = |bsdf: &str| {
+        format!(r#"<shape type="obj"><string name="filename" value="quad.obj"/>{bsdf}</shape>"#)
+    };
+    let s = load_in(
+        dir.path(),
+        &[
+            quad(
+                r#"<bsdf type="bumpmap"><texture name="map" type="bitmap"><string name="filename" value="h.png"/></texture>
+                   <float name="scale" value="0.25"/>
+                   <bsdf type="twosided"><bsdf type="roughconductor"/></bsdf></bsdf>"#,
+            ),
+            quad(
+                r#"<bsdf type="normalmap"><texture name="normalmap" type="bitmap"><boolean name="raw" value="true"/>
+                   <string name="filename" value="h.png"/></texture><bsdf type="diffuse"/></bsdf>"#,
+            ),
+            // The staircase's pattern: the bumpmap is defined, unused; its twosided is used by id.
+            r#"<bsdf type="bumpmap"><texture name="map" type="bitmap"><string name="filename" value="h.png"/></texture>
+                   <bsdf type="twosided" id="inner"><bsdf type="diffuse"/></bsdf></bsdf>"#
+                .to_string(),
+            quad(r#"<ref id="inner"/>"#),
+        ]
+        .join("\n"),
+    );
+    let m: Vec<_> = s
+        .meshes
+        .iter()
+        .map(|m| &s.materials[m.material as usize])
+        .collect();
+    let (bump, scale) = m[0].textures.bump.as_ref().expect("a bump map");
+    assert_eq!(*scale, 0.25);
+    assert!(bump.srgb && bump.channel == Channel::Luminance);
+    assert!(!m[0].textures.one_sided, "a bumpmap around a twosided");
+    let (normal, nscale) = m[1].textures.normal_map.as_ref().expect("a normal map");
+    assert_eq!(*nscale, 1.0);
+    assert!(!normal.srgb && normal.channel == Channel::Rgb);
+    assert!(m[1].textures.one_sided, "a normalmap around a diffuse");
+    assert!(m[2].textures.bump.is_none() && !m[2].textures.one_sided);
+    // Without one texture and one BSDF: refused at the element.
+    let body = quad(r#"<bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf>"#);
+    let e = error_in(dir.path(), &body);
+    assert!(
+        e.contains("one texture") && e.contains(&format!("line {}", line_of(&body, "bumpmap"))),
+        "{e}"
+    );
 }

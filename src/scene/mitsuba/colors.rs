@@ -3,7 +3,7 @@
 
 use super::args::{Args, resolve_ref};
 use super::context::Tr;
-use super::objects::{Loc, Prop, Value};
+use super::objects::{Loc, Obj, Prop, Value};
 use crate::scene::SceneError;
 use glam::DVec3;
 use std::path::PathBuf;
@@ -69,7 +69,13 @@ impl Tr<'_> {
                 "Give an <rgb> or a <texture type=\"bitmap\">.",
             ));
         }
-        let targs = Args::new(&obj);
+        self.texture(&obj)
+    }
+
+    /// A `<texture>` object: `bitmap` (a file) or `srgb` (a colour).
+    pub(super) fn texture(&mut self, obj: &Obj) -> Result<ColorTex, SceneError> {
+        self.translated.insert(obj as *const Obj as usize);
+        let targs = Args::new(obj);
         let out = match obj.kind.as_str() {
             "srgb" => {
                 let c = match targs.prop("color") {
@@ -144,6 +150,12 @@ impl Tr<'_> {
     /// parameter reads the luminance of the decoded colour (Mitsuba's `eval_1`; an image's alpha is not
     /// read, as Mitsuba does not).
     pub(super) fn texture_ref(&self, b: &Bitmap, scalar: bool) -> String {
+        format!("{{ {} }}", self.texture_keys(b, scalar, !scalar).join(", "))
+    }
+
+    /// The keys of [`Tr::texture_ref`] for a parameter whose 8-bit texels vkpath reads as sRGB by
+    /// default when `srgb_default` (colours), else as linear data (scalars, normal and bump maps).
+    pub(super) fn texture_keys(&self, b: &Bitmap, scalar: bool, srgb_default: bool) -> Vec<String> {
         let mut keys = vec![format!("texture = {}", self.refer(&b.path))];
         let float_file = b
             .path
@@ -152,11 +164,12 @@ impl Tr<'_> {
             .is_some_and(|e| e.eq_ignore_ascii_case("exr") || e.eq_ignore_ascii_case("hdr"));
         if scalar {
             keys.push("channel = \"luminance\"".into());
-            if !b.raw && !float_file {
-                keys.push("color_space = \"srgb\"".into());
-            }
-        } else if b.raw && !float_file {
-            keys.push("color_space = \"linear\"".into());
+        }
+        if !float_file && b.raw == srgb_default {
+            keys.push(format!(
+                "color_space = \"{}\"",
+                if b.raw { "linear" } else { "srgb" }
+            ));
         }
         if b.nearest {
             keys.push("filter = \"nearest\"".into());
@@ -164,6 +177,6 @@ impl Tr<'_> {
         if b.wrap != "repeat" {
             keys.push(format!("wrap = \"{}\"", b.wrap));
         }
-        format!("{{ {} }}", keys.join(", "))
+        keys
     }
 }

@@ -37,6 +37,10 @@ pub(super) struct Tr<'p> {
     /// The BSDFs being translated, outermost first (their addresses), to refuse a BSDF that holds
     /// itself through `<ref>`s instead of recursing until the stack overflows.
     pub(super) bsdf_stack: Vec<usize>,
+    /// The BSDFs and textures translated so far (their addresses): a definition at the top level that no
+    /// shape used is translated once more at the end, so that what it says is checked as Mitsuba checks
+    /// it (an unknown plugin or parameter is refused even where nothing refers to it).
+    pub(super) translated: std::collections::HashSet<usize>,
 }
 
 impl<'p> Tr<'p> {
@@ -63,6 +67,7 @@ impl<'p> Tr<'p> {
             out_lights: TomlOut::default(),
             environment: None,
             bsdf_stack: Vec::new(),
+            translated: Default::default(),
         }
     }
 

@@ -17,7 +17,7 @@ impl Tr<'_> {
             "point" => {
                 // Mitsuba's intensity I is W/sr; vkpath's point light has I = power x color / (4 pi):
                 // power = 4 pi max(I), color = I / max(I).
-                let intensity = self.color(&args, "intensity", DVec3::ONE)?;
+                let intensity = self.emitted(&args, "intensity")?;
                 let position = self.position(&args, "position")?;
                 self.finish(&args, &["intensity", "position", "to_world"])?;
                 let (power, color) = power_and_color(4.0 * std::f64::consts::PI, intensity);
@@ -36,7 +36,7 @@ impl Tr<'_> {
                 // Mitsuba's spot emits along its to_world's local +z from its origin: intensity I
                 // (W/sr) on the axis, full out to beam_width, linear in the angle to 0 at cutoff_angle
                 // (degrees; defaults 20 and 3/4 of the cutoff): vkpath's spot light, the same falloff.
-                let intensity = self.color(&args, "intensity", DVec3::ONE)?;
+                let intensity = self.emitted(&args, "intensity")?;
                 let (position, target) = match args.transform("to_world")? {
                     Some((x, _)) => (
                         x.m.transform_point3(DVec3::ZERO),
@@ -63,7 +63,7 @@ impl Tr<'_> {
                 o.line(format!("color        = {}", vec3(color)), loc);
             }
             "directional" => {
-                let irradiance = self.color(&args, "irradiance", DVec3::ONE)?;
+                let irradiance = self.emitted(&args, "irradiance")?;
                 let direction = match (args.vector("direction")?, args.transform("to_world")?) {
                     (Some(_), Some((_, l))) => {
                         return Err(
@@ -99,7 +99,7 @@ impl Tr<'_> {
                 self.environment = Some(obj.loc.clone());
                 env.line("[environment]", loc);
                 if obj.kind == "constant" {
-                    let radiance = self.color(&args, "radiance", DVec3::ONE)?;
+                    let radiance = self.emitted(&args, "radiance")?;
                     self.finish(&args, &["radiance"])?;
                     env.line(format!("radiance = {}", vec3(radiance)), loc);
                 } else {
@@ -111,6 +111,13 @@ impl Tr<'_> {
                     };
                     let file = self.file(name, floc);
                     let scale = args.float_or("scale", 1.0)?;
+                    if !(scale >= 0.0 && scale.is_finite()) {
+                        let loc = args.prop("scale").map_or(&obj.loc, |p| &p.loc);
+                        return Err(loc.error(
+                            format!("the envmap's scale {scale} is negative or not finite"),
+                            "Give a scale of 0 or more.",
+                        ));
+                    }
                     let rotate = match args.transform("to_world")? {
                         None => 0.0,
                         Some((x, l)) => y_rotation(&x.m).ok_or_else(|| {
@@ -154,6 +161,26 @@ impl Tr<'_> {
             (None, Some((x, _))) => Ok(x.m.transform_point3(DVec3::ZERO)),
             (None, None) => Ok(DVec3::ZERO),
         }
+    }
+}
+
+impl Tr<'_> {
+    /// An emitted quantity (radiance, intensity, irradiance; default 1): a colour with no negative or
+    /// non-finite channel. Mitsuba would add negative light; vkpath refuses it rather than render a light
+    /// that takes energy away (or, clamped, a black one in silence).
+    pub(super) fn emitted(&mut self, args: &Args, name: &str) -> Result<DVec3, SceneError> {
+        let c = self.color(args, name, DVec3::ONE)?;
+        if c.is_finite() && c.min_element() >= 0.0 {
+            return Ok(c);
+        }
+        let loc = args.prop(name).map(|p| &p.loc);
+        Err(loc.unwrap_or(&args.obj.loc).error(
+            format!(
+                "{name} ({}, {}, {}) is negative or not finite: a light cannot emit less than nothing",
+                c.x, c.y, c.z
+            ),
+            "Give values of 0 or more (0 for a light that is off).",
+        ))
     }
 }
 

@@ -103,18 +103,29 @@ impl Tr<'_> {
     /// refused by bsdf_unwrapped, which has read this one already). Mitsuba's other BSDFs reflect on the
     /// front face only and are black from behind.
     fn two_sided(&self, obj: &Obj) -> bool {
-        let both_faces = |kind: &str| {
-            matches!(
-                kind,
-                "twosided" | "dielectric" | "roughdielectric" | "thindielectric"
-            )
-        };
-        match obj.kind.as_str() {
-            "mask" => Args::new(obj)
-                .objects("bsdf", self.ids)
-                .is_ok_and(|inner| inner.first().is_some_and(|(b, _)| both_faces(&b.kind))),
-            kind => both_faces(kind),
+        // Modifiers (mask, bumpmap, normalmap) are two-sided when what they hold is; the walk is
+        // bounded, as a chain of <ref>s could close on itself (Tr::bsdf refuses that later).
+        let mut inner: Option<Rc<Obj>> = None;
+        for _ in 0..super::xml::MAX_XML_DEPTH {
+            let current = inner.as_deref().unwrap_or(obj);
+            match current.kind.as_str() {
+                "twosided" | "dielectric" | "roughdielectric" | "thindielectric" => return true,
+                "mask" | "bumpmap" | "normalmap" => {
+                    let nested = Args::new(current).objects("bsdf", self.ids).ok();
+                    match nested.and_then(|v| v.into_iter().next()) {
+                        Some((b, _)) => inner = Some(b),
+                        None => return false,
+                    }
+                }
+                _ => return false,
+            }
         }
+        false
+    }
+
+    /// Translates a BSDF that nothing uses, for its errors and warnings only.
+    pub(super) fn check_bsdf(&mut self, obj: &Obj) -> Result<(), SceneError> {
+        self.bsdf(obj).map(drop)
     }
 
     /// A BSDF as vkpath material keys; refused when it holds itself through `<ref>`s (a cycle, which
@@ -138,6 +149,7 @@ impl Tr<'_> {
             ));
         }
         self.bsdf_stack.push(address);
+        self.translated.insert(address);
         let out = self.bsdf_unwrapped(obj);
         self.bsdf_stack.pop();
         out
@@ -202,6 +214,61 @@ impl Tr<'_> {
                 }
                 out.lines.push(at(format!("opacity = {opacity}")));
                 out.textured = out.textured.or(textured);
+                return Ok(Some(out));
+            }
+            "bumpmap" | "normalmap" => {
+                // Mitsuba's bumpmap: the nested BSDF under the shading frame of the surface displaced
+                // by `scale` x the texture's value (eval_1: the luminance of a colour texture), whose
+                // derivatives in uv it takes; vkpath's bump modifier is the same model (scene.wgsl,
+                // bump_mapped). Its normalmap: the frame's normal is 2 x rgb - 1 in the tangent frame
+                // along dp/du (the texture as given: Mitsuba's scenes set raw = true), vkpath's
+                // normal_map. A texture of any name, as in Mitsuba.
+                let bump = kind == "bumpmap";
+                let inner = args.objects("bsdf", self.ids)?;
+                let maps = args.objects("texture", self.ids)?;
+                let ([(b, _)], [(map, _)]) = (inner.as_slice(), maps.as_slice()) else {
+                    return Err(obj.loc.error(
+                        format!("a {kind} BSDF with other than one nested BSDF and one texture"),
+                        "Nest exactly one BSDF and one <texture>.",
+                    ));
+                };
+                let scale = if bump {
+                    args.float_or("scale", 1.0)?
+                } else {
+                    1.0
+                };
+                self.finish(&args, &["bsdf", "texture", "scale"])?;
+                let key = if bump { "bump" } else { "normal_map" };
+                let texture = match self.texture(map)? {
+                    // A constant height displaces the surface without tilting it: the nested BSDF as is.
+                    ColorTex::Color(_) if bump => None,
+                    ColorTex::Color(_) => {
+                        return Err(map.loc.error(
+                            "a normalmap whose texture is a constant colour",
+                            "Give a bitmap texture, or leave the normalmap out.",
+                        ));
+                    }
+                    ColorTex::Bitmap(bitmap) => Some(bitmap),
+                };
+                let Some(mut out) = self.bsdf(b)? else {
+                    return Ok(None);
+                };
+                let Some(bitmap) = texture else {
+                    return Ok(Some(out));
+                };
+                if out.lines.iter().any(|(l, _)| l.starts_with(key)) {
+                    return Err(obj.loc.error(
+                        format!("a {kind} inside a {kind}"),
+                        "vkpath applies one map of each kind to a material: keep one.",
+                    ));
+                }
+                let mut keys = self.texture_keys(&bitmap, bump, false);
+                if bump {
+                    keys.push(format!("scale = {}", num(scale)));
+                }
+                out.lines
+                    .push(at(format!("{key} = {{ {} }}", keys.join(", "))));
+                out.textured = out.textured.or(Some(bitmap.loc));
                 return Ok(Some(out));
             }
             "diffuse" | "roughdiffuse" => {
@@ -420,7 +487,7 @@ impl Tr<'_> {
             _ => {
                 self.unsupported(
                     obj,
-                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided and mask",
+                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, mask, bumpmap and normalmap",
                 )?;
                 return Ok(None);
             }

@@ -28,7 +28,7 @@ impl Tr<'_> {
             None => None,
             Some((e, _)) if e.kind == "area" => {
                 let eargs = Args::new(e);
-                let radiance = self.color(&eargs, "radiance", DVec3::ONE)?;
+                let radiance = self.emitted(&eargs, "radiance")?;
                 self.finish(&eargs, &["radiance"])?;
                 Some((radiance, &e.loc))
             }

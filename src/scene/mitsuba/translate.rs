@@ -38,6 +38,7 @@ impl Tr<'_> {
         let mut integrators = Vec::new();
         let mut shapes = Vec::new();
         let mut emitters = Vec::new();
+        let mut definitions = Vec::new();
         for p in &scene.props {
             let obj = match &p.value {
                 Value::Object(o) => o.clone(),
@@ -67,8 +68,8 @@ impl Tr<'_> {
                         && matches!(p.value, Value::Object(_))
                         && self.ids.values().any(|o| std::rc::Rc::ptr_eq(o, &obj)) => {}
                 "emitter" => emitters.push(obj),
-                // Definitions that shapes refer to by id.
-                "bsdf" | "texture" => {}
+                // Definitions that shapes refer to by id (checked at the end if none does).
+                "bsdf" | "texture" => definitions.push(obj),
                 _ => {
                     let problem = format!(
                         "{} directly in the <scene>: vkpath reads sensors, integrators, shapes, emitters, and BSDFs and textures for reference there",
@@ -193,6 +194,19 @@ impl Tr<'_> {
         }
         for (i, s) in shapes.iter().enumerate() {
             self.shape(s, i)?;
+        }
+        // Mitsuba instantiates every object of the scene, used or not, and refuses one it does not
+        // know or whose parameters it does not read: so does vkpath, translating each definition no
+        // shape used (what it writes is dropped; only its errors and warnings count).
+        for d in &definitions {
+            if self.translated.contains(&(std::rc::Rc::as_ptr(d) as usize)) {
+                continue;
+            }
+            if d.tag == "bsdf" {
+                self.check_bsdf(d)?;
+            } else {
+                self.texture(d)?;
+            }
         }
         if !self.out_materials.text.is_empty() {
             let mut m = TomlOut::default();

@@ -18,6 +18,25 @@ use std::rc::Rc;
 /// Mitsuba 3's limit on nested `<include>`s.
 const INCLUDE_DEPTH_LIMIT: usize = 15;
 
+/// The most `<include>`s one scene may read in all. The depth limit bounds how deep includes nest, not
+/// how wide: 12 files of 8 includes each (3.5 kB on disk) would read 8^11 files. Real scenes include a
+/// handful of files; Mitsuba has no such limit.
+pub(super) const MAX_INCLUDES: usize = 10_000;
+
+/// The most bytes of XML one scene may read across its main file and every include (each one counted
+/// as often as it is included): the limit of one scene file, [`crate::scene::MAX_SCENE_FILE_BYTES`].
+const MAX_XML_BYTES: u64 = crate::scene::MAX_SCENE_FILE_BYTES;
+
+/// How much `$name` substitution may add to the attribute values, over the whole scene: this many
+/// times the XML read, plus [`EXPANSION_ALLOWANCE`] bytes. A `<default>` that doubles the one before
+/// it, 40 times over, would otherwise ask for 2^40 times its text (a 1.5 kB file, a terabyte); a real
+/// scene's parameters (sample counts, resolutions, a file name used in a few places) add a few bytes
+/// per use.
+pub(super) const EXPANSION_FACTOR: u64 = 16;
+
+/// See [`EXPANSION_FACTOR`].
+pub(super) const EXPANSION_ALLOWANCE: u64 = 1 << 20;
+
 /// The element tags that are objects (plugins).
 const OBJECT_TAGS: &[&str] = &[
     "bsdf",
@@ -52,6 +71,12 @@ pub(super) struct Parser {
     paths: Vec<PathBuf>,
     /// How many elements deep the walk is (across includes), against [`MAX_XML_DEPTH`].
     depth: usize,
+    /// Bytes of XML read so far (main file and includes), against [`MAX_XML_BYTES`].
+    read_bytes: u64,
+    /// `<include>`s read so far, against [`MAX_INCLUDES`].
+    includes: usize,
+    /// Bytes `$name` substitution has added so far (see [`EXPANSION_FACTOR`]).
+    expanded_bytes: u64,
 }
 
 /// The deepest nesting of elements read: the walk recurses once per level, and a hostile file of a few
@@ -221,6 +246,9 @@ impl Parser {
             main_dir,
             paths: Vec::new(),
             depth: 0,
+            read_bytes: 0,
+            includes: 0,
+            expanded_bytes: 0,
         }
     }
 
@@ -283,10 +311,30 @@ impl Parser {
             if value.contains('$') {
                 for (n, v) in &params {
                     let reference = format!("${n}");
-                    if value.contains(&reference) {
-                        self.mention(n);
-                        value = value.replace(&reference, v);
+                    let uses = value.matches(&reference).count() as u64;
+                    if uses == 0 {
+                        continue;
                     }
+                    self.mention(n);
+                    // Counted before the new value is built, so that an expansion bomb is refused
+                    // before it allocates.
+                    let added = uses * (v.len() as u64).saturating_sub(reference.len() as u64);
+                    self.expanded_bytes = self.expanded_bytes.saturating_add(added);
+                    let budget = EXPANSION_FACTOR * self.read_bytes + EXPANSION_ALLOWANCE;
+                    if self.expanded_bytes > budget {
+                        return Err(loc.error(
+                            format!(
+                                "attribute {name}: substituting ${n} would make the scene's parameters \
+                                 add more than {budget} bytes to its {} bytes of XML (at most \
+                                 {EXPANSION_FACTOR} times the XML plus {} MiB): a <default> that \
+                                 expands itself over and over",
+                                self.read_bytes,
+                                EXPANSION_ALLOWANCE >> 20
+                            ),
+                            "Give the <default> values directly instead of building them from one another.",
+                        ));
+                    }
+                    value = value.replace(&reference, v);
                 }
                 if value.contains('$') {
                     return Err(loc.error(
@@ -315,6 +363,7 @@ impl Parser {
     /// Reads the main file: its root must be `<scene version="...">`.
     pub(super) fn main_file(&mut self, path: &Path) -> Result<Obj, SceneError> {
         let text = read_scene_text(path)?;
+        self.read_bytes = text.len() as u64;
         let doc = parse_xml(path, &text)?;
         self.chain
             .push(path.canonicalize().unwrap_or_else(|_| absolute(path)));
@@ -684,12 +733,34 @@ impl Parser {
                 "Flatten the includes.",
             ));
         }
+        self.includes += 1;
+        if self.includes > MAX_INCLUDES {
+            return Err(loc.error(
+                format!(
+                    "the scene reads more than {MAX_INCLUDES} <include>s in all (files including one \
+                     another many times over)"
+                ),
+                "Include each file once; to use an object in many places, give it an id and <ref> it.",
+            ));
+        }
         let text = read_scene_text(&target).map_err(|e| {
             loc.error(
                 format!("the included file {} cannot be read: {e}", target.display()),
                 "Check the include's filename.",
             )
         })?;
+        self.read_bytes += text.len() as u64;
+        if self.read_bytes > MAX_XML_BYTES {
+            return Err(loc.error(
+                format!(
+                    "the scene's XML, with {} and every include counted each time it is included, \
+                     exceeds {} MiB",
+                    target.display(),
+                    MAX_XML_BYTES >> 20
+                ),
+                "Include each file once; large geometry belongs in mesh files (.ply, .obj).",
+            ));
+        }
         let doc = parse_xml(&target, &text)?;
         self.chain.push(canonical);
         let mut inner = Src {
