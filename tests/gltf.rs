@@ -1132,3 +1132,121 @@ fn a_gltf_node_graph_that_is_not_a_tree_is_refused() {
         Scene::load(&dir.path().join("g.gltf")).map_or_else(|e| e.to_string(), |_| String::new());
     assert!(!e.contains("tree"), "{e}");
 }
+
+/// Issue 31: accessors that lie are refused, naming the primitive and the accessor, both as a glTF
+/// scene and as a TOML `[[mesh]]`: 7 u16 indices in a 12-byte view (the reader stopped at the view's
+/// end and a quad rendered half missing, exit 0), a view past its buffer, a byteStride shorter than an
+/// element, positions of the wrong type, an index count that is not a multiple of 3.
+#[test]
+fn gltf_accessors_that_lie_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let positions = f32s(QUAD.as_flattened());
+    let indices: Vec<u8> = [0u16, 1, 2, 0, 2, 3]
+        .iter()
+        .flat_map(|i| i.to_le_bytes())
+        .collect();
+    let bin = [positions.clone(), indices].concat();
+    std::fs::write(dir.path().join("q.bin"), &bin).unwrap();
+    let gltf = |views: &str, accessors: &str| {
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0, 1]}}],
+  "nodes": [{{"mesh": 0}}, {{"camera": 0, "translation": [0.5, 0.5, 3]}}],
+  "cameras": [{{"type": "perspective", "perspective": {{"yfov": 0.8, "znear": 0.1}}}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0}}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"metallicFactor": 0}}}}],
+  "buffers": [{{"uri": "q.bin", "byteLength": {}}}],
+  "bufferViews": [{views}],
+  "accessors": [{accessors}]}}"#,
+            bin.len()
+        )
+    };
+    let good_views = r#"{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 12}"#;
+    let position = r#"{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}"#;
+    let index = |count: usize| {
+        format!(r#"{{"bufferView": 1, "componentType": 5123, "count": {count}, "type": "SCALAR"}}"#)
+    };
+    // The honest file loads: two triangles.
+    std::fs::write(
+        dir.path().join("q.gltf"),
+        gltf(good_views, &format!("{position}, {}", index(6))),
+    )
+    .unwrap();
+    assert_eq!(
+        Scene::load(&dir.path().join("q.gltf")).unwrap().meshes[0]
+            .triangles
+            .len(),
+        2
+    );
+    let cases = [
+        (
+            gltf(good_views, &format!("{position}, {}", index(7))),
+            "meshes[0].primitives[0].indices (accessors[1]): 7 elements of 2 bytes (stride 2) from byte 0 need 14 bytes of bufferViews[1], which holds 12",
+        ),
+        (
+            gltf(
+                r#"{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 24}"#,
+                &format!("{position}, {}", index(6)),
+            ),
+            "bufferViews[1] (bytes 48 to 72) runs past the end of buffers[0] (60 bytes)",
+        ),
+        (
+            gltf(
+                r#"{"buffer": 0, "byteOffset": 0, "byteLength": 48, "byteStride": 4}, {"buffer": 0, "byteOffset": 48, "byteLength": 12}"#,
+                &format!("{position}, {}", index(6)),
+            ),
+            "byteStride 4 is less than an element (12 bytes)",
+        ),
+        (
+            gltf(
+                good_views,
+                &format!("{}, {}", position.replace("5126", "5123"), index(6)),
+            ),
+            "attributes.POSITION (accessors[0]) is Vec3 of U16",
+        ),
+        (
+            gltf(good_views, &format!("{position}, {}", index(5))),
+            "meshes[0].primitives[0] is TRIANGLES with 5 indices",
+        ),
+    ];
+    for (json, want) in &cases {
+        std::fs::write(dir.path().join("q.gltf"), json).unwrap();
+        let as_scene = Scene::load(&dir.path().join("q.gltf"))
+            .expect_err("a lying accessor")
+            .to_string();
+        let as_mesh = Scene::load(&common::cli::write(
+            dir.path(),
+            "s.toml",
+            &format!("{HEAD}[[mesh]]\nobj = \"q.gltf\"\n"),
+        ))
+        .expect_err("a lying accessor")
+        .to_string();
+        for e in [&as_scene, &as_mesh] {
+            assert!(e.contains(want), "{want}: {e}");
+        }
+        // The glTF scene's refusal names the glTF element, not a line of the TOML made of it.
+        assert!(
+            as_scene.starts_with(&format!(
+                "{}, key meshes:",
+                dir.path().join("q.gltf").display()
+            )) && !as_scene.contains("line"),
+            "{as_scene}"
+        );
+        assert!(
+            as_mesh.contains("s.toml, line 15, key mesh[0].obj"),
+            "{as_mesh}"
+        );
+    }
+    // A camera the TOML reader refuses is named as the glTF camera.
+    std::fs::write(
+        dir.path().join("q.gltf"),
+        gltf(good_views, &format!("{position}, {}", index(6))).replace(
+            "\"translation\": [0.5, 0.5, 3]",
+            "\"translation\": [0.5, 0.5, 3], \"scale\": [0, 0, 0]",
+        ),
+    )
+    .unwrap();
+    let e = Scene::load(&dir.path().join("q.gltf"))
+        .expect_err("a camera scaled to a point looks nowhere")
+        .to_string();
+    assert!(e.contains("key cameras[0]") && !e.contains("line"), "{e}");
+}

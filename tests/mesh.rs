@@ -695,6 +695,15 @@ fn obj_and_texture_errors_name_the_file_the_line_and_the_key() {
             vec!["bad3.obj, line 3", "non-finite"],
         ),
         (
+            // Issue 31: a corner naming a normal the file does not have used to be refused without
+            // the OBJ's line.
+            "normal index without normals",
+            "obj = \"bad5.obj\"\nmaterial = \"white\"",
+            9,
+            "mesh[0].obj",
+            vec!["bad5.obj, line 4", "normal 1"],
+        ),
+        (
             "no faces",
             "obj = \"bad4.obj\"\nmaterial = \"white\"",
             9,
@@ -777,6 +786,7 @@ fn obj_and_texture_errors_name_the_file_the_line_and_the_key() {
         "v 0 0 0\r\nv 1 0 0\r\nv 0 NaN 0\r\nf 1 2 3\r\n",
     );
     write(d, "bad4.obj", "# only vertices\nv 0 0 0\nv 1 0 0\n");
+    write(d, "bad5.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf //1 2 3\n");
     std::fs::write(d.join("bad.png"), b"not a png at all").unwrap();
     image::RgbImage::new(2, 2).save(d.join("ok.png")).unwrap();
     for (what, keys, line, key, words) in cases {

@@ -116,20 +116,18 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
         // Normals go by the inverse transpose of the upper 3x3 (a non-uniform scale bends them).
         let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
         for p in m.primitives() {
+            let at = format!("meshes[{}].primitives[{}]", m.index(), p.index());
             if p.mode() != gltf::mesh::Mode::Triangles {
                 notes.add(format!(
-                    "a primitive of mesh {} is {:?}, not triangles: it is skipped",
-                    m.index(),
+                    "{at} is {:?}, not triangles: it is skipped",
                     p.mode()
                 ));
                 continue;
             }
+            check_accessors(&p, &buffers, &at).map_err(ObjError::whole_file)?;
             let reader = p.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
             let Some(positions) = reader.read_positions() else {
-                notes.add(format!(
-                    "a primitive of mesh {} has no POSITION: it is skipped",
-                    m.index()
-                ));
+                notes.add(format!("{at} has no POSITION: it is skipped"));
                 continue;
             };
             let base = mesh.positions.len();
@@ -141,10 +139,20 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                 Some(i) => i.into_u32().collect(),
                 None => (0..count as u32).collect(),
             };
+            if !indices.len().is_multiple_of(3) {
+                return Err(ObjError::whole_file(format!(
+                    "{at} is TRIANGLES with {} {}, not a multiple of 3",
+                    indices.len(),
+                    if p.indices().is_some() {
+                        "indices"
+                    } else {
+                        "vertices (no indices)"
+                    }
+                )));
+            }
             if let Some(bad) = indices.iter().find(|&&i| i as usize >= count) {
                 return Err(ObjError::whole_file(format!(
-                    "a primitive of mesh {} refers to vertex {bad} of {count}",
-                    m.index()
+                    "{at}.indices refers to vertex {bad} of {count}"
                 )));
             }
             if base + count > MAX_TRIANGLES
@@ -195,6 +203,109 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     }
     mesh.notes = notes.0;
     Ok(mesh)
+}
+
+/// Checks every accessor primitive `p` is read through (POSITION, NORMAL, TEXCOORD_0, indices) before
+/// the gltf crate's reader touches it: the component type and shape the reader assumes, a stride at least
+/// an element, and every element inside its buffer view, every view inside its buffer (glTF 2.0 §3.6.2).
+/// The reader itself stops early at a view that is too short, which used to render a mesh with faces
+/// missing and no word (7 indices in a 12-byte view). `at` names the primitive (`meshes[0].primitives[0]`).
+fn check_accessors(
+    p: &gltf::Primitive,
+    buffers: &[gltf::buffer::Data],
+    at: &str,
+) -> Result<(), String> {
+    use gltf::Semantic;
+    use gltf::accessor::{DataType, Dimensions};
+    let float = &[DataType::F32][..];
+    let uv = &[DataType::F32, DataType::U8, DataType::U16][..];
+    let index = &[DataType::U8, DataType::U16, DataType::U32][..];
+    let mut read: Vec<(String, gltf::Accessor, Dimensions, &[DataType])> = Vec::new();
+    for (semantic, a) in p.attributes() {
+        let (dims, types) = match semantic {
+            Semantic::Positions | Semantic::Normals => (Dimensions::Vec3, float),
+            Semantic::TexCoords(0) => (Dimensions::Vec2, uv),
+            _ => continue,
+        };
+        read.push((
+            format!("{at}.attributes.{}", semantic.to_string()),
+            a,
+            dims,
+            types,
+        ));
+    }
+    if let Some(a) = p.indices() {
+        read.push((format!("{at}.indices"), a, Dimensions::Scalar, index));
+    }
+    for (what, a, dims, types) in read {
+        let what = format!("{what} (accessors[{}])", a.index());
+        if a.dimensions() != dims || !types.contains(&a.data_type()) {
+            return Err(format!(
+                "{what} is {:?} of {:?}, where glTF requires {dims:?} of {}",
+                a.dimensions(),
+                a.data_type(),
+                types
+                    .iter()
+                    .map(|t| format!("{t:?}"))
+                    .collect::<Vec<_>>()
+                    .join(" or ")
+            ));
+        }
+        if a.count() == 0 {
+            return Err(format!("{what} has a count of 0 (glTF's minimum is 1)"));
+        }
+        let size = a.size();
+        let mut spans = Vec::new();
+        if let Some(view) = a.view() {
+            spans.push(("", view, a.offset(), a.count(), size));
+        }
+        if let Some(sparse) = a.sparse() {
+            let (i, v) = (sparse.indices(), sparse.values());
+            let n = sparse.count();
+            spans.push((
+                " sparse indices",
+                i.view(),
+                i.offset(),
+                n,
+                i.index_type().size(),
+            ));
+            spans.push((" sparse values", v.view(), v.offset(), n, size));
+        }
+        for (part, view, offset, count, size) in spans {
+            if count == 0 {
+                return Err(format!("{what}{part}: a count of 0 (glTF's minimum is 1)"));
+            }
+            let stride = view.stride().unwrap_or(size);
+            let buffer = buffers.get(view.buffer().index()).map_or(0, |d| d.0.len());
+            let view_end = view.offset().checked_add(view.length());
+            if view_end.is_none_or(|e| e > buffer) {
+                return Err(format!(
+                    "{what}{part}: bufferViews[{}] (bytes {} to {}) runs past the end of buffers[{}] ({buffer} bytes)",
+                    view.index(),
+                    view.offset(),
+                    view.offset() as u128 + view.length() as u128,
+                    view.buffer().index()
+                ));
+            }
+            if stride < size {
+                return Err(format!(
+                    "{what}{part}: bufferViews[{}]'s byteStride {stride} is less than an element ({size} bytes)",
+                    view.index()
+                ));
+            }
+            // The last element ends at offset + stride x (count - 1) + size.
+            let needed = (count as u128 - 1) * stride as u128 + size as u128 + offset as u128;
+            if needed > view.length() as u128 {
+                return Err(format!(
+                    "{what}{part}: {count} elements of {size} bytes (stride {stride}) from byte {offset} need \
+                     {needed} bytes of bufferViews[{}], which holds {}",
+                    view.index(),
+                    view.length()
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// What the reader could not use, each said once.
@@ -299,7 +410,8 @@ impl Images<'_> {
             }
             gltf::image::Source::View { view, .. } => {
                 let data = self.buffers.get(view.buffer().index()).map(|d| &d.0[..]);
-                let bytes = data.and_then(|d| d.get(view.offset()..view.offset() + view.length()));
+                let range = view.offset()..view.offset().saturating_add(view.length());
+                let bytes = data.and_then(|d| d.get(range));
                 match bytes {
                     Some(b) => load_texture_bytes(b, &format!("image {}", view.index())),
                     None => Err("its image's buffer view is out of range".to_owned()),

@@ -16,7 +16,7 @@
 
 use super::SceneError;
 use super::toml_text::{absolute, num, relative_to, toml_string};
-use super::translated::{ImportOptions, Translated};
+use super::translated::{ImportOptions, Origin, Translated};
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -196,9 +196,36 @@ fn scene_toml(
             "the glTF scene has no point or directional lights: only its emissive materials light it".into(),
         );
     }
+    let origins = origins(path, &toml, &format!("cameras[{}]", cam.index()));
     Ok(Translated {
         toml,
         warnings,
-        origins: Vec::new(),
+        origins,
     })
+}
+
+/// Where each line of the TOML [`scene_toml`] writes came from, so that an error the TOML reader finds is
+/// reported at the glTF element (a camera, a light, the meshes) rather than at a line of TOML the user
+/// never saw. glTF is JSON, often on one line: elements are named by their JSON path, without a line.
+fn origins(path: &Path, toml: &str, camera: &str) -> Vec<Option<Origin>> {
+    let file = std::rc::Rc::new(path.to_path_buf());
+    let mut element: Option<String> = None;
+    toml.lines()
+        .map(|line| {
+            if line.starts_with("[camera]") || line.starts_with("[image]") {
+                element = Some(camera.to_string());
+            } else if line.starts_with("[[mesh]]") {
+                element = Some("meshes".into());
+            } else if line.starts_with("[[light]]") {
+                // "[[light]]   # glTF point light 3": KHR_lights_punctual's light 3.
+                let index = line.rsplit(' ').next().unwrap_or("?");
+                element = Some(format!("extensions.KHR_lights_punctual.lights[{index}]"));
+            }
+            element.as_ref().map(|e| Origin {
+                file: file.clone(),
+                line: None,
+                element: e.clone(),
+            })
+        })
+        .collect()
 }

@@ -22,12 +22,13 @@ pub struct ImportOptions {
     pub defines: Vec<(String, String)>,
 }
 
-/// Where a line of translated TOML came from: the file, its 1-based line, and the element as written
-/// there (`<float name="radius">`), which errors give as their key.
+/// Where a line of translated TOML came from: the file, its 1-based line (none where lines mean nothing:
+/// a glTF file's JSON, often on one line), and the element as written there (`<float name="radius">`,
+/// `cameras[0]`), which errors give as their key.
 #[derive(Clone, Debug)]
 pub struct Origin {
     pub file: Rc<PathBuf>,
-    pub line: usize,
+    pub line: Option<usize>,
     pub element: String,
 }
 
@@ -57,11 +58,13 @@ impl Translated {
             .and_then(Option::as_ref);
         match origin {
             Some(o) => {
+                // The TOML key helps where the user can see the translation line by line (`vkpath
+                // convert` of an XML file); a glTF element without a line is named alone.
                 let key = match e.key() {
-                    Some(k) => format!("{} (read as vkpath's {k})", o.element),
-                    None => o.element.clone(),
+                    Some(k) if o.line.is_some() => format!("{} (read as vkpath's {k})", o.element),
+                    _ => o.element.clone(),
                 };
-                e.relocated(o.file.display().to_string(), Some(o.line), Some(key))
+                e.relocated(o.file.display().to_string(), o.line, Some(key))
             }
             None => e,
         }

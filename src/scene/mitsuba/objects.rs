@@ -37,7 +37,7 @@ impl Loc {
     pub(super) fn origin(&self) -> Origin {
         Origin {
             file: self.file.clone(),
-            line: self.line,
+            line: Some(self.line),
             element: self.element.clone(),
         }
     }
