@@ -36,6 +36,7 @@ pub enum BenchCommand {
     /// BVH vs brute force on the smaller ones, as a Markdown table.
     Mesh {
         /// Triangle counts (default 1000 10000 100000 1000000).
+        #[arg(allow_negative_numbers = true)]
         sizes: Vec<usize>,
         #[arg(long, default_value_t = 128, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         width: u32,
@@ -48,7 +49,11 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
         runs: u32,
         /// Also time brute force (no BVH) for meshes up to this many triangles.
-        #[arg(long = "brute-force-up-to", default_value_t = 10_000)]
+        #[arg(
+            long = "brute-force-up-to",
+            default_value_t = 10_000,
+            allow_negative_numbers = true
+        )]
         brute_force_up_to: usize,
     },
     /// Samples/s of each scene with its specialised kernel, the generic kernel and (for diffuse/point-light

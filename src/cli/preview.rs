@@ -28,7 +28,7 @@ pub struct PreviewArgs {
     #[arg(long = "max-bounces", allow_negative_numbers = true, value_parser = super::parse_max_bounces)]
     max_bounces: Option<u32>,
     /// Exit after N presents of a rendered image (scripted use; see --json for the spp shown).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     frames: Option<u64>,
     /// With --frames: save the image shown by the last present as PNG (the same bytes as shown).
     #[arg(long)]
@@ -37,7 +37,7 @@ pub struct PreviewArgs {
     #[arg(long = "save-dir", default_value = ".")]
     save_dir: PathBuf,
     /// Presents per second the window aims at (the latest image is shown again while passes run).
-    #[arg(long, default_value_t = 30.0)]
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
     fps: f64,
     /// Print one JSON object on stdout when the window closes (spp shown, presents/s, ...).
     #[arg(long)]

@@ -465,7 +465,7 @@ pub struct RenderArgs {
     spp: Option<u32>,
     /// Stop after the first pass that ends past this time: seconds (`90`, `2.5`) or a duration with
     /// units (`90s`, `10m`, `1h30m`).
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     time: Option<String>,
     /// Stop when the estimated relative error of the image falls below E (checked after each pass from
     /// 16 spp on; the scene's samples, or --spp, stays the upper bound).
@@ -507,7 +507,7 @@ pub struct RenderArgs {
     #[arg(long = "casts-per-dispatch", allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     casts_per_dispatch: Option<u32>,
     /// Start Russian roulette after this many bounces ("off" disables it). Default 3.
-    #[arg(long = "roulette-depth")]
+    #[arg(long = "roulette-depth", allow_hyphen_values = true)]
     roulette_depth: Option<String>,
     /// Run the one all-features kernel instead of the kernel specialised for this scene.
     #[arg(long)]
@@ -518,7 +518,7 @@ pub struct RenderArgs {
     checkpoint: Option<PathBuf>,
     /// How often to save the checkpoint: N samples per pixel, or a duration such as 30s, 10m, 1h.
     /// Default: 60s.
-    #[arg(long = "checkpoint-every")]
+    #[arg(long = "checkpoint-every", allow_hyphen_values = true)]
     checkpoint_every: Option<String>,
     /// Go on from a checkpoint of this render (same scene, flags and vkpath version), to the same bits
     /// as a render that never stopped. New checkpoints go to this file unless --checkpoint names another.
@@ -526,7 +526,7 @@ pub struct RenderArgs {
     resume: Option<PathBuf>,
     /// Render only the sample indices A..B (A included, B excluded) of every pixel: a partial render,
     /// to be combined with `vkpath merge` (save it with --checkpoint).
-    #[arg(long = "sample-range")]
+    #[arg(long = "sample-range", allow_hyphen_values = true)]
     sample_range: Option<String>,
     /// Render part I (0-based) of N contiguous, near-equal sample ranges of the render's samples (a
     /// render farm's task; needs --checkpoint; merge the parts with `vkpath merge DIR`). `env/N` reads I
@@ -540,7 +540,7 @@ pub struct RenderArgs {
     aov: Option<String>,
     /// Cut the image into tiles of at most WxH pixels (one dispatch each) and strips of at most H rows
     /// (one accumulator buffer each), instead of the adaptive cut. The image is the same.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     tile: Option<String>,
     /// Target duration of one dispatch in milliseconds (default 100): tiles adapt so that a dispatch
     /// stays well under a desktop GPU's watchdog. The image is the same.
@@ -839,6 +839,12 @@ fn from_scheduler(
              give --part env/N.",
         ));
     };
+    if n == 0 {
+        return Err(usage(
+            "--part env: SLURM_ARRAY_TASK_COUNT=0, a job array of no tasks, cannot be the number of parts \
+             (Slurm sets it to 1 or more): give the number of parts with --part env/N.",
+        ));
+    }
     let (min, max) = (read("SLURM_ARRAY_TASK_MIN")?, read("SLURM_ARRAY_TASK_MAX")?);
     if min.is_some_and(|m| m != 0) || max.is_some_and(|m| Some(m) != n.checked_sub(1)) {
         return Err(usage(format!(
@@ -937,5 +943,23 @@ mod tests {
         assert!(err("env/4", &junk).contains("JOB_COMPLETION_INDEX=x1"));
         let no_count = env(&[("SLURM_ARRAY_TASK_ID", "1")]);
         assert!(err("env", &no_count).contains("SLURM_ARRAY_TASK_COUNT"));
+        // Issue 31: a count of 0 named as the variable, with or without the array's bounds (it used to
+        // say "0..=0 (0 of them), not 0..=0").
+        let zero = env(&[
+            ("SLURM_ARRAY_TASK_ID", "0"),
+            ("SLURM_ARRAY_TASK_COUNT", "0"),
+        ]);
+        let zero_bounded = env(&[
+            ("SLURM_ARRAY_TASK_ID", "0"),
+            ("SLURM_ARRAY_TASK_COUNT", "0"),
+            ("SLURM_ARRAY_TASK_MIN", "0"),
+            ("SLURM_ARRAY_TASK_MAX", "0"),
+        ]);
+        for e in [err("env", &zero), err("env", &zero_bounded)] {
+            assert!(
+                e.contains("SLURM_ARRAY_TASK_COUNT=0") && !e.contains("0 of them"),
+                "{e}"
+            );
+        }
     }
 }
