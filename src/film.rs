@@ -49,9 +49,30 @@ impl Film {
     /// From the GPU's sums: each channel's exact sum (a long accumulator, `crate::accum`) rounded once
     /// to f64, and the Kahan pair of its squares read as s - c in f64.
     pub fn from_sums(width: u32, height: u32, spp: u32, accum: &[GpuAccum]) -> Film {
+        let mut film = Film::for_sums(width, height, spp);
+        film.push_sums(accum);
+        film
+    }
+
+    /// A film with no pixels yet, room for `width x height` of them, and `spp` samples behind each: the
+    /// renderer fills it strip by strip with [`Film::push_sums`], so that the accumulator (96 bytes a
+    /// pixel) is never copied to the host whole.
+    pub fn for_sums(width: u32, height: u32, spp: u32) -> Film {
+        let pixels = width as usize * height as usize;
+        Film {
+            width,
+            height,
+            spp,
+            mean: Vec::with_capacity(pixels),
+            variance: Vec::with_capacity(pixels),
+        }
+    }
+
+    /// Appends the means and variances of `accum`'s pixels (the next ones in row-major order; see
+    /// [`Film::from_sums`]).
+    pub fn push_sums(&mut self, accum: &[GpuAccum]) {
+        let spp = self.spp;
         let n = spp as f64;
-        let mut mean = Vec::with_capacity(accum.len());
-        let mut variance = Vec::with_capacity(accum.len());
         for a in accum {
             let mut m = [0f32; 3];
             let mut v = [0f32; 3];
@@ -70,15 +91,8 @@ impl Film {
                     (((sq - n * mu * mu) / (n - 1.0)).max(0.0) / n) as f32
                 };
             }
-            mean.push(m);
-            variance.push(v);
-        }
-        Film {
-            width,
-            height,
-            spp,
-            mean,
-            variance,
+            self.mean.push(m);
+            self.variance.push(v);
         }
     }
 

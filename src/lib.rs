@@ -25,6 +25,7 @@ pub mod film;
 pub mod fs_atomic;
 pub mod gpu;
 pub mod kernel;
+pub mod memory;
 pub mod output;
 #[cfg(feature = "preview")]
 pub mod preview;

@@ -119,7 +119,21 @@ impl<'a> Session<'a> {
     /// Makes the renderer for `request.scene` on `ctx` and plans the samples (see [`plan_samples`]):
     /// a resumed checkpoint is put on the device here, or the refusal says why it does not fit.
     pub fn start(ctx: &Arc<GpuContext>, request: Request<'a>) -> Result<Session<'a>, Error> {
-        let mut renderer = Renderer::new(ctx, request.scene, request.options)?;
+        // What this session holds on the host per pixel, for the renderer's up-front memory check.
+        let host = crate::memory::HostUse {
+            images: !request.outputs.is_empty(),
+            checkpoint: request.checkpoint.is_some() || request.resume.is_some(),
+            aov_layers: request
+                .aovs
+                .iter()
+                .filter(|a| !matches!(a, Aov::Variance))
+                .count() as u32,
+        };
+        let options = RenderOptions {
+            host_bytes_per_pixel: host.bytes_per_pixel(),
+            ..request.options.clone()
+        };
+        let mut renderer = Renderer::new(ctx, request.scene, &options)?;
         let resumed_from = request.resume.as_ref().map(|(p, _)| p.clone());
         let plan = plan_samples(
             &mut renderer,

@@ -1030,3 +1030,94 @@ fn outputs_are_checked_before_rendering() {
         &["same file"],
     );
 }
+
+/// `bytes` (a checkpoint file written by vkpath) with its header's image size replaced by `w` x `h`, the
+/// header length and the CRC-32 made right again: a file whose checksum is correct but whose header
+/// lies about what its payload holds.
+fn with_claimed_size(bytes: &[u8], w: u32, h: u32) -> Vec<u8> {
+    let header_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let json: serde_json::Value = serde_json::from_slice(&bytes[16..16 + header_len]).unwrap();
+    let mut json = json;
+    json["identity"]["width"] = w.into();
+    json["identity"]["height"] = h.into();
+    let json = serde_json::to_vec(&json).unwrap();
+    let rest = &bytes[16 + header_len..bytes.len() - 4];
+    let mut out = bytes[..12].to_vec();
+    out.extend((json.len() as u32).to_le_bytes());
+    out.extend(&json);
+    out.extend(rest);
+    let crc = crc32fast::hash(&out);
+    out.extend(crc.to_le_bytes());
+    out
+}
+
+/// Issue 31: a 2.8 kB checkpoint with a correct checksum that claims 16384 x 16384 pixels (24 GiB decoded)
+/// made --resume and merge abort on the allocation. Now: --resume of another image size is refused from
+/// the header before any pixel is decoded; the decoder refuses a size the machine's memory cannot hold
+/// (VKPATH_HOST_MEMORY_AVAILABLE stands for the machine's memory here) and never reserves more than the
+/// payload decodes to; merge checks the headers, then memory, then reads the parts one at a time. And a
+/// render larger than the host memory available is refused up front (exit 1), not killed part-way.
+#[test]
+fn sizes_are_checked_against_memory_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    run_ok(
+        d,
+        &[
+            &["render", "--quiet", "--spp", "2", "--checkpoint", "c.ckpt"][..],
+            &SIZE,
+        ]
+        .concat(),
+    );
+    let big = with_claimed_size(&std::fs::read(d.join("c.ckpt")).unwrap(), 16384, 16384);
+    assert!(big.len() < 1 << 16, "a small file: {} bytes", big.len());
+    std::fs::write(d.join("big.ckpt"), &big).unwrap();
+    // The decoder: an error value, whatever the machine's memory (a payload of 768 pixels cannot fill
+    // 2^28 of them, and nothing that size is reserved).
+    let e = Checkpoint::from_bytes(&big).unwrap_err();
+    assert!(e.contains("16384x16384"), "{e}");
+    // --resume into a 32x24 render: refused from the header.
+    run_fails(
+        d,
+        &[
+            &["render", "--quiet", "--resume", "big.ckpt", "-o", "out.png"][..],
+            &SIZE,
+        ]
+        .concat(),
+        2,
+        &["big.ckpt", "its image is 16384x16384, this one 32x24"],
+    );
+    // merge, on a machine of 1 GiB: refused before decoding (exit 2, the file named); on this machine,
+    // refused as well (memory or the payload), never an abort.
+    let out = vkpath(d)
+        .env("VKPATH_HOST_MEMORY_AVAILABLE", (1u64 << 30).to_string())
+        .args(["merge", "big.ckpt", "-o", "m.png"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("big.ckpt") && stderr.contains("host memory"),
+        "{stderr}"
+    );
+    run_fails(d, &["merge", "big.ckpt", "-o", "m.png"], 2, &["big.ckpt"]);
+    // A render of 4096 x 4096 on a machine of 1 GiB: refused up front with the sizes, nothing written.
+    let out = vkpath(d)
+        .env("VKPATH_HOST_MEMORY_AVAILABLE", (1u64 << 30).to_string())
+        .args([
+            "render", "--quiet", "--width", "4096", "--height", "4096", "-o", "huge.png",
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("host memory")
+            && stderr.contains("4096x4096")
+            && stderr.contains("1024 MiB"),
+        "{stderr}"
+    );
+    assert!(
+        !d.join("m.png").exists() && !d.join("huge.png").exists() && !d.join("out.png").exists()
+    );
+}

@@ -4,7 +4,7 @@
 use super::{Checkpoint, Header, Part, count_samples, show_ranges};
 use crate::Error;
 use crate::kernel::abi::GpuAccum;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Adds partial renders of disjoint sample ranges of the same render into the state of their union.
 ///
@@ -16,28 +16,75 @@ use std::path::PathBuf;
 /// back as a Kahan pair (s = the f32 nearest the total, c = s - total rounded to f32). The variance of the
 /// union is kept to within a few ulps of a single render's. `tests/checkpoint.rs` tests both.
 pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
+    let headers: Vec<(PathBuf, &Header)> =
+        parts.iter().map(|(p, c)| (p.clone(), &c.header)).collect();
+    let plan = check_headers(&headers)?;
+    let mut sum = Sum::new(plan.pixels);
+    for &i in &plan.order {
+        sum.add(&parts[i].1.accum);
+    }
+    Ok(sum.finish(plan))
+}
+
+/// [`merge`] of state files given by their headers (read by [`Checkpoint::read_header`]), reading each
+/// part's pixels with `read` only when it is its turn to be added, and dropping them after: the headers
+/// are checked before any pixel is decoded, and the host holds the merged state (96 bytes a pixel), the
+/// running sums of squares (24) and one part (96 and its compressed bytes), however many parts there
+/// are.
+pub fn merge_files(
+    headers: &[(PathBuf, Header)],
+    read: impl Fn(&Path) -> Result<Checkpoint, Error>,
+) -> Result<Checkpoint, Error> {
+    let borrowed: Vec<(PathBuf, &Header)> = headers.iter().map(|(p, h)| (p.clone(), h)).collect();
+    let plan = check_headers(&borrowed)?;
+    let bytes =
+        plan.pixels as u64 * (MERGED_BYTES_PER_PIXEL + crate::memory::CHECKPOINT_BYTES_PER_PIXEL);
+    crate::memory::check_available(bytes, &format!("merging {} parts", headers.len())).map_err(
+        |m| Error::Checkpoint {
+            path: headers[0].0.clone(),
+            message: format!("{m}. Merge on a machine with more memory."),
+        },
+    )?;
+    let mut sum = Sum::new(plan.pixels);
+    for &i in &plan.order {
+        let (path, header) = &headers[i];
+        let part = read(path)?;
+        if &part.header != header {
+            return Err(Error::Checkpoint {
+                path: path.clone(),
+                message: "its header changed while the parts were merged (the file was rewritten): merge \
+                          again once the renders are done."
+                    .into(),
+            });
+        }
+        sum.add(&part.accum);
+    }
+    Ok(sum.finish(plan))
+}
+
+/// Host bytes per pixel of a merge besides the part being read: the merged state and the sums of
+/// squares in f64.
+const MERGED_BYTES_PER_PIXEL: u64 = crate::render::tiles::ACCUM_BYTES_PER_PIXEL + 24;
+
+/// What the headers decide: the merged header, the pixels, and the order the parts are added in.
+struct Plan {
+    header: Header,
+    pixels: usize,
+    order: Vec<usize>,
+}
+
+/// The checks of a merge, on the headers alone: one render (identity), one split if any, disjoint
+/// ranges, at most 2^32 - 1 samples in all.
+fn check_headers(parts: &[(PathBuf, &Header)]) -> Result<Plan, Error> {
     let Some((first_path, first)) = parts.first() else {
         return Err(Error::Usage(
             "merge needs at least one partial render.".into(),
         ));
     };
-    let identity = &first.header.identity;
+    let identity = &first.identity;
     let pixels = identity.width as usize * identity.height as usize;
-    for (path, part) in parts {
-        if part.accum.len() != pixels {
-            return Err(Error::Checkpoint {
-                path: path.clone(),
-                message: format!(
-                    "it holds {} pixels for a {}x{} image.",
-                    part.accum.len(),
-                    identity.width,
-                    identity.height
-                ),
-            });
-        }
-    }
     for (path, part) in &parts[1..] {
-        let d = part.header.identity.differences(identity);
+        let d = part.identity.differences(identity);
         if !d.is_empty() {
             return Err(Error::Checkpoint {
                 path: path.clone(),
@@ -55,7 +102,7 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
     let mut ranges: Vec<([u32; 2], usize)> = parts
         .iter()
         .enumerate()
-        .flat_map(|(i, (_, p))| p.header.ranges.iter().map(move |r| (*r, i)))
+        .flat_map(|(i, (_, h))| h.ranges.iter().map(move |r| (*r, i)))
         .collect();
     ranges.sort();
     for w in ranges.windows(2) {
@@ -83,43 +130,64 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
     })?;
     // Parts in the order of their first sample.
     let mut order: Vec<usize> = (0..parts.len()).collect();
-    order.sort_by_key(|&i| parts[i].1.header.ranges.first().map_or(0, |r| r[0]));
-
-    let mut accum = Vec::with_capacity(pixels);
-    for p in 0..pixels {
-        let mut out = GpuAccum::default();
-        let mut sq = [0f64; 3];
-        for &i in &order {
-            let a = &parts[i].1.accum[p];
-            // At most 2^32 - 1 samples in all (count_samples above), so 192 bits cannot overflow.
-            crate::accum::add_sums(&mut out, a);
-            for (total, (s, c)) in sq.iter_mut().zip(a.sum_sq.iter().zip(&a.sum_sq_c)) {
-                *total += f64::from(*s) - f64::from(*c);
-            }
-        }
-        for (c, total) in sq.into_iter().enumerate() {
-            (out.sum_sq[c], out.sum_sq_c[c]) = kahan_pair(total);
-        }
-        accum.push(out);
-    }
+    order.sort_by_key(|&i| parts[i].1.ranges.first().map_or(0, |r| r[0]));
     let mut devices: Vec<&str> = Vec::new();
     for &i in &order {
-        let d = parts[i].1.header.device.as_str();
+        let d = parts[i].1.device.as_str();
         if !devices.contains(&d) {
             devices.push(d);
         }
     }
-    Ok(Checkpoint {
+    Ok(Plan {
         header: Header {
             identity: identity.clone(),
-            scene: first.header.scene.clone(),
+            scene: first.scene.clone(),
             device: devices.join(" + "),
             ranges: all_ranges,
-            display: first.header.display,
+            display: first.display,
             part: None,
         },
-        accum,
+        pixels,
+        order,
     })
+}
+
+/// The running sums of a merge: exact sums of samples, and the sums of squares in f64 (see [`merge`]).
+struct Sum {
+    accum: Vec<GpuAccum>,
+    squares: Vec<[f64; 3]>,
+}
+
+impl Sum {
+    fn new(pixels: usize) -> Sum {
+        Sum {
+            accum: vec![GpuAccum::default(); pixels],
+            squares: vec![[0.0; 3]; pixels],
+        }
+    }
+
+    /// Adds a part's pixels (as many as the merged image's: the identities agree).
+    fn add(&mut self, part: &[GpuAccum]) {
+        for ((out, sq), a) in self.accum.iter_mut().zip(&mut self.squares).zip(part) {
+            // At most 2^32 - 1 samples in all (check_headers), so 192 bits cannot overflow.
+            crate::accum::add_sums(out, a);
+            for (total, (s, c)) in sq.iter_mut().zip(a.sum_sq.iter().zip(&a.sum_sq_c)) {
+                *total += f64::from(*s) - f64::from(*c);
+            }
+        }
+    }
+
+    fn finish(mut self, plan: Plan) -> Checkpoint {
+        for (out, sq) in self.accum.iter_mut().zip(&self.squares) {
+            for (c, total) in sq.iter().enumerate() {
+                (out.sum_sq[c], out.sum_sq_c[c]) = kahan_pair(*total);
+            }
+        }
+        Checkpoint {
+            header: plan.header,
+            accum: self.accum,
+        }
+    }
 }
 
 /// The parts of a farm render (`--part I/N`, [`Part`] in each header) must be all of one split: each
@@ -127,21 +195,20 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
 /// different splits, a part given twice (two files of the same part), a part that stopped before its end
 /// (a cancelled task's checkpoint), and missing parts (with their sample ranges). States without a part
 /// (`--sample-range` renders, merged states) are left to the range checks.
-fn check_split(parts: &[(PathBuf, Checkpoint)]) -> Result<(), Error> {
-    let Some((first_path, first)) = parts.iter().find_map(|(p, c)| Some((p, c.header.part?)))
-    else {
+fn check_split(parts: &[(PathBuf, &Header)]) -> Result<(), Error> {
+    let Some((first_path, first)) = parts.iter().find_map(|(p, h)| Some((p, h.part?))) else {
         return Ok(());
     };
     // Parts seen, by index (a map: the count comes from a file and may be large).
     let mut seen: std::collections::BTreeMap<u32, &PathBuf> = std::collections::BTreeMap::new();
-    for (path, c) in parts {
+    for (path, h) in parts {
         let refuse = |message: String| {
             Err(Error::Checkpoint {
                 path: path.clone(),
                 message,
             })
         };
-        let Some(part) = c.header.part else {
+        let Some(part) = h.part else {
             return refuse(format!(
                 "it is not a part of a --part split, and {} is (part {}): merge the parts of one split \
                  (vkpath merge DIR), then merge that with other renders if needed.",
@@ -176,12 +243,12 @@ fn check_split(parts: &[(PathBuf, Checkpoint)]) -> Result<(), Error> {
         }
         seen.insert(part.index, path);
         let range = part.range();
-        if c.header.ranges != [range] {
+        if h.ranges != [range] {
             return refuse(format!(
                 "it holds the samples {} of part {}'s {}..{}: its task stopped before the end (cancelled or \
                  failed). Finish it with `vkpath render SCENE --part {} --resume {}` (the same scene and \
                  flags), then merge again.",
-                show_ranges(&c.header.ranges),
+                show_ranges(&h.ranges),
                 part.show(),
                 range[0],
                 range[1],

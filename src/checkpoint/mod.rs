@@ -329,6 +329,10 @@ impl Checkpoint {
                 path: path.to_path_buf(),
                 message: format!("{message}. The file is not a usable vkpath checkpoint."),
             },
+            Decode::TooLarge(message) => Error::Checkpoint {
+                path: path.to_path_buf(),
+                message: format!("{message}: it is too large for this machine."),
+            },
         })
     }
 
@@ -336,12 +340,36 @@ impl Checkpoint {
     pub fn from_bytes(bytes: &[u8]) -> Result<Checkpoint, String> {
         Checkpoint::decode(&mut &bytes[..], bytes.len() as u64).map_err(|e| match e {
             Decode::Io(e) => e.to_string(),
-            Decode::Invalid(m) => m,
+            Decode::Invalid(m) | Decode::TooLarge(m) => m,
         })
     }
 
-    /// Decodes a state from `r`, which holds `len` bytes.
-    fn decode(r: &mut impl Read, len: u64) -> Result<Checkpoint, Decode> {
+    /// The header of a state file alone: its identity, ranges and part, checked for shape and size but
+    /// not yet against the checksum (which covers the pixels, not read here). What a resume or a merge
+    /// checks before reading any pixels: a state of another render, or too large for the machine, is
+    /// refused without decoding them.
+    pub fn read_header(path: &Path) -> Result<Header, Error> {
+        let cannot = |e: std::io::Error| Error::Checkpoint {
+            path: path.to_path_buf(),
+            message: format!("cannot read the checkpoint: {e}. Check the path."),
+        };
+        let file = std::fs::File::open(path).map_err(cannot)?;
+        let len = file.metadata().map_err(cannot)?.len();
+        Checkpoint::decode_header(&mut std::io::BufReader::new(file), len)
+            .map(|h| h.header)
+            .map_err(|e| match e {
+                Decode::Io(e) => cannot(e),
+                Decode::Invalid(message) | Decode::TooLarge(message) => Error::Checkpoint {
+                    path: path.to_path_buf(),
+                    message: format!("{message}. The file is not a usable vkpath checkpoint."),
+                },
+            })
+    }
+
+    /// Decodes the fixed part and the JSON header from `r`, which holds `len` bytes, and checks the
+    /// image size the header claims (1 to 2^28 pixels, and no more than the machine's available memory
+    /// can hold decoded).
+    fn decode_header(r: &mut impl Read, len: u64) -> Result<Head, Decode> {
         let invalid = |m: String| Decode::Invalid(m);
         let ends = || Decode::Invalid("it ends inside its header".into());
         let mut head = [0u8; 16];
@@ -388,6 +416,34 @@ impl Checkpoint {
                 id.width, id.height
             )));
         }
+        Ok(Head {
+            head,
+            json,
+            header,
+            compressed,
+            pixels,
+        })
+    }
+
+    /// Decodes a state from `r`, which holds `len` bytes.
+    fn decode(r: &mut impl Read, len: u64) -> Result<Checkpoint, Decode> {
+        let invalid = |m: String| Decode::Invalid(m);
+        let Head {
+            head,
+            json,
+            header,
+            compressed,
+            pixels,
+        } = Checkpoint::decode_header(r, len)?;
+        let header_len = json.len() as u32;
+        let id = &header.identity;
+        // A header with a correct checksum may still claim 16384 x 16384 pixels (24 GiB decoded) for a
+        // payload of a few kB: checked against the machine before anything that size is allocated.
+        crate::memory::check_available(
+            pixels * crate::memory::CHECKPOINT_BYTES_PER_PIXEL,
+            &format!("decoding its {}x{} pixels", id.width, id.height),
+        )
+        .map_err(Decode::TooLarge)?;
         let expected = pixels * ACCUM_BYTES as u64;
         let held = len - 16 - u64::from(header_len);
         let truncated = |should: String| {
@@ -475,13 +531,47 @@ impl Checkpoint {
     }
 }
 
+impl Header {
+    /// What a resume checks from the header alone, before any pixel is decoded: the image size (the
+    /// rest of the identity needs the scene uploaded; [`Checkpoint::check_identity`] checks it then).
+    /// A state of another size is refused, however many pixels it claims.
+    pub fn check_image_size(&self, path: &Path, width: u32, height: u32) -> Result<(), Error> {
+        let id = &self.identity;
+        if (id.width, id.height) == (width, height) {
+            return Ok(());
+        }
+        Err(Error::Checkpoint {
+            path: path.to_path_buf(),
+            message: format!(
+                "this checkpoint belongs to another render (of {}): its image is {}x{}, this one {width}x{height} \
+                 (--width/--height). Resume with the scene file and flags it was made with, or render afresh \
+                 without --resume.",
+                self.scene, id.width, id.height
+            ),
+        })
+    }
+}
+
 /// Why a state could not be decoded: the file could not be read, or its content is wrong.
 enum Decode {
     Io(std::io::Error),
     Invalid(String),
+    /// The file claims more pixels than the machine's memory can hold decoded.
+    TooLarge(String),
 }
 
 const SIGNATURE: &str = "it does not start with the vkpath checkpoint signature";
+
+/// A state file's fixed part and header, decoded (see [`Checkpoint::decode_header`]).
+struct Head {
+    /// The 16 bytes before the header (magic, version, header length), for the checksum.
+    head: [u8; 16],
+    /// The header's bytes, for the checksum.
+    json: Vec<u8>,
+    header: Header,
+    compressed: bool,
+    pixels: u64,
+}
 
 /// The pixels as little-endian bytes.
 fn accum_bytes(accum: &[GpuAccum]) -> std::borrow::Cow<'_, [u8]> {
@@ -541,12 +631,15 @@ fn compress(accum: &[GpuAccum]) -> std::io::Result<Vec<u8>> {
 /// decompresses to more or fewer bytes is refused, and never allocates more than the pixels need).
 fn decompress(payload: &[u8], pixels: usize) -> std::io::Result<Vec<GpuAccum>> {
     let mut decoder = zstd::stream::read::Decoder::new(payload)?;
-    let mut accum = Vec::with_capacity(pixels);
+    // Grown block by block as the payload decodes, not reserved whole: a short payload that claims many
+    // pixels fails after allocating what it held.
+    let mut accum = Vec::new();
     let mut planes = vec![0u8; PLANAR_BLOCK.min(pixels) * ACCUM_BYTES];
     let mut px = [0u8; ACCUM_BYTES];
     while accum.len() < pixels {
         let n = PLANAR_BLOCK.min(pixels - accum.len());
         decoder.read_exact(&mut planes[..n * ACCUM_BYTES])?;
+        accum.reserve(n);
         for p in 0..n {
             for (b, v) in px.iter_mut().enumerate() {
                 *v = planes[b * n + p];

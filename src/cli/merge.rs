@@ -6,7 +6,7 @@ use super::{check_output_formats, usage};
 use clap::Args;
 use std::path::PathBuf;
 use vkpath::Error;
-use vkpath::checkpoint::Checkpoint;
+use vkpath::checkpoint::{Checkpoint, Header};
 use vkpath::output::{Aov, ImageFile, ImageMetadata, Layers, write_images};
 
 #[derive(Args)]
@@ -66,24 +66,23 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
     let files = expand_parts(&m.parts)?;
     let inputs = files.iter().map(|p| (p.clone(), "a part merged")).collect();
     super::paths::check_outputs(&m.outputs, m.checkpoint.as_deref(), inputs, None)?;
-    let mut parts = Vec::with_capacity(files.len());
-    for p in &files {
-        parts.push((
-            p.clone(),
-            Checkpoint::read(p).map_err(|e| {
-                e.with_checkpoint_hint(
-                    "Render that part again (vkpath render --part I/N or --sample-range A..B, with \
-                     --checkpoint FILE) or leave it out.",
-                )
-            })?,
-        ));
-    }
-    let merged = vkpath::checkpoint::merge::merge(&parts)?;
+    let hint = "Render that part again (vkpath render --part I/N or --sample-range A..B, with \
+                --checkpoint FILE) or leave it out.";
+    // The headers first (the checks of a merge need nothing else), then each part's pixels in turn.
+    let headers = files
+        .iter()
+        .map(|p| {
+            Checkpoint::read_header(p)
+                .map(|h| (p.clone(), h))
+                .map_err(|e| e.with_checkpoint_hint(hint))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let merged = vkpath::checkpoint::merge::merge_files(&headers, |p| {
+        Checkpoint::read(p).map_err(|e| e.with_checkpoint_hint(hint))
+    })?;
     if !m.quiet {
-        warn_devices(&parts);
+        warn_devices(&headers);
     }
-    // The parts can be as large as the merged state each: free them before writing.
-    drop(parts);
     let film = merged.film();
     let settings = merged.image_settings();
     let h = &merged.header;
@@ -184,13 +183,13 @@ fn expand_parts(args: &[PathBuf]) -> Result<Vec<PathBuf>, Error> {
 /// Warns on stderr when the parts were computed on different devices: the merge is an unbiased estimate
 /// either way, but its bits are a single render's only when one device computed every part (another
 /// device's floating-point results may differ in the last bits).
-fn warn_devices(parts: &[(PathBuf, Checkpoint)]) {
+fn warn_devices(parts: &[(PathBuf, Header)]) {
     let mut devices: Vec<(&str, Vec<String>)> = Vec::new();
-    for (path, c) in parts {
+    for (path, h) in parts {
         let name = path.display().to_string();
-        match devices.iter_mut().find(|(d, _)| *d == c.header.device) {
+        match devices.iter_mut().find(|(d, _)| *d == h.device) {
             Some((_, files)) => files.push(name),
-            None => devices.push((&c.header.device, vec![name])),
+            None => devices.push((&h.device, vec![name])),
         }
     }
     if devices.len() > 1 {

@@ -236,10 +236,18 @@ fn prepare(a: &RenderArgs, is_part: bool) -> Result<Job, Error> {
     let checkpoint = a.checkpoint.as_deref().or(a.resume.as_deref());
     let inputs = super::paths::scene_inputs(&scene);
     super::paths::check_outputs(&outputs, checkpoint, inputs, a.resume.as_deref())?;
+    // The header first: a state of another image size is refused before its pixels are decoded.
     let resumed = a
         .resume
         .as_deref()
-        .map(|p| Checkpoint::read(p).map(|c| (p.to_path_buf(), c)))
+        .map(|p| {
+            Checkpoint::read_header(p)?.check_image_size(
+                p,
+                scene.image.width,
+                scene.image.height,
+            )?;
+            Checkpoint::read(p).map(|c| (p.to_path_buf(), c))
+        })
         .transpose()
         .map_err(|e| e.with_checkpoint_hint("Render without --resume to start afresh."))?;
     Ok(Job {

@@ -112,6 +112,10 @@ pub struct RenderOptions {
     /// next (trace.wgsl, `main`); `None` lets the renderer choose ([`casts_per_dispatch`]). The image
     /// does not depend on it (tests/tiling.rs).
     pub casts_per_dispatch: Option<u32>,
+    /// Bytes per pixel the caller will hold on the host besides the renderer's buffers (its film, the
+    /// images it writes, checkpoints: [`crate::memory::HostUse`]); the renderer refuses, before
+    /// allocating, a render whose host memory would exceed what the machine has available.
+    pub host_bytes_per_pixel: u64,
 }
 
 /// Faults the renderer can be told to simulate, so that the handling of each (messages, exit codes,
@@ -154,6 +158,7 @@ impl Default for RenderOptions {
             fault: None,
             aov: crate::kernel::abi::AOV_NONE,
             casts_per_dispatch: None,
+            host_bytes_per_pixel: crate::memory::FILM_BYTES_PER_PIXEL,
         }
     }
 }
@@ -475,7 +480,7 @@ impl Renderer {
             .min(MAX_PATHS_IN_FLIGHT)
             .max(fixed_tile)
             .max(64);
-        check_device_memory(ctx, &gpu, &layout, path_slots)?;
+        check_device_memory(ctx, &gpu, &layout, path_slots, options.host_bytes_per_pixel)?;
         let mut kernel = Kernel::new(ctx, &compiled)?;
         let bound = upload_scene(ctx, &mut kernel, &gpu, &params)?;
         // Device-local: every sample reads and writes its pixel's sums, one buffer per strip of rows. The
@@ -781,9 +786,20 @@ impl Renderer {
     /// holds it.
     /// Read strip by strip through the staging buffer.
     pub fn accum_state(&mut self) -> Result<Vec<GpuAccum>, GpuError> {
-        self.check_usable()?;
         let pixels = self.params.width as usize * self.params.height as usize;
         let mut out: Vec<GpuAccum> = Vec::with_capacity(pixels);
+        self.each_strip(|strip| out.extend_from_slice(strip))?;
+        Ok(out)
+    }
+
+    /// Calls `f` on each strip's pixels in turn (row-major from the top), read back through the staging
+    /// buffer `STRIP_CHUNK` pixels at a time: the host holds no more than a chunk of the accumulator
+    /// beyond what `f` keeps.
+    fn each_strip(&mut self, mut f: impl FnMut(&[GpuAccum])) -> Result<(), GpuError> {
+        /// Pixels converted per copy out of the mapped staging buffer (which need not be aligned for
+        /// `GpuAccum`): 384 KiB.
+        const STRIP_CHUNK: usize = 4096;
+        self.check_usable()?;
         for s in &self.strips {
             self.kernel
                 .submit(&[Command::Copy(&s.buffer, &self.staging)])?;
@@ -793,9 +809,11 @@ impl Renderer {
                 .read_bytes()?
                 .get(..n * std::mem::size_of::<GpuAccum>())
                 .ok_or_else(|| GpuError::Usage("accumulator staging is too small".into()))?;
-            out.extend(bytemuck::pod_collect_to_vec::<u8, GpuAccum>(bytes));
+            for chunk in bytes.chunks(STRIP_CHUNK * std::mem::size_of::<GpuAccum>()) {
+                f(&bytemuck::pod_collect_to_vec::<u8, GpuAccum>(chunk));
+            }
         }
-        Ok(out)
+        Ok(())
     }
 
     /// Puts an accumulation state (from [`Renderer::accum_state`], a checkpoint or a merge) back on the
@@ -847,14 +865,12 @@ impl Renderer {
     }
 
     /// Reads the accumulator back as a film (means and variances, linear radiance).
+    /// Read strip by strip: the host holds the film (24 bytes a pixel), never a copy of the whole
+    /// accumulator (96).
     pub fn film(&mut self) -> Result<Film, GpuError> {
-        let accum = self.accum_state()?;
-        Ok(Film::from_sums(
-            self.params.width,
-            self.params.height,
-            self.samples_done,
-            &accum,
-        ))
+        let mut film = Film::for_sums(self.params.width, self.params.height, self.samples_done);
+        self.each_strip(|strip| film.push_sums(strip))?;
+        Ok(film)
     }
 }
 
@@ -1021,12 +1037,15 @@ pub fn render_progressive(
 
 /// Refuses, before anything is allocated, a render whose buffers exceed the device: each scene array
 /// against the storage-buffer range, and everything (scene arrays, accumulator strips, staging) against
-/// the device's memory. The message names the sizes and the limit.
+/// the device's memory; then the host's share against the memory the machine has available: the
+/// staging buffer and `host_bytes_per_pixel` for every pixel, and on a CPU device (lavapipe) all of the
+/// device's buffers too, which are host memory there. The message names the sizes and the limit.
 fn check_device_memory(
     ctx: &GpuContext,
     gpu: &GpuScene,
     layout: &tiles::TileLayout,
     path_slots: u64,
+    host_bytes_per_pixel: u64,
 ) -> Result<(), GpuError> {
     let info = ctx.device_info();
     let range = u64::from(info.max_storage_buffer_range);
@@ -1175,6 +1194,33 @@ fn check_device_memory(
             mib(paths),
             mib(scene_bytes),
             info.name,
+            mib(available)
+        )));
+    }
+    let pixels = u64::from(layout.width) * u64::from(layout.height);
+    let device_on_host = if info.device_type == "CPU" {
+        total
+    } else {
+        layout.max_strip_bytes()
+    };
+    let host = device_on_host + pixels * host_bytes_per_pixel;
+    if let Some(available) = crate::memory::available_bytes()
+        && host > available
+    {
+        return Err(GpuError::Limit(format!(
+            "this render needs about {:.0} MiB of host memory ({:.0} MiB of {}, {:.0} MiB of film, \
+             images and checkpoints at {host_bytes_per_pixel} bytes a pixel for {}x{} pixels), and the \
+             machine has {:.0} MiB available (MemAvailable). Render a smaller image, or free memory.",
+            mib(host),
+            mib(device_on_host),
+            if info.device_type == "CPU" {
+                "device buffers, host memory on a CPU device"
+            } else {
+                "staging buffer"
+            },
+            mib(pixels * host_bytes_per_pixel),
+            layout.width,
+            layout.height,
             mib(available)
         )));
     }

@@ -1,0 +1,128 @@
+//! Host memory: what a render holds on the host per pixel, and what the machine has available, so that a
+//! render too large for the machine is refused before anything is allocated instead of being killed by
+//! the kernel's out-of-memory killer part-way (11586 x 11586 at 1 spp used to be), and so that a file
+//! that claims a size (a checkpoint's header) is checked against memory before its pixels are decoded.
+//!
+//! The per-pixel figures are the structures' sizes where they are exact, and measured peaks (maximum
+//! resident set, `/usr/bin/time -f %M`, the course scene at 1024² and 2048², the difference divided by
+//! the pixels added) where they are not: docs/reliability.md, "Memory", gives the measurements.
+
+use crate::render::tiles::ACCUM_BYTES_PER_PIXEL;
+
+/// The film: mean and variance, three f32 each ([`crate::Film`]).
+pub const FILM_BYTES_PER_PIXEL: u64 = 24;
+
+/// Writing the images: the 8-bit or f32 planes being encoded and the encoded bytes (measured: a PNG
+/// 16 bytes a pixel, an EXR with its variance layer 58).
+pub const IMAGE_BYTES_PER_PIXEL: u64 = 64;
+
+/// Writing or reading a checkpoint: the state (96 bytes a pixel) and its compressed bytes (measured 20
+/// to 30 % of it on rendered images; at most as large again on noise no image has).
+pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = ACCUM_BYTES_PER_PIXEL + ACCUM_BYTES_PER_PIXEL / 3;
+
+/// An `--aov` layer (albedo, normal, depth) kept for the EXR: its film.
+pub const AOV_LAYER_BYTES_PER_PIXEL: u64 = FILM_BYTES_PER_PIXEL;
+
+/// What a render keeps on the host besides the renderer's own buffers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HostUse {
+    /// Image files are written (at the end, and at every `--progress-every`).
+    pub images: bool,
+    /// A checkpoint is written or resumed.
+    pub checkpoint: bool,
+    /// `--aov` layers rendered after the image (albedo, normal, depth; not variance, which is the
+    /// render's own): each is a film kept until the EXR is written, rendered by a renderer of its own
+    /// (another accumulator while it runs).
+    pub aov_layers: u32,
+}
+
+impl HostUse {
+    /// Bytes per pixel the host holds for this use, outside the renderer (whose device buffers are
+    /// counted by the renderer, as host memory on a device that has no other: a CPU).
+    pub fn bytes_per_pixel(&self) -> u64 {
+        let mut b = FILM_BYTES_PER_PIXEL;
+        if self.images {
+            b += IMAGE_BYTES_PER_PIXEL;
+        }
+        if self.checkpoint {
+            b += CHECKPOINT_BYTES_PER_PIXEL;
+        }
+        if self.aov_layers > 0 {
+            // The layer renderer's accumulator and film while it runs, and each layer's film after.
+            b += ACCUM_BYTES_PER_PIXEL
+                + FILM_BYTES_PER_PIXEL
+                + u64::from(self.aov_layers) * AOV_LAYER_BYTES_PER_PIXEL;
+        }
+        b
+    }
+}
+
+/// The test hook that stands for the machine's available memory, in bytes (so that the refusal can be
+/// tested without a render as large as the machine).
+pub const AVAILABLE_OVERRIDE: &str = "VKPATH_HOST_MEMORY_AVAILABLE";
+
+/// The memory the machine can give a new allocation without swapping, in bytes: `MemAvailable` of
+/// /proc/meminfo (Linux's own estimate: free memory plus the caches it can drop), or
+/// [`AVAILABLE_OVERRIDE`]. `None` where neither is known (another system): nothing is refused then.
+pub fn available_bytes() -> Option<u64> {
+    if let Some(v) = std::env::var_os(AVAILABLE_OVERRIDE) {
+        return v.to_str().and_then(|v| v.trim().parse().ok());
+    }
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    parse_mem_available(&text)
+}
+
+/// `MemAvailable:  24131164 kB` -> bytes.
+fn parse_mem_available(meminfo: &str) -> Option<u64> {
+    let line = meminfo.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let mut words = line.split_whitespace().skip(1);
+    let value: u64 = words.next()?.parse().ok()?;
+    match words.next() {
+        Some("kB") => value.checked_mul(1024),
+        None => Some(value),
+        Some(_) => None,
+    }
+}
+
+/// MiB, for messages.
+pub fn mib(bytes: u64) -> f64 {
+    bytes as f64 / f64::from(1 << 20)
+}
+
+/// Refuses (the message, without the file or flag it is about) an allocation of `bytes` for `what`
+/// that the machine does not have available.
+pub fn check_available(bytes: u64, what: &str) -> Result<(), String> {
+    match available_bytes() {
+        Some(available) if bytes > available => Err(format!(
+            "{what} would take {:.0} MiB of host memory, and the machine has {:.0} MiB available",
+            mib(bytes),
+            mib(available)
+        )),
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mem_available_is_read_in_bytes() {
+        let text = "MemTotal:       24596060 kB\nMemFree:         1000000 kB\nMemAvailable:   24131164 kB\n";
+        assert_eq!(parse_mem_available(text), Some(24131164 * 1024));
+        assert_eq!(parse_mem_available("MemFree: 3 kB\n"), None);
+        assert_eq!(parse_mem_available("MemAvailable: x kB\n"), None);
+    }
+
+    #[test]
+    fn each_use_adds_its_bytes() {
+        let film = HostUse::default().bytes_per_pixel();
+        assert_eq!(film, 24);
+        let all = HostUse {
+            images: true,
+            checkpoint: true,
+            aov_layers: 3,
+        };
+        assert_eq!(all.bytes_per_pixel(), 24 + 64 + 128 + 96 + 24 + 72);
+    }
+}
