@@ -12,8 +12,8 @@
 mod common;
 
 use common::cli::run;
+use common::fuzz::config;
 use proptest::prelude::*;
-use proptest::test_runner::{Config, RngSeed};
 use std::path::Path;
 
 /// (flag, value) pairs that once got clap's "unexpected argument '-1'" without the flag: each must be
@@ -70,21 +70,6 @@ fn negative_values_name_their_flag() {
         );
         assert!(!dir.path().join("out.png").exists());
     }
-}
-
-fn config(default_cases: u32) -> Config {
-    let mut c = Config {
-        cases: std::env::var("PROPTEST_CASES")
-            .ok()
-            .and_then(|v| v.parse().ok())
-            .unwrap_or(default_cases),
-        failure_persistence: None,
-        ..Config::default()
-    };
-    if c.rng_seed == RngSeed::Random {
-        c.rng_seed = RngSeed::Fixed(0x636c_6966_757a);
-    }
-    c
 }
 
 /// Values chosen to be wrong for most flags, and a few right ones.
@@ -194,7 +179,7 @@ fn is_empty(dir: &Path) -> bool {
 }
 
 proptest! {
-    #![proptest_config(config(1500))]
+    #![proptest_config(config(3000))]
 
     #[test]
     fn random_argument_lists_are_refused_in_one_paragraph(args in argument_list()) {

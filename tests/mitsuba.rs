@@ -1552,36 +1552,75 @@ const FUZZ_SEED: &str = r#"<?xml version="1.0"?>
   <shape type="disk"><emitter type="area"><spectrum name="radiance" value="2"/></emitter></shape>
   <emitter type="point"><point name="position" value="1 1 1"/></emitter>
   <emitter type="constant"/>
+  <bsdf type="mask" id="m"><float name="opacity" value="0.5"/><ref id="w"/></bsdf>
+  <shape type="obj"><string name="filename" value="quad.obj"/>
+    <bsdf type="bumpmap"><texture name="map" type="bitmap"><string name="filename" value="h.png"/></texture>
+      <float name="scale" value="0.5"/><ref id="m"/></bsdf></shape>
+  <shape type="sphere"><float name="radius" value="0.2"/><bsdf type="thindielectric"/></shape>
+  <emitter type="spot"><transform name="to_world"><lookat origin="0, 2, 0" target="0, 0, 0" up="1, 0, 0"/></transform>
+    <float name="cutoff_angle" value="30"/><rgb name="intensity" value="2, 1, 1"/></emitter>
 </scene>
 "#;
 
-fn fuzz_config() -> ProptestConfig {
-    let cases = std::env::var("PROPTEST_CASES")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(1500);
-    let mut c = ProptestConfig {
-        cases,
-        failure_persistence: None,
-        ..ProptestConfig::default()
-    };
-    if c.rng_seed == proptest::test_runner::RngSeed::Random {
-        c.rng_seed = proptest::test_runner::RngSeed::Fixed(0x006d_6974_7375_6261);
-    }
-    c
+/// The fuzzer's seed is a scene that loads (so that mutations start from the reader's every path).
+#[test]
+fn the_fuzz_seed_loads() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "quad.obj",
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nf 1/1 2/2 3/3\n",
+    );
+    image::RgbImage::from_pixel(2, 2, image::Rgb([9, 99, 199]))
+        .save(dir.path().join("h.png"))
+        .unwrap();
+    let p = write(dir.path(), "fuzz.xml", FUZZ_SEED);
+    let s = Scene::load(&p).unwrap_or_else(|e| panic!("{e}"));
+    assert!(s.meshes[0].material < s.materials.len() as u32);
+    assert!(s.materials.iter().any(|m| m.textures.bump.is_some()));
 }
 
-proptest! {
-    #![proptest_config(fuzz_config())]
+/// Fragments of Mitsuba XML for the fuzzer to insert: elements and attributes the reader knows, the
+/// constructs that once recursed, expanded or hung it (references, defaults, includes, nesting).
+const XML_TOKENS: &[&str] = &[
+    "<",
+    ">",
+    "/>",
+    "</bsdf>",
+    "\"",
+    "$spp",
+    "$spp$spp",
+    "<default name=\"spp\" value=\"$spp$spp\"/>",
+    "<ref id=\"w\"/>",
+    "<ref id=\"m\"/>",
+    "<bsdf type=\"twosided\" id=\"w\">",
+    "<bsdf type=\"twosided\">",
+    "<include filename=\"fuzz.xml\"/>",
+    "<include filename=\"absent.xml\"/>",
+    "<transform name=\"to_world\">",
+    "<scale x=\"-1\"/>",
+    "<matrix value=\"0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0\"/>",
+    "<rgb name=\"radiance\" value=\"-1\"/>",
+    "<spectrum name=\"reflectance\" value=\"400:0.5, 700:nan\"/>",
+    "<texture type=\"bitmap\"><string name=\"filename\" value=\"h.png\"/></texture>",
+    "<float name=\"scale\" value=\"1e30\"/>",
+    "id=\"w\"",
+    "name=\"\"",
+];
 
-    /// Mutated XML (bytes replaced, deleted or inserted, from the characters XML is made of) never
-    /// panics: it loads, or gives a one-paragraph error.
+proptest! {
+    #![proptest_config(common::fuzz::config(6000))]
+
+    /// Mutated XML (characters XML is made of replaced, deleted or inserted; elements and references
+    /// inserted, lines duplicated, numbers set to boundary values) never panics or hangs: it loads, or
+    /// gives a one-paragraph error, under a watchdog, strict and lenient.
     #[test]
     fn mutated_xml_never_panics(
         edits in prop::collection::vec(
-            (0usize..4096, 0u8..3, prop::sample::select(b"<>/=\" $-.019aexyz\n".to_vec())),
-            1..8,
-        )
+            (0usize..8192, 0u8..3, prop::sample::select(b"<>/=\" $-.019aexyz\n".to_vec())),
+            0..6,
+        ),
+        mutations in prop::collection::vec(common::fuzz::mutation(), 0..4),
     ) {
         let mut bytes = FUZZ_SEED.as_bytes().to_vec();
         for (at, op, c) in edits {
@@ -1592,12 +1631,22 @@ proptest! {
                 _ => bytes.insert(i, c),
             }
         }
+        for m in &mutations {
+            common::fuzz::apply(&mut bytes, m, XML_TOKENS, common::fuzz::EXTREMES);
+        }
         let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), "quad.obj", "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nf 1/1 2/2 3/3\n");
+        image::RgbImage::from_pixel(2, 2, image::Rgb([9, 99, 199]))
+            .save(dir.path().join("h.png"))
+            .unwrap();
         let p = dir.path().join("fuzz.xml");
         std::fs::write(&p, &bytes).unwrap();
         for lenient in [false, true] {
-            if let Err(e) = Scene::load_with_options(&p, None, lenient) {
-                let text = e.to_string();
+            let q = p.clone();
+            let answer = common::fuzz::within_watchdog("an XML scene", move || {
+                Scene::load_with_options(&q, None, lenient).map(drop).map_err(|e| e.to_string())
+            });
+            if let Err(text) = answer {
                 prop_assert!(!text.contains('\n'), "{}", text);
             }
         }

@@ -76,6 +76,63 @@ pub fn scene_nodes<'a>(
     Ok(out)
 }
 
+/// Parses and validates a glTF file's bytes (JSON or GLB) as the `gltf` crate does, with the checks
+/// the crate (1.4) leaves to a panic, found by the fuzzer: its validation of a primitive reads
+/// `accessors[i]` for the POSITION index `i` before that index is checked, `Image::source` unwraps an
+/// image's `mimeType` (required with a `bufferView`) and its `uri` (required without one), and the GLB
+/// reader subtracts 12 from the header's length unchecked. The error is
+/// the message alone (the callers add the file).
+pub fn read_gltf(bytes: &[u8]) -> Result<gltf::Gltf, String> {
+    let invalid = |e: gltf::Error| format!("not a valid glTF 2.0 file: {e}");
+    // A GLB's header gives the file's length, which the crate reduces by the header's 12 bytes
+    // unchecked (an overflow in a debug build).
+    if let Some(length) = bytes
+        .strip_prefix(b"glTF")
+        .and_then(|rest| rest.get(4..8))
+        .map(|l| u32::from_le_bytes([l[0], l[1], l[2], l[3]]))
+        && length < 12
+    {
+        return Err(format!(
+            "not a valid glTF 2.0 file: its GLB header gives a length of {length} bytes, less than the \
+             header's own 12"
+        ));
+    }
+    let unchecked = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
+    let json = unchecked.document.into_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            for (semantic, index) in &primitive.attributes {
+                if index.value() >= json.accessors.len() {
+                    let name = match semantic {
+                        gltf::json::validation::Checked::Valid(s) => s.to_string(),
+                        gltf::json::validation::Checked::Invalid => "?".into(),
+                    };
+                    return Err(format!(
+                        "meshes[{m}].primitives[{p}].attributes.{name} refers to accessors[{}], and the \
+                         file has {} accessors",
+                        index.value(),
+                        json.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    for (i, image) in json.images.iter().enumerate() {
+        let problem = match (&image.buffer_view, &image.mime_type, &image.uri) {
+            (Some(_), None, _) => "has a bufferView and no mimeType",
+            (None, _, None) => "has neither a uri nor a bufferView",
+            _ => continue,
+        };
+        return Err(format!(
+            "images[{i}] {problem} (glTF 2.0 requires one, §5.18)"
+        ));
+    }
+    Ok(gltf::Gltf {
+        document: gltf::Document::from_json(json).map_err(invalid)?,
+        blob: unchecked.blob,
+    })
+}
+
 pub fn load_gltf(path: &Path) -> Result<ObjMesh, ObjError> {
     let bytes = std::fs::read(path)
         .map_err(|e| ObjError::whole_file(format!("cannot read the glTF file: {e}")))?;
@@ -85,8 +142,7 @@ pub fn load_gltf(path: &Path) -> Result<ObjMesh, ObjError> {
 
 /// Parses glTF (JSON or binary) whose external files live in `dir`.
 pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
-    let gltf = gltf::Gltf::from_slice(bytes)
-        .map_err(|e| ObjError::whole_file(format!("not a valid glTF 2.0 file: {e}")))?;
+    let gltf = read_gltf(bytes).map_err(ObjError::whole_file)?;
     let buffers = gltf::import_buffers(&gltf.document, Some(dir), gltf.blob.clone())
         .map_err(|e| ObjError::whole_file(format!("cannot read a buffer of the glTF file: {e}")))?;
     let doc = &gltf.document;

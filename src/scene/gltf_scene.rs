@@ -63,8 +63,7 @@ fn scene_toml(
 ) -> Result<Translated, SceneError> {
     let hint = "vkpath reads glTF 2.0 (.gltf with its buffers, or .glb); see docs/scene-format.md, \"glTF scenes\".";
     let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, &e))?;
-    let gltf = gltf::Gltf::from_slice(&bytes)
-        .map_err(|e| error(path, format!("not a valid glTF 2.0 file: {e}"), hint))?;
+    let gltf = super::gltf::read_gltf(&bytes).map_err(|m| error(path, m, hint))?;
     let doc = &gltf.document;
     let scene = doc
         .default_scene()

@@ -5,6 +5,7 @@
 pub mod bsdf;
 pub mod cli;
 pub mod envmap;
+pub mod fuzz;
 pub mod stats;
 pub mod vec;
 
