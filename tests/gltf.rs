@@ -1444,3 +1444,59 @@ fn gltf_files_the_gltf_crate_panicked_on_are_refused() {
         }
     }
 }
+
+/// Issue 31: a glTF buffer is read only from a regular file of bounded size, or a data URI: a uri naming
+/// /dev/zero (read to its end, for ever, by the `gltf` crate's importer) or a percent-escape that is not
+/// UTF-8 (a panic in it) is refused naming the buffer; a base64 data URI loads.
+#[test]
+fn gltf_buffers_are_files_or_data_uris() {
+    let dir = tempfile::tempdir().unwrap();
+    let bin = [f32s(QUAD.as_flattened()), u32s(&[0, 1, 2, 0, 2, 3])].concat();
+    let file = |uri: &str| {
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0}}, "indices": 1, "material": 0}}]}}],
+  "materials": [{{}}],
+  "buffers": [{{"byteLength": 72, "uri": "{uri}"}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": 48}}, {{"buffer": 0, "byteOffset": 48, "byteLength": 24}}],
+  "accessors": [{{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+                {{"bufferView": 1, "componentType": 5125, "count": 6, "type": "SCALAR"}}]}}"#
+        )
+    };
+    let mesh = |uri: &str| {
+        std::fs::write(dir.path().join("b.gltf"), file(uri)).unwrap();
+        Scene::load(&common::cli::write(
+            dir.path(),
+            "s.toml",
+            &format!("{HEAD}[[mesh]]\nobj = \"b.gltf\"\n"),
+        ))
+    };
+    let data = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::Engine::encode(&base64::engine::general_purpose::STANDARD, &bin)
+    );
+    assert_eq!(mesh(&data).unwrap().meshes[0].triangles.len(), 2);
+    std::fs::write(dir.path().join("quad.bin"), &bin).unwrap();
+    assert_eq!(mesh("quad.bin").unwrap().meshes[0].triangles.len(), 2);
+    for (uri, want) in [
+        (
+            "/dev/zero",
+            "buffers[0]: cannot read /dev/zero: it is not a regular file",
+        ),
+        ("%FF%FE.bin", "buffers[0]: cannot read"),
+        ("missing.bin", "buffers[0]: cannot read"),
+        ("http://example.com/q.bin", "is not a file or data URI"),
+        ("data:application/octet-stream,AAAA", "not base64"),
+    ] {
+        let started = std::time::Instant::now();
+        let e = mesh(uri).expect_err("refused").to_string();
+        assert!(e.contains(want), "{uri}: {e}");
+        assert!(started.elapsed().as_secs() < 10, "{uri}: bounded");
+    }
+    std::fs::write(dir.path().join("short.bin"), &bin[..40]).unwrap();
+    let e = mesh("short.bin").expect_err("short").to_string();
+    assert!(
+        e.contains("holds 40 bytes, less than its byteLength 72"),
+        "{e}"
+    );
+}

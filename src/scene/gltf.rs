@@ -143,8 +143,8 @@ pub fn load_gltf(path: &Path) -> Result<ObjMesh, ObjError> {
 /// Parses glTF (JSON or binary) whose external files live in `dir`.
 pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     let gltf = read_gltf(bytes).map_err(ObjError::whole_file)?;
-    let buffers = gltf::import_buffers(&gltf.document, Some(dir), gltf.blob.clone())
-        .map_err(|e| ObjError::whole_file(format!("cannot read a buffer of the glTF file: {e}")))?;
+    let buffers =
+        load_buffers(&gltf.document, dir, gltf.blob.clone()).map_err(ObjError::whole_file)?;
     let doc = &gltf.document;
     let mut mesh = ObjMesh::default();
     let mut notes = Notes::default();
@@ -181,7 +181,7 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                 continue;
             }
             check_accessors(&p, &buffers, &at).map_err(ObjError::whole_file)?;
-            let reader = p.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+            let reader = p.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
             let Some(positions) = reader.read_positions() else {
                 notes.add(format!("{at} has no POSITION: it is skipped"));
                 continue;
@@ -261,16 +261,77 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     Ok(mesh)
 }
 
+/// The largest buffer file vkpath reads (a glTF buffer's byteLength is a u32 in practice: glTF 2.0
+/// limits a GLB to 2^32 bytes).
+pub const MAX_BUFFER_BYTES: u64 = 1 << 32;
+
+/// The glTF file's buffers: the GLB's BIN chunk, data URIs (base64) and files beside the glTF. Instead of
+/// the `gltf` crate's `import_buffers`, which reads whatever a URI names to its end (`/dev/zero` never
+/// ends) and panics on a percent-escape that is not UTF-8: a file must be a regular file of at most
+/// [`MAX_BUFFER_BYTES`] that the machine's memory can hold, and at least the buffer's byteLength.
+fn load_buffers(
+    doc: &gltf::Document,
+    dir: &Path,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<Vec<u8>>, String> {
+    let mut out = Vec::new();
+    for buffer in doc.buffers() {
+        let what = format!("buffers[{}]", buffer.index());
+        let mut data = match buffer.source() {
+            gltf::buffer::Source::Bin => blob
+                .take()
+                .ok_or_else(|| format!("{what} is the GLB's BIN chunk, and the file has none"))?,
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                let encoded = uri.split_once(";base64,").map(|(_, d)| d).ok_or_else(|| {
+                    format!("{what} is a data URI that is not base64 (\"data:...;base64,...\")")
+                })?;
+                base64::Engine::decode(&base64::engine::general_purpose::STANDARD, encoded)
+                    .map_err(|e| format!("{what} is a data URI whose base64 is not valid: {e}"))?
+            }
+            gltf::buffer::Source::Uri(uri) => {
+                let name = uri
+                    .strip_prefix("file://")
+                    .or_else(|| uri.strip_prefix("file:"))
+                    .unwrap_or(uri);
+                if name.contains(':') && !uri.starts_with("file:") {
+                    return Err(format!("{what}'s uri \"{uri}\" is not a file or data URI"));
+                }
+                let path = dir.join(percent_decode(name));
+                let cannot = |e: String| format!("{what}: cannot read {}: {e}", path.display());
+                let meta = std::fs::metadata(&path).map_err(|e| cannot(e.to_string()))?;
+                if !meta.is_file() {
+                    return Err(cannot("it is not a regular file".into()));
+                }
+                if meta.len() > MAX_BUFFER_BYTES {
+                    return Err(cannot(format!(
+                        "it is {} bytes, more than the {MAX_BUFFER_BYTES} a glTF buffer can be",
+                        meta.len()
+                    )));
+                }
+                crate::memory::check_available(meta.len(), "reading it").map_err(cannot)?;
+                std::fs::read(&path).map_err(|e| cannot(e.to_string()))?
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(format!(
+                "{what} holds {} bytes, less than its byteLength {}",
+                data.len(),
+                buffer.length()
+            ));
+        }
+        // The reader reads 4-byte components: glTF aligns buffers to 4 bytes.
+        data.resize(data.len().next_multiple_of(4), 0);
+        out.push(data);
+    }
+    Ok(out)
+}
+
 /// Checks every accessor primitive `p` is read through (POSITION, NORMAL, TEXCOORD_0, indices) before
 /// the gltf crate's reader touches it: the component type and shape the reader assumes, a stride at least
 /// an element, and every element inside its buffer view, every view inside its buffer (glTF 2.0 §3.6.2).
 /// The reader itself stops early at a view that is too short, which used to render a mesh with faces
 /// missing and no word (7 indices in a 12-byte view). `at` names the primitive (`meshes[0].primitives[0]`).
-fn check_accessors(
-    p: &gltf::Primitive,
-    buffers: &[gltf::buffer::Data],
-    at: &str,
-) -> Result<(), String> {
+fn check_accessors(p: &gltf::Primitive, buffers: &[Vec<u8>], at: &str) -> Result<(), String> {
     use gltf::Semantic;
     use gltf::accessor::{DataType, Dimensions};
     let float = &[DataType::F32][..];
@@ -332,7 +393,7 @@ fn check_accessors(
                 return Err(format!("{what}{part}: a count of 0 (glTF's minimum is 1)"));
             }
             let stride = view.stride().unwrap_or(size);
-            let buffer = buffers.get(view.buffer().index()).map_or(0, |d| d.0.len());
+            let buffer = buffers.get(view.buffer().index()).map_or(0, |d| d.len());
             let view_end = view.offset().checked_add(view.length());
             if view_end.is_none_or(|e| e > buffer) {
                 return Err(format!(
@@ -442,7 +503,7 @@ fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMa
 
 /// The glTF file's images, each decoded once however many textures use it (and so uploaded once).
 struct Images<'a> {
-    buffers: &'a [gltf::buffer::Data],
+    buffers: &'a [Vec<u8>],
     dir: &'a Path,
     loaded: Vec<Option<Result<Arc<Texture>, String>>>,
 }
@@ -465,7 +526,7 @@ impl Images<'_> {
                 load_texture(&self.dir.join(percent_decode(uri)))
             }
             gltf::image::Source::View { view, .. } => {
-                let data = self.buffers.get(view.buffer().index()).map(|d| &d.0[..]);
+                let data = self.buffers.get(view.buffer().index()).map(|d| &d[..]);
                 let range = view.offset()..view.offset().saturating_add(view.length());
                 let bytes = data.and_then(|d| d.get(range));
                 match bytes {
