@@ -1120,4 +1120,50 @@ fn sizes_are_checked_against_memory_before_allocating() {
     assert!(
         !d.join("m.png").exists() && !d.join("huge.png").exists() && !d.join("out.png").exists()
     );
+    // A texture whose PNG header declares 8192 x 8192 texels (1.5 GiB to decode) on a machine of 1 GiB:
+    // refused from the header (exit 2, naming the file), before a texel is decoded.
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let ihdr = [
+        &b"IHDR"[..],
+        &8192u32.to_be_bytes(),
+        &8192u32.to_be_bytes(),
+        &[8, 2, 0, 0, 0],
+    ]
+    .concat();
+    png.extend((ihdr.len() as u32 - 4).to_be_bytes());
+    png.extend(&ihdr);
+    png.extend(crc32fast::hash(&ihdr).to_be_bytes());
+    // An empty IDAT and the IEND (the decoder reads the header up to the first IDAT).
+    for chunk in [&b"IDAT"[..], &b"IEND"[..]] {
+        png.extend(0u32.to_be_bytes());
+        png.extend(chunk);
+        png.extend(crc32fast::hash(chunk).to_be_bytes());
+    }
+    std::fs::write(d.join("big.png"), &png).unwrap();
+    common::cli::write(
+        d,
+        "quad.obj",
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nf 1/1 2/2 3/3\n",
+    );
+    common::cli::write(
+        d,
+        "t.toml",
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[image]\nwidth = 8\nheight = 8\n\
+         [materials]\nw = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }\n\
+         [[mesh]]\nobj = \"quad.obj\"\nmaterial = \"w\"\ntexture = \"big.png\"\n",
+    );
+    let out = vkpath(d)
+        .env("VKPATH_HOST_MEMORY_AVAILABLE", (1u64 << 30).to_string())
+        .args(["render", "t.toml", "-o", "t.png"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("big.png")
+            && stderr.contains("8192 x 8192")
+            && stderr.contains("host memory"),
+        "{stderr}"
+    );
+    assert!(!d.join("t.png").exists());
 }

@@ -7,6 +7,9 @@ use std::path::{Path, PathBuf};
 /// header before it is decoded.
 pub const MAX_TEXTURE_TEXELS: u64 = 1 << 28;
 
+/// The most host memory decoding takes per texel: the decoder's RGBA f32 (EXR, HDR) and vkpath's f16.
+const DECODE_BYTES_PER_TEXEL: u64 = 16 + 8;
+
 /// An RGBA image, rows from the top, as the shader samples it (texture.wgsl): 8 bits per channel
 /// (PNG, JPEG: sRGB-encoded colour or linear data, as a texture reference says), or f16 (EXR, HDR:
 /// linear values).
@@ -63,6 +66,12 @@ fn decode_texture(bytes: &[u8], path: &Path) -> Result<Texture, String> {
             path.display()
         ));
     }
+    // Decoding holds the decoder's image (up to 16 bytes a texel: RGBA f32 for EXR) and vkpath's
+    // (4 or 8): checked against the machine before it is allocated.
+    crate::memory::check_available(
+        u64::from(width) * u64::from(height) * DECODE_BYTES_PER_TEXEL,
+        &format!("decoding the {width} x {height} texture {}", path.display()),
+    )?;
     if reader()?.format() == Some(image::ImageFormat::Jpeg) {
         return decode_jpeg(bytes, path, width, height);
     }
