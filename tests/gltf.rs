@@ -1208,6 +1208,18 @@ fn gltf_accessors_that_lie_are_refused() {
             gltf(good_views, &format!("{position}, {}", index(5))),
             "meshes[0].primitives[0] is TRIANGLES with 5 indices",
         ),
+        // Three normals for four positions: the normals used to be dropped in silence.
+        (
+            gltf(
+                good_views,
+                &format!(
+                    r#"{position}, {}, {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3"}}"#,
+                    index(6)
+                ),
+            )
+            .replace(r#"{"POSITION": 0}"#, r#"{"POSITION": 0, "NORMAL": 2}"#),
+            "attributes.NORMAL (accessors[2]) has 3 elements and meshes[0].primitives[0].attributes.POSITION (accessors[0]) 4",
+        ),
     ];
     for (json, want) in &cases {
         std::fs::write(dir.path().join("q.gltf"), json).unwrap();

@@ -244,6 +244,13 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
             "the glTF scene has no triangles (no mesh with a TRIANGLES primitive)",
         ));
     }
+    if !all_normals && !normals.is_empty() {
+        notes.add(
+            "some primitives have NORMAL and some do not: the file's normals are not used (vkpath \
+             computes normals from the triangles instead)"
+                .into(),
+        );
+    }
     mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
     // glTF's texture v runs down from the top of the image; the OBJ convention (and vkpath's sampling)
     // has v up from the bottom.
@@ -349,6 +356,19 @@ fn check_accessors(p: &gltf::Primitive, buffers: &[Vec<u8>], at: &str) -> Result
             a,
             dims,
             types,
+        ));
+    }
+    // glTF 2.0 §3.7.2.1: a primitive's attributes all have the same count (one element per vertex).
+    if let Some((first, first_a, ..)) = read.first()
+        && let Some((other, a, ..)) = read.iter().find(|(_, a, ..)| a.count() != first_a.count())
+    {
+        return Err(format!(
+            "{other} (accessors[{}]) has {} elements and {first} (accessors[{}]) {}: a primitive's \
+             attributes must have one element per vertex each",
+            a.index(),
+            a.count(),
+            first_a.index(),
+            first_a.count()
         ));
     }
     if let Some(a) = p.indices() {
