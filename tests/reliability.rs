@@ -1166,4 +1166,34 @@ fn sizes_are_checked_against_memory_before_allocating() {
         "{stderr}"
     );
     assert!(!d.join("t.png").exists());
+    // A mesh file the machine cannot hold on the way to the device (16 bytes a byte of file: the quad's
+    // 62 bytes, 992, against 900 available), and a mesh "file" that is a device, never read to its end.
+    common::cli::write(
+        d,
+        "m.toml",
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[image]\nwidth = 8\nheight = 8\n\
+         [materials]\nw = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }\n\
+         [[mesh]]\nobj = \"quad.obj\"\nmaterial = \"w\"\n\
+         [[mesh]]\nobj = \"/dev/zero\"\nmaterial = \"w\"\n",
+    );
+    let out = vkpath(d)
+        .env("VKPATH_HOST_MEMORY_AVAILABLE", "900")
+        .args(["render", "m.toml", "-o", "m.png"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("mesh[0].obj") && stderr.contains("mesh file of 62 bytes"),
+        "{stderr}"
+    );
+    let started = Instant::now();
+    run_fails(
+        d,
+        &["render", "m.toml", "-o", "m.png"],
+        2,
+        &["mesh[1].obj", "/dev/zero: it is not a regular file"],
+    );
+    assert!(started.elapsed() < Duration::from_secs(30));
+    assert!(!d.join("m.png").exists());
 }
