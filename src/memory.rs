@@ -84,6 +84,28 @@ fn parse_mem_available(meminfo: &str) -> Option<u64> {
     }
 }
 
+/// The largest input file read whole (a mesh, a texture, a glTF buffer, an MTL library): 2^32 bytes, a
+/// GLB's own limit.
+pub const MAX_FILE_BYTES: u64 = 1 << 32;
+
+/// Reads an input file whole: a regular file (a pipe or a device such as /dev/zero may never end) of at
+/// most [`MAX_FILE_BYTES`] that fits the memory available. The error is the reason alone (the caller
+/// names the file and what it is for).
+pub fn read_file(path: &std::path::Path) -> Result<Vec<u8>, String> {
+    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
+    if !meta.is_file() {
+        return Err("it is not a regular file".into());
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(format!(
+            "it is {} bytes, more than the {MAX_FILE_BYTES} vkpath reads",
+            meta.len()
+        ));
+    }
+    check_available(meta.len(), "reading it")?;
+    std::fs::read(path).map_err(|e| e.to_string())
+}
+
 /// MiB, for messages.
 pub fn mib(bytes: u64) -> f64 {
     bytes as f64 / f64::from(1 << 20)
@@ -112,6 +134,24 @@ mod tests {
         assert_eq!(parse_mem_available(text), Some(24131164 * 1024));
         assert_eq!(parse_mem_available("MemFree: 3 kB\n"), None);
         assert_eq!(parse_mem_available("MemAvailable: x kB\n"), None);
+    }
+
+    #[test]
+    fn only_regular_files_are_read_whole() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("f.bin");
+        std::fs::write(&file, b"abc").unwrap();
+        assert_eq!(read_file(&file).unwrap(), b"abc");
+        assert!(
+            read_file(dir.path())
+                .unwrap_err()
+                .contains("not a regular file")
+        );
+        if cfg!(unix) {
+            let e = read_file(std::path::Path::new("/dev/zero")).unwrap_err();
+            assert!(e.contains("not a regular file"), "{e}");
+        }
+        assert!(read_file(&dir.path().join("absent")).is_err());
     }
 
     #[test]

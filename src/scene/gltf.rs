@@ -134,7 +134,7 @@ pub fn read_gltf(bytes: &[u8]) -> Result<gltf::Gltf, String> {
 }
 
 pub fn load_gltf(path: &Path) -> Result<ObjMesh, ObjError> {
-    let bytes = std::fs::read(path)
+    let bytes = crate::memory::read_file(path)
         .map_err(|e| ObjError::whole_file(format!("cannot read the glTF file: {e}")))?;
     let dir = path.parent().unwrap_or(Path::new("."));
     parse_gltf(&bytes, dir)
@@ -268,14 +268,10 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     Ok(mesh)
 }
 
-/// The largest buffer file vkpath reads (a glTF buffer's byteLength is a u32 in practice: glTF 2.0
-/// limits a GLB to 2^32 bytes).
-pub const MAX_BUFFER_BYTES: u64 = 1 << 32;
-
 /// The glTF file's buffers: the GLB's BIN chunk, data URIs (base64) and files beside the glTF. Instead of
 /// the `gltf` crate's `import_buffers`, which reads whatever a URI names to its end (`/dev/zero` never
-/// ends) and panics on a percent-escape that is not UTF-8: a file must be a regular file of at most
-/// [`MAX_BUFFER_BYTES`] that the machine's memory can hold, and at least the buffer's byteLength.
+/// ends) and panics on a percent-escape that is not UTF-8: a file is read by [`crate::memory::read_file`]
+/// (a regular file the machine's memory can hold), and must hold at least the buffer's byteLength.
 fn load_buffers(
     doc: &gltf::Document,
     dir: &Path,
@@ -304,19 +300,8 @@ fn load_buffers(
                     return Err(format!("{what}'s uri \"{uri}\" is not a file or data URI"));
                 }
                 let path = dir.join(percent_decode(name));
-                let cannot = |e: String| format!("{what}: cannot read {}: {e}", path.display());
-                let meta = std::fs::metadata(&path).map_err(|e| cannot(e.to_string()))?;
-                if !meta.is_file() {
-                    return Err(cannot("it is not a regular file".into()));
-                }
-                if meta.len() > MAX_BUFFER_BYTES {
-                    return Err(cannot(format!(
-                        "it is {} bytes, more than the {MAX_BUFFER_BYTES} a glTF buffer can be",
-                        meta.len()
-                    )));
-                }
-                crate::memory::check_available(meta.len(), "reading it").map_err(cannot)?;
-                std::fs::read(&path).map_err(|e| cannot(e.to_string()))?
+                crate::memory::read_file(&path)
+                    .map_err(|e| format!("{what}: cannot read {}: {e}", path.display()))?
             }
         };
         if data.len() < buffer.length() {

@@ -62,7 +62,13 @@ fn scene_toml(
     mesh_ref: &str,
 ) -> Result<Translated, SceneError> {
     let hint = "vkpath reads glTF 2.0 (.gltf with its buffers, or .glb); see docs/scene-format.md, \"glTF scenes\".";
-    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, &e))?;
+    let bytes = crate::memory::read_file(path).map_err(|e| {
+        error(
+            path,
+            format!("cannot read the glTF file: {e}"),
+            "Check that the path is right and that the file is readable.",
+        )
+    })?;
     let gltf = super::gltf::read_gltf(&bytes).map_err(|m| error(path, m, hint))?;
     let doc = &gltf.document;
     let scene = doc

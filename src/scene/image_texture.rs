@@ -39,7 +39,7 @@ impl std::fmt::Debug for Texture {
 
 /// Reads an image file as an sRGB RGBA8 texture (PNG, JPEG, EXR, HDR).
 pub fn load_texture(path: &Path) -> Result<Texture, String> {
-    let bytes = std::fs::read(path)
+    let bytes = crate::memory::read_file(path)
         .map_err(|e| format!("cannot read the texture {}: {e}", path.display()))?;
     decode_texture(&bytes, path)
 }

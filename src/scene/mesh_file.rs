@@ -46,7 +46,7 @@ pub fn load_mesh_file(path: &Path) -> Result<ObjMesh, ObjError> {
     if !is_ply(path) {
         return super::obj::load_obj(path);
     }
-    let bytes = std::fs::read(path)
+    let bytes = crate::memory::read_file(path)
         .map_err(|e| ObjError::whole_file(format!("cannot read the PLY file: {e}")))?;
     super::ply::parse_ply(&bytes)
 }

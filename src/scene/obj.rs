@@ -31,7 +31,7 @@ impl FileMaterial {
 
 /// Reads an OBJ file and the MTL files it names, beside it (see [`parse_obj_in`]).
 pub fn load_obj(path: &Path) -> Result<ObjMesh, ObjError> {
-    let bytes = std::fs::read(path)
+    let bytes = crate::memory::read_file(path)
         .map_err(|e| ObjError::whole_file(format!("cannot read the OBJ file: {e}")))?;
     parse_obj_in(&bytes, Some(path.parent().unwrap_or(Path::new("."))))
 }
@@ -100,12 +100,10 @@ pub fn parse_obj_in(bytes: &[u8], dir: Option<&Path>) -> Result<ObjMesh, ObjErro
             return Ok((Vec::new(), Default::default()));
         };
         let path = dir.join(name);
-        let read = std::fs::read(&path)
-            .map_err(|e| e.to_string())
-            .and_then(|b| {
-                tobj::load_mtl_buf(&mut std::io::BufReader::new(&b[..]))
-                    .map_err(|e| format!("not a valid MTL file ({e})"))
-            });
+        let read = crate::memory::read_file(&path).and_then(|b| {
+            tobj::load_mtl_buf(&mut std::io::BufReader::new(&b[..]))
+                .map_err(|e| format!("not a valid MTL file ({e})"))
+        });
         read.map_err(|why| {
             *mtl_problem.borrow_mut() = Some(format!(
                 "the OBJ's material library {} cannot be read: {why}",
