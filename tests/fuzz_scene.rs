@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::fuzz::{EXTREMES, apply, config, mutation, within_watchdog};
+use common::fuzz::{EXTREMES, JSON_STRUCTURE, apply, config, mutation, within_watchdog};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -607,15 +607,8 @@ fn checkpoint_bytes() -> Vec<u8> {
 }
 
 /// Fragments of a checkpoint header: JSON structure and the values its checks are about.
+/// (With [`common::fuzz::JSON_STRUCTURE`].)
 const CHECKPOINT_TOKENS: &[&str] = &[
-    "{",
-    "}",
-    "[",
-    "]",
-    ",",
-    ":",
-    "\"",
-    "null",
     "true",
     "-1",
     "0",
@@ -642,7 +635,7 @@ proptest! {
     ) {
         let mut bytes = checkpoint_bytes();
         for m in &mutations {
-            apply(&mut bytes, m, CHECKPOINT_TOKENS, EXTREMES);
+            apply(&mut bytes, m, &[JSON_STRUCTURE, CHECKPOINT_TOKENS].concat(), EXTREMES);
         }
         for input in [arbitrary, bytes] {
             let result = within_watchdog("Checkpoint::from_bytes", move || {

@@ -1031,6 +1031,20 @@ fn outputs_are_checked_before_rendering() {
     );
 }
 
+/// `vkpath args` in `dir` on a machine said to have `available` bytes of memory
+/// (`VKPATH_HOST_MEMORY_AVAILABLE`): its exit status and stderr.
+fn run_with_memory(dir: &Path, available: u64, args: &[&str]) -> (Option<i32>, String) {
+    let out = vkpath(dir)
+        .env("VKPATH_HOST_MEMORY_AVAILABLE", available.to_string())
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 /// `bytes` (a checkpoint file written by vkpath) with its header's image size replaced by `w` x `h`, the
 /// header length and the CRC-32 made right again: a file whose checksum is correct but whose header
 /// lies about what its payload holds.
@@ -1089,28 +1103,22 @@ fn sizes_are_checked_against_memory_before_allocating() {
     );
     // merge, on a machine of 1 GiB: refused before decoding (exit 2, the file named); on this machine,
     // refused as well (memory or the payload), never an abort.
-    let out = vkpath(d)
-        .env("VKPATH_HOST_MEMORY_AVAILABLE", (1u64 << 30).to_string())
-        .args(["merge", "big.ckpt", "-o", "m.png"])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let (code, stderr) = run_with_memory(d, 1 << 30, &["merge", "big.ckpt", "-o", "m.png"]);
+    assert_eq!(code, Some(2), "{stderr}");
     assert!(
         stderr.contains("big.ckpt") && stderr.contains("host memory"),
         "{stderr}"
     );
     run_fails(d, &["merge", "big.ckpt", "-o", "m.png"], 2, &["big.ckpt"]);
     // A render of 4096 x 4096 on a machine of 1 GiB: refused up front with the sizes, nothing written.
-    let out = vkpath(d)
-        .env("VKPATH_HOST_MEMORY_AVAILABLE", (1u64 << 30).to_string())
-        .args([
+    let (code, stderr) = run_with_memory(
+        d,
+        1 << 30,
+        &[
             "render", "--quiet", "--width", "4096", "--height", "4096", "-o", "huge.png",
-        ])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
+        ],
+    );
+    assert_eq!(code, Some(1), "{stderr}");
     assert!(
         stderr.contains("host memory")
             && stderr.contains("4096x4096")
@@ -1152,13 +1160,8 @@ fn sizes_are_checked_against_memory_before_allocating() {
          [materials]\nw = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }\n\
          [[mesh]]\nobj = \"quad.obj\"\nmaterial = \"w\"\ntexture = \"big.png\"\n",
     );
-    let out = vkpath(d)
-        .env("VKPATH_HOST_MEMORY_AVAILABLE", (1u64 << 30).to_string())
-        .args(["render", "t.toml", "-o", "t.png"])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let (code, stderr) = run_with_memory(d, 1 << 30, &["render", "t.toml", "-o", "t.png"]);
+    assert_eq!(code, Some(2), "{stderr}");
     assert!(
         stderr.contains("big.png")
             && stderr.contains("8192 x 8192")
@@ -1176,13 +1179,8 @@ fn sizes_are_checked_against_memory_before_allocating() {
          [[mesh]]\nobj = \"quad.obj\"\nmaterial = \"w\"\n\
          [[mesh]]\nobj = \"/dev/zero\"\nmaterial = \"w\"\n",
     );
-    let out = vkpath(d)
-        .env("VKPATH_HOST_MEMORY_AVAILABLE", "900")
-        .args(["render", "m.toml", "-o", "m.png"])
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let (code, stderr) = run_with_memory(d, 900, &["render", "m.toml", "-o", "m.png"]);
+    assert_eq!(code, Some(2), "{stderr}");
     assert!(
         stderr.contains("mesh[0].obj") && stderr.contains("mesh file of 62 bytes"),
         "{stderr}"

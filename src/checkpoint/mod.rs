@@ -315,25 +315,9 @@ impl Checkpoint {
     /// Reads and checks a state file: magic, version, header, sizes and checksum. Never panics on any
     /// bytes; every problem is an [`Error::Checkpoint`] naming the file.
     pub fn read(path: &Path) -> Result<Checkpoint, Error> {
-        let cannot = |e: std::io::Error| Error::Checkpoint {
-            path: path.to_path_buf(),
-            message: format!("cannot read the checkpoint: {e}. Check the path."),
-        };
-        let file = std::fs::File::open(path).map_err(cannot)?;
-        let len = file.metadata().map_err(cannot)?.len();
         // The header is checked, and the file's length against it, before the pixels are read: a
         // wrong file of many GB is refused without being read.
-        Checkpoint::decode(&mut std::io::BufReader::new(file), len).map_err(|e| match e {
-            Decode::Io(e) => cannot(e),
-            Decode::Invalid(message) => Error::Checkpoint {
-                path: path.to_path_buf(),
-                message: format!("{message}. The file is not a usable vkpath checkpoint."),
-            },
-            Decode::TooLarge(message) => Error::Checkpoint {
-                path: path.to_path_buf(),
-                message: format!("{message}: it is too large for this machine."),
-            },
-        })
+        decode_file(path, Checkpoint::decode)
     }
 
     /// Parses a state file's bytes; the error says what is wrong, without the file name.
@@ -349,21 +333,9 @@ impl Checkpoint {
     /// checks before reading any pixels: a state of another render, or too large for the machine, is
     /// refused without decoding them.
     pub fn read_header(path: &Path) -> Result<Header, Error> {
-        let cannot = |e: std::io::Error| Error::Checkpoint {
-            path: path.to_path_buf(),
-            message: format!("cannot read the checkpoint: {e}. Check the path."),
-        };
-        let file = std::fs::File::open(path).map_err(cannot)?;
-        let len = file.metadata().map_err(cannot)?.len();
-        Checkpoint::decode_header(&mut std::io::BufReader::new(file), len)
-            .map(|h| h.header)
-            .map_err(|e| match e {
-                Decode::Io(e) => cannot(e),
-                Decode::Invalid(message) | Decode::TooLarge(message) => Error::Checkpoint {
-                    path: path.to_path_buf(),
-                    message: format!("{message}. The file is not a usable vkpath checkpoint."),
-                },
-            })
+        decode_file(path, |r, len| {
+            Checkpoint::decode_header(r, len).map(|h| h.header)
+        })
     }
 
     /// Decodes the fixed part and the JSON header from `r`, which holds `len` bytes, and checks the
@@ -550,6 +522,31 @@ impl Header {
             ),
         })
     }
+}
+
+/// Opens the state file `path` and decodes it (or a part of it) with `decode`, which is given a reader
+/// and the file's length; a problem becomes an [`Error::Checkpoint`] naming the file.
+fn decode_file<T>(
+    path: &Path,
+    decode: impl FnOnce(&mut std::io::BufReader<std::fs::File>, u64) -> Result<T, Decode>,
+) -> Result<T, Error> {
+    let cannot = |e: std::io::Error| Error::Checkpoint {
+        path: path.to_path_buf(),
+        message: format!("cannot read the checkpoint: {e}. Check the path."),
+    };
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    let len = file.metadata().map_err(cannot)?.len();
+    decode(&mut std::io::BufReader::new(file), len).map_err(|e| match e {
+        Decode::Io(e) => cannot(e),
+        Decode::Invalid(message) => Error::Checkpoint {
+            path: path.to_path_buf(),
+            message: format!("{message}. The file is not a usable vkpath checkpoint."),
+        },
+        Decode::TooLarge(message) => Error::Checkpoint {
+            path: path.to_path_buf(),
+            message: format!("{message}: it is too large for this machine."),
+        },
+    })
 }
 
 /// Why a state could not be decoded: the file could not be read, or its content is wrong.

@@ -53,6 +53,9 @@ pub fn within_watchdog<T: Send + 'static>(what: &str, f: impl FnOnce() -> T + Se
     }
 }
 
+/// The punctuation of JSON, for the targets whose inputs are JSON (glTF, a checkpoint's header).
+pub const JSON_STRUCTURE: &[&str] = &["{", "}", "[", "]", ",", ":", "\"", "null"];
+
 /// Numbers that sit on the validation boundaries or outside f32/u32.
 pub const EXTREMES: &[&str] = &[
     "0",
