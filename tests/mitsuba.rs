@@ -1995,3 +1995,109 @@ fn bumpmaps_and_normalmaps_become_bump_and_normal_map_modifiers() {
         "{e}"
     );
 }
+
+/// Mitsuba's shapegroup and instance: each instance draws the group's shapes placed by its to_world
+/// after their own (a shapegroup alone draws nothing), the same geometry, bit for bit, as the shapes
+/// written out with the composed transforms (exact in binary here: translations, scales by 2, a
+/// quarter turn as an integer matrix). A group with an emitter, a group in a group and an instance of a plain
+/// shape are refused, as Mitsuba refuses them.
+#[test]
+fn instances_of_a_shapegroup_are_its_shapes_placed_again() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "quad.obj",
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n",
+    );
+    let quad = |ops: &str| {
+        format!(
+            r#"<shape type="obj"><string name="filename" value="quad.obj"/><ref id="grey"/>
+               <transform name="to_world"><translate x="1"/>{ops}</transform></shape>"#
+        )
+    };
+    let ball = |ops: &str| {
+        format!(
+            r#"<shape type="sphere"><float name="radius" value="0.5"/><ref id="grey"/>
+               <transform name="to_world"><translate y="2"/>{ops}</transform></shape>"#
+        )
+    };
+    let square = |ops: &str| {
+        format!(
+            r#"<shape type="rectangle"><ref id="grey"/>
+               <transform name="to_world"><scale value="0.5"/>{ops}</transform></shape>"#
+        )
+    };
+    let placements = [
+        r#"<translate x="3" z="-2"/>"#,
+        r#"<scale value="2"/><translate y="-1"/>"#,
+        r#"<matrix value="0 -1 0 -4  1 0 0 0  0 0 1 0.5  0 0 0 1"/>"#,
+    ];
+    let grey = r#"<bsdf type="diffuse" id="grey"/>"#;
+    let instanced = format!(
+        "{grey}\n<shape type=\"shapegroup\" id=\"g\">{}{}{}</shape>\n{}",
+        quad(""),
+        ball(""),
+        square(""),
+        placements
+            .iter()
+            .map(|p| format!(
+                "<shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\">{p}</transform></shape>"
+            ))
+            .collect::<String>()
+    );
+    let written_out = format!(
+        "{grey}\n{}",
+        placements
+            .iter()
+            .map(|p| format!("{}{}{}", quad(p), ball(p), square(p)))
+            .collect::<String>()
+    );
+    let a = load_in(dir.path(), &instanced);
+    let b = load_in(dir.path(), &written_out);
+    assert_eq!(a.spheres.len(), 3);
+    assert_eq!(a.meshes.len(), 3);
+    assert_eq!(a.triangles.len(), 6);
+    assert_eq!(a.spheres, b.spheres);
+    assert_eq!(a.triangles, b.triangles);
+    for (ma, mb) in a.meshes.iter().zip(&b.meshes) {
+        assert_eq!(
+            (&ma.positions, &ma.normals, &ma.triangles, ma.material),
+            (&mb.positions, &mb.normals, &mb.triangles, mb.material)
+        );
+    }
+    // The second instance doubles the sphere: radius 1, centre (0, 2 x 2 - 1, 0).
+    assert_eq!(a.spheres[1].radius, 1.0);
+    assert_eq!(a.spheres[1].center, Vec3::new(0.0, 3.0, 0.0));
+    // A group alone draws nothing.
+    let lone = load_in(
+        dir.path(),
+        &format!(
+            "{grey}<shape type=\"shapegroup\" id=\"g\">{}</shape><shape type=\"sphere\"/>",
+            ball("")
+        ),
+    );
+    assert_eq!(lone.spheres.len(), 1);
+    for (body, needle, want) in [
+        (
+            r#"<shape type="shapegroup" id="g"><shape type="sphere"><emitter type="area"/></shape></shape>"#,
+            "<shape type=\"sphere\">",
+            "does not instance emitters",
+        ),
+        (
+            r#"<shape type="shapegroup" id="g"><shape type="shapegroup"/></shape>"#,
+            "<shape type=\"shapegroup\"/>",
+            "a shapegroup inside a shapegroup",
+        ),
+        (
+            r#"<shape type="sphere" id="s"/><shape type="instance"><ref id="s"/></shape>"#,
+            "<shape type=\"sphere\" id",
+            "an instance of a sphere shape",
+        ),
+    ] {
+        let e = error_in(dir.path(), body);
+        assert!(
+            e.contains(want) && e.contains(&format!("line {}", line_of(body, needle))),
+            "{e}"
+        );
+    }
+}

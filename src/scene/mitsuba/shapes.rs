@@ -13,13 +13,84 @@ use glam::{DMat3, DMat4, DVec3, DVec4};
 pub const DISK_SEGMENTS: usize = 64;
 
 impl Tr<'_> {
-    pub(super) fn shape(&mut self, obj: &Obj, index: usize) -> Result<(), SceneError> {
+    /// A top-level `<shape>`: a shape, a `shapegroup` (a definition, drawn only through instances: its
+    /// shapes are checked here), or an `instance` of one, whose shapes are written again, each placed by
+    /// the instance's to_world after its own (Mitsuba's `instance`: expanded here, as vkpath's
+    /// `[[instance]]`s are, into copies of the tables). `index` numbers the shapes written so far (for
+    /// the materials' names); the count written is returned.
+    pub(super) fn top_level_shape(&mut self, obj: &Obj, index: usize) -> Result<usize, SceneError> {
+        match obj.kind.as_str() {
+            "shapegroup" => {
+                self.shapegroup_members(obj)?;
+                Ok(0)
+            }
+            "instance" => {
+                let args = Args::new(obj);
+                let groups = args.objects("shape", self.ids)?;
+                let xf = args.transform("to_world")?;
+                self.finish(&args, &["shape", "to_world"])?;
+                let [(group, _)] = groups.as_slice() else {
+                    return Err(obj.loc.error(
+                        "an instance with other than one shapegroup",
+                        "Refer to one shapegroup: <ref id=\"...\"/>.",
+                    ));
+                };
+                if group.kind != "shapegroup" {
+                    return Err(group.loc.error(
+                        format!("an instance of a {} shape, not of a shapegroup", group.kind),
+                        "Put the shape in a <shape type=\"shapegroup\" id=\"...\"> and refer to that.",
+                    ));
+                }
+                let parent = xf.map_or(DMat4::IDENTITY, |(x, _)| x.m);
+                let members = self.shapegroup_members(group)?;
+                for (i, member) in members.iter().enumerate() {
+                    self.shape(member, index + i, parent)?;
+                }
+                Ok(members.len())
+            }
+            _ => {
+                self.shape(obj, index, DMat4::IDENTITY)?;
+                Ok(1)
+            }
+        }
+    }
+
+    /// The shapes of a shapegroup, refused as Mitsuba refuses them: a shapegroup or instance inside
+    /// one, or an emitter (Mitsuba does not instance emitters).
+    fn shapegroup_members(&mut self, group: &Obj) -> Result<Vec<std::rc::Rc<Obj>>, SceneError> {
+        let args = Args::new(group);
+        let members = args.objects("shape", self.ids)?;
+        self.finish(&args, &["shape"])?;
+        let mut out = Vec::new();
+        for (m, _) in members {
+            if matches!(m.kind.as_str(), "shapegroup" | "instance") {
+                return Err(m.loc.error(
+                    format!("a {} inside a shapegroup", m.kind),
+                    "Mitsuba instances one level: put the shapes themselves in the group.",
+                ));
+            }
+            if !Args::new(&m).objects("emitter", self.ids)?.is_empty() {
+                return Err(m.loc.error(
+                    "an emitter inside a shapegroup: Mitsuba does not instance emitters",
+                    "Place emitting shapes outside the group.",
+                ));
+            }
+            out.push(m);
+        }
+        Ok(out)
+    }
+
+    /// A shape placed by `parent` x its own to_world (`parent` is an instance's, else the identity).
+    fn shape(&mut self, obj: &Obj, index: usize, parent: DMat4) -> Result<(), SceneError> {
         let kind = obj.kind.as_str();
         if !matches!(
             kind,
             "sphere" | "rectangle" | "cube" | "disk" | "obj" | "ply"
         ) {
-            return self.unsupported(obj, "sphere, rectangle, cube, disk, obj and ply shapes");
+            return self.unsupported(
+                obj,
+                "sphere, rectangle, cube, disk, obj and ply shapes, shapegroups and instances",
+            );
         }
         let args = Args::new(obj);
         let bsdf = args.object("bsdf", self.ids)?;
@@ -43,7 +114,7 @@ impl Tr<'_> {
             }
         };
         let xf = args.transform("to_world")?;
-        let m = xf.map_or(DMat4::IDENTITY, |(x, _)| x.m);
+        let m = parent * xf.map_or(DMat4::IDENTITY, |(x, _)| x.m);
         let xf_loc = xf.map_or(&obj.loc, |(_, l)| l).clone();
         let flip = args.boolean("flip_normals")?;
         let shape_name = format!("shape{index}-{kind}");

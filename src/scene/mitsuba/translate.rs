@@ -192,8 +192,9 @@ impl Tr<'_> {
             head.line("", None);
             head.append(env);
         }
-        for (i, s) in shapes.iter().enumerate() {
-            self.shape(s, i)?;
+        let mut written = 0;
+        for s in &shapes {
+            written += self.top_level_shape(s, written)?;
         }
         // Mitsuba instantiates every object of the scene, used or not, and refuses one it does not
         // know or whose parameters it does not read: so does vkpath, translating each definition no
