@@ -2101,3 +2101,218 @@ fn instances_of_a_shapegroup_are_its_shapes_placed_again() {
         );
     }
 }
+
+/// A Mitsuba `.serialized` file of the meshes given, built as Mitsuba's format description says (each
+/// mesh: u16 0x041C, u16 `version`, a zlib stream of flags, name (version 4), counts and arrays; then the
+/// meshes' offsets and their count): `(flags, name, positions, normals, uvs, colours, triangles)` with
+/// every array as f64 values, written in double precision when flag 0x2000 is set, else single.
+#[allow(clippy::type_complexity)]
+fn serialized_file(
+    version: u16,
+    meshes: &[(u32, &str, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<u32>)],
+) -> Vec<u8> {
+    use std::io::Write;
+    let mut out = Vec::new();
+    let mut offsets = Vec::new();
+    for (flags, name, p, n, uv, c, t) in meshes {
+        offsets.push(out.len() as u64);
+        out.extend(0x041Cu16.to_le_bytes());
+        out.extend(version.to_le_bytes());
+        let mut data = Vec::new();
+        data.extend(flags.to_le_bytes());
+        if version == 4 {
+            data.extend(name.as_bytes());
+            data.push(0);
+        }
+        data.extend(((p.len() / 3) as u64).to_le_bytes());
+        data.extend(((t.len() / 3) as u64).to_le_bytes());
+        for array in [p, n, uv, c] {
+            for &x in array {
+                if flags & 0x2000 != 0 {
+                    data.extend(x.to_le_bytes());
+                } else {
+                    data.extend((x as f32).to_le_bytes());
+                }
+            }
+        }
+        for &i in t {
+            data.extend(i.to_le_bytes());
+        }
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        z.write_all(&data).unwrap();
+        out.extend(z.finish().unwrap());
+    }
+    for o in &offsets {
+        if version == 4 {
+            out.extend(o.to_le_bytes());
+        } else {
+            out.extend((*o as u32).to_le_bytes());
+        }
+    }
+    out.extend((offsets.len() as u32).to_le_bytes());
+    out
+}
+
+/// Mitsuba's `serialized` shape: mesh `shape_index` of a .serialized file, read as Mitsuba reads it
+/// (single or double precision, normals, texture coordinates with v turned to vkpath's bottom-up
+/// convention since Mitsuba does not flip them, colours read past, the face-normals flag), versions 3
+/// and 4, is the same mesh, bit for bit, as the OBJ that writes the same numbers; errors name the mesh.
+#[test]
+fn serialized_meshes_are_the_same_meshes_as_obj() {
+    let dir = tempfile::tempdir().unwrap();
+    let tri = (
+        0x0001 | 0x0002 | 0x1000,
+        "tri",
+        vec![0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0],
+        vec![0.0, 0.25, 1.0, 0.25, 0.0, 1.0],
+        vec![],
+        vec![0, 1, 2],
+    );
+    let quad = (
+        0x0008 | 0x2000,
+        "quad",
+        vec![
+            -1.0, -1.0, 0.5, 1.0, -1.0, 0.5, 1.0, 1.0, 0.5, -1.0, 1.0, 0.5,
+        ],
+        vec![],
+        vec![],
+        vec![0.25; 12],
+        vec![0, 1, 2, 0, 2, 3],
+    );
+    write(
+        dir.path(),
+        "tri.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvt 0 0.75\nvt 1 0.75\nvt 0 0\nf 1/1/1 2/2/1 3/3/1\n",
+    );
+    write(
+        dir.path(),
+        "quad.obj",
+        "v -1 -1 0.5\nv 1 -1 0.5\nv 1 1 0.5\nv -1 1 0.5\nf 1 2 3\nf 1 3 4\n",
+    );
+    for version in [3u16, 4] {
+        std::fs::write(
+            dir.path().join("m.serialized"),
+            serialized_file(version, &[tri.clone(), quad.clone()]),
+        )
+        .unwrap();
+        let s = load_in(
+            dir.path(),
+            r#"<shape type="serialized"><string name="filename" value="m.serialized"/></shape>
+               <shape type="serialized"><string name="filename" value="m.serialized"/><integer name="shape_index" value="1"/>
+                 <transform name="to_world"><translate x="2"/></transform></shape>
+               <shape type="obj"><string name="filename" value="tri.obj"/></shape>
+               <shape type="obj"><string name="filename" value="quad.obj"/>
+                 <transform name="to_world"><translate x="2"/></transform></shape>"#,
+        );
+        assert_eq!(s.meshes.len(), 4);
+        for (a, b) in [(0, 2), (1, 3)] {
+            let (ma, mb) = (&s.meshes[a], &s.meshes[b]);
+            assert_eq!(
+                (&ma.positions, &ma.normals, &ma.uvs, &ma.triangles),
+                (&mb.positions, &mb.normals, &mb.uvs, &mb.triangles),
+                "version {version}, mesh {a}"
+            );
+        }
+        assert_eq!(s.meshes[0].uvs[2], [0.0, 0.0], "v = 1 at the image's top");
+    }
+    // The face-normals flag shades flat: no vertex normals, whatever the file holds.
+    let flat = (
+        0x0001 | 0x0010,
+        "flat",
+        tri.2.clone(),
+        tri.3.clone(),
+        vec![],
+        vec![],
+        vec![0, 1, 2],
+    );
+    std::fs::write(dir.path().join("f.serialized"), serialized_file(4, &[flat])).unwrap();
+    let s = load_in(
+        dir.path(),
+        r#"<shape type="serialized"><string name="filename" value="f.serialized"/></shape>"#,
+    );
+    assert!(s.meshes[0].normals.is_empty(), "{:?}", s.meshes[0].normals);
+    // Errors: an index past the file's meshes, a truncated file, another format.
+    let good = serialized_file(4, &[tri.clone(), quad.clone()]);
+    std::fs::write(dir.path().join("cut.serialized"), &good[..good.len() / 3]).unwrap();
+    std::fs::write(
+        dir.path().join("not.serialized"),
+        b"ply\nformat ascii 1.0\n",
+    )
+    .unwrap();
+    for (file, index, want) in [
+        (
+            "m.serialized",
+            2,
+            "shape_index 2 asks for mesh 2, and the file has 2 (0 to 1)",
+        ),
+        ("cut.serialized", 0, "mesh 0 ends inside its"),
+        ("not.serialized", 0, "the header 0x041C is missing"),
+    ] {
+        let body = format!(
+            r#"<shape type="serialized"><string name="filename" value="{file}"/><integer name="shape_index" value="{index}"/></shape>"#
+        );
+        let e = error_in(dir.path(), &body);
+        assert!(e.contains(want) && e.contains(file), "{want}: {e}");
+    }
+    let body = r#"<shape type="obj"><string name="filename" value="tri.obj"/><integer name="shape_index" value="1"/></shape>"#;
+    assert!(error_in(dir.path(), body).contains("shape_index"));
+    // In TOML: shape_index on a mesh that is not a .serialized file is refused at the key.
+    let toml = write(
+        dir.path(),
+        "s.toml",
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[image]\nwidth = 8\nheight = 8\n\
+         [materials]\nw = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }\n\
+         [[mesh]]\nobj = \"tri.obj\"\nmaterial = \"w\"\nshape_index = 1\n",
+    );
+    let e = Scene::load(&toml).unwrap_err();
+    assert_eq!(e.key(), Some("mesh[0].shape_index"), "{e}");
+}
+
+proptest! {
+    #![proptest_config(common::fuzz::config(3000))]
+
+    /// The .serialized reader on files whose decompressed content is arbitrary (any flags, counts that
+    /// claim anything up to 2^64, any payload) and whose container is then mutated: a consistent mesh or
+    /// a one-paragraph refusal, never a panic, a hang or an allocation the counts alone ask for.
+    #[test]
+    fn serialized_reader_survives_arbitrary_content(
+        version in 3u16..=4,
+        flags in any::<u32>(),
+        vertices in prop_oneof![0u64..12, Just(u64::MAX), Just(1u64 << 40)],
+        triangles in prop_oneof![0u64..6, Just(u64::MAX), Just(1u64 << 33)],
+        payload in prop::collection::vec(any::<u8>(), 0..400),
+        index in 0u32..3,
+        mutations in prop::collection::vec(common::fuzz::mutation(), 0..3),
+    ) {
+        use std::io::Write;
+        let mut data = flags.to_le_bytes().to_vec();
+        if version == 4 {
+            data.extend(b"fuzz\0");
+        }
+        data.extend(vertices.to_le_bytes());
+        data.extend(triangles.to_le_bytes());
+        data.extend(&payload);
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
+        z.write_all(&data).unwrap();
+        let mut bytes = [&0x041Cu16.to_le_bytes()[..], &version.to_le_bytes()].concat();
+        bytes.extend(z.finish().unwrap());
+        bytes.extend(if version == 4 { vec![0u8; 8] } else { vec![0u8; 4] });
+        bytes.extend(1u32.to_le_bytes());
+        for m in &mutations {
+            common::fuzz::apply(&mut bytes, m, &["\u{1c}\u{4}", "\u{0}\u{0}"], common::fuzz::EXTREMES);
+        }
+        let answer = common::fuzz::within_watchdog("a .serialized file", move || {
+            vkpath::scene::serialized::parse_serialized(&bytes, index)
+        });
+        match answer {
+            Ok(m) => {
+                let n = m.positions.len() as u32;
+                prop_assert!(m.triangles.iter().flatten().all(|&i| i < n));
+                prop_assert!(m.normals.as_ref().is_none_or(|v| v.len() == n as usize));
+                prop_assert!(m.uvs.as_ref().is_none_or(|v| v.len() == n as usize));
+            }
+            Err(e) => prop_assert!(!e.contains('\n'), "{}", e),
+        }
+    }
+}

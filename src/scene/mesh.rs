@@ -79,6 +79,9 @@ pub struct ObjMesh {
     pub mtl_problem: Option<String>,
     /// What else the reader could not use (glTF: unsupported textures, primitives): warnings.
     pub notes: Vec<String>,
+    /// The file asks for face normals (a `.serialized` mesh's flag 0x0010): shaded flat whatever the
+    /// `[[mesh]]`'s `smooth` says, as Mitsuba does.
+    pub face_normals: bool,
 }
 
 impl ObjMesh {

@@ -23,9 +23,16 @@ pub fn is_gltf(path: &Path) -> bool {
 /// 10 measured (see [`load_mesh_file`]).
 pub const MEMORY_PER_FILE_BYTE: u64 = 16;
 
-/// Reads the mesh file of a `[[mesh]]` by its extension: PLY (super::ply), glTF (super::gltf), OBJ
-/// (super::obj) otherwise.
-pub fn load_mesh_file(path: &Path) -> Result<ObjMesh, ObjError> {
+/// Whether a mesh file is read as a Mitsuba `.serialized` file (by its extension, any case).
+pub fn is_serialized(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("serialized"))
+}
+
+/// Reads the mesh file of a `[[mesh]]` by its extension: PLY (super::ply), glTF (super::gltf), Mitsuba's
+/// serialized meshes (super::serialized: mesh `shape_index` of the file; the others read mesh 0 only),
+/// OBJ (super::obj) otherwise.
+pub fn load_mesh_file(path: &Path, shape_index: u32) -> Result<ObjMesh, ObjError> {
     // A mesh file becomes about 10 times its size in memory by the time its triangles are on the device
     // (a 1-million-triangle OBJ of 34 MB: 330 MB on lavapipe, parse, BVH and device arrays together):
     // a file the machine cannot hold that way is refused before it is read. A file that is not a regular
@@ -42,6 +49,9 @@ pub fn load_mesh_file(path: &Path) -> Result<ObjMesh, ObjError> {
     }
     if is_gltf(path) {
         return super::gltf::load_gltf(path);
+    }
+    if is_serialized(path) {
+        return super::serialized::load_serialized(path, shape_index);
     }
     if !is_ply(path) {
         return super::obj::load_obj(path);

@@ -17,6 +17,7 @@ pub mod mitsuba;
 pub mod obj;
 mod parse;
 pub mod ply;
+pub mod serialized;
 pub mod shapes;
 pub mod texture;
 pub mod toml_text;

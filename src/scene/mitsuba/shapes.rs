@@ -85,11 +85,11 @@ impl Tr<'_> {
         let kind = obj.kind.as_str();
         if !matches!(
             kind,
-            "sphere" | "rectangle" | "cube" | "disk" | "obj" | "ply"
+            "sphere" | "rectangle" | "cube" | "disk" | "obj" | "ply" | "serialized"
         ) {
             return self.unsupported(
                 obj,
-                "sphere, rectangle, cube, disk, obj and ply shapes, shapegroups and instances",
+                "sphere, rectangle, cube, disk, obj, ply and serialized shapes, shapegroups and instances",
             );
         }
         let args = Args::new(obj);
@@ -126,7 +126,7 @@ impl Tr<'_> {
         )?;
         let material = toml_string(&material);
         let loc = Some(&obj.loc);
-        let mesh_kind = matches!(kind, "obj" | "ply");
+        let mesh_kind = matches!(kind, "obj" | "ply" | "serialized");
         if texture.is_some() && !mesh_kind {
             return Err(obj.loc.error(
                 format!("a bitmap texture on a {kind}: vkpath textures meshes (obj, ply) only, at their uvs"),
@@ -220,11 +220,32 @@ impl Tr<'_> {
                         "Reverse the faces in the mesh file instead.",
                     ));
                 }
-                let flip_uv = args.boolean("flip_tex_coords")?;
+                let serialized = kind == "serialized";
+                let flip_uv = if serialized {
+                    None
+                } else {
+                    args.boolean("flip_tex_coords")?
+                };
+                // Which mesh of a .serialized file (Mitsuba's default 0).
+                let index_arg = if serialized {
+                    args.int("shape_index")?
+                } else {
+                    None
+                };
+                let shape_index = match index_arg {
+                    None => None,
+                    Some((i, l)) => Some(u32::try_from(i).map_err(|_| {
+                        l.error(
+                            format!("shape_index = {i}: a mesh's index in the file, from 0"),
+                            "Give 0 for the file's first mesh.",
+                        )
+                    })?),
+                };
                 if texture.is_some() {
                     // vkpath's uv (0, 0) is the image's bottom-left corner: Mitsuba's OBJ reader with
-                    // flip_tex_coords = true (its default). Its PLY reader does not flip.
-                    let flipped = flip_uv.map_or(kind == "obj", |(f, _)| f);
+                    // flip_tex_coords = true (its default). Its PLY reader does not flip; nor does its
+                    // serialized reader, whose v vkpath's own turns over (super::super::serialized).
+                    let flipped = serialized || flip_uv.map_or(kind == "obj", |(f, _)| f);
                     if !flipped {
                         return Err(obj.loc.error(
                             "a texture on a mesh whose texture coordinates Mitsuba does not flip (a PLY, or flip_tex_coords = false): vkpath's uv (0, 0) is the image's bottom-left corner",
@@ -237,7 +258,11 @@ impl Tr<'_> {
                     &[
                         "filename",
                         "face_normals",
-                        "flip_tex_coords",
+                        if serialized {
+                            "shape_index"
+                        } else {
+                            "flip_tex_coords"
+                        },
                         "to_world",
                         "flip_normals",
                         "bsdf",
@@ -260,6 +285,9 @@ impl Tr<'_> {
                 o.line("", None);
                 o.line("[[mesh]]", loc);
                 o.line(format!("obj       = {file_ref}"), Some(floc));
+                if let Some(i) = shape_index {
+                    o.line(format!("shape_index = {i}"), loc);
+                }
                 o.line(format!("material  = {material}"), loc);
                 match srt {
                     Some((scale, rotate, translate)) => {

@@ -170,14 +170,31 @@ impl Checker<'_> {
         let smooth = m.smooth.as_ref().is_none_or(|s| *s.get_ref());
 
         let obj_path = base.join(m.obj.get_ref());
-        let obj = match files.objs.get(&obj_path) {
+        let shape_index = match &m.shape_index {
+            None => 0,
+            Some(s) if mesh_file::is_serialized(&obj_path) => *s.get_ref(),
+            Some(s) => {
+                return Err(self.error(
+                    s.span(),
+                    &key("shape_index"),
+                    "shape_index picks one of the meshes of a Mitsuba .serialized file, and this mesh is \
+                     not one",
+                    "Remove shape_index.",
+                ));
+            }
+        };
+        let cached = (obj_path.clone(), shape_index);
+        let obj = match files.objs.get(&cached) {
             Some(obj) => obj.clone(),
             None => {
-                let loaded = mesh_file::load_mesh_file(&obj_path).map_err(|e| {
+                let loaded = mesh_file::load_mesh_file(&obj_path, shape_index).map_err(|e| {
                     let at = e.line.map_or(String::new(), |l| format!(", line {l}"));
                     let hint = if mesh_file::is_gltf(&obj_path) {
                         "The path is relative to the scene file. A glTF 2.0 file (.gltf with its buffers, or .glb) \
                          needs a scene with at least one mesh of TRIANGLES primitives."
+                    } else if mesh_file::is_serialized(&obj_path) {
+                        "The path is relative to the scene file. A Mitsuba .serialized file (versions 3 and 4) \
+                         holds one or more meshes; shape_index picks one (from 0)."
                     } else if mesh_file::is_ply(&obj_path) {
                         "The path is relative to the scene file. A PLY mesh (ascii or binary, version 1.0) needs \
                          `element vertex` with x, y, z (nx, ny, nz and u, v optional) and `element face` with a \
@@ -194,7 +211,7 @@ impl Checker<'_> {
                     )
                 })?;
                 let loaded = Arc::new(loaded);
-                files.objs.insert(obj_path.clone(), loaded.clone());
+                files.objs.insert(cached, loaded.clone());
                 loaded
             }
         };
@@ -346,7 +363,7 @@ impl Checker<'_> {
         let mut table = MeshTable {
             source: MeshSource {
                 obj_path: obj_path.clone(),
-                smooth,
+                smooth: smooth && !obj.face_normals,
                 parts: Vec::new(),
             },
             ..MeshTable::default()

@@ -312,7 +312,8 @@ impl Checker<'_> {
 /// OBJ files and textures already read while checking this scene, by resolved path.
 #[derive(Default)]
 struct LoadedFiles {
-    objs: HashMap<PathBuf, Arc<ObjMesh>>,
+    /// Mesh files read, by path and `shape_index` (read once however many meshes use them).
+    objs: HashMap<(PathBuf, u32), Arc<ObjMesh>>,
     textures: HashMap<PathBuf, Arc<Texture>>,
 }
 

@@ -171,6 +171,8 @@ pub(super) struct RawMesh {
     /// A tangent-space normal map (linear data), and the factor of its x and y (default 1).
     pub(super) normal_map: Option<Spanned<String>>,
     pub(super) normal_scale: Option<Spanned<f32>>,
+    /// Which mesh of a Mitsuba `.serialized` file (from 0; default 0).
+    pub(super) shape_index: Option<Spanned<u32>>,
 }
 
 /// `[[instance]]`: a named `[[mesh]]` placed once more, by its own transform, optionally in another
