@@ -456,6 +456,14 @@ fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
     } else {
         s = sphere_surface(o, d, hit);
     }
+    // A material with a back material (Mitsuba's twosided with two BSDFs) shows it on its back face,
+    // the side the geometric normal points away from: its textures, maps and BSDF from here on.
+    if HAS_BACK_MATERIALS {
+        let back = materials[s.material].back;
+        if back != 0u && dot(d, s.n) >= 0.0 {
+            s.material = back - 1u;
+        }
+    }
     if HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
         s = modified_surface(hit, s);
     }

@@ -351,7 +351,8 @@ fn path_step(path: ptr<function, Path>) -> bool {
         }
         return false;
     }
-    var mat = materials[hit_material(hit)];
+    let hit_mat = hit_material(hit);
+    var mat = materials[hit_mat];
     if HAS_EMISSION {
         if any(mat.emission > vec3<f32>(0.0)) {
             // Front or back: against the geometric normal (outward on spheres). A mesh's emissive
@@ -384,9 +385,12 @@ fn path_step(path: ptr<function, Path>) -> bool {
     let on_sphere = select(NO_LIGHT, hit.prim_index, hit.prim_kind == PRIM_SPHERE);
     let f = facing(sp, d, hit);
     let n = f.n;
-    // A one-sided material (Mitsuba's BSDFs without `twosided`) is black from behind: the path ends on
-    // its back face, after the emission found there counted (above).
-    if (mat.flags & MATERIAL_ONE_SIDED) != 0u && !f.sh.entering {
+    // The back face of a material with a back material shows that one (surface_at chose it), which
+    // scatters there as on its own front; a one-sided material (Mitsuba's BSDFs without `twosided`) is
+    // black from behind: the path ends on its back face, after the emission found there counted (above).
+    if HAS_BACK_MATERIALS && sp.material != hit_mat {
+        mat = materials[sp.material];
+    } else if (mat.flags & MATERIAL_ONE_SIDED) != 0u && !f.sh.entering {
         return false;
     }
     // The material's textured parameters at the hit (textured_material, scene.wgsl).

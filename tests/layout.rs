@@ -365,7 +365,7 @@ fn material_matches_wgsl() {
         "Material",
         "GpuMaterial",
         size_of::<GpuMaterial>(),
-        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, _pad0, coat),
+        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, back, coat),
     );
     check_storage_array(
         &module,
@@ -540,7 +540,7 @@ fn feature_table_matches_wgsl_overrides() {
 fn check_struct_reports_a_swapped_member() {
     let module = naga::front::wgsl::parse_str(
         "struct Material { albedo: vec3<f32>, ior: f32, emission: vec3<f32>, kind: u32, eta: vec3<f32>, \
-         alpha_x: f32, k: vec3<f32>, alpha_y: f32, flags: u32, metallic: f32, fdr_int: f32, _pad0: u32, \
+         alpha_x: f32, k: vec3<f32>, alpha_y: f32, flags: u32, metallic: f32, fdr_int: f32, back: u32, \
          coat: array<f32, 16>, }\n\
          @group(0) @binding(0) var<storage, read> m: array<Material>;\n",
     )
@@ -550,7 +550,7 @@ fn check_struct_reports_a_swapped_member() {
         "Material",
         "GpuMaterial",
         size_of::<GpuMaterial>(),
-        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, _pad0, coat),
+        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, back, coat),
     );
 }
 

@@ -748,6 +748,24 @@ fn bsdfs_without_twosided_are_one_sided() {
         .map(|sp| s.materials[sp.material as usize].textures.one_sided)
         .collect();
     assert_eq!(one_sided, [true, false, false, false, false, true, true]);
+    // twosided with two BSDFs: the first is the material, the second its back (a material of its own).
+    let s = load(
+        r#"<shape type="sphere"><bsdf type="twosided"><bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf>
+               <bsdf type="conductor"/></bsdf></shape>"#,
+    );
+    let front = &s.materials[s.spheres[0].material as usize];
+    assert!(!front.textures.one_sided);
+    assert_eq!(
+        front.bsdf,
+        Bsdf::Diffuse {
+            albedo: Vec3::new(0.8, 0.1, 0.1)
+        }
+    );
+    let back = &s.materials[front.textures.back.expect("a back material") as usize];
+    // (Mitsuba's default conductor, material "none", reflects everything: vkpath's white mirror.)
+    assert_eq!(back.bsdf, Bsdf::Mirror { tint: Vec3::ONE });
+    let body = r#"<shape type="sphere"><bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#;
+    assert!(error_in(&std::env::temp_dir(), body).contains("one or two nested BSDFs"));
 }
 
 #[test]

@@ -652,3 +652,78 @@ fn a_one_sided_material_is_black_from_behind() {
     let se = sd / (values.len() as f64).sqrt();
     assert!((mean - 0.5).abs() < 5.0 * se + 1e-3, "{mean} +- {se}");
 }
+
+/// back (Mitsuba's twosided with two BSDFs): a square whose front is red and whose back material is
+/// blue, under a uniform sky of radiance 1, reflects a E / pi = a from each face: the red albedo seen
+/// from the front, the blue one from behind, each within 5 standard errors per channel; seen from the
+/// front it renders the same bits as the red material alone (the specialised kernel against the generic
+/// one: scenes/spot-instances.toml, in tests/specialise.rs). A material that is its own back, or a back
+/// with a back, is refused.
+#[test]
+fn a_back_material_shows_on_the_back_face() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    let n = 8;
+    let toml = |z: f32, materials: &str| {
+        format!(
+            "[camera]\ntype = \"orthographic\"\nposition = [0.5, 0.5, {z}]\nlook_at = [0.5, 0.5, 0.0]\nextent = 1.0\n\
+             [image]\nwidth = {n}\nheight = {n}\n[render]\nsamples = 256\nmax_bounces = 1\nfilter = \"none\"\n\
+             [environment]\nradiance = [1.0, 1.0, 1.0]\n[[mesh]]\nobj = \"square.obj\"\nmaterial = \"front\"\n\
+             [materials]\n{materials}"
+        )
+    };
+    let pair = "front = { type = \"diffuse\", albedo = [0.8, 0.1, 0.1], back = \"blue\" }\n\
+                blue = { type = \"diffuse\", albedo = [0.1, 0.2, 0.7] }\n";
+    let mean_within = |film: &vkpath::Film, albedo: [f64; 3]| {
+        for (c, &a) in albedo.iter().enumerate() {
+            let values: Vec<f64> = film.mean.iter().map(|p| f64::from(p[c])).collect();
+            let mean = values.iter().sum::<f64>() / values.len() as f64;
+            let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>()
+                / (values.len() - 1) as f64)
+                .sqrt();
+            let se = sd / (values.len() as f64).sqrt();
+            assert!(
+                (mean - a).abs() < 5.0 * se + 1e-3,
+                "channel {c}: {mean} +- {se} against {a}"
+            );
+        }
+    };
+    let back = render(&scene_in(dir.path(), &toml(-1.0, pair)), false);
+    mean_within(&back, [0.1, 0.2, 0.7]);
+    let front = render(&scene_in(dir.path(), &toml(1.0, pair)), false);
+    mean_within(&front, [0.8, 0.1, 0.1]);
+    let red_alone = render(
+        &scene_in(
+            dir.path(),
+            &toml(
+                1.0,
+                "front = { type = \"diffuse\", albedo = [0.8, 0.1, 0.1] }\n",
+            ),
+        ),
+        false,
+    );
+    assert_eq!(front.mean, red_alone.mean);
+    for (materials, want) in [
+        (
+            "front = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], back = \"front\" }\n",
+            "its own back",
+        ),
+        (
+            "front = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], back = \"b\" }\n\
+             b = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], back = \"front\" }\n",
+            "a back of its own",
+        ),
+        (
+            "front = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], back = \"nowhere\" }\n",
+            "nowhere",
+        ),
+    ] {
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, toml(1.0, materials)).unwrap();
+        let e = vkpath::Scene::load(&path).unwrap_err();
+        assert!(
+            e.to_string().contains(want) && e.key().is_some_and(|k| k.ends_with(".back")),
+            "{e}"
+        );
+    }
+}

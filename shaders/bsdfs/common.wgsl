@@ -70,7 +70,7 @@ struct Material {
     flags: u32, // MATERIAL_TWO_SIDED_EMISSION | MATERIAL_SCHLICK | MATERIAL_LINEAR | MATERIAL_BECKMANN | MATERIAL_ROUGH_COAT
     metallic: f32, // metallic_roughness: the metal's weight in [0, 1]
     fdr_int: f32, // plastic: the coat's internal diffuse reflectance (bsdfs/coated.wgsl)
-    _pad0: u32,
+    back: u32, // 1 + the material the back face shows (surface_at, scene.wgsl); 0: this one
     // plastic with MATERIAL_ROUGH_COAT: the rough coat's transmittance at mu_j = (j / 15)^2
     coat: array<f32, COAT_NODES>,
 }

@@ -172,7 +172,9 @@ pub struct GpuMaterial {
     /// Plastic: the coat's internal diffuse reflectance, 2 \int_0^1 F(c, 1/ior) c dc (a rough coat's:
     /// `coat::coat_table`).
     pub fdr_int: f32,
-    pub _pad0: u32,
+    /// 1 + the index of the material the back face shows (the `back` modifier: Mitsuba's twosided
+    /// with two BSDFs); 0: the back shows this material (zero, as every unused field, by default).
+    pub back: u32,
     /// A plastic with [`MATERIAL_ROUGH_COAT`]: its rough coat's transmittance T(mu) at
     /// mu_j = (j / 15)^2 (`coat::coat_table`; bsdfs/coated.wgsl, coat_transmittance).
     pub coat: [f32; COAT_NODES],

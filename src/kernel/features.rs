@@ -33,6 +33,7 @@ pub enum Feature {
     MetallicRoughnessTextures,
     NormalMaps,
     BumpMaps,
+    BackMaterials,
     Opacity,
     Anisotropy,
     Beckmann,
@@ -85,16 +86,23 @@ fn mesh_flag(g: &GpuScene, flag: u32) -> bool {
 
 /// The textures and modifiers of the materials some sphere or triangle uses.
 fn used_material_textures(g: &GpuScene) -> impl Iterator<Item = &GpuMaterialTextures> {
-    let used = g.spheres.iter().map(|s| s.material);
-    let used = used.chain(g.triangles.iter().map(|t| t.material));
-    used.filter_map(|m| g.material_textures.get(m as usize))
+    used_material_indices(g).filter_map(|m| g.material_textures.get(m as usize))
 }
 
 /// The materials some sphere or triangle uses.
 fn used_materials(g: &GpuScene) -> impl Iterator<Item = &GpuMaterial> {
+    used_material_indices(g).filter_map(|m| g.materials.get(m as usize))
+}
+
+/// The indices of the materials some sphere or triangle uses, and of the materials their back faces
+/// show (`GpuMaterial::back`), which are used as much.
+fn used_material_indices(g: &GpuScene) -> impl Iterator<Item = u32> + '_ {
     let used = g.spheres.iter().map(|s| s.material);
     let used = used.chain(g.triangles.iter().map(|t| t.material));
-    used.filter_map(|m| g.materials.get(m as usize))
+    used.flat_map(|m| {
+        let back = g.materials.get(m as usize).map_or(0, |mat| mat.back);
+        std::iter::once(m).chain((back != 0).then(|| back - 1))
+    })
 }
 
 /// The rows before the material kinds'.
@@ -177,6 +185,16 @@ const BEFORE_MATERIALS: &[FeatureRow] = &[
         constant: "HAS_NORMAL_MAPS",
         group: Group::Other,
         needed: |g, _| used_material_textures(g).any(|t| t.normal_texture != NO_TEXTURE),
+        reported: true,
+    },
+    FeatureRow {
+        // Some material shows another on its back face (the `back` modifier: Mitsuba's twosided with two
+        // BSDFs): surface_at picks it there.
+        feature: Feature::BackMaterials,
+        name: "back_materials",
+        constant: "HAS_BACK_MATERIALS",
+        group: Group::Other,
+        needed: |g, _| used_materials(g).any(|m| m.back != 0),
         reported: true,
     },
     FeatureRow {
@@ -458,13 +476,7 @@ impl FeatureSet {
     /// What `scene` (as uploaded, with its parameters) needs. Material kinds count only when an object
     /// uses them; a light kind only when present.
     pub fn of(scene: &GpuScene, params: &GpuParams) -> FeatureSet {
-        let used_kinds: Vec<u32> = scene
-            .spheres
-            .iter()
-            .map(|s| s.material)
-            .chain(scene.triangles.iter().map(|t| t.material))
-            .filter_map(|m| scene.materials.get(m as usize).map(|m| m.kind))
-            .collect();
+        let used_kinds: Vec<u32> = used_materials(scene).map(|m| m.kind).collect();
         let mut set = FeatureSet {
             on: 0,
             knobs: [None; KNOBS.len()],

@@ -213,6 +213,7 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
     if m.textures.one_sided {
         g.flags |= MATERIAL_ONE_SIDED;
     }
+    g.back = m.textures.back.map_or(0, |b| b + 1);
     if let Some(Emission {
         radiance,
         two_sided,

@@ -132,6 +132,9 @@ pub struct MaterialTextures {
     /// Only the front face scatters (the side the geometric normal faces); a ray reaching the back is
     /// absorbed (Mitsuba's BSDFs without `twosided`). False: both faces scatter alike.
     pub one_sided: bool,
+    /// The material the back face shows (an index into the scene's materials): the `back` modifier,
+    /// Mitsuba's twosided with two BSDFs.
+    pub back: Option<u32>,
 }
 
 impl Default for MaterialTextures {
@@ -148,6 +151,7 @@ impl Default for MaterialTextures {
             bump: None,
             normal_map: None,
             one_sided: false,
+            back: None,
         }
     }
 }

@@ -165,13 +165,25 @@ impl Tr<'_> {
         let kind = obj.kind.as_str();
         match kind {
             "twosided" => {
+                // One BSDF: both faces show it. Two: the front shows the first, the back the second
+                // (as its own front), vkpath's `back` modifier naming a material of its own.
                 let inner = args.objects("bsdf", self.ids)?;
                 self.finish(&args, &["bsdf"])?;
                 return match inner.as_slice() {
                     [(b, _)] => self.bsdf(b),
+                    [(front, _), (back, _)] => {
+                        let Some(mut out) = self.bsdf(front)? else {
+                            return Ok(None);
+                        };
+                        let (name, textured) =
+                            self.material(Some(back), None, "twosided-back", &obj.loc)?;
+                        out.lines.push(at(format!("back = {}", toml_string(&name))));
+                        out.textured = out.textured.or(textured);
+                        Ok(Some(out))
+                    }
                     _ => Err(obj.loc.error(
-                        "a twosided BSDF with other than one nested BSDF (vkpath has no different front and back materials)",
-                        "Nest exactly one BSDF.",
+                        "a twosided BSDF with other than one or two nested BSDFs",
+                        "Nest one BSDF (both faces) or two (front, then back).",
                     )),
                 };
             }

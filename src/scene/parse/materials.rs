@@ -45,7 +45,14 @@ impl Checker<'_> {
         // unknown key rather than silently ignored. Every type but `emitter` may also emit; every type
         // takes the surface modifiers.
         const EMISSION: [&str; 2] = ["emission", "two_sided_emission"];
-        const MODIFIERS: [&str; 5] = ["opacity", "alpha_cutoff", "bump", "normal_map", "one_sided"];
+        const MODIFIERS: [&str; 6] = [
+            "opacity",
+            "alpha_cutoff",
+            "bump",
+            "normal_map",
+            "one_sided",
+            "back",
+        ];
         let (allowed, bsdf): (Vec<&str>, _) = match kind {
             "diffuse" => {
                 let albedo = self.required(

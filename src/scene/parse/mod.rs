@@ -112,9 +112,34 @@ impl Checker<'_> {
         };
         let mut materials = Vec::with_capacity(named.len());
         let mut material_names = Vec::with_capacity(named.len());
-        for (name, material) in named {
+        for (name, material) in &named {
             materials.push(self.material(name.get_ref(), material, &mut files)?);
             material_names.push(name.get_ref().clone());
+        }
+        // Back materials, once every name is known (a material may name one defined after it).
+        for (i, (name, material)) in named.iter().enumerate() {
+            let Some(back) = &material.get_ref().back else {
+                continue;
+            };
+            let key = format!("materials.{}.back", name.get_ref());
+            let j = self.material_index(back, &key, &material_names)?;
+            let refuse = |problem: &str| {
+                Err(self.error(
+                    back.span(),
+                    &key,
+                    problem.to_string(),
+                    "Name a material of its own for the back face, one without a back.",
+                ))
+            };
+            if j as usize == i {
+                return refuse("a material cannot be its own back");
+            }
+            if named[j as usize].1.get_ref().back.is_some() {
+                return refuse(
+                    "the back material has a back of its own: the back face shows one material",
+                );
+            }
+            materials[i].textures.back = Some(j);
         }
 
         let mut spheres = Vec::with_capacity(raw.sphere.len());

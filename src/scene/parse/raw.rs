@@ -119,6 +119,8 @@ pub(super) struct RawMaterial {
     pub(super) bump: Option<Spanned<RawModifier>>,
     pub(super) normal_map: Option<Spanned<RawModifier>>,
     pub(super) one_sided: Option<Spanned<bool>>,
+    /// The name of the material the back face shows.
+    pub(super) back: Option<Spanned<String>>,
 }
 
 impl RawMaterial {
