@@ -28,6 +28,7 @@ override HAS_METALLIC_ROUGHNESS_TEXTURES: bool = true;
 override HAS_NORMAL_MAPS: bool = true;
 override HAS_BUMP_MAPS: bool = true;
 override HAS_BACK_MATERIALS: bool = true;
+override HAS_BLEND_MATERIALS: bool = true;
 override HAS_OPACITY: bool = true;
 override HAS_MATERIAL_TEXTURES: bool = true;
 override HAS_MESH_SHADING: bool = true;

@@ -464,6 +464,26 @@ fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
             s.material = back - 1u;
         }
     }
+    // A blended material (Mitsuba's blendbsdf: f = (1 - w) f_a + w f_b) shows its blend material b at a
+    // fraction w of its hits, itself at the rest (pbrt-v4's MixMaterial): the expected BSDF is the blend,
+    // and each hit is shaded, sampled and light-sampled by one material. The choice hashes the ray and
+    // the sample as the opacity test does (opacity.wgsl; another word of the hash): the same at every
+    // call for the same hit, independent between samples, and the same for any split of the render.
+    if HAS_BLEND_MATERIALS {
+        let mt = material_textures_of(s.material);
+        if mt.blend != 0u {
+            var w = mt.blend_weight;
+            if mt.blend_texture != NO_TEXTURE {
+                w = texture_lookup(mt.blend_texture, s.uv, vec3<f32>(w)).x;
+            }
+            let h = pcg4d(vec4<u32>(bitcast<u32>(o.x) ^ bitcast<u32>(d.y), bitcast<u32>(o.y) ^ bitcast<u32>(d.z),
+                                    bitcast<u32>(o.z) ^ bitcast<u32>(d.x), hit.prim_index ^ (hit.prim_kind << 30u)
+                                    ^ opacity_seed));
+            if u32_to_unit_float(h.y) < w {
+                s.material = mt.blend - 1u;
+            }
+        }
+    }
     if HAS_NORMAL_MAPS || HAS_BUMP_MAPS {
         s = modified_surface(hit, s);
     }

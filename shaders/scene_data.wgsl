@@ -138,6 +138,10 @@ struct MaterialTextures {
     alpha_cutoff: f32,
     bump_scale: f32,
     normal_scale: f32,
+    blend: u32, // 1 + the material shown instead with probability blend_weight (x texture); 0: none
+    blend_weight: f32,
+    blend_texture: u32,
+    _pad0: u32,
 }
 
 // A closest hit: which primitive, where along the ray, and for triangles the barycentrics.

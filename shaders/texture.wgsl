@@ -157,7 +157,7 @@ fn texture_value(index: u32, uv: vec2<f32>) -> vec3<f32> {
 // still runs such scenes).
 fn material_textures_of(m: u32) -> MaterialTextures {
     var t = MaterialTextures(NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE,
-                             NO_TEXTURE, 0u, 1.0, 0.0, 1.0, 1.0);
+                             NO_TEXTURE, 0u, 1.0, 0.0, 1.0, 1.0, 0u, 0.0, NO_TEXTURE, 0u);
     if m < arrayLength(&material_textures) {
         t = material_textures[m];
     }

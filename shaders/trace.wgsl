@@ -247,7 +247,7 @@ struct CameraSample {
 // origin and direction (a pinhole camera without a pixel filter) decide independently. Set when a sample
 // begins and when its path is taken up again in a later dispatch.
 fn set_opacity_seed(px: vec2<u32>, sample: u32) {
-    if HAS_OPACITY {
+    if HAS_OPACITY || HAS_BLEND_MATERIALS {
         opacity_seed = pcg4d(vec4<u32>(px.x, px.y, sample, params.seed)).x;
     }
 }
@@ -385,13 +385,16 @@ fn path_step(path: ptr<function, Path>) -> bool {
     let on_sphere = select(NO_LIGHT, hit.prim_index, hit.prim_kind == PRIM_SPHERE);
     let f = facing(sp, d, hit);
     let n = f.n;
-    // The back face of a material with a back material shows that one (surface_at chose it), which
-    // scatters there as on its own front; a one-sided material (Mitsuba's BSDFs without `twosided`) is
-    // black from behind: the path ends on its back face, after the emission found there counted (above).
-    if HAS_BACK_MATERIALS && sp.material != hit_mat {
-        mat = materials[sp.material];
-    } else if (mat.flags & MATERIAL_ONE_SIDED) != 0u && !f.sh.entering {
+    // A one-sided material (Mitsuba's BSDFs without `twosided`) is black from behind: the path ends on
+    // its back face, after the emission found there counted (above), unless the material has a back
+    // material, which scatters there as on its own front. surface_at chose the material the hit shows
+    // (a back material, a blend's): shaded with it from here on.
+    let back_face = !f.sh.entering;
+    if back_face && (mat.flags & MATERIAL_ONE_SIDED) != 0u && !(HAS_BACK_MATERIALS && mat.back != 0u) {
         return false;
+    }
+    if (HAS_BACK_MATERIALS || HAS_BLEND_MATERIALS) && sp.material != hit_mat {
+        mat = materials[sp.material];
     }
     // The material's textured parameters at the hit (textured_material, scene.wgsl).
     mat = textured_material(mat, sp);

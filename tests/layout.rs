@@ -723,7 +723,11 @@ fn mesh_structs_match_wgsl() {
             opacity,
             alpha_cutoff,
             bump_scale,
-            normal_scale
+            normal_scale,
+            blend,
+            blend_weight,
+            blend_texture,
+            _pad0
         ),
     );
     check_storage_array(

@@ -766,6 +766,37 @@ fn bsdfs_without_twosided_are_one_sided() {
     assert_eq!(back.bsdf, Bsdf::Mirror { tint: Vec3::ONE });
     let body = r#"<shape type="sphere"><bsdf type="twosided"><bsdf type="diffuse"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#;
     assert!(error_in(&std::env::temp_dir(), body).contains("one or two nested BSDFs"));
+    // blendbsdf: the first BSDF's material blends with a material of the second's at the weight; a
+    // blend of two one-sided BSDFs is one-sided, of two two-sided ones two-sided.
+    let s = load(
+        r#"<shape type="sphere"><bsdf type="blendbsdf"><float name="weight" value="0.3"/>
+               <bsdf type="diffuse"><rgb name="reflectance" value="0.8, 0.1, 0.1"/></bsdf><bsdf type="conductor"/></bsdf></shape>
+           <shape type="sphere"><bsdf type="blendbsdf"><bsdf type="dielectric"/><bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#,
+    );
+    let first = &s.materials[s.spheres[0].material as usize];
+    assert_eq!(first.textures.blend_weight, 0.3);
+    assert!(first.textures.one_sided);
+    let second = &s.materials[first.textures.blend.expect("a blend") as usize];
+    assert_eq!(second.bsdf, Bsdf::Mirror { tint: Vec3::ONE });
+    let glassy = &s.materials[s.spheres[1].material as usize];
+    assert!(!glassy.textures.one_sided && glassy.textures.blend_weight == 0.5);
+    for (body, want) in [
+        (
+            r#"<shape type="sphere"><bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="dielectric"/></bsdf></shape>"#,
+            "a two-sided and a one-sided BSDF",
+        ),
+        (
+            r#"<shape type="sphere"><bsdf type="blendbsdf"><bsdf type="diffuse"/></bsdf></shape>"#,
+            "two nested BSDFs",
+        ),
+        (
+            r#"<shape type="sphere"><bsdf type="blendbsdf"><float name="weight" value="1.5"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#,
+            "in [0, 1]",
+        ),
+    ] {
+        let e = error_in(&std::env::temp_dir(), body);
+        assert!(e.contains(want) && e.contains("line"), "{e}");
+    }
 }
 
 #[test]

@@ -727,3 +727,71 @@ fn a_back_material_shows_on_the_back_face() {
         );
     }
 }
+
+/// blend (Mitsuba's blendbsdf): a square of albedo a blended with one of albedo b at weight w reflects
+/// (1 - w) a + w b under a uniform sky (each hit shaded by one of the two), within 5 standard errors per
+/// channel, for a constant weight and for a texture of one texel (linear data: 64/255). A blend of a blend,
+/// a blend with itself and a weight without a blend are refused.
+#[test]
+fn a_blend_material_mixes_in_expectation() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    image::GrayImage::from_pixel(1, 1, image::Luma([64]))
+        .save(dir.path().join("w.png"))
+        .unwrap();
+    let n = 8;
+    let toml = |materials: &str| {
+        format!(
+            "[camera]\ntype = \"orthographic\"\nposition = [0.5, 0.5, 1.0]\nlook_at = [0.5, 0.5, 0.0]\nextent = 1.0\n\
+             [image]\nwidth = {n}\nheight = {n}\n[render]\nsamples = 512\nmax_bounces = 1\nfilter = \"none\"\n\
+             [environment]\nradiance = [1.0, 1.0, 1.0]\n[[mesh]]\nobj = \"square.obj\"\nmaterial = \"a\"\n\
+             [materials]\n{materials}b = {{ type = \"diffuse\", albedo = [0.1, 0.2, 0.9] }}\n"
+        )
+    };
+    let (a, b) = ([0.8, 0.6, 0.1], [0.1, 0.2, 0.9]);
+    for (weight, w) in [("0.25", 0.25), ("{ texture = \"w.png\" }", 64.0 / 255.0)] {
+        let scene = scene_in(
+            dir.path(),
+            &toml(&format!(
+                "a = {{ type = \"diffuse\", albedo = [0.8, 0.6, 0.1], blend = \"b\", blend_weight = {weight} }}\n"
+            )),
+        );
+        let film = render(&scene, false);
+        for c in 0..3 {
+            let values: Vec<f64> = film.mean.iter().map(|p| f64::from(p[c])).collect();
+            let mean = values.iter().sum::<f64>() / values.len() as f64;
+            let sd = (values.iter().map(|v| (v - mean).powi(2)).sum::<f64>()
+                / (values.len() - 1) as f64)
+                .sqrt();
+            let se = sd / (values.len() as f64).sqrt();
+            let want = (1.0 - w) * a[c] + w * b[c];
+            assert!(
+                (mean - want).abs() < 5.0 * se + 2e-3,
+                "weight {weight}, channel {c}: {mean} +- {se} against {want}"
+            );
+        }
+    }
+    for (materials, key, want) in [
+        (
+            "a = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], blend = \"a\" }\n",
+            "materials.a.blend",
+            "itself",
+        ),
+        (
+            "a = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], blend = \"c\" }\n\
+             c = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], blend = \"b\" }\n",
+            "materials.a.blend",
+            "a blend of its own",
+        ),
+        (
+            "a = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5], blend_weight = 0.5 }\n",
+            "materials.a.blend_weight",
+            "names none",
+        ),
+    ] {
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, toml(materials)).unwrap();
+        let e = vkpath::Scene::load(&path).unwrap_err();
+        assert!(e.to_string().contains(want) && e.key() == Some(key), "{e}");
+    }
+}

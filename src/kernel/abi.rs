@@ -364,6 +364,12 @@ pub struct GpuMaterialTextures {
     pub bump_scale: f32,
     /// The factor of the normal map's x and y.
     pub normal_scale: f32,
+    /// 1 + the index of the material a hit shows instead with probability `blend_weight` (times the
+    /// blend texture): the `blend` modifier, Mitsuba's blendbsdf; 0: none.
+    pub blend: u32,
+    pub blend_weight: f32,
+    pub blend_texture: u32,
+    pub _pad0: u32,
 }
 
 impl Default for GpuMaterialTextures {
@@ -382,13 +388,17 @@ impl Default for GpuMaterialTextures {
             alpha_cutoff: 0.0,
             bump_scale: 1.0,
             normal_scale: 1.0,
+            blend: 0,
+            blend_weight: 0.0,
+            blend_texture: NO_TEXTURE,
+            _pad0: 0,
         }
     }
 }
 
 impl GpuMaterialTextures {
     /// Every texture index, for checks that go over all of them.
-    pub fn texture_indices(&self) -> [u32; 7] {
+    pub fn texture_indices(&self) -> [u32; 8] {
         [
             self.albedo_texture,
             self.roughness_texture,
@@ -397,6 +407,7 @@ impl GpuMaterialTextures {
             self.opacity_texture,
             self.bump_texture,
             self.normal_texture,
+            self.blend_texture,
         ]
     }
 
@@ -626,7 +637,7 @@ const _: () = assert!(std::mem::size_of::<GpuMeshFace>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);
 const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuTextureInfo>() == 48);
-const _: () = assert!(std::mem::size_of::<GpuMaterialTextures>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuMaterialTextures>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 144);

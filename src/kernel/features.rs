@@ -34,6 +34,7 @@ pub enum Feature {
     NormalMaps,
     BumpMaps,
     BackMaterials,
+    BlendMaterials,
     Opacity,
     Anisotropy,
     Beckmann,
@@ -99,9 +100,13 @@ fn used_materials(g: &GpuScene) -> impl Iterator<Item = &GpuMaterial> {
 fn used_material_indices(g: &GpuScene) -> impl Iterator<Item = u32> + '_ {
     let used = g.spheres.iter().map(|s| s.material);
     let used = used.chain(g.triangles.iter().map(|t| t.material));
+    // A back material's blend, or a blend's back, is not read (neither chains: the parser refuses it).
     used.flat_map(|m| {
         let back = g.materials.get(m as usize).map_or(0, |mat| mat.back);
-        std::iter::once(m).chain((back != 0).then(|| back - 1))
+        let blend = g.material_textures.get(m as usize).map_or(0, |t| t.blend);
+        std::iter::once(m)
+            .chain((back != 0).then(|| back - 1))
+            .chain((blend != 0).then(|| blend - 1))
     })
 }
 
@@ -195,6 +200,16 @@ const BEFORE_MATERIALS: &[FeatureRow] = &[
         constant: "HAS_BACK_MATERIALS",
         group: Group::Other,
         needed: |g, _| used_materials(g).any(|m| m.back != 0),
+        reported: true,
+    },
+    FeatureRow {
+        // Some material shows another at a fraction of its hits (the `blend` modifier: Mitsuba's
+        // blendbsdf): surface_at picks one.
+        feature: Feature::BlendMaterials,
+        name: "blend_materials",
+        constant: "HAS_BLEND_MATERIALS",
+        group: Group::Other,
+        needed: |g, _| used_material_textures(g).any(|t| t.blend != 0),
         reported: true,
     },
     FeatureRow {

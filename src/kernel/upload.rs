@@ -544,6 +544,13 @@ impl GpuScene {
             e.normal_texture = self.add_texture(images, r);
             e.normal_scale = *scale;
         }
+        if let Some(b) = t.blend {
+            e.blend = b + 1;
+            e.blend_weight = t.blend_weight;
+            if let Some(r) = &t.blend_weight_texture {
+                e.blend_texture = self.add_texture(images, r);
+            }
+        }
         e
     }
 

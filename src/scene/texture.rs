@@ -135,6 +135,11 @@ pub struct MaterialTextures {
     /// The material the back face shows (an index into the scene's materials): the `back` modifier,
     /// Mitsuba's twosided with two BSDFs.
     pub back: Option<u32>,
+    /// The material a hit shows instead, with probability `blend_weight` (times the texture): the
+    /// `blend` modifier, Mitsuba's blendbsdf.
+    pub blend: Option<u32>,
+    pub blend_weight: f32,
+    pub blend_weight_texture: Option<TextureRef>,
 }
 
 impl Default for MaterialTextures {
@@ -152,6 +157,9 @@ impl Default for MaterialTextures {
             normal_map: None,
             one_sided: false,
             back: None,
+            blend: None,
+            blend_weight: 0.5,
+            blend_weight_texture: None,
         }
     }
 }

@@ -103,24 +103,34 @@ impl Tr<'_> {
     /// refused by bsdf_unwrapped, which has read this one already). Mitsuba's other BSDFs reflect on the
     /// front face only and are black from behind.
     fn two_sided(&self, obj: &Obj) -> bool {
-        // Modifiers (mask, bumpmap, normalmap) are two-sided when what they hold is; the walk is
-        // bounded, as a chain of <ref>s could close on itself (Tr::bsdf refuses that later).
-        let mut inner: Option<Rc<Obj>> = None;
-        for _ in 0..super::xml::MAX_XML_DEPTH {
-            let current = inner.as_deref().unwrap_or(obj);
-            match current.kind.as_str() {
-                "twosided" | "dielectric" | "roughdielectric" | "thindielectric" => return true,
-                "mask" | "bumpmap" | "normalmap" => {
-                    let nested = Args::new(current).objects("bsdf", self.ids).ok();
-                    match nested.and_then(|v| v.into_iter().next()) {
-                        Some((b, _)) => inner = Some(b),
-                        None => return false,
-                    }
-                }
-                _ => return false,
-            }
+        self.two_sided_within(obj, super::xml::MAX_XML_DEPTH)
+    }
+
+    /// [`Tr::two_sided`], looking at most `depth` BSDFs deep: a chain of <ref>s could close on itself
+    /// (Tr::bsdf refuses that later). Modifiers (mask, bumpmap, normalmap) are two-sided when what they
+    /// hold is; a blendbsdf when both its BSDFs are.
+    fn two_sided_within(&self, obj: &Obj, depth: usize) -> bool {
+        if depth == 0 {
+            return false;
         }
-        false
+        let nested = || {
+            Args::new(obj)
+                .objects("bsdf", self.ids)
+                .unwrap_or_default()
+                .into_iter()
+                .map(|(b, _)| b)
+        };
+        match obj.kind.as_str() {
+            "twosided" | "dielectric" | "roughdielectric" | "thindielectric" => true,
+            "mask" | "bumpmap" | "normalmap" => nested()
+                .next()
+                .is_some_and(|b| self.two_sided_within(&b, depth - 1)),
+            "blendbsdf" => {
+                let all: Vec<_> = nested().collect();
+                !all.is_empty() && all.iter().all(|b| self.two_sided_within(b, depth - 1))
+            }
+            _ => false,
+        }
     }
 
     /// Translates a BSDF that nothing uses, for its errors and warnings only.
@@ -226,6 +236,63 @@ impl Tr<'_> {
                 }
                 out.lines.push(at(format!("opacity = {opacity}")));
                 out.textured = out.textured.or(textured);
+                return Ok(Some(out));
+            }
+            "blendbsdf" => {
+                // Mitsuba's blendbsdf: (1 - weight) x the first BSDF + weight x the second. vkpath's
+                // blend modifier: the first BSDF's material shows the second's at a fraction `weight`
+                // of its hits (the same expected BSDF; the choice: scene.wgsl, surface_at).
+                let inner = args.objects("bsdf", self.ids)?;
+                let [(a, _), (b, _)] = inner.as_slice() else {
+                    return Err(obj.loc.error(
+                        "a blendbsdf with other than two nested BSDFs",
+                        "Nest exactly two BSDFs.",
+                    ));
+                };
+                let weight = match self.color_tex(&args, "weight", DVec3::splat(0.5))? {
+                    ColorTex::Color(c) => {
+                        let p = args.prop("weight").map_or(&obj.loc, |p| &p.loc);
+                        if c.x != c.y || c.y != c.z {
+                            return Err(p.error(
+                                "a coloured weight: Mitsuba reads a blendbsdf's weight as one number",
+                                "Give <float name=\"weight\" value=\"...\"/>.",
+                            ));
+                        }
+                        if !(0.0..=1.0).contains(&c.x) {
+                            return Err(p.error(
+                                format!("weight = {}: a blendbsdf's weight is in [0, 1]", c.x),
+                                "Give the second BSDF's share, from 0 to 1.",
+                            ));
+                        }
+                        num(c.x)
+                    }
+                    ColorTex::Bitmap(bm) => {
+                        textured = Some(bm.loc.clone());
+                        self.texture_ref(&bm, true)
+                    }
+                };
+                self.finish(&args, &["weight", "bsdf"])?;
+                if self.two_sided(a) != self.two_sided(b) {
+                    return Err(obj.loc.error(
+                        "a blendbsdf of a two-sided and a one-sided BSDF: vkpath's one_sided applies to the \
+                         whole blend",
+                        "Wrap both BSDFs in twosided, or neither.",
+                    ));
+                }
+                let Some(mut out) = self.bsdf(a)? else {
+                    return Ok(None);
+                };
+                if out.lines.iter().any(|(l, _)| l.starts_with("blend")) {
+                    return Err(obj.loc.error(
+                        "a blendbsdf whose first BSDF is a blendbsdf",
+                        "vkpath blends two materials at a hit: flatten the nested blendbsdfs into one.",
+                    ));
+                }
+                let (name, second_textured) = self.material(Some(b), None, "blend", &obj.loc)?;
+                out.lines
+                    .push(at(format!("blend = {}", toml_string(&name))));
+                out.lines.push(at(format!("blend_weight = {weight}")));
+                out.textured = out.textured.or(textured).or(second_textured);
                 return Ok(Some(out));
             }
             "bumpmap" | "normalmap" => {
@@ -499,7 +566,7 @@ impl Tr<'_> {
             _ => {
                 self.unsupported(
                     obj,
-                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, mask, bumpmap and normalmap",
+                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, mask, bumpmap, normalmap and blendbsdf",
                 )?;
                 return Ok(None);
             }

@@ -45,13 +45,15 @@ impl Checker<'_> {
         // unknown key rather than silently ignored. Every type but `emitter` may also emit; every type
         // takes the surface modifiers.
         const EMISSION: [&str; 2] = ["emission", "two_sided_emission"];
-        const MODIFIERS: [&str; 6] = [
+        const MODIFIERS: [&str; 8] = [
             "opacity",
             "alpha_cutoff",
             "bump",
             "normal_map",
             "one_sided",
             "back",
+            "blend",
+            "blend_weight",
         ];
         let (allowed, bsdf): (Vec<&str>, _) = match kind {
             "diffuse" => {
@@ -377,6 +379,25 @@ impl Checker<'_> {
             )?;
         }
         textures.one_sided = m.one_sided.as_ref().is_some_and(|o| *o.get_ref());
+        if let Some(w) = &m.blend_weight {
+            if m.blend.is_none() {
+                return Err(self.error(
+                    w.span(),
+                    &key("blend_weight"),
+                    "blend_weight is the weight of a blend material, and the material names none",
+                    "Give `blend = \"name\"` too, or remove blend_weight.",
+                ));
+            }
+            textures.blend_weight = self.scalar_param(
+                w,
+                &key("blend_weight"),
+                |x| !(0.0..=1.0).contains(&x),
+                "blend_weight must be in [0, 1]",
+                "It is the fraction of hits that show the blend material (Mitsuba's blendbsdf weight).",
+                files,
+                &mut textures.blend_weight_texture,
+            )?;
+        }
         if let Some(c) = &m.alpha_cutoff {
             textures.alpha_cutoff = Some(self.number_unless(
                 c,

@@ -141,6 +141,31 @@ impl Checker<'_> {
             }
             materials[i].textures.back = Some(j);
         }
+        // Blend materials likewise: one level (a blend's material has no blend of its own).
+        for (i, (name, material)) in named.iter().enumerate() {
+            let Some(blend) = &material.get_ref().blend else {
+                continue;
+            };
+            let key = format!("materials.{}.blend", name.get_ref());
+            let j = self.material_index(blend, &key, &material_names)?;
+            let refuse = |problem: &str| {
+                Err(self.error(
+                    blend.span(),
+                    &key,
+                    problem.to_string(),
+                    "Name another material, one without a blend of its own.",
+                ))
+            };
+            if j as usize == i {
+                return refuse("a material cannot blend with itself");
+            }
+            if named[j as usize].1.get_ref().blend.is_some() {
+                return refuse(
+                    "the blend material has a blend of its own: a hit shows one of two materials",
+                );
+            }
+            materials[i].textures.blend = Some(j);
+        }
 
         let mut spheres = Vec::with_capacity(raw.sphere.len());
         for (i, sphere) in raw.sphere.iter().enumerate() {

@@ -121,6 +121,9 @@ pub(super) struct RawMaterial {
     pub(super) one_sided: Option<Spanned<bool>>,
     /// The name of the material the back face shows.
     pub(super) back: Option<Spanned<String>>,
+    /// The name of the material a hit shows instead with probability `blend_weight`.
+    pub(super) blend: Option<Spanned<String>>,
+    pub(super) blend_weight: Option<Spanned<RawParam<f32>>>,
 }
 
 impl RawMaterial {
