@@ -133,6 +133,37 @@ impl Tr<'_> {
         }
     }
 
+    /// A parameter of `owner` that Mitsuba reads as one number (`eval_1`), default 0.5: a grey colour, or
+    /// a bitmap (its luminance; `textured` becomes the bitmap's element). The TOML value, and the number
+    /// when it is one; a coloured constant is refused.
+    fn scalar_tex(
+        &mut self,
+        args: &Args,
+        obj: &Obj,
+        name: &str,
+        owner: &str,
+        textured: &mut Option<Loc>,
+    ) -> Result<(String, Option<f64>), SceneError> {
+        match self.color_tex(args, name, DVec3::splat(0.5))? {
+            ColorTex::Color(c) => {
+                if c.x != c.y || c.y != c.z {
+                    let p = args.prop(name).map_or(&obj.loc, |p| &p.loc);
+                    return Err(p.error(
+                        format!(
+                            "a coloured {name}: Mitsuba reads a {owner}'s {name} as one number"
+                        ),
+                        &format!("Give <float name=\"{name}\" value=\"...\"/>."),
+                    ));
+                }
+                Ok((num(c.x), Some(c.x)))
+            }
+            ColorTex::Bitmap(b) => {
+                *textured = Some(b.loc.clone());
+                Ok((self.texture_ref(&b, true), None))
+            }
+        }
+    }
+
     /// Translates a BSDF that nothing uses, for its errors and warnings only.
     pub(super) fn check_bsdf(&mut self, obj: &Obj) -> Result<(), SceneError> {
         self.bsdf(obj).map(drop)
@@ -208,22 +239,7 @@ impl Tr<'_> {
                         "Nest exactly one BSDF.",
                     ));
                 };
-                let opacity = match self.color_tex(&args, "opacity", DVec3::splat(0.5))? {
-                    ColorTex::Color(c) => {
-                        if c.x != c.y || c.y != c.z {
-                            let p = args.prop("opacity").map_or(&obj.loc, |p| &p.loc);
-                            return Err(p.error(
-                                "a coloured opacity: Mitsuba reads a mask's opacity as one number",
-                                "Give <float name=\"opacity\" value=\"...\"/>.",
-                            ));
-                        }
-                        num(c.x)
-                    }
-                    ColorTex::Bitmap(b) => {
-                        textured = Some(b.loc.clone());
-                        self.texture_ref(&b, true)
-                    }
-                };
+                let (opacity, _) = self.scalar_tex(&args, obj, "opacity", "mask", &mut textured)?;
                 self.finish(&args, &["opacity", "bsdf"])?;
                 let Some(mut out) = self.bsdf(b)? else {
                     return Ok(None);
@@ -249,28 +265,15 @@ impl Tr<'_> {
                         "Nest exactly two BSDFs.",
                     ));
                 };
-                let weight = match self.color_tex(&args, "weight", DVec3::splat(0.5))? {
-                    ColorTex::Color(c) => {
-                        let p = args.prop("weight").map_or(&obj.loc, |p| &p.loc);
-                        if c.x != c.y || c.y != c.z {
-                            return Err(p.error(
-                                "a coloured weight: Mitsuba reads a blendbsdf's weight as one number",
-                                "Give <float name=\"weight\" value=\"...\"/>.",
-                            ));
-                        }
-                        if !(0.0..=1.0).contains(&c.x) {
-                            return Err(p.error(
-                                format!("weight = {}: a blendbsdf's weight is in [0, 1]", c.x),
-                                "Give the second BSDF's share, from 0 to 1.",
-                            ));
-                        }
-                        num(c.x)
-                    }
-                    ColorTex::Bitmap(bm) => {
-                        textured = Some(bm.loc.clone());
-                        self.texture_ref(&bm, true)
-                    }
-                };
+                let (weight, constant) =
+                    self.scalar_tex(&args, obj, "weight", "blendbsdf", &mut textured)?;
+                if let Some(w) = constant.filter(|w| !(0.0..=1.0).contains(w)) {
+                    let p = args.prop("weight").map_or(&obj.loc, |p| &p.loc);
+                    return Err(p.error(
+                        format!("weight = {w}: a blendbsdf's weight is in [0, 1]"),
+                        "Give the second BSDF's share, from 0 to 1.",
+                    ));
+                }
                 self.finish(&args, &["weight", "bsdf"])?;
                 if self.two_sided(a) != self.two_sided(b) {
                     return Err(obj.loc.error(

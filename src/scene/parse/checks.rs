@@ -3,7 +3,7 @@
 
 use super::Checker;
 use super::error::{SEE_CONTRACT, SceneError};
-use super::raw::RawVec3;
+use super::raw::{RawMaterial, RawVec3};
 use glam::Vec3;
 use std::fmt;
 use std::ops::Range;
@@ -169,6 +169,39 @@ impl Checker<'_> {
                 format!("Remove `{name}`, or change the type. {SEE_CONTRACT}"),
             )),
         }
+    }
+
+    /// The material each of `named` links to through its key `field` (`back`, `blend`: `link` reads
+    /// it), resolved to indices in `names`, one level deep: a material linking to itself, or to one
+    /// that links on in turn, is refused with `messages` (itself, a chain, the hint).
+    pub(super) fn material_links(
+        &self,
+        named: &[(&Spanned<String>, &Spanned<RawMaterial>)],
+        names: &[String],
+        field: &str,
+        link: impl Fn(&RawMaterial) -> Option<&Spanned<String>>,
+        messages: [&str; 3],
+    ) -> Result<Vec<Option<u32>>, SceneError> {
+        let [itself, chain, hint] = messages;
+        let mut out = Vec::with_capacity(named.len());
+        for (i, (name, material)) in named.iter().enumerate() {
+            let Some(target) = link(material.get_ref()) else {
+                out.push(None);
+                continue;
+            };
+            let key = format!("materials.{}.{field}", name.get_ref());
+            let j = self.material_index(target, &key, names)?;
+            let refuse =
+                |problem: &str| Err(self.error(target.span(), &key, problem.to_string(), hint));
+            if j as usize == i {
+                return refuse(itself);
+            }
+            if link(named[j as usize].1.get_ref()).is_some() {
+                return refuse(chain);
+            }
+            out.push(Some(j));
+        }
+        Ok(out)
     }
 
     /// Resolves a material name to its index in `names` (file order).

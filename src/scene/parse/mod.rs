@@ -116,55 +116,32 @@ impl Checker<'_> {
             materials.push(self.material(name.get_ref(), material, &mut files)?);
             material_names.push(name.get_ref().clone());
         }
-        // Back materials, once every name is known (a material may name one defined after it).
-        for (i, (name, material)) in named.iter().enumerate() {
-            let Some(back) = &material.get_ref().back else {
-                continue;
-            };
-            let key = format!("materials.{}.back", name.get_ref());
-            let j = self.material_index(back, &key, &material_names)?;
-            let refuse = |problem: &str| {
-                Err(self.error(
-                    back.span(),
-                    &key,
-                    problem.to_string(),
-                    "Name a material of its own for the back face, one without a back.",
-                ))
-            };
-            if j as usize == i {
-                return refuse("a material cannot be its own back");
-            }
-            if named[j as usize].1.get_ref().back.is_some() {
-                return refuse(
-                    "the back material has a back of its own: the back face shows one material",
-                );
-            }
-            materials[i].textures.back = Some(j);
-        }
-        // Blend materials likewise: one level (a blend's material has no blend of its own).
-        for (i, (name, material)) in named.iter().enumerate() {
-            let Some(blend) = &material.get_ref().blend else {
-                continue;
-            };
-            let key = format!("materials.{}.blend", name.get_ref());
-            let j = self.material_index(blend, &key, &material_names)?;
-            let refuse = |problem: &str| {
-                Err(self.error(
-                    blend.span(),
-                    &key,
-                    problem.to_string(),
-                    "Name another material, one without a blend of its own.",
-                ))
-            };
-            if j as usize == i {
-                return refuse("a material cannot blend with itself");
-            }
-            if named[j as usize].1.get_ref().blend.is_some() {
-                return refuse(
-                    "the blend material has a blend of its own: a hit shows one of two materials",
-                );
-            }
-            materials[i].textures.blend = Some(j);
+        // Back and blend materials, once every name is known (a material may name one defined after
+        // it); one level each (a back has no back of its own, a blend's material no blend).
+        let backs = self.material_links(
+            &named,
+            &material_names,
+            "back",
+            |m| m.back.as_ref(),
+            [
+                "a material cannot be its own back",
+                "the back material has a back of its own: the back face shows one material",
+                "Name a material of its own for the back face, one without a back.",
+            ],
+        )?;
+        let blends = self.material_links(
+            &named,
+            &material_names,
+            "blend",
+            |m| m.blend.as_ref(),
+            [
+                "a material cannot blend with itself",
+                "the blend material has a blend of its own: a hit shows one of two materials",
+                "Name another material, one without a blend of its own.",
+            ],
+        )?;
+        for ((m, back), blend) in materials.iter_mut().zip(backs).zip(blends) {
+            (m.textures.back, m.textures.blend) = (back, blend);
         }
 
         let mut spheres = Vec::with_capacity(raw.sphere.len());
