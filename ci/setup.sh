@@ -15,24 +15,35 @@
 #                        libxcursor1, libxi6, libxkbcommon-x11-0); for the render-farm tests, Slurm and
 #                        munge (slurmctld, slurmd, slurm-client, munge; no service is started: ci/slurm.sh
 #                        starts a private cluster and stops it) and a Python venv in target/ci-venv with
-#                        kubernetes-validate (the Kubernetes JSON schemas, offline) for ci/k8s-check.sh.
+#                        kubernetes-validate (the Kubernetes JSON schemas, offline) for ci/k8s-check.sh;
+#                        and the denoiser, as --denoise does.
+#   ci/setup.sh --denoise
+#                        also Intel Open Image Denoise (OIDN 2.5.1, Apache-2.0), which `vkpath render --denoise`
+#                        loads at run time: Debian and Ubuntu do not package it, so its official Linux build
+#                        is taken from the Python package index (the pyoidn 2.5.1.0 wheel, which carries
+#                        libOpenImageDenoise.so.2 with its CPU, CUDA, HIP and SYCL devices), checked against
+#                        the SHA-256 pinned here, and its lib/ copied to $VKPATH_OIDN_DIR/lib (default
+#                        /usr/local/lib/vkpath-oidn), where vkpath looks (docs/denoising.md).
+#                        Needs python3 (with venv, installed by apt when missing) to fetch the wheel.
 #
 # Debian/Ubuntu only. Idempotent: when everything is present it installs nothing and only says so.
 # Prints one line saying what it did.
 set -euo pipefail
 
 want_validation=0
+want_denoise=0
 keep_mesa=0
 for arg in "$@"; do
     case "$arg" in
-        --test) want_validation=1 ;;
+        --test) want_validation=1 want_denoise=1 ;;
+        --denoise) want_denoise=1 ;;
         --keep-mesa) keep_mesa=1 ;;
         -h | --help)
-            sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'
+            sed -n '2,30p' "$0" | sed 's/^# \{0,1\}//'
             exit 0
             ;;
         *)
-            echo "ci/setup.sh: unknown argument '$arg' (use --test, --keep-mesa or nothing)" >&2
+            echo "ci/setup.sh: unknown argument '$arg' (use --test, --denoise, --keep-mesa or nothing)" >&2
             exit 2
             ;;
     esac
@@ -161,8 +172,55 @@ make_k8s_venv() {
     return 1
 }
 
+# Intel Open Image Denoise's official Linux build, from the pyoidn wheel on PyPI (pinned by hash: pip
+# refuses any other bytes), its lib/ unpacked into $oidn_dir.
+oidn_dir=${VKPATH_OIDN_DIR:-/usr/local/lib/vkpath-oidn}
+oidn_wheel="pyoidn==2.5.1.0 --hash=sha256:32ad13368f8de1ef63001942ad05b02a00cd732d1206d97f352d3a3f606d823e"
+
+have_oidn() {
+    [ -e "$oidn_dir/lib/libOpenImageDenoise.so.2" ] && [ -e "$oidn_dir/lib/libOpenImageDenoise_device_cpu.so.2.5.1" ]
+}
+
+install_oidn() {
+    local tmp py log
+    tmp=$(mktemp -d)
+    log="$tmp/log"
+    for py in python3 /usr/bin/python3; do
+        command -v "$py" >/dev/null 2>&1 && "$py" -m venv "$tmp/venv" >"$log" 2>&1 && break
+    done
+    if [ ! -x "$tmp/venv/bin/pip" ]; then
+        apt_install python3-venv
+        /usr/bin/python3 -m venv "$tmp/venv" >"$log" 2>&1 || { cat "$log" >&2; rm -rf "$tmp"; exit 1; }
+    fi
+    echo "$oidn_wheel" >"$tmp/requirements.txt"
+    if ! "$tmp/venv/bin/pip" download --quiet --disable-pip-version-check --no-deps --only-binary=:all: \
+        --platform manylinux2014_x86_64 --require-hashes -r "$tmp/requirements.txt" -d "$tmp/wheel" \
+        >"$log" 2>&1; then
+        cat "$log" >&2
+        rm -rf "$tmp"
+        echo "ci/setup.sh: could not fetch Open Image Denoise ($oidn_wheel) from PyPI (pip's output above)" >&2
+        exit 1
+    fi
+    # A wheel is a zip file: unpacked with Python's zipfile (no unzip tool needed).
+    "$tmp/venv/bin/python" -c 'import sys, zipfile; zipfile.ZipFile(sys.argv[1]).extractall(sys.argv[2])' \
+        "$tmp"/wheel/pyoidn-*.whl "$tmp/x"
+    # lib/ as in OIDN's own archives: its libraries find each other through their RPATH, $ORIGIN/../lib.
+    "${sudo[@]}" mkdir -p "$oidn_dir/lib"
+    "${sudo[@]}" cp -a "$tmp"/x/pyoidn/oidn/lib/. "$oidn_dir/lib/"
+    "${sudo[@]}" rm -rf "$oidn_dir/lib/cmake"
+    "${sudo[@]}" cp "$tmp"/x/pyoidn-*.dist-info/licenses/LICENSE "$oidn_dir/LICENSE.pyoidn" 2>/dev/null || true
+    echo "Intel Open Image Denoise 2.5.1 (Apache-2.0), from the PyPI wheel $oidn_wheel" |
+        "${sudo[@]}" tee "$oidn_dir/SOURCE" >/dev/null
+    rm -rf "$tmp"
+    have_oidn || { echo "ci/setup.sh: installed Open Image Denoise but $oidn_dir lacks its libraries" >&2; exit 1; }
+}
+
 finish() {
     local did=$1
+    if [ "$want_denoise" = 1 ] && ! have_oidn; then
+        install_oidn
+        did="$did; installed Open Image Denoise 2.5.1 in $oidn_dir"
+    fi
     if [ "$want_validation" = 1 ] && ! have_k8s_venv; then
         # Debian's own python3 makes venvs only with python3-venv installed.
         if ! make_k8s_venv 1; then

@@ -21,6 +21,7 @@
 pub mod accum;
 pub mod bench;
 pub mod checkpoint;
+pub mod denoise;
 pub mod film;
 pub mod fs_atomic;
 pub mod gpu;
@@ -62,6 +63,13 @@ pub enum Error {
     /// The message says which and what to do.
     #[error("{}: {message}", path.display())]
     Checkpoint { path: PathBuf, message: String },
+    /// Denoising was asked for and Intel Open Image Denoise cannot be loaded (or is too old): the
+    /// message says what was tried and how to install it.
+    #[error("{0}")]
+    DenoiserMissing(String),
+    /// Open Image Denoise failed while denoising.
+    #[error("{0}")]
+    Denoise(String),
 }
 
 impl Error {
@@ -80,8 +88,11 @@ impl Error {
     /// The CLI's exit status: 2 for bad input (scene, flags), 1 for everything else.
     pub fn exit_code(&self) -> i32 {
         match self {
-            Error::Scene(_) | Error::Usage(_) | Error::Checkpoint { .. } => 2,
-            Error::Gpu(_) | Error::Io { .. } => 1,
+            Error::Scene(_)
+            | Error::Usage(_)
+            | Error::Checkpoint { .. }
+            | Error::DenoiserMissing(_) => 2,
+            Error::Gpu(_) | Error::Io { .. } | Error::Denoise(_) => 1,
         }
     }
 }

@@ -11,7 +11,10 @@
 //!   hash, samples per pixel, seed, device and (for a render) seconds, as PNG `iTXt` chunks (UTF-8) and
 //!   EXR header attributes, under the keys `vkpath:version`, `vkpath:scene`, `vkpath:scene_hash`,
 //!   `vkpath:spp`, `vkpath:seed`, `vkpath:device` and `vkpath:seconds` (plus PNG's standard `Software`
-//!   keyword and the EXR software attribute).
+//!   keyword and the EXR software attribute); `vkpath:denoised` says what denoised a denoised image (its
+//!   EXR then holds the raw estimate as `raw.R/G/B`). An EXR also records the display transform its PNG
+//!   siblings were encoded with (`vkpath:exposure`, `vkpath:gamma`: a number or `srgb`,
+//!   `vkpath:tonemap`), so that `vkpath denoise` can write the same PNG from it.
 //!
 //! Several outputs are written all or nothing, as far as the file system allows: every file is encoded
 //! and written to a temporary file beside its target first, and only when all of them are on disk are they
@@ -54,6 +57,24 @@ impl ImageMetadata {
             v.push(("vkpath:seconds", format!("{s:.3}")));
         }
         v
+    }
+}
+
+impl ImageMetadata {
+    /// The metadata an EXR written by vkpath records (None for any other EXR).
+    pub fn from_attributes(exr: &ExrChannels) -> Option<ImageMetadata> {
+        let text = |k: &str| exr.attribute(k).map(str::to_string);
+        Some(ImageMetadata {
+            scene: text("vkpath:scene")?,
+            scene_hash: text("vkpath:scene_hash").unwrap_or_default(),
+            spp: exr.attribute("vkpath:spp")?.parse().ok()?,
+            seed: exr.attribute("vkpath:seed")?.parse().ok()?,
+            seconds: exr
+                .attribute("vkpath:seconds")
+                .and_then(|s| s.parse().ok())
+                .filter(|s: &f64| s.is_finite()),
+            device: text("vkpath:device").unwrap_or_default(),
+        })
     }
 }
 
@@ -115,6 +136,9 @@ pub struct Layers {
     pub albedo: Option<Film>,
     pub normal: Option<Film>,
     pub depth: Option<Film>,
+    /// Channels written as they are (name, one value per pixel): the raw estimate beside a denoised
+    /// image (`raw.R/G/B`), the layers `vkpath denoise` carries over from its input.
+    pub extra: Vec<(String, Vec<f32>)>,
 }
 
 impl Layers {
@@ -141,6 +165,18 @@ pub struct ImageFile<'a> {
     pub settings: &'a ImageSettings,
     pub metadata: Option<&'a ImageMetadata>,
     pub layers: &'a Layers,
+    /// What denoised the film's means (`vkpath:denoised`), when they are denoised.
+    pub denoised: Option<&'a str>,
+}
+
+impl ImageFile<'_> {
+    /// The text attributes beyond the metadata: what denoised the image.
+    fn notes(&self) -> Vec<(&'static str, String)> {
+        self.denoised
+            .map(|d| ("vkpath:denoised", d.to_string()))
+            .into_iter()
+            .collect()
+    }
 }
 
 impl ImageFile<'_> {
@@ -177,6 +213,9 @@ impl ImageFile<'_> {
             for (k, v) in m.entries() {
                 text(&mut encoder, k, v)?;
             }
+        }
+        for (k, v) in self.notes() {
+            text(&mut encoder, k, v)?;
         }
         let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
         writer
@@ -218,12 +257,21 @@ impl ImageFile<'_> {
         if let Some(d) = &self.layers.depth {
             channels.push(channel("depth.Z", crate::output::Layers::depth_values(d)));
         }
+        for (name, values) in &self.layers.extra {
+            channels.push(channel(name, values.clone()));
+        }
         let mut attributes = LayerAttributes {
             software_name: Text::new_or_none(format!("vkpath {}", crate::VKPATH_VERSION)),
             ..LayerAttributes::default()
         };
-        if let Some(m) = self.metadata {
-            for (k, v) in m.entries() {
+        let display = display_attributes(self.settings);
+        let notes = self.notes();
+        let mut entries: Vec<(&str, String)> =
+            self.metadata.map(|m| m.entries()).unwrap_or_default();
+        entries.extend(notes);
+        entries.extend(display);
+        {
+            for (k, v) in entries {
                 // EXR text is Latin-1: a value it cannot hold (a scene name in another script) is written
                 // with its other characters replaced by '?'.
                 let latin1: String = v
@@ -231,7 +279,9 @@ impl ImageFile<'_> {
                     .map(|c| if (c as u32) < 256 { c } else { '?' })
                     .collect();
                 let value = match k {
-                    "vkpath:seconds" => AttributeValue::F64(m.seconds.unwrap_or(f64::NAN)),
+                    "vkpath:seconds" => AttributeValue::F64(
+                        self.metadata.and_then(|m| m.seconds).unwrap_or(f64::NAN),
+                    ),
                     _ => AttributeValue::Text(Text::new_or_panic(latin1)),
                 };
                 attributes.other.insert(Text::new_or_panic(k), value);
@@ -265,8 +315,160 @@ impl Film {
                 settings,
                 metadata: None,
                 layers: &Layers::default(),
+                denoised: None,
             },
         )
+    }
+}
+
+/// The display transform as EXR attributes (see the module's documentation).
+fn display_attributes(s: &ImageSettings) -> [(&'static str, String); 3] {
+    [
+        ("vkpath:exposure", format!("{}", s.exposure)),
+        (
+            "vkpath:gamma",
+            match s.gamma {
+                Gamma::Srgb => "srgb".to_string(),
+                Gamma::Power(g) => format!("{g}"),
+            },
+        ),
+        (
+            "vkpath:tonemap",
+            match s.tonemap {
+                crate::scene::Tonemap::None => "none".to_string(),
+                crate::scene::Tonemap::Aces => "aces".to_string(),
+            },
+        ),
+    ]
+}
+
+/// An EXR file's first layer, every channel as f32 (any of EXR's sample types), with its text
+/// attributes: what `vkpath denoise` reads.
+pub struct ExrChannels {
+    pub width: u32,
+    pub height: u32,
+    /// (name, one value per pixel, row-major from the top left), in the file's order.
+    pub channels: Vec<(String, Vec<f32>)>,
+    /// The layer's and the file's text attributes (name, value).
+    pub attributes: Vec<(String, String)>,
+}
+
+impl ExrChannels {
+    /// The channel called `name`, if any.
+    pub fn channel(&self, name: &str) -> Option<&[f32]> {
+        self.channels
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_slice())
+    }
+
+    /// The three channels `prefix.a`, `prefix.b`, `prefix.c` (`prefix` empty: `a`, `b`, `c`) as pixels,
+    /// when all three are there.
+    pub fn rgb(&self, prefix: &str, names: [&str; 3]) -> Option<Vec<[f32; 3]>> {
+        let full = |n: &str| {
+            if prefix.is_empty() {
+                n.to_string()
+            } else {
+                format!("{prefix}.{n}")
+            }
+        };
+        let [a, b, c] = names.map(|n| self.channel(&full(n)));
+        let (a, b, c) = (a?, b?, c?);
+        Some((0..a.len()).map(|i| [a[i], b[i], c[i]]).collect())
+    }
+
+    /// The text attribute called `name`.
+    pub fn attribute(&self, name: &str) -> Option<&str> {
+        self.attributes
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// The display transform recorded by vkpath (see the module's documentation), or the defaults
+    /// (exposure 1, sRGB, no tone curve) for what is not recorded.
+    pub fn display_settings(&self) -> ImageSettings {
+        let exposure = self
+            .attribute("vkpath:exposure")
+            .and_then(|v| v.parse::<f32>().ok())
+            .filter(|e| e.is_finite() && *e > 0.0)
+            .unwrap_or(1.0);
+        let gamma = match self.attribute("vkpath:gamma") {
+            Some(v) => match v.parse::<f32>() {
+                Ok(g) if g.is_finite() && g > 0.0 => Gamma::Power(g),
+                _ => Gamma::Srgb,
+            },
+            None => Gamma::Srgb,
+        };
+        let tonemap = match self.attribute("vkpath:tonemap") {
+            Some("aces") => crate::scene::Tonemap::Aces,
+            _ => crate::scene::Tonemap::None,
+        };
+        ImageSettings {
+            width: self.width,
+            height: self.height,
+            exposure,
+            gamma,
+            tonemap,
+        }
+    }
+
+    /// Reads `path`: the header first, its pixels checked against the memory available (each channel's
+    /// values as f32, and as stored) before any is decoded. Errors name the file.
+    pub fn read(path: &Path) -> Result<ExrChannels, crate::Error> {
+        use exr::prelude::*;
+        let bad = |message: String| crate::Error::Usage(format!("{}: {message}", path.display()));
+        let meta = exr::meta::MetaData::read_from_file(path, false)
+            .map_err(|e| bad(format!("cannot read it as an OpenEXR file ({e})")))?;
+        let Some(header) = meta.headers.first() else {
+            return Err(bad("the OpenEXR file has no image layer".into()));
+        };
+        let size = header.layer_size;
+        let values = size.area() as u64 * header.channels.list.len() as u64;
+        crate::memory::check_available(values * 8, &format!("reading {}", path.display()))
+            .map_err(bad)?;
+        let image = read()
+            .no_deep_data()
+            .largest_resolution_level()
+            .all_channels()
+            .first_valid_layer()
+            .all_attributes()
+            .from_file(path)
+            .map_err(|e| bad(format!("cannot read it as an OpenEXR file ({e})")))?;
+        let layer = &image.layer_data;
+        let channels = layer
+            .channel_data
+            .list
+            .iter()
+            .map(|ch| {
+                let values = match &ch.sample_data {
+                    FlatSamples::F16(v) => v.iter().map(|h| h.to_f32()).collect(),
+                    FlatSamples::F32(v) => v.clone(),
+                    FlatSamples::U32(v) => v.iter().map(|u| *u as f32).collect(),
+                };
+                (ch.name.to_string(), values)
+            })
+            .collect();
+        let text = |v: &AttributeValue| match v {
+            AttributeValue::Text(t) => Some(t.to_string()),
+            AttributeValue::F64(f) => Some(f.to_string()),
+            AttributeValue::F32(f) => Some(f.to_string()),
+            AttributeValue::I32(i) => Some(i.to_string()),
+            _ => None,
+        };
+        let attributes = layer
+            .attributes
+            .other
+            .iter()
+            .chain(image.attributes.other.iter())
+            .filter_map(|(k, v)| text(v).map(|t| (k.to_string(), t)))
+            .collect();
+        Ok(ExrChannels {
+            width: layer.size.width() as u32,
+            height: layer.size.height() as u32,
+            channels,
+            attributes,
+        })
     }
 }
 
@@ -394,6 +596,7 @@ mod tests {
             settings: &s,
             metadata: None,
             layers: &Layers::default(),
+            denoised: None,
         };
         let e = write_images(&paths, &image).unwrap_err().to_string();
         assert!(

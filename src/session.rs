@@ -299,6 +299,7 @@ impl Files<'_> {
                 settings: &self.scene.image,
                 metadata: Some(&metadata),
                 layers,
+                denoised: None,
             },
         )?;
         if !self.outputs.is_empty() {

@@ -106,6 +106,7 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
             settings: &settings,
             metadata: Some(&metadata),
             layers: &layers,
+            denoised: None,
         },
     )?;
     if let Some(path) = &m.checkpoint {

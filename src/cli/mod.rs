@@ -5,6 +5,7 @@
 mod bench;
 mod compare;
 mod convert;
+mod denoise;
 mod info;
 mod merge;
 mod paths;
@@ -44,6 +45,9 @@ pub enum Command {
     /// Benchmarks that report measured ratios.
     #[command(subcommand)]
     Bench(bench::BenchCommand),
+    /// Denoise an EXR that carries albedo and normal layers (Intel Open Image Denoise, loaded at run
+    /// time: ci/setup.sh --denoise installs it).
+    Denoise(denoise::DenoiseArgs),
     /// Write any scene vkpath can read (TOML, glTF) as vkpath TOML: what was understood, to see and edit.
     Convert(convert::ConvertArgs),
     /// Whether two images hold the same pixels (exit 0) or not (exit 1), and how far apart they are.
@@ -64,6 +68,7 @@ pub fn run(command: Command) -> Result<i32, Error> {
         Command::Info { json } => info::run_info(json),
         Command::Merge(m) => merge::run_merge(m),
         Command::Convert(c) => convert::run_convert(c),
+        Command::Denoise(d) => denoise::run_denoise(d),
         Command::Compare(c) => compare::run_compare(c),
         Command::Bench(b) => bench::run_bench(b),
     }

@@ -29,6 +29,9 @@ pub struct DeviceInfo {
     pub max_storage_buffer_range: u32,
     pub max_memory_allocation_size: u64,
     pub device_local_memory_bytes: u64,
+    /// The device's UUID (VkPhysicalDeviceIDProperties::deviceUUID, core in Vulkan 1.1): the same
+    /// identifier CUDA, HIP and SYCL report for the same GPU, by which the denoiser picks its device.
+    pub uuid: [u8; 16],
 }
 
 /// Options for creating a [`GpuContext`].
@@ -178,6 +181,7 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
     let queues = unsafe { instance.get_physical_device_queue_family_properties(pd) };
     let mem = unsafe { instance.get_physical_device_memory_properties(pd) };
     let mut maint3 = vk::PhysicalDeviceMaintenance3Properties::default();
+    let mut ids = vk::PhysicalDeviceIDProperties::default();
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
     // The instance asks for Vulkan 1.1, so the driver properties (core in 1.2) may be chained only
     // where the device has VK_KHR_driver_properties.
@@ -187,7 +191,9 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
                 .any(|e| e.extension_name_as_c_str() == Ok(ash::khr::driver_properties::NAME))
         })
         .unwrap_or(false);
-    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut maint3);
+    let mut props2 = vk::PhysicalDeviceProperties2::default()
+        .push_next(&mut maint3)
+        .push_next(&mut ids);
     if has_driver_props {
         props2 = props2.push_next(&mut driver);
     }
@@ -238,6 +244,7 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
         max_memory_allocation_size: maint3.max_memory_allocation_size,
         device_local_memory_bytes: device_local,
+        uuid: ids.device_uuid,
     }
 }
 
@@ -629,6 +636,7 @@ mod tests {
             max_storage_buffer_range: 1,
             max_memory_allocation_size: 1,
             device_local_memory_bytes: 1,
+            uuid: [0; 16],
         };
         let w = d.old_lavapipe_warning().expect("Mesa 22.3 is old");
         assert!(w.contains("Mesa 22.3") && w.contains("ci/setup.sh"), "{w}");
