@@ -205,6 +205,7 @@ mod tests {
             exposure: 1.0,
             gamma: crate::scene::Gamma::Srgb,
             tonemap: Tonemap::Aces,
+            denoise: false,
         };
         let byte = |v: f32| (srgb_encode(v) * 255.0).round() as u8;
         let p = film.to_rgb8(&settings).get_pixel(0, 0).0;

@@ -23,6 +23,11 @@ pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = ACCUM_BYTES_PER_PIXEL + ACCUM_BYTES_
 /// An `--aov` layer (albedo, normal, depth) kept for the EXR: its film.
 pub const AOV_LAYER_BYTES_PER_PIXEL: u64 = FILM_BYTES_PER_PIXEL;
 
+/// Denoising (`--denoise`): OIDN's four images (color, albedo, normal, output; 12 bytes each), the
+/// decoded normals, the denoised film and the raw layers for the EXR, and OIDN's own scratch for its
+/// network (measured: docs/denoising.md).
+pub const DENOISE_BYTES_PER_PIXEL: u64 = 160;
+
 /// What a render keeps on the host besides the renderer's own buffers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct HostUse {
@@ -34,6 +39,8 @@ pub struct HostUse {
     /// render's own): each is a film kept until the EXR is written, rendered by a renderer of its own
     /// (another accumulator while it runs).
     pub aov_layers: u32,
+    /// The final image is denoised.
+    pub denoise: bool,
 }
 
 impl HostUse {
@@ -52,6 +59,9 @@ impl HostUse {
             b += ACCUM_BYTES_PER_PIXEL
                 + FILM_BYTES_PER_PIXEL
                 + u64::from(self.aov_layers) * AOV_LAYER_BYTES_PER_PIXEL;
+        }
+        if self.denoise {
+            b += DENOISE_BYTES_PER_PIXEL;
         }
         b
     }
@@ -162,7 +172,11 @@ mod tests {
             images: true,
             checkpoint: true,
             aov_layers: 3,
+            denoise: true,
         };
-        assert_eq!(all.bytes_per_pixel(), 24 + 64 + 128 + 96 + 24 + 72);
+        assert_eq!(
+            all.bytes_per_pixel(),
+            24 + 64 + 128 + 96 + 24 + 72 + DENOISE_BYTES_PER_PIXEL
+        );
     }
 }

@@ -410,6 +410,7 @@ impl ExrChannels {
             exposure,
             gamma,
             tonemap,
+            denoise: false,
         }
     }
 
@@ -578,6 +579,7 @@ mod tests {
             exposure: 1.0,
             gamma: Gamma::Power(2.2),
             tonemap: crate::scene::Tonemap::None,
+            denoise: false,
         }
     }
 

@@ -20,6 +20,7 @@
 use crate::Error;
 use crate::Scene;
 use crate::checkpoint::{Checkpoint, Part, show_ranges};
+use crate::denoise::{Denoiser, Inputs, Quality};
 use crate::film::Film;
 use crate::gpu::GpuContext;
 use crate::kernel::abi::{AOV_ALBEDO, AOV_DEPTH, AOV_NORMAL};
@@ -50,6 +51,9 @@ pub struct Request<'a> {
     pub part: Option<Part>,
     /// The EXR's extra layers.
     pub aovs: &'a [Aov],
+    /// Denoise the final images with this (`--denoise`): the albedo and normal layers are rendered for
+    /// it whether or not `aovs` asks for them, and the EXR keeps the raw estimate as `raw.R/G/B`.
+    pub denoiser: Option<&'a Denoiser>,
     /// Stop after the first pass that ends past this duration.
     pub time: Option<Duration>,
     /// Stop once the estimated relative error is below this.
@@ -109,6 +113,9 @@ impl Saved {
 pub struct Session<'a> {
     options: &'a RenderOptions,
     aovs: &'a [Aov],
+    denoiser: Option<&'a Denoiser>,
+    /// Seconds the denoiser took on the final image, once it has run.
+    denoise_seconds: Option<f64>,
     budget: Budget,
     renderer: Renderer,
     plan: Plan,
@@ -123,11 +130,11 @@ impl<'a> Session<'a> {
         let host = crate::memory::HostUse {
             images: !request.outputs.is_empty(),
             checkpoint: request.checkpoint.is_some() || request.resume.is_some(),
-            aov_layers: request
-                .aovs
+            aov_layers: aov_list(request.aovs, request.denoiser.is_some())
                 .iter()
                 .filter(|a| !matches!(a, Aov::Variance))
                 .count() as u32,
+            denoise: request.denoiser.is_some(),
         };
         let options = RenderOptions {
             host_bytes_per_pixel: host.bytes_per_pixel(),
@@ -154,6 +161,8 @@ impl<'a> Session<'a> {
         Ok(Session {
             options: request.options,
             aovs: request.aovs,
+            denoiser: request.denoiser,
+            denoise_seconds: None,
             budget: Budget {
                 spp: plan.target_spp,
                 time: request.time,
@@ -202,7 +211,7 @@ impl<'a> Session<'a> {
                         variance,
                         ..Layers::default()
                     };
-                    files.write_images(&film, &layers)?;
+                    files.write_images(&film, &layers, None)?;
                 }
                 if report.save_state && !ending {
                     files.save_checkpoint(r)?;
@@ -212,9 +221,10 @@ impl<'a> Session<'a> {
         )
     }
 
-    /// The final state to the checkpoint file, then the final image (with the AOV layers) to every
-    /// output: also after an interrupt, so that the render can go on from there. The film written, or
-    /// `None` when no pass ended (nothing is written then).
+    /// The final state to the checkpoint file, then the final image (with the AOV layers; denoised,
+    /// with the raw estimate beside it, when a denoiser was given) to every output: also after an
+    /// interrupt, so that the render can go on from there. The film rendered (raw), or `None` when no
+    /// pass ended (nothing is written then).
     pub fn finish(&mut self) -> Result<Option<Film>, Error> {
         let film = self.renderer.film()?;
         if film.spp == 0 {
@@ -222,15 +232,36 @@ impl<'a> Session<'a> {
         }
         // The checkpoint first: if an image cannot be written after all, the samples are kept.
         self.files.save_checkpoint(&mut self.renderer)?;
-        let layers = aov_layers(
+        let mut layers = aov_layers(
             self.renderer.context(),
             self.files.scene,
             self.options,
-            self.aovs,
+            &aov_list(self.aovs, self.denoiser.is_some()),
             film.spp,
         )?;
-        self.files.write_images(&film, &layers)?;
+        let Some(denoiser) = self.denoiser else {
+            self.files.write_images(&film, &layers, None)?;
+            return Ok(Some(film));
+        };
+        let started = Instant::now();
+        let denoised = denoise_film(denoiser, &film, &layers)?;
+        self.denoise_seconds = Some(started.elapsed().as_secs_f64());
+        // The aux layers rendered for the denoiser alone are not written.
+        if !self.aovs.contains(&Aov::Albedo) {
+            layers.albedo = None;
+        }
+        if !self.aovs.contains(&Aov::Normal) {
+            layers.normal = None;
+        }
+        layers.extra = raw_layers(&film);
+        self.files
+            .write_images(&denoised, &layers, Some(&denoiser.describe()))?;
         Ok(Some(film))
+    }
+
+    /// Seconds the denoiser took on the final image (after [`Session::finish`] with a denoiser).
+    pub fn denoise_seconds(&self) -> Option<f64> {
+        self.denoise_seconds
     }
 
     /// One sentence per file still whole on disk (the last checkpoint, the last progress images), to
@@ -281,9 +312,14 @@ struct Files<'a> {
 }
 
 impl Files<'_> {
-    /// Writes `film` with `layers` to every output, all or nothing, with the render's metadata, noting
-    /// them as written.
-    fn write_images(&mut self, film: &Film, layers: &Layers) -> Result<(), Error> {
+    /// Writes `film` with `layers` to every output, all or nothing, with the render's metadata (and
+    /// what denoised the film, when it is denoised), noting them as written.
+    fn write_images(
+        &mut self,
+        film: &Film,
+        layers: &Layers,
+        denoised: Option<&str>,
+    ) -> Result<(), Error> {
         let metadata = ImageMetadata {
             scene: self.scene.display_name(),
             scene_hash: self.scene_hash.clone(),
@@ -299,7 +335,7 @@ impl Files<'_> {
                 settings: &self.scene.image,
                 metadata: Some(&metadata),
                 layers,
-                denoised: None,
+                denoised,
             },
         )?;
         if !self.outputs.is_empty() {
@@ -344,6 +380,64 @@ fn aov_layers(
         *slot = Some(render_aov(ctx, scene, options, code, spp)?);
     }
     Ok(layers)
+}
+
+/// The layers to render: those asked for, and albedo and normal when denoising.
+fn aov_list(asked: &[Aov], denoise: bool) -> Vec<Aov> {
+    let mut list = asked.to_vec();
+    if denoise {
+        for aux in [Aov::Albedo, Aov::Normal] {
+            if !list.contains(&aux) {
+                list.push(aux);
+            }
+        }
+        list.sort();
+    }
+    list
+}
+
+/// `film` with its means denoised by `denoiser` from the albedo and normal films in `layers` (the
+/// variance stays the raw estimate's).
+pub fn denoise_film(denoiser: &Denoiser, film: &Film, layers: &Layers) -> Result<Film, Error> {
+    let (Some(albedo), Some(normal)) = (&layers.albedo, &layers.normal) else {
+        return Err(Error::Denoise(
+            "the albedo and normal layers the denoiser needs were not rendered".into(),
+        ));
+    };
+    // The normal film holds n / 2 + 1/2 (the accumulator sums non-negative values only).
+    let normal: Vec<[f32; 3]> = normal
+        .mean
+        .iter()
+        .map(|p| p.map(|v| 2.0 * v - 1.0))
+        .collect();
+    let mean = denoiser.denoise(
+        &Inputs {
+            width: film.width,
+            height: film.height,
+            color: &film.mean,
+            albedo: &albedo.mean,
+            normal: &normal,
+        },
+        Quality::High,
+    )?;
+    Ok(Film {
+        mean,
+        ..film.clone()
+    })
+}
+
+/// The raw estimate as the EXR channels `raw.R`, `raw.G`, `raw.B`, written beside a denoised image.
+pub fn raw_layers(film: &Film) -> Vec<(String, Vec<f32>)> {
+    ["R", "G", "B"]
+        .iter()
+        .enumerate()
+        .map(|(c, name)| {
+            (
+                format!("raw.{name}"),
+                film.mean.iter().map(|p| p[c]).collect(),
+            )
+        })
+        .collect()
 }
 
 /// Decides where the samples start: from the checkpoint resumed (which must be of this render, and, for

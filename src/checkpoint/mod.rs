@@ -117,6 +117,7 @@ impl Display {
                 None => Gamma::Srgb,
             },
             tonemap: self.tonemap,
+            denoise: false,
         }
     }
 }

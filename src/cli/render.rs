@@ -19,6 +19,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Duration;
 use vkpath::checkpoint::{Checkpoint, Part};
+use vkpath::denoise::{Denoiser, DeviceChoice};
 use vkpath::film::Film;
 use vkpath::film::OutputFormat;
 use vkpath::gpu::{ContextOptions, GpuContext};
@@ -58,6 +59,13 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
     if let (Some(w), false) = (ctx.device_info().old_lavapipe_warning(), a.quiet) {
         eprintln!("vkpath: warning: {w}");
     }
+    // The denoiser is loaded before the first sample: a missing one is refused now, not after the
+    // render (a part without images has nothing to denoise: the merge denoises the frame).
+    let denoiser = if (a.denoise || job.scene.image.denoise) && !job.outputs.is_empty() {
+        Some(Denoiser::new(DeviceChoice::for_vulkan(ctx.device_info()))?)
+    } else {
+        None
+    };
     let mut session = Session::start(
         &ctx,
         Request {
@@ -69,6 +77,7 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
             range,
             part,
             aovs: &flags.aovs,
+            denoiser: denoiser.as_ref(),
             time: flags.time,
             target_error: a.target_error,
             progress_every: a.progress_every,
@@ -461,6 +470,12 @@ pub struct RenderArgs {
     /// warning each, instead of refusing the file.
     #[arg(long = "xml-lenient")]
     xml_lenient: bool,
+    /// Denoise the final images with Intel Open Image Denoise (also `render.denoise = true`): its RT
+    /// filter on the image with the albedo and normal layers, rendered for it; the EXR keeps the raw
+    /// estimate as raw.R/G/B. Progress images stay raw. OIDN is loaded at run time
+    /// (ci/setup.sh --denoise installs it).
+    #[arg(long)]
+    denoise: bool,
     /// A Mitsuba XML scene's `<default>` parameter, as on Mitsuba's command line (`-D integrator=path`,
     /// `-D spp=64`); it wins over the file's `<default>`. Repeatable.
     #[arg(short = 'D', value_name = "NAME=VALUE", value_parser = super::parse_define)]
@@ -672,8 +687,11 @@ fn summary_line(session: &Session, film: &Film, seconds: f64, samples: f64) -> S
     } else {
         "unknown".into()
     };
+    let denoised = session.denoise_seconds().map_or(String::new(), |s| {
+        format!(" (of the raw estimate); denoised in {s:.2} s")
+    });
     format!(
-        "vkpath: wrote {}: {} spp in {seconds:.2} s, {:.3} Msamples/s, estimated error {error}",
+        "vkpath: wrote {}: {} spp in {seconds:.2} s, {:.3} Msamples/s, estimated error {error}{denoised}",
         wrote.join(", "),
         film.spp,
         samples / seconds.max(1e-12) / 1e6

@@ -110,6 +110,9 @@ pub struct ImageSettings {
     pub gamma: Gamma,
     /// The tone curve between exposure and gamma in the 8-bit image (`render.tonemap`); EXR stays linear.
     pub tonemap: Tonemap,
+    /// `render.denoise`: the final images are denoised (as `--denoise`). Like the display transform, not
+    /// part of the render's identity: the samples are the same either way.
+    pub denoise: bool,
 }
 
 /// A display tone curve, applied to exposure x radiance per channel before the gamma or sRGB encoding.

@@ -98,6 +98,11 @@ impl Checker<'_> {
         let mut image = self.image(raw.image.as_ref())?;
         let (render, background) = self.render(raw.render.as_ref())?;
         image.tonemap = self.tonemap(raw.render.as_ref())?;
+        image.denoise = raw
+            .render
+            .as_ref()
+            .and_then(|r| r.denoise.as_ref())
+            .is_some_and(|d| *d.get_ref());
         let base = path.and_then(Path::parent).unwrap_or(Path::new(""));
         let environment = self.environment(raw, background, base)?;
 
@@ -452,6 +457,7 @@ fov      = 45
                 exposure: 1.0,
                 gamma: Gamma::Power(2.2),
                 tonemap: Tonemap::None,
+                denoise: false,
             }
         );
         assert_eq!(
@@ -536,6 +542,7 @@ fov      = 45
                 exposure: 1.0,
                 gamma: Gamma::Power(2.2),
                 tonemap: Tonemap::None,
+                denoise: false,
             }
         );
         assert_eq!(

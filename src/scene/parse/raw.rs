@@ -78,6 +78,7 @@ pub(super) struct RawRender {
     pub(super) light_sampling: Option<Spanned<String>>,
     pub(super) tonemap: Option<Spanned<String>>,
     pub(super) clamp: Option<Spanned<f32>>,
+    pub(super) denoise: Option<Spanned<bool>>,
 }
 
 /// One flat struct for every material type rather than a serde-tagged enum (one serde type per kind): a

@@ -251,6 +251,7 @@ impl Checker<'_> {
             exposure,
             gamma,
             tonemap: Tonemap::None, // render.tonemap, set by `scene`
+            denoise: false,         // render.denoise, set by `scene`
         })
     }
 
