@@ -19,7 +19,7 @@
 
 use crate::Error;
 use crate::Scene;
-use crate::checkpoint::{Checkpoint, Part, show_ranges};
+use crate::checkpoint::{Aux, Checkpoint, Part, show_ranges};
 use crate::denoise::{Denoiser, Inputs, Quality};
 use crate::film::Film;
 use crate::gpu::GpuContext;
@@ -54,6 +54,9 @@ pub struct Request<'a> {
     /// Denoise the final images with this (`--denoise`): the albedo and normal layers are rendered for
     /// it whether or not `aovs` asks for them, and the EXR keeps the raw estimate as `raw.R/G/B`.
     pub denoiser: Option<&'a Denoiser>,
+    /// The final checkpoint carries the denoiser's aux images (albedo and normal): a part of a render to
+    /// be denoised, so that `vkpath merge` can denoise the frame (which needs no denoiser here).
+    pub keep_aux: bool,
     /// Stop after the first pass that ends past this duration.
     pub time: Option<Duration>,
     /// Stop once the estimated relative error is below this.
@@ -114,6 +117,11 @@ pub struct Session<'a> {
     options: &'a RenderOptions,
     aovs: &'a [Aov],
     denoiser: Option<&'a Denoiser>,
+    /// See [`Request::keep_aux`].
+    keep_aux: bool,
+    /// A partial render (`--sample-range`, `--part`): its AOV layers are rendered with the whole
+    /// render's samples per pixel (up to AOV_MAX_SPP), so that every part has the same ones.
+    partial: bool,
     /// Seconds the denoiser took on the final image, once it has run.
     denoise_seconds: Option<f64>,
     budget: Budget,
@@ -130,12 +138,13 @@ impl<'a> Session<'a> {
         let host = crate::memory::HostUse {
             images: !request.outputs.is_empty(),
             checkpoint: request.checkpoint.is_some() || request.resume.is_some(),
-            aov_layers: aov_list(request.aovs, request.denoiser.is_some())
+            aov_layers: aov_list(request.aovs, request.denoiser.is_some() || request.keep_aux)
                 .iter()
                 .filter(|a| !matches!(a, Aov::Variance))
                 .count() as u32,
             denoise: request.denoiser.is_some(),
         };
+        let partial = request.range.is_some();
         let options = RenderOptions {
             host_bytes_per_pixel: host.bytes_per_pixel(),
             ..request.options.clone()
@@ -162,6 +171,8 @@ impl<'a> Session<'a> {
             options: request.options,
             aovs: request.aovs,
             denoiser: request.denoiser,
+            keep_aux: request.keep_aux,
+            partial,
             denoise_seconds: None,
             budget: Budget {
                 spp: plan.target_spp,
@@ -214,7 +225,7 @@ impl<'a> Session<'a> {
                     files.write_images(&film, &layers, None)?;
                 }
                 if report.save_state && !ending {
-                    files.save_checkpoint(r)?;
+                    files.save_checkpoint(r, None)?;
                 }
                 Ok(())
             },
@@ -231,14 +242,27 @@ impl<'a> Session<'a> {
             return Ok(None);
         }
         // The checkpoint first: if an image cannot be written after all, the samples are kept.
-        self.files.save_checkpoint(&mut self.renderer)?;
+        self.files.save_checkpoint(&mut self.renderer, None)?;
+        // A part's layers are the whole render's (every part the same: see `partial`).
+        let aov_spp = if self.partial {
+            self.files.scene.render.samples
+        } else {
+            film.spp
+        };
         let mut layers = aov_layers(
             self.renderer.context(),
             self.files.scene,
             self.options,
-            &aov_list(self.aovs, self.denoiser.is_some()),
-            film.spp,
+            &aov_list(self.aovs, self.denoiser.is_some() || self.keep_aux),
+            aov_spp,
         )?;
+        if self.keep_aux {
+            // Again, with the aux images (the samples are already safe in the first).
+            let aux = aux_of(&layers)?;
+            let samples = aov_spp.clamp(1, AOV_MAX_SPP);
+            self.files
+                .save_checkpoint(&mut self.renderer, Some((aux, samples)))?;
+        }
         let Some(denoiser) = self.denoiser else {
             self.files.write_images(&film, &layers, None)?;
             return Ok(Some(film));
@@ -344,11 +368,16 @@ impl Files<'_> {
         Ok(())
     }
 
-    /// Writes the renderer's state to the checkpoint file, when there is one, noting it as written.
-    fn save_checkpoint(&mut self, r: &mut Renderer) -> Result<(), Error> {
+    /// Writes the renderer's state to the checkpoint file, when there is one (with the denoiser's aux
+    /// images and their samples per pixel, when given), noting it as written.
+    fn save_checkpoint(&mut self, r: &mut Renderer, aux: Option<(Aux, u32)>) -> Result<(), Error> {
         if let Some(path) = self.checkpoint {
             let mut state = Checkpoint::of(r, self.scene)?;
             state.header.part = self.part;
+            if let Some((aux, samples)) = aux {
+                state.header.aux_samples = Some(samples);
+                state.aux = Some(aux);
+            }
             state.write(path)?;
             self.saved.checkpoint = Some((path.to_path_buf(), r.samples_done()));
         }
@@ -396,27 +425,40 @@ fn aov_list(asked: &[Aov], denoise: bool) -> Vec<Aov> {
     list
 }
 
-/// `film` with its means denoised by `denoiser` from the albedo and normal films in `layers` (the
-/// variance stays the raw estimate's).
-pub fn denoise_film(denoiser: &Denoiser, film: &Film, layers: &Layers) -> Result<Film, Error> {
+/// The denoiser's aux images from the albedo and normal layers.
+fn aux_of(layers: &Layers) -> Result<Aux, Error> {
     let (Some(albedo), Some(normal)) = (&layers.albedo, &layers.normal) else {
         return Err(Error::Denoise(
             "the albedo and normal layers the denoiser needs were not rendered".into(),
         ));
     };
-    // The normal film holds n / 2 + 1/2 (the accumulator sums non-negative values only).
-    let normal: Vec<[f32; 3]> = normal
-        .mean
-        .iter()
-        .map(|p| p.map(|v| 2.0 * v - 1.0))
-        .collect();
+    Ok(Aux {
+        albedo: albedo.mean.clone(),
+        // The normal film holds n / 2 + 1/2 (the accumulator sums non-negative values only).
+        normal: normal
+            .mean
+            .iter()
+            .map(|p| p.map(|v| 2.0 * v - 1.0))
+            .collect(),
+    })
+}
+
+/// `film` with its means denoised by `denoiser` from the albedo and normal films in `layers` (the
+/// variance stays the raw estimate's).
+fn denoise_film(denoiser: &Denoiser, film: &Film, layers: &Layers) -> Result<Film, Error> {
+    denoise_with_aux(denoiser, film, &aux_of(layers)?)
+}
+
+/// `film` with its means denoised by `denoiser` from the aux images `aux` (the variance stays the raw
+/// estimate's): the final step of `--denoise`, and of `vkpath merge --denoise` on the parts' aux.
+pub fn denoise_with_aux(denoiser: &Denoiser, film: &Film, aux: &Aux) -> Result<Film, Error> {
     let mean = denoiser.denoise(
         &Inputs {
             width: film.width,
             height: film.height,
             color: &film.mean,
-            albedo: &albedo.mean,
-            normal: &normal,
+            albedo: &aux.albedo,
+            normal: &aux.normal,
         },
         Quality::High,
     )?;

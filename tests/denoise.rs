@@ -235,3 +235,101 @@ fn vkpath_denoise_is_deterministic_and_matches_the_render_flag() {
     run_ok(d, &["render", asked.to_str().unwrap(), "-o", "key.exr"]);
     assert_eq!(rgb(&read(&d.join("key.exr")), ""), rgb(&a, ""));
 }
+
+/// A farm render denoised at the merge: parts rendered with --denoise keep the aux images in their
+/// checkpoints (no denoiser needed on the render nodes: VKPATH_OIDN_DIR points nowhere there), and
+/// `vkpath merge --denoise` writes bit for bit the image of one render with --denoise (the same samples,
+/// the same aux images: every part renders the whole render's). The merged checkpoint keeps the aux
+/// images; a part without them is refused by name.
+#[test]
+fn a_farm_frame_is_denoised_at_the_merge_as_one_render_would_be() {
+    require_oidn();
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = furnace(d, "");
+    let s = scene.to_str().unwrap();
+    let empty = d.join("no-oidn");
+    std::fs::create_dir(&empty).unwrap();
+    for i in 0..3 {
+        let part = format!("{i}/3");
+        let ckpt = format!("p{i}.ckpt");
+        let out = vkpath(d)
+            .env("VKPATH_OIDN_DIR", &empty)
+            .args([
+                "render",
+                s,
+                "--spp",
+                "12",
+                "--part",
+                &part,
+                "--checkpoint",
+                &ckpt,
+            ])
+            .arg("--denoise")
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    run_ok(
+        d,
+        &["render", s, "--spp", "12", "--denoise", "-o", "one.exr"],
+    );
+    run_ok(
+        d,
+        &[
+            "merge",
+            "p0.ckpt",
+            "p1.ckpt",
+            "p2.ckpt",
+            "--denoise",
+            "-o",
+            "m.exr",
+            "--checkpoint",
+            "m.ckpt",
+        ],
+    );
+    let (one, merged) = (read(&d.join("one.exr")), read(&d.join("m.exr")));
+    assert_eq!(rgb(&merged, ""), rgb(&one, ""));
+    assert_eq!(rgb(&merged, "raw"), rgb(&one, "raw"));
+    assert!(merged.attribute("vkpath:denoised").is_some());
+    // The merged state denoises again.
+    run_ok(d, &["merge", "m.ckpt", "--denoise", "-o", "again.exr"]);
+    assert_eq!(rgb(&read(&d.join("again.exr")), ""), rgb(&one, ""));
+    // A part rendered without --denoise has no aux images.
+    run_ok(
+        d,
+        &[
+            "render",
+            s,
+            "--spp",
+            "12",
+            "--part",
+            "0/3",
+            "--checkpoint",
+            "bare.ckpt",
+        ],
+    );
+    let out = run(
+        d,
+        &[
+            "merge",
+            "bare.ckpt",
+            "p1.ckpt",
+            "p2.ckpt",
+            "--denoise",
+            "-o",
+            "x.exr",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("bare.ckpt") && err.contains("--denoise"),
+        "{err}"
+    );
+    assert!(!d.join("x.exr").exists());
+}

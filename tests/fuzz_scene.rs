@@ -572,9 +572,10 @@ fn huge_inputs_are_refused_up_front() {
     assert!(e.contains("MiB") && e.contains("limit"), "{e}");
 }
 
-/// A valid checkpoint file's bytes (3x2 pixels, two sample ranges), built without a GPU.
+/// A valid checkpoint file's bytes (3x2 pixels, two sample ranges, with the denoiser's aux images),
+/// built without a GPU.
 fn checkpoint_bytes() -> Vec<u8> {
-    use vkpath::checkpoint::{Checkpoint, Display, Header, Identity};
+    use vkpath::checkpoint::{Aux, Checkpoint, Display, Header, Identity};
     let c = Checkpoint {
         header: Header {
             identity: Identity {
@@ -595,10 +596,16 @@ fn checkpoint_bytes() -> Vec<u8> {
                 exposure: 1.0,
                 gamma: None,
                 tonemap: vkpath::scene::Tonemap::Aces,
+                denoise: true,
             },
             part: None,
+            aux_samples: Some(4),
         },
         accum: vec![vkpath::kernel::abi::GpuAccum::default(); 6],
+        aux: Some(Aux {
+            albedo: vec![[0.5, 0.25, 1.0]; 6],
+            normal: vec![[0.0, 0.0, 1.0]; 6],
+        }),
     };
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("c.ckpt");
@@ -618,6 +625,7 @@ const CHECKPOINT_TOKENS: &[&str] = &[
     "\"ranges\":[[5,1]]",
     "\"ranges\":[]",
     "\"width\":0",
+    "\"aux_samples\":4",
     "\"height\":99999999",
     "\u{0}",
     "VKPATHCP",

@@ -1,7 +1,7 @@
 //! Merging partial renders: the parts of disjoint `--sample-range`s of one render added into the state
 //! of their union (`vkpath merge`).
 
-use super::{Checkpoint, Header, Part, count_samples, show_ranges};
+use super::{Aux, Checkpoint, Header, Part, count_samples, show_ranges};
 use crate::Error;
 use crate::kernel::abi::GpuAccum;
 use std::path::{Path, PathBuf};
@@ -22,6 +22,7 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
     let mut sum = Sum::new(plan.pixels);
     for &i in &plan.order {
         sum.add(&parts[i].1.accum);
+        sum.keep_aux(&parts[i].1);
     }
     Ok(sum.finish(plan))
 }
@@ -58,6 +59,7 @@ pub fn merge_files(
             });
         }
         sum.add(&part.accum);
+        sum.keep_aux(&part);
     }
     Ok(sum.finish(plan))
 }
@@ -146,6 +148,8 @@ fn check_headers(parts: &[(PathBuf, &Header)]) -> Result<Plan, Error> {
             ranges: all_ranges,
             display: first.display,
             part: None,
+            // Set by the merge from the parts' aux images (see `merge_files`).
+            aux_samples: None,
         },
         pixels,
         order,
@@ -156,6 +160,10 @@ fn check_headers(parts: &[(PathBuf, &Header)]) -> Result<Plan, Error> {
 struct Sum {
     accum: Vec<GpuAccum>,
     squares: Vec<[f64; 3]>,
+    /// The denoiser's aux images of the first part (in sample order) that has them, with their sample
+    /// count. Every part of a render renders the same ones (`Aux`), so any would do; the first in sample
+    /// order makes the merge independent of the order the parts are given in.
+    aux: Option<(Aux, u32)>,
 }
 
 impl Sum {
@@ -163,6 +171,7 @@ impl Sum {
         Sum {
             accum: vec![GpuAccum::default(); pixels],
             squares: vec![[0.0; 3]; pixels],
+            aux: None,
         }
     }
 
@@ -177,15 +186,26 @@ impl Sum {
         }
     }
 
-    fn finish(mut self, plan: Plan) -> Checkpoint {
+    /// Keeps `part`'s aux images when none are kept yet.
+    fn keep_aux(&mut self, part: &Checkpoint) {
+        if self.aux.is_none()
+            && let (Some(aux), Some(n)) = (&part.aux, part.header.aux_samples)
+        {
+            self.aux = Some((aux.clone(), n));
+        }
+    }
+
+    fn finish(mut self, mut plan: Plan) -> Checkpoint {
         for (out, sq) in self.accum.iter_mut().zip(&self.squares) {
             for (c, total) in sq.iter().enumerate() {
                 (out.sum_sq[c], out.sum_sq_c[c]) = kahan_pair(*total);
             }
         }
+        plan.header.aux_samples = self.aux.as_ref().map(|(_, n)| *n);
         Checkpoint {
             header: plan.header,
             accum: self.accum,
+            aux: self.aux.map(|(a, _)| a),
         }
     }
 }

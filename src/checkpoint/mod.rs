@@ -22,7 +22,9 @@
 //! | H | header, UTF-8 JSON ([`Header`]) |
 //! | 8 | payload length P (u64) |
 //! | P | the pixels' `GpuAccum`s, byte-planar in blocks, compressed by Zstandard (below) |
-//! | 4 | CRC-32 (IEEE) of every byte before it: magic, version, header, length and payload |
+//! | 8 | only when the header has `aux_samples`: aux length Q (u64) |
+//! | Q | only then: the denoiser's aux images ([`Aux`]: albedo RGB then normal XYZ, f32, compressed) |
+//! | 4 | CRC-32 (IEEE) of every byte before it: magic, version, header, lengths and payloads |
 //!
 //! The pixels are row-major from the top-left; each is 96 bytes: 18 u32 limbs (3 channels × 6,
 //! little-endian limb order), then 3 f32 sums of squares and their 3 f32 compensations. They are cut into
@@ -92,6 +94,9 @@ pub struct Display {
     /// `render.tonemap` ("none" when absent: checkpoints written before it existed).
     #[serde(default)]
     pub tonemap: crate::scene::Tonemap,
+    /// `render.denoise`: the merged frame is denoised (`vkpath merge` does as `--denoise` asks).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub denoise: bool,
 }
 
 impl Display {
@@ -103,6 +108,7 @@ impl Display {
                 Gamma::Srgb => None,
             },
             tonemap: image.tonemap,
+            denoise: image.denoise,
         }
     }
 
@@ -117,7 +123,7 @@ impl Display {
                 None => Gamma::Srgb,
             },
             tonemap: self.tonemap,
-            denoise: false,
+            denoise: self.denoise,
         }
     }
 }
@@ -139,6 +145,21 @@ pub struct Header {
     /// duplicated or unfinished part by name; absent for any other state.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub part: Option<Part>,
+    /// The file carries the denoiser's aux images ([`Aux`]), rendered with this many samples per pixel:
+    /// a part of a render to be denoised (`--denoise`), so that `vkpath merge --denoise` can denoise
+    /// the frame. Absent otherwise (and in files from before aux images were kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub aux_samples: Option<u32>,
+}
+
+/// The albedo and normal images a denoiser reads beside the image (`session::aov_layers`), one entry
+/// per pixel, row-major: what a part of a render to be denoised carries for the merge. Every part of a
+/// render renders the same ones (the same samples 0..min(S, AOV_MAX_SPP) of the whole render's S).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Aux {
+    pub albedo: Vec<[f32; 3]>,
+    /// Unit normals (or zero where no surface was hit), components in [-1, 1].
+    pub normal: Vec<[f32; 3]>,
 }
 
 /// Part `index` (0-based) of `count` of a render of `samples` samples per pixel (`--part I/N`): the
@@ -234,6 +255,8 @@ pub struct Checkpoint {
     pub header: Header,
     /// One entry per pixel, row-major from the top-left.
     pub accum: Vec<GpuAccum>,
+    /// The denoiser's aux images, when `header.aux_samples` says the file has them.
+    pub aux: Option<Aux>,
 }
 
 impl Checkpoint {
@@ -248,8 +271,10 @@ impl Checkpoint {
                 ranges: renderer.ranges().to_vec(),
                 display: Display::of(&scene.image),
                 part: None,
+                aux_samples: None,
             },
             accum,
+            aux: None,
         })
     }
 
@@ -291,6 +316,20 @@ impl Checkpoint {
             message: format!("cannot encode the checkpoint header: {e}"),
         })?;
         let payload = compress(&self.accum).map_err(encoding)?;
+        // The aux section, when the header announces it (and only then: the two must agree).
+        let aux = match (&self.aux, self.header.aux_samples) {
+            (Some(aux), Some(_)) => {
+                let bytes = compress_aux(aux).map_err(encoding)?;
+                [&(bytes.len() as u64).to_le_bytes()[..], &bytes].concat()
+            }
+            (None, None) => Vec::new(),
+            _ => {
+                return Err(Error::Io {
+                    path: path.to_path_buf(),
+                    message: "the checkpoint's aux images and its header disagree (a bug)".into(),
+                });
+            }
+        };
         let header_len = u32::try_from(json.len()).unwrap_or(u32::MAX);
         let head = [
             &MAGIC[..],
@@ -300,7 +339,7 @@ impl Checkpoint {
         .concat();
         let payload_len = (payload.len() as u64).to_le_bytes();
         let mut crc = crc32fast::Hasher::new();
-        for part in [&head[..], &json, &payload_len, &payload] {
+        for part in [&head[..], &json, &payload_len, &payload, &aux] {
             crc.update(part);
         }
         let crc = crc.finalize();
@@ -309,6 +348,7 @@ impl Checkpoint {
             f.write_all(&json)?;
             f.write_all(&payload_len)?;
             f.write_all(&payload)?;
+            f.write_all(&aux)?;
             f.write_all(&crc.to_le_bytes())
         })
     }
@@ -412,8 +452,13 @@ impl Checkpoint {
         let id = &header.identity;
         // A header with a correct checksum may still claim 16384 x 16384 pixels (24 GiB decoded) for a
         // payload of a few kB: checked against the machine before anything that size is allocated.
+        let aux_bytes = if header.aux_samples.is_some() {
+            AUX_BYTES as u64
+        } else {
+            0
+        };
         crate::memory::check_available(
-            pixels * crate::memory::CHECKPOINT_BYTES_PER_PIXEL,
+            pixels * (crate::memory::CHECKPOINT_BYTES_PER_PIXEL + aux_bytes),
             &format!("decoding its {}x{} pixels", id.width, id.height),
         )
         .map_err(Decode::TooLarge)?;
@@ -439,7 +484,12 @@ impl Checkpoint {
             r.read_exact(&mut l).map_err(Decode::Io)?;
             crc.update(&l);
             let payload_len = u64::from_le_bytes(l);
-            if payload_len > max_compressed_len(expected) || held != 8 + payload_len + 4 {
+            // With aux images, their length and bytes follow the payload (their size checked below).
+            let fits = |payload_len: u64| match header.aux_samples {
+                Some(_) => held >= 8 + payload_len + 8 + 4,
+                None => held == 8 + payload_len + 4,
+            };
+            if payload_len > max_compressed_len(expected) || !fits(payload_len) {
                 return Err(truncated(format!(
                     "8 bytes of length, {payload_len} of compressed pixels (at most {}) and 4 of checksum",
                     max_compressed_len(expected)
@@ -457,9 +507,31 @@ impl Checkpoint {
         };
         let mut payload = vec![0u8; payload_len as usize];
         r.read_exact(&mut payload).map_err(Decode::Io)?;
+        crc.update(&payload);
+        let mut aux_payload = Vec::new();
+        if header.aux_samples.is_some() {
+            if !compressed {
+                return Err(invalid(
+                    "its header announces aux images, which only compressed files hold".into(),
+                ));
+            }
+            let mut l = [0u8; 8];
+            r.read_exact(&mut l).map_err(Decode::Io)?;
+            crc.update(&l);
+            let aux_len = u64::from_le_bytes(l);
+            let max = max_compressed_len(pixels * AUX_BYTES as u64);
+            if aux_len > max || held != 8 + payload_len + 8 + aux_len + 4 {
+                return Err(truncated(format!(
+                    "8 bytes of length, {payload_len} of compressed pixels, 8 of aux length, {aux_len} of \
+                     aux images (at most {max}) and 4 of checksum"
+                )));
+            }
+            aux_payload = vec![0u8; aux_len as usize];
+            r.read_exact(&mut aux_payload).map_err(Decode::Io)?;
+            crc.update(&aux_payload);
+        }
         let mut stored = [0u8; 4];
         r.read_exact(&mut stored).map_err(Decode::Io)?;
-        crc.update(&payload);
         let (crc, stored) = (crc.finalize(), u32::from_le_bytes(stored));
         if crc != stored {
             return Err(invalid(format!(
@@ -482,7 +554,17 @@ impl Checkpoint {
         } else {
             accum_from_bytes(&payload)
         };
-        Ok(Checkpoint { header, accum })
+        let aux = if header.aux_samples.is_some() {
+            Some(decompress_aux(&aux_payload, pixels as usize).map_err(|e| {
+                invalid(format!(
+                    "its aux images do not decompress to {}x{} pixels ({e})",
+                    id.width, id.height
+                ))
+            })?)
+        } else {
+            None
+        };
+        Ok(Checkpoint { header, accum, aux })
     }
 
     /// Refuses, with a message that says what differs and what to do, a state that does not belong to
@@ -606,6 +688,49 @@ fn max_compressed_len(expected: u64) -> u64 {
     expected + expected / 1024 + 4096
 }
 
+/// Bytes per pixel of the aux images decoded: albedo and normal, three f32 each.
+const AUX_BYTES: usize = 24;
+
+/// The aux images as little-endian f32, albedo then normal, compressed by Zstandard (deterministic: one
+/// thread, a fixed level).
+fn compress_aux(aux: &Aux) -> std::io::Result<Vec<u8>> {
+    let mut encoder = zstd::stream::write::Encoder::new(Vec::new(), ZSTD_LEVEL)?;
+    encoder.include_checksum(false)?;
+    encoder.include_contentsize(false)?;
+    for image in [&aux.albedo, &aux.normal] {
+        let bytes: Vec<u8> = image
+            .iter()
+            .flatten()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        encoder.write_all(&bytes)?;
+    }
+    encoder.finish()
+}
+
+/// The aux images of `pixels` pixels from their compressed bytes (exactly that many, nothing after).
+fn decompress_aux(payload: &[u8], pixels: usize) -> std::io::Result<Aux> {
+    let mut decoder = zstd::stream::read::Decoder::new(payload)?;
+    let mut image = || -> std::io::Result<Vec<[f32; 3]>> {
+        // Grown as it decodes (a short payload fails after allocating what it held).
+        let mut out = Vec::new();
+        let mut px = [0u8; 12];
+        for _ in 0..pixels {
+            decoder.read_exact(&mut px)?;
+            let f = |i: usize| f32::from_le_bytes([px[i], px[i + 1], px[i + 2], px[i + 3]]);
+            out.push([f(0), f(4), f(8)]);
+        }
+        Ok(out)
+    };
+    let albedo = image()?;
+    let normal = image()?;
+    let mut rest = [0u8; 1];
+    if decoder.read(&mut rest)? != 0 {
+        return Err(std::io::Error::other("more data than the pixels"));
+    }
+    Ok(Aux { albedo, normal })
+}
+
 /// The pixels, byte-planar by blocks (see the module's documentation), compressed by Zstandard.
 fn compress(accum: &[GpuAccum]) -> std::io::Result<Vec<u8>> {
     let mut encoder = zstd::stream::write::Encoder::new(Vec::new(), ZSTD_LEVEL)?;
@@ -677,10 +802,12 @@ mod tests {
                 scene: "test".into(),
                 device: "dev".into(),
                 ranges,
+                aux_samples: None,
                 display: Display {
                     exposure: 1.0,
                     gamma: Some(2.2),
                     tonemap: crate::scene::Tonemap::None,
+                    denoise: false,
                 },
                 part: None,
             },
@@ -698,6 +825,7 @@ mod tests {
                 };
                 2
             ],
+            aux: None,
         }
     }
 

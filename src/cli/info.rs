@@ -2,6 +2,7 @@
 
 use super::report::{InfoReport, print_json};
 use vkpath::Error;
+use vkpath::denoise::DeviceChoice;
 
 /// `vkpath info`: the devices, the one chosen (by VKPATH_DEVICE, else by type) and why, and its limits;
 /// or all of that as JSON.
@@ -11,11 +12,14 @@ pub fn run_info(json: bool) -> Result<i32, Error> {
         .ok()
         .filter(|s| !s.is_empty());
     let (chosen, reason) = vkpath::gpu::context::choose_device(&devices, substring.as_deref())?;
+    let denoiser = vkpath::denoise::availability(DeviceChoice::for_vulkan(&devices[chosen]));
     if json {
         print_json(&InfoReport {
             devices: &devices,
             chosen,
             reason: &reason,
+            denoiser: denoiser.as_deref().ok(),
+            denoiser_missing: denoiser.as_ref().err().map(String::as_str),
         });
         return Ok(0);
     }
@@ -33,6 +37,10 @@ pub fn run_info(json: bool) -> Result<i32, Error> {
     }
     if let Some(w) = d.old_lavapipe_warning() {
         eprintln!("vkpath: warning: {w}");
+    }
+    match &denoiser {
+        Ok(what) => println!("denoising (--denoise): {what}"),
+        Err(why) => println!("denoising (--denoise): not available: {why}"),
     }
     println!("limits:");
     println!(

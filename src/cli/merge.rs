@@ -7,7 +7,9 @@ use clap::Args;
 use std::path::PathBuf;
 use vkpath::Error;
 use vkpath::checkpoint::{Checkpoint, Header};
+use vkpath::denoise::{Denoiser, DeviceChoice};
 use vkpath::output::{Aov, ImageFile, ImageMetadata, Layers, write_images};
+use vkpath::session::{denoise_with_aux, raw_layers};
 
 #[derive(Args)]
 pub struct MergeArgs {
@@ -30,6 +32,11 @@ pub struct MergeArgs {
     /// Print one JSON object on stdout when done.
     #[arg(long)]
     json: bool,
+    /// Denoise the merged frame (Intel Open Image Denoise), from the albedo and normal images the parts
+    /// keep when rendered with --denoise or render.denoise = true (which also makes the merge denoise
+    /// without this flag). The EXR keeps the raw estimate as raw.R/G/B.
+    #[arg(long)]
+    denoise: bool,
 }
 
 /// `vkpath merge`: refuses to run with nowhere to write or an output of unknown format, reads every
@@ -63,6 +70,12 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
             "--aov adds layers to the EXR output, and no -o names an .exr file: add -o OUT.exr.",
         ));
     }
+    if m.denoise && m.outputs.is_empty() {
+        return Err(usage(
+            "--denoise denoises the merged image, and no -o names one: add -o OUT.png or -o OUT.exr (the \
+             merged checkpoint keeps the parts' aux images, to denoise later).",
+        ));
+    }
     let files = expand_parts(&m.parts)?;
     let inputs = files.iter().map(|p| (p.clone(), "a part merged")).collect();
     super::paths::check_outputs(&m.outputs, m.checkpoint.as_deref(), inputs, None)?;
@@ -77,6 +90,24 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
                 .map_err(|e| e.with_checkpoint_hint(hint))
         })
         .collect::<Result<Vec<_>, _>>()?;
+    // The parts' scene may ask for denoising (render.denoise = true); the denoiser is loaded before any
+    // pixel is read, so that a missing one is refused first.
+    let denoise =
+        !m.outputs.is_empty() && (m.denoise || headers.iter().all(|(_, h)| h.display.denoise));
+    let denoiser = if denoise {
+        Some(Denoiser::new(DeviceChoice::Cpu)?)
+    } else {
+        None
+    };
+    if denoise && let Some((path, _)) = headers.iter().find(|(_, h)| h.aux_samples.is_none()) {
+        return Err(Error::Checkpoint {
+            path: path.clone(),
+            message: "this part carries no albedo and normal images, which the denoiser needs: render the \
+                      parts with --denoise (or render.denoise = true in the scene), which makes each part's \
+                      checkpoint keep them, or merge without --denoise."
+                .into(),
+        });
+    }
     let merged = vkpath::checkpoint::merge::merge_files(&headers, |p| {
         Checkpoint::read(p).map_err(|e| e.with_checkpoint_hint(hint))
     })?;
@@ -95,18 +126,25 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
         seconds: None,
         device: h.device.clone(),
     };
-    let layers = Layers {
+    let mut layers = Layers {
         variance: aovs.contains(&Aov::Variance),
         ..Layers::default()
+    };
+    let (written, description) = match (&denoiser, &merged.aux) {
+        (Some(d), Some(aux)) => {
+            layers.extra = raw_layers(&film);
+            (denoise_with_aux(d, &film, aux)?, Some(d.describe()))
+        }
+        _ => (film.clone(), None),
     };
     write_images(
         &m.outputs,
         &ImageFile {
-            film: &film,
+            film: &written,
             settings: &settings,
             metadata: Some(&metadata),
             layers: &layers,
-            denoised: None,
+            denoised: description.as_deref(),
         },
     )?;
     if let Some(path) = &m.checkpoint {

@@ -60,8 +60,10 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
         eprintln!("vkpath: warning: {w}");
     }
     // The denoiser is loaded before the first sample: a missing one is refused now, not after the
-    // render (a part without images has nothing to denoise: the merge denoises the frame).
-    let denoiser = if (a.denoise || job.scene.image.denoise) && !job.outputs.is_empty() {
+    // render (a part without images has nothing to denoise: the merge denoises the frame, from the aux
+    // images each part's checkpoint keeps).
+    let denoise = a.denoise || job.scene.image.denoise;
+    let denoiser = if denoise && !job.outputs.is_empty() {
         Some(Denoiser::new(DeviceChoice::for_vulkan(ctx.device_info()))?)
     } else {
         None
@@ -78,6 +80,7 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
             part,
             aovs: &flags.aovs,
             denoiser: denoiser.as_ref(),
+            keep_aux: denoise && range.is_some() && flags.checkpoint.is_some(),
             time: flags.time,
             target_error: a.target_error,
             progress_every: a.progress_every,

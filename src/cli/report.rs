@@ -101,4 +101,8 @@ pub struct InfoReport<'a> {
     pub chosen: usize,
     /// Why that one, in a sentence.
     pub reason: &'a str,
+    /// What `--denoise` would use ("Intel Open Image Denoise 2.5.1 (PATH), CPU device"), or null.
+    pub denoiser: Option<&'a str>,
+    /// Why denoising is not available, when it is not.
+    pub denoiser_missing: Option<&'a str>,
 }
