@@ -264,12 +264,15 @@ impl ImageFile<'_> {
             software_name: Text::new_or_none(format!("vkpath {}", crate::VKPATH_VERSION)),
             ..LayerAttributes::default()
         };
-        let display = display_attributes(self.settings);
-        let notes = self.notes();
+        // The display transform goes with the metadata: an image written without (Film::write) keeps the
+        // attributes it had, and its bytes (the exr crate writes attributes in a HashMap's order, which
+        // varies between runs once there are two).
         let mut entries: Vec<(&str, String)> =
             self.metadata.map(|m| m.entries()).unwrap_or_default();
-        entries.extend(notes);
-        entries.extend(display);
+        entries.extend(self.notes());
+        if self.metadata.is_some() {
+            entries.extend(display_attributes(self.settings));
+        }
         {
             for (k, v) in entries {
                 // EXR text is Latin-1: a value it cannot hold (a scene name in another script) is written

@@ -84,6 +84,41 @@ fn image_errors_match_a_hand_computation() {
     assert_eq!((same.rmse, same.rel_mse, same.rel_error), (0.0, 0.0, 0.0));
 }
 
+/// SSIM against its closed form: two flat images of values a and b have zero variance and covariance, so
+/// SSIM = (2ab + C1) / (a^2 + b^2 + C1) with C1 = 0.01^2 (the structure term is C2 / C2 = 1); with a
+/// linear display (gamma 1, exposure 1, no tone curve) the displayed luminance of grey v is v. An image
+/// is 1 against itself; noise added lowers it.
+#[test]
+fn ssim_matches_its_closed_form_on_flat_images() {
+    use vkpath::bench::convergence::ssim;
+    let settings = vkpath::scene::ImageSettings {
+        width: 16,
+        height: 12,
+        exposure: 1.0,
+        gamma: vkpath::scene::Gamma::Power(1.0),
+        tonemap: vkpath::scene::Tonemap::None,
+        denoise: false,
+    };
+    let flat = |v: f32| vec![[v; 3]; 16 * 12];
+    let (a, b) = (0.25f64, 0.5f64);
+    let c1 = 1e-4;
+    let expected = (2.0 * a * b + c1) / (a * a + b * b + c1);
+    let got = ssim(&flat(a as f32), &flat(b as f32), &settings);
+    assert!((got - expected).abs() < 1e-9, "{got} vs {expected}");
+    let mut rng = 12345u32;
+    let noisy: Vec<[f32; 3]> = flat(0.5)
+        .iter()
+        .map(|p| {
+            rng = rng.wrapping_mul(1664525).wrapping_add(1013904223);
+            let n = (rng >> 8) as f32 / (1u32 << 24) as f32 - 0.5;
+            p.map(|v| v + 0.2 * n)
+        })
+        .collect();
+    assert!((ssim(&noisy, &noisy, &settings) - 1.0).abs() < 1e-12);
+    let s = ssim(&noisy, &flat(0.5), &settings);
+    assert!(s < 0.9, "noise should lower SSIM: {s}");
+}
+
 #[test]
 fn csv_has_the_columns_and_one_line_per_point() {
     let point = |setting: &str, spp, est| Point {
@@ -95,6 +130,7 @@ fn csv_has_the_columns_and_one_line_per_point() {
         rel_mse: 0.125,
         rel_error: 0.5,
         estimated_rel_error: est,
+        ssim: 0.75,
     };
     let csv = to_csv(&[
         point("default", 1, f64::NAN),
@@ -114,7 +150,8 @@ fn csv_has_the_columns_and_one_line_per_point() {
             "rmse",
             "rel_mse",
             "rel_error",
-            "estimated_rel_error"
+            "estimated_rel_error",
+            "ssim"
         ]
     );
     let row: Vec<&str> = lines[1].split(',').collect();

@@ -13,15 +13,32 @@
 //! - relative MSE = Σ (I − R)² / (R² + ε) / n with ε = 10⁻², the per-pixel relative measure of the
 //!   denoising literature, which weighs dark regions as much as bright ones.
 //!
+//! And one perceptual measure, SSIM (Wang, Bovik, Sheikh & Simoncelli 2004, "Image quality assessment:
+//! from error visibility to structural similarity"), of the displayed images (the scene's exposure, tone
+//! curve and gamma; luminance Y = 0.2126 R + 0.7152 G + 0.0722 B of the encoded values), with the paper's
+//! 11-tap Gaussian window (σ = 1.5) and constants C₁ = (0.01)², C₂ = (0.03)²: the mean over pixels of
+//! (2 μ_I μ_R + C₁)(2 σ_IR + C₂) / ((μ_I² + μ_R² + C₁)(σ_I² + σ_R² + C₂)). Why SSIM: a denoiser trades
+//! noise for blur, and MSE counts a blurred edge as little as a little noise, where a viewer sees lost
+//! detail; SSIM compares local structure (contrast and correlation), so it penalises both. It is the
+//! measure the denoising papers and OIDN's own evaluations report beside relative MSE.
+//!
 //! For an unbiased setting the expected squared error is Var(I) + Var(R), and Var(I) falls as 1/N, so
 //! the relative error falls as 1/√N (a line of slope −½ on the log-log plot) down to the reference's own
 //! noise. A biased setting (fewer bounces) flattens out at its bias instead.
+//!
+//! With `--denoise`, each setting has a second curve, "LABEL denoised": at each sample count, the image
+//! `vkpath render --denoise` would write at that count (the albedo and normal layers rendered with
+//! min(N, 64) samples, then Intel Open Image Denoise), its time the passes' plus the aux passes' plus the
+//! denoiser's (the kernels' compilation, as for the raw curve, not counted).
 
 use crate::Error;
+use crate::denoise::{Denoiser, Inputs, Quality};
 use crate::film::Film;
 use crate::gpu::GpuContext;
+use crate::kernel::abi::{AOV_ALBEDO, AOV_NORMAL};
+use crate::render::AOV_MAX_SPP;
 use crate::render::{RenderOptions, Renderer};
-use crate::scene::{LightSampling, Sampler, Scene};
+use crate::scene::{Gamma, ImageSettings, LightSampling, Sampler, Scene};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -225,6 +242,83 @@ pub fn image_errors(image: &[[f32; 3]], reference: &[[f32; 3]]) -> Errors {
     }
 }
 
+/// The display-encoded luminance of `image` (`width` pixels a row) through `settings`' transform, in
+/// [0, 1]: what SSIM compares.
+fn display_luminance(image: &[[f32; 3]], settings: &ImageSettings) -> Vec<f64> {
+    let encode = |v: f32| -> f64 {
+        let v = settings.tonemap.apply(v * settings.exposure);
+        let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+        f64::from(match settings.gamma {
+            Gamma::Power(g) => v.powf(1.0 / g),
+            Gamma::Srgb => crate::film::srgb_encode(v),
+        })
+    };
+    image
+        .iter()
+        .map(|p| 0.2126 * encode(p[0]) + 0.7152 * encode(p[1]) + 0.0722 * encode(p[2]))
+        .collect()
+}
+
+/// The mean SSIM of `image` against `reference` (both `width` x `height`, linear RGB) as displayed with
+/// `settings` (see the module's documentation). The window is separable: a 1-D Gaussian of 11 taps
+/// (σ = 1.5, normalised) along rows then columns, clamped at the image's edges.
+pub fn ssim(image: &[[f32; 3]], reference: &[[f32; 3]], settings: &ImageSettings) -> f64 {
+    let (w, h) = (settings.width as usize, settings.height as usize);
+    if w * h == 0 || image.len() != w * h || reference.len() != w * h {
+        return f64::NAN;
+    }
+    let x = display_luminance(image, settings);
+    let y = display_luminance(reference, settings);
+    let taps: Vec<f64> = (-5i32..=5)
+        .map(|i| (-f64::from(i * i) / (2.0 * 1.5 * 1.5)).exp())
+        .collect();
+    let norm: f64 = taps.iter().sum();
+    let blur = |v: &[f64]| -> Vec<f64> {
+        let mut rows = vec![0.0; w * h];
+        for r in 0..h {
+            for c in 0..w {
+                rows[r * w + c] = (0..11)
+                    .map(|k| {
+                        let cc = (c as i64 + k as i64 - 5).clamp(0, w as i64 - 1) as usize;
+                        taps[k] * v[r * w + cc]
+                    })
+                    .sum::<f64>()
+                    / norm;
+            }
+        }
+        let mut out = vec![0.0; w * h];
+        for r in 0..h {
+            for c in 0..w {
+                out[r * w + c] = (0..11)
+                    .map(|k| {
+                        let rr = (r as i64 + k as i64 - 5).clamp(0, h as i64 - 1) as usize;
+                        taps[k] * rows[rr * w + c]
+                    })
+                    .sum::<f64>()
+                    / norm;
+            }
+        }
+        out
+    };
+    let product = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).collect::<Vec<_>>();
+    let (mx, my) = (blur(&x), blur(&y));
+    let (sxx, syy, sxy) = (
+        blur(&product(&x, &x)),
+        blur(&product(&y, &y)),
+        blur(&product(&x, &y)),
+    );
+    let (c1, c2) = (0.01f64 * 0.01, 0.03f64 * 0.03);
+    let total: f64 = (0..w * h)
+        .map(|i| {
+            let (vx, vy) = (sxx[i] - mx[i] * mx[i], syy[i] - my[i] * my[i]);
+            let cov = sxy[i] - mx[i] * my[i];
+            (2.0 * mx[i] * my[i] + c1) * (2.0 * cov + c2)
+                / ((mx[i] * mx[i] + my[i] * my[i] + c1) * (vx + vy + c2))
+        })
+        .sum();
+    total / (w * h) as f64
+}
+
 /// The time at which a decreasing error curve reaches `target`: the first segment (s₀, e₀)–(s₁, e₁) with
 /// e₀ > target ≥ e₁, interpolated linearly in log-log space, where a power law e = a·sᵏ is a line:
 /// log s = log s₀ + (log target − log e₀) · (log s₁ − log s₀) / (log e₁ − log e₀).
@@ -261,11 +355,14 @@ pub struct Point {
     pub rel_error: f64,
     /// The film's own estimate of `rel_error` ([`Film::estimated_rel_error`]); NaN at 1 spp.
     pub estimated_rel_error: f64,
+    /// SSIM of the displayed image against the displayed reference (1: identical; see the module's
+    /// documentation).
+    pub ssim: f64,
 }
 
 /// The CSV's header line.
 pub const CSV_HEADER: &str =
-    "setting,spp,seconds,samples_per_second,rmse,rel_mse,rel_error,estimated_rel_error";
+    "setting,spp,seconds,samples_per_second,rmse,rel_mse,rel_error,estimated_rel_error,ssim";
 
 /// The points as CSV: [`CSV_HEADER`], then one line per point (a NaN is written as an empty field).
 pub fn to_csv(points: &[Point]) -> String {
@@ -281,7 +378,7 @@ pub fn to_csv(points: &[Point]) -> String {
         // A label holds no comma (commas separate settings in --knobs), so it needs no quoting.
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{}",
             p.setting,
             p.spp,
             num(p.seconds),
@@ -289,7 +386,8 @@ pub fn to_csv(points: &[Point]) -> String {
             num(p.rmse),
             num(p.rel_mse),
             num(p.rel_error),
-            num(p.estimated_rel_error)
+            num(p.estimated_rel_error),
+            num(p.ssim)
         );
     }
     out
@@ -309,6 +407,9 @@ pub fn checkpoints(max_spp: u32) -> Vec<u32> {
 /// first use), then the renderer is reset. Passes are cut so as to land on the checkpoints; otherwise
 /// they are `options.samples_per_pass` long or, when that is `None`, adapted as
 /// [`crate::render::render_progressive`] does (towards `options.target_pass_seconds`, at most doubling).
+///
+/// With a denoiser, also the denoised curve (labelled "`label` denoised"; see the module's
+/// documentation), after the raw one.
 pub fn measure(
     ctx: &Arc<GpuContext>,
     scene: &Scene,
@@ -316,10 +417,29 @@ pub fn measure(
     label: &str,
     reference: &[[f32; 3]],
     max_spp: u32,
+    denoiser: Option<&Denoiser>,
 ) -> Result<Vec<Point>, Error> {
     let mut r = Renderer::new(ctx, scene, options)?;
     r.run_pass(1)?;
     r.reset()?;
+    // The aux renderers, compiled (and warmed up) before any timing, as the measured one.
+    let mut aux = match denoiser {
+        Some(_) => {
+            let make = |aov| -> Result<Renderer, Error> {
+                let o = RenderOptions {
+                    aov,
+                    fault: None,
+                    ..options.clone()
+                };
+                let mut a = Renderer::new(ctx, scene, &o)?;
+                a.run_pass(1)?;
+                Ok(a)
+            };
+            Some((make(AOV_ALBEDO)?, make(AOV_NORMAL)?))
+        }
+        None => None,
+    };
+    let mut denoised = Vec::new();
     let pixels = f64::from(scene.image.width) * f64::from(scene.image.height);
     let mut pass = options.samples_per_pass.unwrap_or(1).max(1);
     let mut seconds = 0.0;
@@ -347,8 +467,48 @@ pub fn measure(
             rel_mse: e.rel_mse,
             rel_error: e.rel_error,
             estimated_rel_error: film.estimated_rel_error(),
+            ssim: ssim(&film.mean, reference, &scene.image),
         });
+        if let (Some(d), Some((albedo, normal))) = (denoiser, aux.as_mut()) {
+            let t0 = Instant::now();
+            let aux_spp = target.min(AOV_MAX_SPP);
+            let layer = |a: &mut Renderer| -> Result<Film, Error> {
+                a.reset()?;
+                a.run_pass(aux_spp)?;
+                Ok(a.film()?)
+            };
+            let (albedo, normal) = (layer(albedo)?, layer(normal)?);
+            let normal: Vec<[f32; 3]> = normal
+                .mean
+                .iter()
+                .map(|p| p.map(|v| 2.0 * v - 1.0))
+                .collect();
+            let image = d.denoise(
+                &Inputs {
+                    width: scene.image.width,
+                    height: scene.image.height,
+                    color: &film.mean,
+                    albedo: &albedo.mean,
+                    normal: &normal,
+                },
+                Quality::High,
+            )?;
+            let total = seconds + t0.elapsed().as_secs_f64();
+            let e = image_errors(&image, reference);
+            denoised.push(Point {
+                setting: format!("{label} denoised"),
+                spp: target,
+                seconds: total,
+                samples_per_second: pixels * f64::from(target) / total.max(1e-12),
+                rmse: e.rmse,
+                rel_mse: e.rel_mse,
+                rel_error: e.rel_error,
+                estimated_rel_error: f64::NAN,
+                ssim: ssim(&image, reference, &scene.image),
+            });
+        }
     }
+    points.extend(denoised);
     Ok(points)
 }
 
@@ -362,6 +522,8 @@ pub struct Config {
     pub reference_spp: u32,
     pub max_spp: u32,
     pub out_dir: PathBuf,
+    /// `--denoise`: also each setting's denoised curve.
+    pub denoise: bool,
 }
 
 /// The reference used: its pixels, where it is, and (when rendered here) its spp and own error.
@@ -473,6 +635,13 @@ pub fn run(
             }
         }
     };
+    let denoiser = if config.denoise {
+        Some(Denoiser::new(crate::denoise::DeviceChoice::for_vulkan(
+            ctx.device_info(),
+        ))?)
+    } else {
+        None
+    };
     let mut points = Vec::new();
     for s in &config.settings {
         let (sc, options) = s.apply(scene).map_err(Error::Usage)?;
@@ -487,18 +656,29 @@ pub fn run(
             &s.label,
             &reference.pixels,
             config.max_spp,
+            denoiser.as_ref(),
         )?;
-        if let Some(last) = curve.last() {
-            log(&format!(
-                "  {}: {:.2} s, {:.3} Msamples/s, relative error {:.3}% (estimated {:.3}%)",
-                s.label,
-                last.seconds,
-                last.samples_per_second / 1e6,
-                last.rel_error * 100.0,
-                last.estimated_rel_error * 100.0
-            ));
+        for label in [s.label.clone(), format!("{} denoised", s.label)] {
+            if let Some(last) = curve.iter().rfind(|p| p.setting == label) {
+                log(&format!(
+                    "  {label}: {:.2} s, {:.3} Msamples/s, relative error {:.3}% (estimated {:.3}%), SSIM {:.4}",
+                    last.seconds,
+                    last.samples_per_second / 1e6,
+                    last.rel_error * 100.0,
+                    last.estimated_rel_error * 100.0,
+                    last.ssim
+                ));
+            }
         }
         points.extend(curve);
+    }
+    // The denoised curves are drawn and tabulated as settings of their own, after the raw ones.
+    let mut curves = config.settings.clone();
+    if denoiser.is_some() {
+        curves.extend(config.settings.iter().map(|s| Setting {
+            label: format!("{} denoised", s.label),
+            values: s.values.clone(),
+        }));
     }
     let csv = config.out_dir.join(format!("{stem}-convergence.csv"));
     crate::fs_atomic::write_atomically(&csv, to_csv(&points).as_bytes())?;
@@ -507,8 +687,15 @@ pub fn run(
         "{stem}, {w}x{h}: relative error vs time ({})",
         ctx.device_info().name
     );
-    write_plot(&plot, &title, &config.settings, &points)?;
-    let table = markdown_table(scene, config, &reference, &points, &ctx.device_info().name);
+    write_plot(&plot, &title, &curves, &points)?;
+    let table = markdown_table(
+        scene,
+        config,
+        &curves,
+        &reference,
+        &points,
+        &ctx.device_info().name,
+    );
     Ok(Report {
         points,
         reference,
@@ -523,6 +710,7 @@ pub fn run(
 pub fn markdown_table(
     scene: &Scene,
     config: &Config,
+    curves: &[Setting],
     reference: &Reference,
     points: &[Point],
     device: &str,
@@ -538,15 +726,15 @@ pub fn markdown_table(
         "{}, {}x{}, up to {} spp, against {reference_text}, on {device}. Seconds are cumulative pass times of a progressive render; \
          times and spp to an error are log-log interpolated, empty when not reached. The errors do not depend on the \
          machine (same seeds, same bits); the seconds do.\n\n\
-         | setting | Msamples/s | rel. error at {} spp | s to 5% | s to 2% | s to 1% | spp to 5% | spp to 2% | spp to 1% |\n\
-         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
+         | setting | Msamples/s | rel. error at {} spp | SSIM | s to 5% | s to 2% | s to 1% | spp to 5% | spp to 2% | spp to 1% |\n\
+         | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |\n",
         scene.stem(),
         scene.image.width,
         scene.image.height,
         config.max_spp,
         config.max_spp
     );
-    for s in &config.settings {
+    for s in curves {
         let curve: Vec<&Point> = points.iter().filter(|p| p.setting == s.label).collect();
         let Some(last) = curve.last() else { continue };
         let by_time: Vec<(f64, f64)> = curve.iter().map(|p| (p.seconds, p.rel_error)).collect();
@@ -586,9 +774,10 @@ pub fn markdown_table(
         };
         let _ = writeln!(
             out,
-            "| {label} | {:.3} | {:.2}% | {} |",
+            "| {label} | {:.3} | {:.2}% | {:.4} | {} |",
             last.samples_per_second / 1e6,
             last.rel_error * 100.0,
+            last.ssim,
             times.join(" | ")
         );
     }

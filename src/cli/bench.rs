@@ -104,6 +104,10 @@ pub struct ConvergenceArgs {
     /// Directory of the CSV, the PNG and the rendered reference.
     #[arg(long, default_value = "bench-out")]
     out: PathBuf,
+    /// Also each setting's denoised curve: the image --denoise would write at each sample count, its
+    /// time with the aux layers' and the denoiser's (Intel Open Image Denoise).
+    #[arg(long)]
+    denoise: bool,
 }
 
 /// `vkpath bench ...`: each benchmark with its flags.
@@ -166,6 +170,7 @@ fn run_convergence(a: ConvergenceArgs) -> Result<i32, Error> {
         reference_spp: a.reference_spp,
         max_spp: a.max_spp,
         out_dir: a.out,
+        denoise: a.denoise,
     };
     let ctx = GpuContext::new(&ContextOptions::default())?;
     let report = convergence::run(&ctx, &config, |line| eprintln!("vkpath: {line}"))?;
