@@ -55,6 +55,11 @@ static XVFB: Mutex<()> = Mutex::new(());
 
 /// `vkpath preview ARGS` under `xvfb-run -a` (a free display number each time), validation on.
 fn preview(dir: &Path, args: &[&str]) -> Value {
+    preview_with(dir, args, &[])
+}
+
+/// [`preview`] with environment variables set.
+fn preview_with(dir: &Path, args: &[&str], env: &[(&str, &Path)]) -> Value {
     let _one_at_a_time = XVFB.lock().unwrap_or_else(|p| p.into_inner());
     let out = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1024x768x24", BIN, "preview"])
@@ -62,6 +67,7 @@ fn preview(dir: &Path, args: &[&str]) -> Value {
         .arg("--json")
         .current_dir(dir)
         .env("VKPATH_VALIDATION", "1")
+        .envs(env.iter().copied())
         .output();
     let out = match out {
         Ok(o) => o,
@@ -239,6 +245,80 @@ fn resizes_restarts_saves_and_orbits_without_validation_errors() {
     // And it is not the unmoved camera's image.
     let unmoved = render(dir.path(), &scene, spp, "unmoved.png");
     assert!(max_difference(&shown, &unmoved) > 16);
+}
+
+/// Root-mean-square difference of two 8-bit images, in 8-bit units.
+fn rms_difference(a: &image::RgbImage, b: &image::RgbImage) -> f64 {
+    let sum: f64 = a
+        .as_raw()
+        .iter()
+        .zip(b.as_raw())
+        .map(|(x, y)| (f64::from(*x) - f64::from(*y)).powi(2))
+        .sum();
+    (sum / a.as_raw().len() as f64).sqrt()
+}
+
+/// D (a scripted `denoise`) shows the denoised image: the screenshot at N spp is closer to the
+/// converged image (1024 spp) than the raw render at the same N is, by a stated factor (below 0.7 of
+/// its RMS difference). Without the denoiser the window goes on with the raw view and says why.
+#[test]
+fn the_denoised_view_is_closer_to_the_converged_image() {
+    let dir = TempDir::new().unwrap();
+    let scene = write_scene(dir.path(), "course.toml", None);
+    let scene_arg = scene.to_str().unwrap();
+    let report = preview(
+        dir.path(),
+        &[
+            &[scene_arg][..],
+            &SIZE,
+            &[
+                "--spp",
+                "4",
+                "--frames",
+                "30",
+                "--screenshot",
+                "shot.png",
+                "--script",
+                "1:denoise",
+            ],
+        ]
+        .concat(),
+    );
+    assert!(report["denoise_error"].is_null(), "{report}");
+    assert!(
+        report["denoised_images_shown"].as_u64() >= Some(1),
+        "{report}"
+    );
+    assert_eq!(spp_of(&report), 4, "{report}");
+    let shown = read_png(&dir.path().join("shot.png"));
+    let raw = render(dir.path(), &scene, 4, "raw.png");
+    let converged = render(dir.path(), &scene, 1024, "converged.png");
+    let (e_shown, e_raw) = (
+        rms_difference(&shown, &converged),
+        rms_difference(&raw, &converged),
+    );
+    assert!(
+        e_shown < 0.7 * e_raw,
+        "denoised view {e_shown} vs raw {e_raw} (8-bit RMS)"
+    );
+    // No denoiser: the raw view, and the reason in the report.
+    let empty = dir.path().join("no-oidn");
+    std::fs::create_dir(&empty).unwrap();
+    let report = preview_with(
+        dir.path(),
+        &[
+            &[scene_arg][..],
+            &SIZE,
+            &["--frames", "6", "--script", "1:denoise"],
+        ]
+        .concat(),
+        &[("VKPATH_OIDN_DIR", &empty)],
+    );
+    assert_eq!(report["denoised_images_shown"], 0, "{report}");
+    let why = report["denoise_error"]
+        .as_str()
+        .unwrap_or_else(|| panic!("{report}"));
+    assert!(why.contains("ci/setup.sh --denoise"), "{why}");
 }
 
 #[test]

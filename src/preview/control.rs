@@ -49,6 +49,8 @@ pub enum Action {
     Orbit(f32, f32),
     /// S: save the current image.
     Save,
+    /// D: show the denoised image, or the raw one again.
+    Denoise,
 }
 
 /// An action to take once the window has presented `at` images.
@@ -59,14 +61,15 @@ pub struct Step {
 }
 
 /// Parses `--script`: steps separated by `;`, each `N:ACTION` with ACTION one of `resize WxH`,
-/// `restart`, `orbit AZ EL` (degrees) or `save`, run right after present number N (1-based).
+/// `restart`, `orbit AZ EL` (degrees), `save` or `denoise`, run right after present number N (1-based).
 pub fn parse_script(text: &str) -> Result<Vec<Step>, String> {
     let mut steps = Vec::new();
     for part in text.split(';').map(str::trim).filter(|p| !p.is_empty()) {
         let bad = |why: &str| {
             format!(
                 "--script step \"{part}\" {why}; a step is N:ACTION with N a present number and ACTION \
-                 one of `resize WxH`, `restart`, `orbit AZ EL` (degrees), `save`, steps separated by `;`."
+                 one of `resize WxH`, `restart`, `orbit AZ EL` (degrees), `save`, `denoise`, steps separated \
+                 by `;`."
             )
         };
         let (n, action) = part.split_once(':').ok_or_else(|| bad("has no \"N:\""))?;
@@ -78,6 +81,7 @@ pub fn parse_script(text: &str) -> Result<Vec<Step>, String> {
         let action = match words.as_slice() {
             ["restart"] => Action::Restart,
             ["save"] => Action::Save,
+            ["denoise"] => Action::Denoise,
             ["resize", size] => {
                 let (w, h) = size
                     .split_once(['x', 'X'])

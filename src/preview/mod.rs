@@ -8,6 +8,11 @@
 //! - the main thread runs the window (winit) and presents the latest image at up to
 //!   [`PreviewSettings::max_presents_per_second`], whether or not a new one has arrived.
 //!
+//! D toggles the denoised view: the render thread then also denoises the film it publishes (Intel Open
+//! Image Denoise at its `Balanced` quality, with albedo and normal layers rendered once per camera), no
+//! more often than every [`DENOISE_BUDGET`] times the last denoise's own duration, so that denoising
+//! takes at most a fifth of the render thread's time; the samples go on accumulating raw.
+//!
 //! They never wait for each other for long: the image is cut into strips of a few rows
 //! (`RenderOptions::max_tile`), each strip's sample is its own queue submission, so a present's copy
 //! waits at most one strip's work in the shared queue; the film is read back on the render thread.
@@ -38,6 +43,15 @@ use winit::window::{Window, WindowId};
 /// after every pass would take a good part of the tracing time; four images a second look fluid
 /// enough for an image that converges.
 pub const PUBLISH_INTERVAL: Duration = Duration::from_millis(250);
+
+/// The denoised view's pacing: after a denoise that took t, the next waits until 4 t have passed, so
+/// that denoising takes at most t / (t + 4 t) = 1/5 of the render thread (OIDN takes seconds at 512x512
+/// on two CPU cores, milliseconds on a GPU: the rule adapts to both).
+pub const DENOISE_BUDGET: u32 = 4;
+
+/// Samples per pixel of the aux layers the denoised view renders per camera (antialiased enough for
+/// the network; cheap next to the render).
+const PREVIEW_AUX_SPP: u32 = 8;
 
 /// The pixels of one strip of rows (one queue submission per sample, see the module comment): a few
 /// milliseconds of work on lavapipe for the course scene, so a present waits at most that long behind
@@ -108,6 +122,10 @@ pub struct PreviewReport {
     pub validation: bool,
     /// Messages of the Vulkan validation layer (when enabled), errors only.
     pub validation_errors: Vec<String>,
+    /// Denoised images shown (D, or a scripted `denoise`).
+    pub denoised_images_shown: u64,
+    /// Why the denoised view could not be shown, when it could not (no denoiser installed).
+    pub denoise_error: Option<String>,
 }
 
 /// One image from the render thread.
@@ -120,6 +138,8 @@ struct Frame {
     /// Counts every image published (so that a restart at the same spp still shows as new).
     serial: u64,
     samples_per_second: f64,
+    /// The image is the denoised film (`film` stays the raw one).
+    denoised: bool,
 }
 
 /// What the two threads share.
@@ -129,6 +149,10 @@ struct Shared {
     /// Requests from the window to the render thread.
     restart: bool,
     camera: Option<Camera>,
+    /// Whether the window wants the denoised view (D).
+    denoise: bool,
+    /// Why the denoised view is not available (the render thread could not load the denoiser).
+    denoise_error: Option<String>,
     quit: bool,
     /// The render thread's failure; the window then closes and `run` returns it.
     error: Option<Error>,
@@ -334,6 +358,9 @@ impl App {
         }
         if is_new {
             self.report.images_shown += 1;
+            if frame.denoised {
+                self.report.denoised_images_shown += 1;
+            }
         }
         if last && self.capture_requested {
             self.capture = presenter.take_capture()?;
@@ -374,6 +401,21 @@ impl App {
             }
             Action::Orbit(az, el) => self.orbit(az, el),
             Action::Save => self.save(),
+            Action::Denoise => {
+                let on = {
+                    let mut s = lock(&self.shared);
+                    s.denoise = !s.denoise;
+                    s.denoise
+                };
+                self.notice(
+                    if on {
+                        "denoised view (D)"
+                    } else {
+                        "raw view (D)"
+                    }
+                    .into(),
+                );
+            }
             Action::Resize(w, h) => {
                 if let Some(window) = &self.window {
                     // The Resized event follows (or the size is applied at once: then none is sent).
@@ -449,8 +491,14 @@ impl App {
             Some((text, at)) if at.elapsed() < Duration::from_secs(4) => format!(" | {text}"),
             _ => String::new(),
         };
+        let denoise_error = lock(&self.shared).denoise_error.clone();
+        let view = match (&denoise_error, frame.denoised) {
+            (Some(_), _) => " | denoising not available (see stderr)",
+            (None, true) => " | denoised",
+            (None, false) => "",
+        };
         window.set_title(&format!(
-            "vkpath preview: {} | {} spp | {:.2} Msamples/s{error} | {:.0} presents/s{notice}",
+            "vkpath preview: {} | {} spp{view} | {:.2} Msamples/s{error} | {:.0} presents/s{notice}",
             self.report.scene,
             frame.film.spp,
             frame.samples_per_second / 1e6,
@@ -489,6 +537,7 @@ impl App {
             }
         }
         let thread_error = lock(&self.shared).error.take();
+        self.report.denoise_error = lock(&self.shared).denoise_error.take();
         if let Some(e) = self.error.take().or(thread_error) {
             return Err(e);
         }
@@ -556,6 +605,9 @@ impl ApplicationHandler for App {
                     Key::Character(c) if c.eq_ignore_ascii_case("s") && !event.repeat => {
                         self.act(&Action::Save)
                     }
+                    Key::Character(c) if c.eq_ignore_ascii_case("d") && !event.repeat => {
+                        self.act(&Action::Denoise)
+                    }
                     _ => {}
                 }
             }
@@ -621,10 +673,16 @@ fn render_loop(
     let mut serial = 0u64;
     let mut last_publish: Option<Instant> = None;
     let mut tracing = Duration::ZERO;
+    let mut view = DenoisedView::default();
     loop {
-        let (quit, restart, camera) = {
+        let (quit, restart, camera, denoise) = {
             let mut s = lock(shared);
-            (s.quit, std::mem::take(&mut s.restart), s.camera.take())
+            (
+                s.quit,
+                std::mem::take(&mut s.restart),
+                s.camera.take(),
+                s.denoise,
+            )
         };
         if quit {
             return Ok(());
@@ -635,6 +693,7 @@ fn render_loop(
             scene.camera = c;
             drop(renderer);
             renderer = Renderer::new(ctx, &scene, options)?;
+            view.aux = None;
         } else if restart {
             renderer.reset()?;
         }
@@ -655,7 +714,15 @@ fn render_loop(
             || max_spp.is_some_and(|m| done >= m);
         if due {
             let film = renderer.film()?;
-            let rgb = film.to_rgb8(&scene.image);
+            let denoised = if denoise {
+                view.denoise(ctx, &scene, options, &film, shared)?
+            } else {
+                None
+            };
+            let rgb = match &denoised {
+                Some(d) => d.to_rgb8(&scene.image),
+                None => film.to_rgb8(&scene.image),
+            };
             let rgba = rgb.pixels().flat_map(|p| [p[0], p[1], p[2], 255]).collect();
             let pixels = f64::from(film.width) * f64::from(film.height);
             serial += 1;
@@ -665,9 +732,99 @@ fn render_loop(
                 samples_per_second: pixels * f64::from(done) / tracing.as_secs_f64().max(1e-9),
                 film,
                 serial,
+                denoised: denoised.is_some(),
             };
             lock(shared).frame = Some(Arc::new(frame));
             last_publish = Some(Instant::now());
         }
+    }
+}
+
+/// The render thread's denoised view: the denoiser (loaded on the first D), the aux images of the current
+/// camera, and the pacing (see the module's documentation).
+#[derive(Default)]
+struct DenoisedView {
+    denoiser: Option<crate::denoise::Denoiser>,
+    /// The load failed: said once, then the raw view goes on.
+    unavailable: bool,
+    aux: Option<crate::checkpoint::Aux>,
+    /// The last denoise: when it ended, how long it took, and its image with the spp it was made at.
+    last: Option<(Instant, Duration, Film)>,
+}
+
+impl DenoisedView {
+    /// The denoised image of `film` when one is due (or the last one, while the next is not due and the
+    /// samples have not moved on much), `None` when denoising is not available.
+    fn denoise(
+        &mut self,
+        ctx: &Arc<GpuContext>,
+        scene: &Scene,
+        options: &RenderOptions,
+        film: &Film,
+        shared: &Mutex<Shared>,
+    ) -> Result<Option<Film>, Error> {
+        if self.unavailable {
+            return Ok(None);
+        }
+        if self.denoiser.is_none() {
+            match crate::denoise::Denoiser::new(crate::denoise::DeviceChoice::for_vulkan(
+                ctx.device_info(),
+            )) {
+                Ok(d) => self.denoiser = Some(d),
+                Err(e) => {
+                    eprintln!("vkpath: warning: the denoised view (D) is not available: {e}");
+                    lock(shared).denoise_error = Some(e.to_string());
+                    self.unavailable = true;
+                    return Ok(None);
+                }
+            }
+        }
+        if let Some((at, took, image)) = &self.last
+            && image.spp <= film.spp
+            && image.width == film.width
+            && at.elapsed() < *took * DENOISE_BUDGET
+            && self.aux.is_some()
+        {
+            return Ok(Some(image.clone()));
+        }
+        let started = Instant::now();
+        if self.aux.is_none() {
+            let aux_options = RenderOptions {
+                max_tile: None,
+                ..options.clone()
+            };
+            let layer =
+                |code| crate::render::render_aov(ctx, scene, &aux_options, code, PREVIEW_AUX_SPP);
+            let albedo = layer(crate::kernel::abi::AOV_ALBEDO)?;
+            let normal = layer(crate::kernel::abi::AOV_NORMAL)?;
+            self.aux = Some(crate::checkpoint::Aux {
+                albedo: albedo.mean,
+                normal: normal
+                    .mean
+                    .iter()
+                    .map(|p| p.map(|v| 2.0 * v - 1.0))
+                    .collect(),
+            });
+            self.last = None;
+        }
+        let (Some(d), Some(aux)) = (&self.denoiser, &self.aux) else {
+            return Ok(None);
+        };
+        let mean = d.denoise(
+            &crate::denoise::Inputs {
+                width: film.width,
+                height: film.height,
+                color: &film.mean,
+                albedo: &aux.albedo,
+                normal: &aux.normal,
+            },
+            crate::denoise::Quality::Balanced,
+        )?;
+        let image = Film {
+            mean,
+            ..film.clone()
+        };
+        self.last = Some((Instant::now(), started.elapsed(), image.clone()));
+        Ok(Some(image))
     }
 }
