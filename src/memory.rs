@@ -24,9 +24,11 @@ pub const CHECKPOINT_BYTES_PER_PIXEL: u64 = ACCUM_BYTES_PER_PIXEL + ACCUM_BYTES_
 pub const AOV_LAYER_BYTES_PER_PIXEL: u64 = FILM_BYTES_PER_PIXEL;
 
 /// Denoising (`--denoise`): OIDN's four images (color, albedo, normal, output; 12 bytes each), the
-/// decoded normals, the denoised film and the raw layers for the EXR, and OIDN's own scratch for its
-/// network (measured: docs/denoising.md).
-pub const DENOISE_BYTES_PER_PIXEL: u64 = 160;
+/// decoded normals, the denoised film and the raw layers for the EXR, and above all OIDN's own scratch for
+/// its network's activations. Measured (course scene, 1 spp, peak resident set with and without
+/// `--denoise`): +240 MB at 512², +664 MB at 1024², +2722 MB at 2048², 654 bytes a pixel between the last
+/// two (docs/denoising.md); rounded up.
+pub const DENOISE_BYTES_PER_PIXEL: u64 = 700;
 
 /// What a render keeps on the host besides the renderer's own buffers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -230,6 +230,20 @@ fn vkpath_denoise_is_deterministic_and_matches_the_render_flag() {
         "{err}"
     );
     assert!(!d.join("x.exr").exists());
+    // Too large for the memory available (the test hook stands for MemAvailable): refused before
+    // denoising, naming what it would take.
+    let out = vkpath(d)
+        .env(vkpath::memory::AVAILABLE_OVERRIDE, "1000000")
+        .args(["denoise", "in.exr", "-o", "small.exr"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("denoising 64x64") && err.contains("MiB"),
+        "{err}"
+    );
+    assert!(!d.join("small.exr").exists());
     // `render.denoise = true` is the flag.
     let asked = furnace(d, "denoise = true\n");
     run_ok(d, &["render", asked.to_str().unwrap(), "-o", "key.exr"]);

@@ -683,11 +683,19 @@ pub fn run(
     let csv = config.out_dir.join(format!("{stem}-convergence.csv"));
     crate::fs_atomic::write_atomically(&csv, to_csv(&points).as_bytes())?;
     let plot = config.out_dir.join(format!("{stem}-convergence.png"));
+    // With denoised curves the plot shows relative MSE (the denoising literature's measure, which the
+    // equal-time table compares); otherwise the relative error the thresholds are about.
+    let metric = if denoiser.is_some() {
+        PlotMetric::RelMse
+    } else {
+        PlotMetric::RelError
+    };
     let title = format!(
-        "{stem}, {w}x{h}: relative error vs time ({})",
+        "{stem}, {w}x{h}: {} vs time ({})",
+        metric.name(),
         ctx.device_info().name
     );
-    write_plot(&plot, &title, &curves, &points)?;
+    write_plot(&plot, &title, &curves, &points, metric)?;
     let table = markdown_table(
         scene,
         config,
@@ -860,6 +868,31 @@ pub fn equal_time_table(label: &str, raw: &[&Point], den: &[&Point]) -> String {
     out
 }
 
+/// What the plot's vertical axis shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlotMetric {
+    /// RMSE / mean(reference), with the 5 %, 2 %, 1 % thresholds and the 1/√N line.
+    RelError,
+    /// Relative MSE, with the 1/N line (MSE falls as 1/N).
+    RelMse,
+}
+
+impl PlotMetric {
+    fn name(self) -> &'static str {
+        match self {
+            PlotMetric::RelError => "relative error",
+            PlotMetric::RelMse => "relative MSE",
+        }
+    }
+
+    fn of(self, p: &Point) -> f64 {
+        match self {
+            PlotMetric::RelError => p.rel_error,
+            PlotMetric::RelMse => p.rel_mse,
+        }
+    }
+}
+
 /// The font of the plot's text: DejaVu Sans reduced to ASCII (assets/fonts, with its licence).
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans-subset.ttf");
 
@@ -870,6 +903,7 @@ pub fn write_plot(
     title: &str,
     settings: &[Setting],
     points: &[Point],
+    metric: PlotMetric,
 ) -> Result<(), Error> {
     use plotters::prelude::*;
     const SIZE: (u32, u32) = (1000, 700);
@@ -882,14 +916,14 @@ pub fn write_plot(
         .map_err(|_| fail("the embedded font is not a valid TrueType font".into()))?;
     let usable: Vec<&Point> = points
         .iter()
-        .filter(|p| p.seconds > 0.0 && p.rel_error > 0.0 && p.rel_error.is_finite())
+        .filter(|p| p.seconds > 0.0 && metric.of(p) > 0.0 && metric.of(p).is_finite())
         .collect();
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
     for p in &usable {
         x0 = x0.min(p.seconds);
         x1 = x1.max(p.seconds);
-        y0 = y0.min(p.rel_error);
-        y1 = y1.max(p.rel_error);
+        y0 = y0.min(metric.of(p));
+        y1 = y1.max(metric.of(p));
     }
     if usable.is_empty() {
         (x0, x1, y0, y1) = (1e-3, 1.0, 1e-3, 1.0);
@@ -907,7 +941,11 @@ pub fn write_plot(
             .unwrap_or(10.0 * d)
     };
     let (x0, x1) = (decade_floor(x0), decade_ceil(x1 * 1.01));
-    let (y0, y1) = (decade_floor(y0.min(0.01 * 0.999)), nice_ceil(y1 * 1.01));
+    let y0 = match metric {
+        PlotMetric::RelError => decade_floor(y0.min(0.01 * 0.999)),
+        PlotMetric::RelMse => decade_floor(y0),
+    };
+    let y1 = nice_ceil(y1 * 1.01);
 
     let mut buf = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
     {
@@ -924,14 +962,24 @@ pub fn write_plot(
         chart
             .configure_mesh()
             .x_desc("seconds (cumulative, progressive passes)")
-            .y_desc("relative error = RMSE / mean(reference)")
+            .y_desc(match metric {
+                PlotMetric::RelError => "relative error = RMSE / mean(reference)",
+                PlotMetric::RelMse => "relative MSE = mean (I - R)^2 / (R^2 + 0.01)",
+            })
             .x_label_formatter(&|v| format!("{v:.3}"))
-            .y_label_formatter(&|v| format!("{:.1}%", v * 100.0))
+            .y_label_formatter(&|v| match metric {
+                PlotMetric::RelError => format!("{:.1}%", v * 100.0),
+                PlotMetric::RelMse => format!("{v:.0e}"),
+            })
             .label_style(("sans-serif", 15))
             .draw()
             .map_err(|e| fail(e.to_string()))?;
         let orange = RGBColor(255, 170, 90);
-        for (i, t) in THRESHOLDS.into_iter().enumerate() {
+        let thresholds: &[f64] = match metric {
+            PlotMetric::RelError => &THRESHOLDS,
+            PlotMetric::RelMse => &[],
+        };
+        for (i, &t) in thresholds.iter().enumerate() {
             let drawn = chart
                 .draw_series(LineSeries::new([(x0, t), (x1, t)], orange.stroke_width(1)))
                 .map_err(|e| fail(e.to_string()))?;
@@ -946,7 +994,7 @@ pub fn write_plot(
             let line: Vec<(f64, f64)> = usable
                 .iter()
                 .filter(|p| p.setting == s.label)
-                .map(|p| (p.seconds, p.rel_error))
+                .map(|p| (p.seconds, metric.of(p)))
                 .collect();
             chart
                 .draw_series(LineSeries::new(line, color.stroke_width(2)))
@@ -957,17 +1005,23 @@ pub fn write_plot(
                 });
         }
         // 1/√N through the first point of the first setting: e(t) = e₀ √(t₀ / t), since at a fixed
-        // rate N ∝ t.
+        // rate N ∝ t (for the MSE, 1/N: e₀ t₀ / t).
         if let Some(first) = settings
             .first()
             .and_then(|s| usable.iter().find(|p| p.setting == s.label))
         {
-            let (t0, e0) = (first.seconds, first.rel_error);
-            let line = [t0, x1].map(|t| (t, e0 * (t0 / t).sqrt()));
+            let (t0, e0) = (first.seconds, metric.of(first));
+            let line = [t0, x1].map(|t| match metric {
+                PlotMetric::RelError => (t, e0 * (t0 / t).sqrt()),
+                PlotMetric::RelMse => (t, e0 * t0 / t),
+            });
             chart
                 .draw_series(LineSeries::new(line, BLACK.stroke_width(1)))
                 .map_err(|e| fail(e.to_string()))?
-                .label("1/sqrt(N) from the first point")
+                .label(match metric {
+                    PlotMetric::RelError => "1/sqrt(N) from the first point",
+                    PlotMetric::RelMse => "1/N from the first point",
+                })
                 .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
         }
         chart

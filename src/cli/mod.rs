@@ -37,7 +37,8 @@ pub enum Command {
     /// Render a scene (the embedded course scene when none is given) to PNG/EXR.
     Render(Box<render::RenderArgs>),
     /// Open a window and watch the render converge (cargo feature `preview`). Keys: S saves the image
-    /// (PNG + EXR), R restarts, Esc/Q quits; drag with the left button to orbit the camera.
+    /// (PNG + EXR), D toggles the denoised view, R restarts, Esc/Q quits; drag with the left button to
+    /// orbit the camera.
     Preview(Box<preview::PreviewArgs>),
     /// Combine partial renders (--part or --sample-range checkpoints; a directory, a glob) into the image
     /// of their union.
