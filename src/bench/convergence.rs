@@ -273,33 +273,23 @@ pub fn ssim(image: &[[f32; 3]], reference: &[[f32; 3]], settings: &ImageSettings
         .map(|i| (-f64::from(i * i) / (2.0 * 1.5 * 1.5)).exp())
         .collect();
     let norm: f64 = taps.iter().sum();
-    let blur = |v: &[f64]| -> Vec<f64> {
-        let mut rows = vec![0.0; w * h];
-        for r in 0..h {
-            for c in 0..w {
-                rows[r * w + c] = (0..11)
-                    .map(|k| {
-                        let cc = (c as i64 + k as i64 - 5).clamp(0, w as i64 - 1) as usize;
-                        taps[k] * v[r * w + cc]
-                    })
-                    .sum::<f64>()
-                    / norm;
-            }
-        }
-        let mut out = vec![0.0; w * h];
-        for r in 0..h {
-            for c in 0..w {
-                out[r * w + c] = (0..11)
-                    .map(|k| {
-                        let rr = (r as i64 + k as i64 - 5).clamp(0, h as i64 - 1) as usize;
-                        taps[k] * rows[rr * w + c]
-                    })
-                    .sum::<f64>()
-                    / norm;
-            }
-        }
-        out
+    // One 1-D pass of the window along the rows (`across`) or the columns, clamped at the edges.
+    let pass = |v: &[f64], across: bool| -> Vec<f64> {
+        (0..w * h)
+            .map(|i| {
+                let (r, c) = ((i / w) as i64, (i % w) as i64);
+                let at = |o: i64| {
+                    if across {
+                        (r * w as i64 + (c + o).clamp(0, w as i64 - 1)) as usize
+                    } else {
+                        ((r + o).clamp(0, h as i64 - 1) * w as i64 + c) as usize
+                    }
+                };
+                (0..11).map(|k| taps[k] * v[at(k as i64 - 5)]).sum::<f64>() / norm
+            })
+            .collect()
     };
+    let blur = |v: &[f64]| pass(&pass(v, true), false);
     let product = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(p, q)| p * q).collect::<Vec<_>>();
     let (mx, my) = (blur(&x), blur(&y));
     let (sxx, syy, sxy) = (

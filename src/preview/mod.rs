@@ -674,6 +674,8 @@ fn render_loop(
     let mut last_publish: Option<Instant> = None;
     let mut tracing = Duration::ZERO;
     let mut view = DenoisedView::default();
+    // Whether the last image published was asked to be denoised (D).
+    let mut published_denoise = false;
     loop {
         let (quit, restart, camera, denoise) = {
             let mut s = lock(shared);
@@ -702,23 +704,30 @@ fn render_loop(
             tracing = Duration::ZERO;
         }
         let done = renderer.samples_done();
-        if max_spp.is_some_and(|m| done >= m) {
+        // D pressed since the last image: publish again, also once the samples have stopped.
+        let toggled = done > 0 && denoise != published_denoise;
+        let stopped = max_spp.is_some_and(|m| done >= m);
+        if stopped && !toggled {
             std::thread::sleep(Duration::from_millis(20));
             continue;
         }
-        let t0 = Instant::now();
-        renderer.run_pass(1)?;
-        tracing += t0.elapsed();
+        if !stopped {
+            let t0 = Instant::now();
+            renderer.run_pass(1)?;
+            tracing += t0.elapsed();
+        }
         let done = renderer.samples_done();
-        let due = last_publish.is_none_or(|t| t.elapsed() >= PUBLISH_INTERVAL)
-            || max_spp.is_some_and(|m| done >= m);
+        let finished = max_spp.is_some_and(|m| done >= m);
+        let due =
+            last_publish.is_none_or(|t| t.elapsed() >= PUBLISH_INTERVAL) || finished || toggled;
         if due {
             let film = renderer.film()?;
             let denoised = if denoise {
-                view.denoise(ctx, &scene, options, &film, shared)?
+                view.denoise(ctx, &scene, options, &film, finished, shared)?
             } else {
                 None
             };
+            published_denoise = denoise;
             let rgb = match &denoised {
                 Some(d) => d.to_rgb8(&scene.image),
                 None => film.to_rgb8(&scene.image),
@@ -753,14 +762,16 @@ struct DenoisedView {
 }
 
 impl DenoisedView {
-    /// The denoised image of `film` when one is due (or the last one, while the next is not due and the
-    /// samples have not moved on much), `None` when denoising is not available.
+    /// The denoised image of `film` when one is due (or the last one, while the next is not due; a
+    /// `last` film, after which no other comes, is always denoised itself), `None` when denoising is not
+    /// available.
     fn denoise(
         &mut self,
         ctx: &Arc<GpuContext>,
         scene: &Scene,
         options: &RenderOptions,
         film: &Film,
+        last: bool,
         shared: &Mutex<Shared>,
     ) -> Result<Option<Film>, Error> {
         if self.unavailable {
@@ -781,6 +792,7 @@ impl DenoisedView {
         }
         if let Some((at, took, image)) = &self.last
             && image.spp <= film.spp
+            && (!last || image.spp == film.spp)
             && image.width == film.width
             && at.elapsed() < *took * DENOISE_BUDGET
             && self.aux.is_some()
