@@ -566,3 +566,22 @@ pub fn availability(choice: DeviceChoice) -> Result<String, String> {
         Err(e) => Err(e.to_string()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// dlopen's message loses the path it repeats (the error names it already), but a message about a
+    /// library the one opened needs keeps that library's name.
+    #[test]
+    fn loader_messages_name_what_is_missing_once() {
+        let path = Path::new("/opt/oidn/lib/libOpenImageDenoise.so.2");
+        let own = "/opt/oidn/lib/libOpenImageDenoise.so.2: cannot open shared object file: No such file or directory";
+        assert_eq!(
+            short_dl_error(own, path),
+            "cannot open shared object file: No such file or directory"
+        );
+        let dependency = "libOpenImageDenoise_core.so.2.5.1: cannot open shared object file: No such file or directory";
+        assert_eq!(short_dl_error(dependency, path), dependency);
+    }
+}
