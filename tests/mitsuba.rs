@@ -1068,6 +1068,72 @@ fn spectra_given_by_wavelengths_become_mitsubas_rgb() {
     }
 }
 
+/// `<spectrum filename="...">` (Mitsuba's spectral data files: a `wavelength value` pair a line, `#`
+/// comments) gives the colour of the same pairs written inline, bit for bit, as a reflectance and as a
+/// radiance; a file that is not one, or is missing, is refused naming the file (and its line) and the
+/// element's line in the scene.
+#[test]
+fn spectra_from_files_are_the_inline_spectra() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write(
+        d,
+        "refl.spd",
+        "# a measured reflectance\n400 0.12\n\n500 0.55\n600   0.31\n700 0.8\n",
+    );
+    write(d, "light.spd", "360 2\n830 5\n");
+    let from_file = load_in(
+        d,
+        r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" filename="refl.spd"/></bsdf>
+               <emitter type="area"><spectrum name="radiance" filename="light.spd"/></emitter></shape>"#,
+    );
+    let inline = load(
+        r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400:0.12, 500:0.55, 600:0.31, 700:0.8"/></bsdf>
+               <emitter type="area"><spectrum name="radiance" value="360:2, 830:5"/></emitter></shape>"#,
+    );
+    assert_eq!(from_file.materials, inline.materials);
+    let albedo = match from_file.materials[0].bsdf {
+        Bsdf::Diffuse { albedo } => albedo,
+        ref other => panic!("{other:?}"),
+    };
+    assert!(
+        albedo.min_element() > 0.05 && albedo.max_element() < 0.9,
+        "{albedo}"
+    );
+    for (file, text, words) in [
+        (
+            "three.spd",
+            "400 0.5 1\n500 0.6\n",
+            vec!["three.spd, line 1", "one wavelength and one value"],
+        ),
+        (
+            "down.spd",
+            "500 0.5\n# note\n400 0.6\n",
+            vec!["down.spd, line 3", "does not increase"],
+        ),
+        ("one.spd", "400 0.5\n", vec!["one.spd", "fewer than two"]),
+        (
+            "word.spd",
+            "400 x\n500 0.6\n",
+            vec!["word.spd, line 1", "not two numbers"],
+        ),
+    ] {
+        write(d, file, text);
+        let body = format!(
+            r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" filename="{file}"/></bsdf></shape>"#
+        );
+        let e = error_in(d, &body);
+        assert!(
+            words.iter().all(|w| e.contains(w))
+                && e.contains(&format!("line {}", line_of(&body, "<spectrum"))),
+            "{e}"
+        );
+    }
+    let body = r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" filename="gone.spd"/></bsdf></shape>"#;
+    let e = error_in(d, body);
+    assert!(e.contains("gone.spd") && e.contains("not found"), "{e}");
+}
+
 /// Every refusal: the file, the line, the element and what vkpath reads instead.
 #[test]
 fn errors_name_the_file_the_line_and_the_element() {

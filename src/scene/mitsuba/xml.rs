@@ -567,14 +567,18 @@ impl Parser {
             "spectrum" if node.attribute("type").is_none() => {
                 let a = self.attrs(src, node, &["name", "value", "filename"], &["name"])?;
                 let name = a.get("name").unwrap_or("").to_string();
-                if a.get("filename").is_some() {
-                    return Err(loc.error(
-                        "a spectrum from a file: vkpath reads spectra written in the element only",
-                        "Give value=\"400:0.5, 500:0.6, ...\" (wavelength:value pairs) or <rgb>.",
-                    ));
-                }
                 let v = a.get("value").unwrap_or("");
-                if let Some(x) = parse_float(v) {
+                let samples = match a.get("filename") {
+                    Some(_) if a.get("value").is_some() => {
+                        return Err(loc.error(
+                            "a spectrum with both a value and a filename",
+                            "Give one of them.",
+                        ));
+                    }
+                    Some(file) => Some(self.spectrum_file(src, file, &loc)?),
+                    None => None,
+                };
+                if let Some(x) = parse_float(v).filter(|_| samples.is_none()) {
                     out.push(Prop {
                         name,
                         value: Value::Spectrum(x),
@@ -584,7 +588,7 @@ impl Parser {
                 }
                 // Wavelength:value pairs, as the colour Mitsuba's RGB variants make of them (spectra.rs):
                 // bounded (a reflectance) unless inside an emitter or an index of refraction.
-                let Some(samples) = spectrum_samples(v) else {
+                let Some(samples) = samples.or_else(|| spectrum_samples(v)) else {
                     return Err(loc.error(
                         format!("value=\"{v}\" is neither one number nor wavelength:value pairs in increasing wavelength (nm), two at least"),
                         "Write value=\"0.5\" or value=\"400:0.343, 404:0.445, ...\".",
@@ -686,6 +690,70 @@ impl Parser {
             "alias" => self.unknown(loc, format!("<{tag}> is not read by vkpath")),
             other => self.unknown(loc, format!("<{other}> is not a Mitsuba 3 element vkpath reads")),
         }
+    }
+
+    /// `<spectrum filename="...">`: a spectral data file as Mitsuba 3 reads one (`spectrum_from_file`):
+    /// one `wavelength value` pair a line (nm; white space between), empty lines and lines starting with
+    /// `#` skipped, anything more on a line an error; here also in increasing wavelength, two pairs at
+    /// least, as a `value` list must be. Found as an include is (beside the naming file, then the `<path>`
+    /// folders and the main file's); read under the scene-file size limit.
+    fn spectrum_file(
+        &self,
+        src: &Src,
+        name: &str,
+        loc: &Loc,
+    ) -> Result<Vec<(f64, f64)>, SceneError> {
+        let Some(path) = resolve(name, &src.file, &self.search_dirs()) else {
+            return Err(loc.error(
+                format!(
+                    "the spectrum file \"{name}\" was not found (looked beside {} and in {})",
+                    src.file.display(),
+                    listed_dirs(&self.search_dirs())
+                ),
+                "Check the filename: it is relative to the file that names it.",
+            ));
+        };
+        let text = read_scene_text(&path).map_err(|e| {
+            loc.error(
+                format!("the spectrum file {} cannot be read: {e}", path.display()),
+                "Check the filename.",
+            )
+        })?;
+        let bad = |line: usize, why: String| {
+            loc.error(
+                format!("{}, line {line}: {why}", path.display()),
+                "A spectrum file holds one \"wavelength value\" pair a line (nm), in increasing \
+                 wavelength; lines starting with # are comments.",
+            )
+        };
+        let mut pairs: Vec<(f64, f64)> = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            let t = line.trim();
+            if t.is_empty() || t.starts_with('#') {
+                continue;
+            }
+            let words: Vec<&str> = t.split_whitespace().collect();
+            let [l, v] = words[..] else {
+                return Err(bad(
+                    i + 1,
+                    format!("\"{t}\" is not one wavelength and one value"),
+                ));
+            };
+            let (Some(l), Some(v)) = (parse_float(l), parse_float(v)) else {
+                return Err(bad(i + 1, format!("\"{t}\" is not two numbers")));
+            };
+            if pairs.last().is_some_and(|p| p.0 >= l) {
+                return Err(bad(i + 1, format!("the wavelength {l} does not increase")));
+            }
+            pairs.push((l, v));
+        }
+        if pairs.len() < 2 {
+            return Err(bad(
+                text.lines().count(),
+                "it holds fewer than two wavelength-value pairs".into(),
+            ));
+        }
+        Ok(pairs)
     }
 
     /// `<include filename="...">`: relative to the including file, else to the main file's folder
