@@ -296,6 +296,82 @@ fn gltf_notes_and_errors() {
     assert!(message.contains("scene.gltf"), "{message}");
 }
 
+/// The framed view (`--camera auto`, and the default when the file has no camera): the scene's bounding
+/// box from the POSITION bounds through the node transforms, here (x, y, z) -> (1 - y, 2x, z): the quad's
+/// [0, 1]^2 goes to [0, 1] x [0, 2], the triangle's [3, 4] x [0, 1] to [0, 1] x [6, 8]: the box [0, 1] x
+/// [0, 8] x {0}, centre (0.5, 4, 0), radius sqrt(65) / 2. The camera sits at d = r / sin(22.5 deg) on +z,
+/// looking at the centre, 45 degrees vertically on 640 x 480: fov_x = 2 atan(4/3 tan 22.5 deg). Every
+/// vertex of the scene is then inside the image. Without cameras and lights the file is also lit by a
+/// uniform white environment, with a note; `--camera auto` is refused for TOML and Mitsuba scenes and
+/// with an index, naming the flag.
+#[test]
+fn a_gltf_scene_without_a_camera_is_framed_from_its_bounds() {
+    use vkpath::scene::translated::ImportOptions;
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(dir.path());
+    let path = dir.path().join("scene.gltf");
+    let auto = ImportOptions {
+        auto_camera: true,
+        ..ImportOptions::default()
+    };
+    let scene = Scene::load_with(&path, &auto).unwrap_or_else(|e| panic!("{e}"));
+    let c = scene.camera;
+    let (centre, r) = (Vec3::new(0.5, 4.0, 0.0), 65f32.sqrt() / 2.0);
+    let d = r / 22.5f32.to_radians().sin();
+    assert!((c.look_at - centre).length() < 1e-4, "{:?}", c.look_at);
+    assert!(
+        (c.position - (centre + Vec3::new(0.0, 0.0, d))).length() < 1e-3,
+        "{:?}",
+        c.position
+    );
+    assert!((c.up - Vec3::Y).length() < 1e-6);
+    let fov_x = (2.0 * (4.0 / 3.0 * 22.5f32.to_radians().tan()).atan()).to_degrees();
+    assert!((c.fov_deg - fov_x).abs() < 1e-3, "{} vs {fov_x}", c.fov_deg);
+    assert_eq!((scene.image.width, scene.image.height), (640, 480));
+    // Every vertex in view: within half the field of view across and up.
+    let (tx, ty) = ((fov_x / 2.0).to_radians().tan(), 22.5f32.to_radians().tan());
+    for p in QUAD.iter().chain(TRI.iter()).map(|p| world(*p)) {
+        let v = p - c.position;
+        assert!(
+            v.x.abs() / -v.z < tx && v.y.abs() / -v.z < ty,
+            "{p} out of view"
+        );
+    }
+    // The file's lights are kept (no environment added).
+    assert_eq!(scene.lights.len(), 2);
+    // No camera and no lights: framed by default, and lit by a white sky.
+    let json = std::fs::read_to_string(&path).unwrap();
+    let bare = json.replace(
+        r#""scenes": [{"nodes": [0, 2, 3, 4, 5, 6]}]"#,
+        r#""scenes": [{"nodes": [0]}]"#,
+    );
+    assert_ne!(bare, json, "the fixture's scene list moved");
+    std::fs::write(dir.path().join("bare.gltf"), bare).unwrap();
+    let bare = Scene::load(&dir.path().join("bare.gltf")).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(bare.camera, scene.camera);
+    assert!(bare.lights.is_empty());
+    assert_eq!(bare.environment.radiance, Vec3::ONE);
+    for note in ["no camera: framed", "uniform white environment"] {
+        assert!(
+            bare.warnings.iter().any(|w| w.contains(note)),
+            "{:?}",
+            bare.warnings
+        );
+    }
+    // Refusals name the flag.
+    let both = ImportOptions {
+        auto_camera: true,
+        camera: Some(0),
+        ..ImportOptions::default()
+    };
+    let e = Scene::load_with(&path, &both).unwrap_err().to_string();
+    assert!(e.contains("--camera"), "{e}");
+    let toml = dir.path().join("s.toml");
+    std::fs::write(&toml, HEAD).unwrap();
+    let e = Scene::load_with(&toml, &auto).unwrap_err().to_string();
+    assert!(e.contains("--camera"), "{e}");
+}
+
 /// `vkpath render scene.gltf`: the file as a scene of its own, its first camera (or `--camera N`), its
 /// point and directional lights (a candela as a W/sr, a lux as a W/m^2), spot lights a warning.
 #[test]

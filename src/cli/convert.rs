@@ -20,9 +20,9 @@ pub struct ConvertArgs {
     /// The TOML file to write.
     #[arg(short = 'o', long = "output")]
     output: PathBuf,
-    /// A glTF scene's camera, or a Mitsuba XML scene's sensor (as `render --camera`).
-    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
-    camera: Option<u32>,
+    /// A glTF scene's camera (or `auto`), or a Mitsuba XML scene's sensor (as `render --camera`).
+    #[arg(long, allow_negative_numbers = true, value_parser = super::parse_camera)]
+    camera: Option<super::CameraArg>,
     /// A Mitsuba XML scene: skip what vkpath does not read, with a warning each (as `render`).
     #[arg(long = "xml-lenient")]
     xml_lenient: bool,
@@ -54,9 +54,9 @@ pub fn run_convert(a: ConvertArgs) -> Result<i32, Error> {
     }
     // Read (and check) the scene as render would, warnings included.
     let options = ImportOptions {
-        camera: a.camera.map(|c| c as usize),
         xml_lenient: a.xml_lenient,
         defines: a.defines.clone(),
+        ..super::CameraArg::options(a.camera)
     };
     load_scene_with(Some(&a.scene), &options)?;
     // File paths relative to the output's folder, so that the TOML reads them from where it is. The

@@ -79,6 +79,37 @@ fn usage(msg: impl Into<String>) -> Error {
     Error::Usage(msg.into())
 }
 
+/// `--camera auto|N`: a glTF scene framed from its bounds, or a camera (sensor) by index.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CameraArg {
+    Auto,
+    Index(u32),
+}
+
+impl CameraArg {
+    /// Import options with this camera choice and nothing else set.
+    fn options(arg: Option<CameraArg>) -> ImportOptions {
+        ImportOptions {
+            camera: match arg {
+                Some(CameraArg::Index(n)) => Some(n as usize),
+                _ => None,
+            },
+            auto_camera: arg == Some(CameraArg::Auto),
+            ..ImportOptions::default()
+        }
+    }
+}
+
+/// Parses `--camera`: `auto` or a camera index (0, 1, ...); clap names the flag in the error.
+fn parse_camera(text: &str) -> Result<CameraArg, String> {
+    if text == "auto" {
+        return Ok(CameraArg::Auto);
+    }
+    text.parse::<u32>()
+        .map(CameraArg::Index)
+        .map_err(|_| format!("\"{text}\" is neither auto nor a camera index (0, 1, 2, ...)"))
+}
+
 /// The scene file given (TOML or glTF; `camera` picks a glTF scene's camera), or the embedded course
 /// scene when none is. What the reader noticed and worked around (Scene::warnings) is printed on stderr,
 /// one line each.
@@ -103,15 +134,15 @@ fn load_scene_with(path: Option<&Path>, options: &ImportOptions) -> Result<Scene
             Importer::for_path(path).name
         )));
     }
-    let scene = match (path, options.camera) {
+    let scene = match (path, options.camera.is_some() || options.auto_camera) {
         (Some(path), _) => Scene::load_with(path, options)?,
-        (None, None) if options.defines.is_empty() => Scene::default_scene(),
-        (None, None) => {
+        (None, false) if options.defines.is_empty() => Scene::default_scene(),
+        (None, false) => {
             return Err(usage(
                 "-D sets the <default> parameters of a Mitsuba XML scene; give the scene file as well.",
             ));
         }
-        (None, Some(_)) => {
+        (None, true) => {
             return Err(usage(
                 "--camera picks a camera of a glTF or Mitsuba XML scene file; give the scene file as well.",
             ));

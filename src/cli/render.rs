@@ -232,9 +232,9 @@ struct Job {
 /// reads the checkpoint to resume: a damaged or foreign file is refused here, before any device work.
 fn prepare(a: &RenderArgs, is_part: bool) -> Result<Job, Error> {
     let import = ImportOptions {
-        camera: a.camera.map(|c| c as usize),
         xml_lenient: a.xml_lenient,
         defines: a.defines.clone(),
+        ..super::CameraArg::options(a.camera)
     };
     let mut scene = load_scene_with(a.scene.as_deref(), &import)?;
     apply_overrides(&mut scene, a)?;
@@ -465,10 +465,11 @@ enum SamplerArg {
 pub struct RenderArgs {
     /// Scene file: TOML, glTF 2.0 (.gltf, .glb) or Mitsuba 3 XML (.xml). Default: the embedded course scene.
     scene: Option<PathBuf>,
-    /// A glTF scene's camera to render from: N counts its camera nodes, depth first (default: the first);
-    /// a Mitsuba XML scene's sensor N, in file order.
-    #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32))]
-    camera: Option<u32>,
+    /// A glTF scene's camera to render from: N counts its camera nodes, depth first (default: the first;
+    /// none: framed from its bounds), or `auto` (framed from its bounds: from +z, y up, 45 degrees
+    /// vertically); a Mitsuba XML scene's sensor N, in file order.
+    #[arg(long, allow_negative_numbers = true, value_parser = super::parse_camera)]
+    camera: Option<super::CameraArg>,
     /// A Mitsuba XML scene: skip the elements, plugins and parameters vkpath does not read, with a
     /// warning each, instead of refusing the file.
     #[arg(long = "xml-lenient")]

@@ -3,7 +3,9 @@
 //! A glTF 2.0 file becomes the TOML scene that says what vkpath understood of it: the file as one
 //! `[[mesh]]` (its geometry and materials, super::gltf), a `[camera]` from the scene's first camera (or the
 //! one `--camera N` names, N counting the camera nodes in the order a depth-first walk of the scene
-//! meets them), and a `[[light]]` per KHR_lights_punctual point or directional light. The TOML is then read
+//! meets them; with none, or with `--camera auto`, the view viewers give an asset: its bounding sphere
+//! framed from +z), and a `[[light]]` per KHR_lights_punctual point or directional light (with none, a
+//! uniform white `[environment]`, as viewers light an asset with an environment). The TOML is then read
 //! like any scene file, so every check and default is the TOML reader's, and `vkpath convert` writes the
 //! same text out.
 //!
@@ -52,15 +54,72 @@ pub fn to_toml(
             mesh_ref.to_string_lossy().into_owned()
         }
     };
-    scene_toml(path, options.camera, &mesh_ref)
+    if options.auto_camera && options.camera.is_some() {
+        return Err(SceneError::import(
+            path,
+            Some("--camera".into()),
+            "--camera is given twice: auto and a camera index",
+            "Give --camera auto or --camera N.",
+        ));
+    }
+    let camera = if options.auto_camera {
+        Pick::Auto
+    } else {
+        Pick::Node(options.camera)
+    };
+    scene_toml(path, camera, &mesh_ref)
+}
+
+/// The camera asked for: a camera node (`None`: the first, or the framed view when there is none), or
+/// the framed view (`--camera auto`).
+#[derive(Clone, Copy)]
+enum Pick {
+    Node(Option<usize>),
+    Auto,
+}
+
+/// The framed view's vertical field of view (degrees) and image: 45 degrees and 640 x 480, a common
+/// viewer default; the camera looks along -z from the +z side of the scene's bounding sphere, y up, at
+/// the distance where the sphere fits the smaller (vertical) field.
+pub const AUTO_YFOV_DEG: f32 = 45.0;
+pub const AUTO_IMAGE: [u32; 2] = [640, 480];
+
+/// The world-space bounding box of the scene's triangle geometry: every primitive's POSITION accessor
+/// bounds (`min`/`max`, which glTF requires of POSITION) carried through its node's world matrix (the
+/// eight corners: a box that holds the transformed box). `None` when there is no geometry, or an accessor
+/// has no usable bounds.
+fn scene_bounds(nodes: &[(gltf::Node, glam::Mat4)]) -> Option<(Vec3, Vec3)> {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    let read = |v: &Option<gltf::json::Value>| -> Option<Vec3> {
+        let a = v.as_ref()?.as_array()?;
+        let f = |i: usize| a.get(i)?.as_f64().map(|x| x as f32);
+        Some(Vec3::new(f(0)?, f(1)?, f(2)?))
+    };
+    for (node, world) in nodes {
+        let Some(mesh) = node.mesh() else { continue };
+        for prim in mesh.primitives() {
+            let Some(acc) = prim.get(&gltf::Semantic::Positions) else {
+                continue;
+            };
+            let (a, b) = (read(&acc.min())?, read(&acc.max())?);
+            for i in 0..8 {
+                let corner = Vec3::new(
+                    if i & 1 == 0 { a.x } else { b.x },
+                    if i & 2 == 0 { a.y } else { b.y },
+                    if i & 4 == 0 { a.z } else { b.z },
+                );
+                let p = world.transform_point3(corner);
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+    }
+    (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
 }
 
 /// [`to_toml`], with the mesh's `obj` written as `mesh_ref`.
-fn scene_toml(
-    path: &Path,
-    camera: Option<usize>,
-    mesh_ref: &str,
-) -> Result<Translated, SceneError> {
+fn scene_toml(path: &Path, camera: Pick, mesh_ref: &str) -> Result<Translated, SceneError> {
     let hint = "vkpath reads glTF 2.0 (.gltf with its buffers, or .glb); see docs/scene-format.md, \"glTF scenes\".";
     let bytes = crate::memory::read_file(path).map_err(|e| {
         error(
@@ -79,6 +138,7 @@ fn scene_toml(
     let mut cameras = Vec::new();
     let mut lights = String::new();
     let nodes = super::gltf::scene_nodes(doc, &scene, false).map_err(|m| error(path, m, hint))?;
+    let bounds = scene_bounds(&nodes);
     for (node, world) in nodes {
         if let Some(c) = node.camera() {
             cameras.push((c, world));
@@ -120,7 +180,8 @@ fn scene_toml(
         }
     }
     let chosen = match camera {
-        Some(n) if n >= cameras.len() => {
+        Pick::Auto => None,
+        Pick::Node(Some(n)) if n >= cameras.len() => {
             return Err(SceneError::import(
                 path,
                 Some("--camera".into()),
@@ -132,26 +193,84 @@ fn scene_toml(
                 "Give a camera index the file has, or leave --camera out for the first.",
             ));
         }
-        Some(n) => Some(&cameras[n]),
-        None => cameras.first(),
+        Pick::Node(Some(n)) => Some(&cameras[n]),
+        Pick::Node(None) => cameras.first(),
     };
-    let Some((cam, world)) = chosen else {
-        return Err(error(
-            path,
-            "the glTF scene has no camera to render it from",
-            "Add a camera to the glTF file, or put the file in a TOML scene as a mesh ([[mesh]] obj = \"file.gltf\") with a [camera] of your own.",
-        ));
+    let name = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    let (mut toml, width, height, camera_element) = match chosen {
+        Some((cam, world)) => {
+            let (text, aspect) = node_camera(path, cam, world, hint)?;
+            let height = ((IMPORTED_IMAGE_WIDTH as f32 / aspect).round() as u32).clamp(1, 65536);
+            (
+                format!(
+                    "# Read from {name} by vkpath: the file as one mesh, its camera and its lights.\n\n{text}"
+                ),
+                IMPORTED_IMAGE_WIDTH,
+                height,
+                format!("cameras[{}]", cam.index()),
+            )
+        }
+        None => {
+            let Some((lo, hi)) = bounds else {
+                return Err(error(
+                    path,
+                    "the glTF scene has no camera, and no geometry with bounds to frame one on",
+                    "Add a camera to the glTF file, or give its POSITION accessors their min and max.",
+                ));
+            };
+            if cameras.is_empty() {
+                warnings.push(format!(
+                    "the glTF scene has no camera: framed from its bounds (--camera auto: from +z, y up, {AUTO_YFOV_DEG} degrees vertically)"
+                ));
+            }
+            (
+                format!(
+                    "# Read from {name} by vkpath: the file as one mesh, framed from its bounds, and its lights.\n\n{}",
+                    framed_camera(lo, hi)
+                ),
+                AUTO_IMAGE[0],
+                AUTO_IMAGE[1],
+                "meshes".to_string(),
+            )
+        }
     };
+    let _ = write!(
+        toml,
+        "\n[image]\nwidth  = {width}\nheight = {height}\n\n[[mesh]]\nobj = {}\n",
+        toml_string(mesh_ref)
+    );
+    toml += &lights;
+    // Viewers (the Khronos sample viewer, Blender, model-viewer) light an asset that has no lights with
+    // an environment: vkpath with a uniform white one (its emissive materials glow on top of it).
+    if lights.is_empty() {
+        toml += "\n[environment]                   # the file has no lights: a uniform white sky, as viewers light it\nradiance = [1.0, 1.0, 1.0]\n";
+        warnings.push(
+            "the glTF scene has no point or directional lights: lit by a uniform white environment (radiance 1), as viewers light such assets".into(),
+        );
+    }
+    let origins = origins(path, &toml, &camera_element);
+    Ok(Translated {
+        toml,
+        warnings,
+        origins,
+    })
+}
+
+/// The `[camera]` of a glTF camera node at `world`, and its aspect ratio.
+fn node_camera(
+    path: &Path,
+    cam: &gltf::Camera,
+    world: &glam::Mat4,
+    hint: &str,
+) -> Result<(String, f32), SceneError> {
     let position = world.transform_point3(Vec3::ZERO);
     let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or_zero();
     let up = world.transform_vector3(Vec3::Y).normalize_or_zero();
     let mut toml = format!(
-        "# Read from {} by vkpath: the file as one mesh, its camera and its lights.\n\n[camera]\n\
-         position = {}\nlook_at  = {}\nup       = {}\n",
-        path.file_name().map_or_else(
-            || path.display().to_string(),
-            |n| n.to_string_lossy().into_owned()
-        ),
+        "[camera]\nposition = {}\nlook_at  = {}\nup       = {}\n",
         vec3(position),
         vec3(position + forward),
         vec3(up)
@@ -189,24 +308,28 @@ fn scene_toml(
             hint,
         ));
     }
-    let height = ((IMPORTED_IMAGE_WIDTH as f32 / aspect).round() as u32).clamp(1, 65536);
-    let _ = write!(
-        toml,
-        "\n[image]\nwidth  = {IMPORTED_IMAGE_WIDTH}\nheight = {height}\n\n[[mesh]]\nobj = {}\n",
-        toml_string(mesh_ref)
-    );
-    toml += &lights;
-    if lights.is_empty() {
-        warnings.push(
-            "the glTF scene has no point or directional lights: only its emissive materials light it".into(),
-        );
-    }
-    let origins = origins(path, &toml, &format!("cameras[{}]", cam.index()));
-    Ok(Translated {
-        toml,
-        warnings,
-        origins,
-    })
+    Ok((toml, aspect))
+}
+
+/// The `[camera]` that frames the box `lo`..`hi` (see [`AUTO_YFOV_DEG`]): its bounding sphere, centre c
+/// and radius r (half the diagonal), seen from c + (0, 0, d), d = r / sin(yfov / 2), so that the sphere
+/// fills the vertical field (the horizontal one, wider, has room); vkpath's horizontal field of view is
+/// fov_x = 2 atan(aspect tan(yfov / 2)).
+fn framed_camera(lo: Vec3, hi: Vec3) -> String {
+    let c = (lo + hi) / 2.0;
+    let r = ((hi - lo).length() / 2.0).max(1e-3);
+    let half = (AUTO_YFOV_DEG / 2.0).to_radians();
+    let d = r / half.sin();
+    let aspect = AUTO_IMAGE[0] as f32 / AUTO_IMAGE[1] as f32;
+    let fov_x = 2.0 * (aspect * half.tan()).atan();
+    format!(
+        "[camera]                        # framing the bounding sphere: centre {}, radius {}\nposition = {}\nlook_at  = {}\nup       = [0.0, 1.0, 0.0]\nfov      = {}         # {AUTO_YFOV_DEG} degrees vertically\n",
+        vec3(c),
+        num(r),
+        vec3(c + Vec3::new(0.0, 0.0, d)),
+        vec3(c),
+        num(fov_x.to_degrees())
+    )
 }
 
 /// Where each line of the TOML [`scene_toml`] writes came from, so that an error the TOML reader finds is

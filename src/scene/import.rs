@@ -86,7 +86,7 @@ fn toml_as_written(
     options: &ImportOptions,
     _toml_dir: Option<&Path>,
 ) -> Result<Translated, SceneError> {
-    if options.camera.is_some() {
+    if options.camera.is_some() || options.auto_camera {
         return Err(SceneError::import(
             path,
             Some("--camera".into()),

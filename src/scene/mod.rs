@@ -492,7 +492,7 @@ impl Scene {
         let options = ImportOptions {
             camera,
             xml_lenient,
-            defines: Vec::new(),
+            ..ImportOptions::default()
         };
         Scene::load_with(path, &options)
     }

@@ -13,6 +13,9 @@ pub struct ImportOptions {
     /// The camera to render from (0-based, in the file's order: a glTF scene's camera nodes in a depth-first
     /// walk, a Mitsuba scene's sensors); the first when `None`. A TOML scene has one and refuses it.
     pub camera: Option<usize>,
+    /// `--camera auto`: a glTF scene is framed from its bounds (gltf_scene.rs), whatever cameras it has
+    /// (a glTF scene without one is framed anyway). Other formats refuse it.
+    pub auto_camera: bool,
     /// Mitsuba XML: skip unknown elements, plugins and parameters with a warning each, instead of refusing
     /// the file.
     pub xml_lenient: bool,

@@ -70,6 +70,14 @@ pub fn to_toml(
         search_dirs,
         refer_dir,
     );
+    if options.auto_camera {
+        return Err(SceneError::import(
+            path,
+            Some("--camera".into()),
+            "--camera auto frames a glTF scene from its bounds; a Mitsuba XML scene is rendered from one of its sensors",
+            "Give --camera N (the sensor, from 0) or leave --camera out for the first.",
+        ));
+    }
     let toml = tr.toml(&scene, path, options.camera)?;
     Ok(Translated {
         toml: toml.text,
