@@ -372,6 +372,40 @@ fn a_gltf_scene_without_a_camera_is_framed_from_its_bounds() {
     assert!(e.contains("--camera"), "{e}");
 }
 
+/// Texture coordinates are per primitive: when the untextured triangle has no TEXCOORD_0, the textured
+/// quad keeps its uvs and its texture (it used to lose both: one uv-less primitive dropped the mesh's
+/// uvs); the untextured triangle's part of the mesh needs none.
+#[test]
+fn texture_coordinates_are_per_primitive() {
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(dir.path());
+    let path = dir.path().join("scene.gltf");
+    let json = std::fs::read_to_string(&path).unwrap();
+    let without = json.replace(r#""NORMAL": 5, "TEXCOORD_0": 7"#, r#""NORMAL": 5"#);
+    assert_ne!(without, json, "the fixture's triangle moved");
+    std::fs::write(&path, without).unwrap();
+    let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        !scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("texture coordinates")),
+        "{:?}",
+        scene.warnings
+    );
+    let textured: Vec<_> = scene
+        .meshes
+        .iter()
+        .filter(|m| m.texture.is_some())
+        .collect();
+    assert_eq!(textured.len(), 1, "the quad's material keeps its texture");
+    let quad = textured[0];
+    assert_eq!(quad.uvs.len(), quad.positions.len());
+    // glTF's v runs down; vkpath's up: (u, v) -> (u, 1 - v).
+    let want: Vec<[f32; 2]> = QUAD_UV.iter().map(|[u, v]| [*u, 1.0 - v]).collect();
+    assert_eq!(quad.uvs, want);
+}
+
 /// `vkpath render scene.gltf`: the file as a scene of its own, its first camera (or `--camera N`), its
 /// point and directional lights (a candela as a W/sr, a lux as a W/m^2), spot lights a warning.
 #[test]

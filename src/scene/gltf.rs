@@ -164,7 +164,9 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
         .ok_or_else(|| ObjError::whole_file("the glTF file has no scene"))?;
     let nodes = scene_nodes(doc, &scene, true).map_err(ObjError::whole_file)?;
     let mut all_normals = true;
-    let mut all_uvs = true;
+    // Texture coordinates are per primitive: one without TEXCOORD_0 gets (0, 0) at its vertices (a valid
+    // file textures only primitives that have them), so that the others keep theirs.
+    let mut any_uvs = false;
     let mut normals = Vec::new();
     let mut uvs = Vec::new();
     for (node, world) in nodes {
@@ -225,8 +227,24 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                 _ => all_normals = false,
             }
             match reader.read_tex_coords(0) {
-                Some(t) if all_uvs => uvs.extend(t.into_f32()),
-                _ => all_uvs = false,
+                Some(t) => {
+                    uvs.extend(t.into_f32());
+                    any_uvs = true;
+                }
+                None => {
+                    uvs.extend(std::iter::repeat_n([0.0, 0.0], count));
+                    let m = p.material();
+                    let pbr = m.pbr_metallic_roughness();
+                    if pbr.base_color_texture().is_some()
+                        || pbr.metallic_roughness_texture().is_some()
+                        || m.emissive_texture().is_some()
+                        || m.normal_texture().is_some()
+                    {
+                        notes.add(format!(
+                            "{at} has no TEXCOORD_0 but its material has textures: they are read at uv (0, 0) there"
+                        ));
+                    }
+                }
             }
             let material = p.material().index().map(|k| k as u32);
             let before = mesh.triangles.len();
@@ -254,7 +272,7 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
     // glTF's texture v runs down from the top of the image; the OBJ convention (and vkpath's sampling)
     // has v up from the bottom.
-    mesh.uvs = (all_uvs && uvs.len() == mesh.positions.len())
+    mesh.uvs = (any_uvs && uvs.len() == mesh.positions.len())
         .then(|| uvs.into_iter().map(|[u, v]| [u, 1.0 - v]).collect());
     if mesh.materials.is_empty() {
         mesh.face_materials.clear();
