@@ -402,6 +402,30 @@ impl Denoiser {
         Ok(out)
     }
 
+    /// `film` with its means denoised from the aux images `aux` (the variance stays the raw estimate's):
+    /// what `--denoise`, `vkpath merge --denoise`, the bench and the preview's D do.
+    pub fn denoise_film(
+        &self,
+        film: &crate::film::Film,
+        aux: &crate::checkpoint::Aux,
+        quality: Quality,
+    ) -> Result<crate::film::Film, Error> {
+        let mean = self.denoise(
+            &Inputs {
+                width: film.width,
+                height: film.height,
+                color: &film.mean,
+                albedo: &aux.albedo,
+                normal: &aux.normal,
+            },
+            quality,
+        )?;
+        Ok(crate::film::Film {
+            mean,
+            ..film.clone()
+        })
+    }
+
     /// A device buffer of `bytes`, filled from `data` when given.
     fn buffer(&self, bytes: usize, data: Option<&[[f32; 3]]>) -> Result<Buffer<'_>, Error> {
         // SAFETY: a valid device; the result is checked for null below.

@@ -141,6 +141,22 @@ pub struct Layers {
     pub extra: Vec<(String, Vec<f32>)>,
 }
 
+/// A normal film's mean as the unit normal it encodes: the kernel accumulates n / 2 + 1/2 (the
+/// accumulator sums non-negative values only), so n = 2 m - 1.
+pub fn normal_from_film(m: [f32; 3]) -> [f32; 3] {
+    m.map(|v| 2.0 * v - 1.0)
+}
+
+/// The raw estimate `color` as the EXR channels `raw.R`, `raw.G`, `raw.B`, written beside a denoised
+/// image.
+pub fn raw_channels(color: &[[f32; 3]]) -> Vec<(String, Vec<f32>)> {
+    ["R", "G", "B"]
+        .iter()
+        .enumerate()
+        .map(|(c, name)| (format!("raw.{name}"), color.iter().map(|p| p[c]).collect()))
+        .collect()
+}
+
 impl Layers {
     /// Depth per pixel from the depth film: the mean distance of the samples that hit (R / G), or +inf
     /// where none did.
@@ -249,8 +265,7 @@ impl ImageFile<'_> {
         }
         if let Some(nf) = &self.layers.normal {
             for (c, n) in ["X", "Y", "Z"].iter().enumerate() {
-                // The kernel stores n / 2 + 1/2 (the accumulator sums non-negative values only).
-                let values = nf.mean.iter().map(|p| 2.0 * p[c] - 1.0).collect();
+                let values = nf.mean.iter().map(|p| normal_from_film(*p)[c]).collect();
                 channels.push(channel(&format!("normal.{n}"), values));
             }
         }

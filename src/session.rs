@@ -20,11 +20,11 @@
 use crate::Error;
 use crate::Scene;
 use crate::checkpoint::{Aux, Checkpoint, Part, show_ranges};
-use crate::denoise::{Denoiser, Inputs, Quality};
+use crate::denoise::{Denoiser, Quality};
 use crate::film::Film;
 use crate::gpu::GpuContext;
 use crate::kernel::abi::{AOV_ALBEDO, AOV_DEPTH, AOV_NORMAL};
-use crate::output::{Aov, ImageFile, ImageMetadata, Layers, write_images};
+use crate::output::{Aov, ImageFile, ImageMetadata, Layers, raw_channels, write_images};
 use crate::render::{
     AOV_MAX_SPP, Budget, PassReport, RenderOptions, Renderer, SaveEvery, StopReason, render_aov,
     render_progressive,
@@ -268,7 +268,7 @@ impl<'a> Session<'a> {
             return Ok(Some(film));
         };
         let started = Instant::now();
-        let denoised = denoise_film(denoiser, &film, &layers)?;
+        let denoised = denoiser.denoise_film(&film, &aux_of(&layers)?, Quality::High)?;
         self.denoise_seconds = Some(started.elapsed().as_secs_f64());
         // The aux layers rendered for the denoiser alone are not written.
         if !self.aovs.contains(&Aov::Albedo) {
@@ -277,7 +277,7 @@ impl<'a> Session<'a> {
         if !self.aovs.contains(&Aov::Normal) {
             layers.normal = None;
         }
-        layers.extra = raw_layers(&film);
+        layers.extra = raw_channels(&film.mean);
         self.files
             .write_images(&denoised, &layers, Some(&denoiser.describe()))?;
         Ok(Some(film))
@@ -432,54 +432,7 @@ fn aux_of(layers: &Layers) -> Result<Aux, Error> {
             "the albedo and normal layers the denoiser needs were not rendered".into(),
         ));
     };
-    Ok(Aux {
-        albedo: albedo.mean.clone(),
-        // The normal film holds n / 2 + 1/2 (the accumulator sums non-negative values only).
-        normal: normal
-            .mean
-            .iter()
-            .map(|p| p.map(|v| 2.0 * v - 1.0))
-            .collect(),
-    })
-}
-
-/// `film` with its means denoised by `denoiser` from the albedo and normal films in `layers` (the
-/// variance stays the raw estimate's).
-fn denoise_film(denoiser: &Denoiser, film: &Film, layers: &Layers) -> Result<Film, Error> {
-    denoise_with_aux(denoiser, film, &aux_of(layers)?)
-}
-
-/// `film` with its means denoised by `denoiser` from the aux images `aux` (the variance stays the raw
-/// estimate's): the final step of `--denoise`, and of `vkpath merge --denoise` on the parts' aux.
-pub fn denoise_with_aux(denoiser: &Denoiser, film: &Film, aux: &Aux) -> Result<Film, Error> {
-    let mean = denoiser.denoise(
-        &Inputs {
-            width: film.width,
-            height: film.height,
-            color: &film.mean,
-            albedo: &aux.albedo,
-            normal: &aux.normal,
-        },
-        Quality::High,
-    )?;
-    Ok(Film {
-        mean,
-        ..film.clone()
-    })
-}
-
-/// The raw estimate as the EXR channels `raw.R`, `raw.G`, `raw.B`, written beside a denoised image.
-pub fn raw_layers(film: &Film) -> Vec<(String, Vec<f32>)> {
-    ["R", "G", "B"]
-        .iter()
-        .enumerate()
-        .map(|(c, name)| {
-            (
-                format!("raw.{name}"),
-                film.mean.iter().map(|p| p[c]).collect(),
-            )
-        })
-        .collect()
+    Ok(Aux::from_films(albedo, normal))
 }
 
 /// Decides where the samples start: from the checkpoint resumed (which must be of this render, and, for

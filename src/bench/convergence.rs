@@ -32,7 +32,8 @@
 //! denoiser's (the kernels' compilation, as for the raw curve, not counted).
 
 use crate::Error;
-use crate::denoise::{Denoiser, Inputs, Quality};
+use crate::checkpoint::Aux;
+use crate::denoise::{Denoiser, Quality};
 use crate::film::Film;
 use crate::gpu::GpuContext;
 use crate::kernel::abi::{AOV_ALBEDO, AOV_NORMAL};
@@ -467,22 +468,8 @@ pub fn measure(
                 a.run_pass(aux_spp)?;
                 Ok(a.film()?)
             };
-            let (albedo, normal) = (layer(albedo)?, layer(normal)?);
-            let normal: Vec<[f32; 3]> = normal
-                .mean
-                .iter()
-                .map(|p| p.map(|v| 2.0 * v - 1.0))
-                .collect();
-            let image = d.denoise(
-                &Inputs {
-                    width: scene.image.width,
-                    height: scene.image.height,
-                    color: &film.mean,
-                    albedo: &albedo.mean,
-                    normal: &normal,
-                },
-                Quality::High,
-            )?;
+            let aux = Aux::from_films(&layer(albedo)?, &layer(normal)?);
+            let image = d.denoise_film(&film, &aux, Quality::High)?.mean;
             let total = seconds + t0.elapsed().as_secs_f64();
             let e = image_errors(&image, reference);
             denoised.push(Point {

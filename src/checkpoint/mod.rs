@@ -162,6 +162,20 @@ pub struct Aux {
     pub normal: Vec<[f32; 3]>,
 }
 
+impl Aux {
+    /// The aux images of the albedo and normal AOV films (`render::render_aov`).
+    pub fn from_films(albedo: &Film, normal: &Film) -> Aux {
+        Aux {
+            albedo: albedo.mean.clone(),
+            normal: normal
+                .mean
+                .iter()
+                .map(|p| crate::output::normal_from_film(*p))
+                .collect(),
+        }
+    }
+}
+
 /// Part `index` (0-based) of `count` of a render of `samples` samples per pixel (`--part I/N`): the
 /// contiguous sample range [floor(index S / N), floor((index + 1) S / N)). Consecutive parts tile
 /// 0..S exactly and their sizes differ by at most one sample per pixel.

@@ -9,7 +9,7 @@ use std::time::Instant;
 use vkpath::Error;
 use vkpath::denoise::{DeviceChoice, Inputs, Quality};
 use vkpath::film::Film;
-use vkpath::output::{ExrChannels, ImageFile, ImageMetadata, Layers, write_images};
+use vkpath::output::{ExrChannels, ImageFile, ImageMetadata, Layers, raw_channels, write_images};
 
 #[derive(Args)]
 pub struct DenoiseArgs {
@@ -80,11 +80,7 @@ pub fn run_denoise(a: DenoiseArgs) -> Result<i32, Error> {
         variance: vec![[0.0; 3]; n],
     };
     // The raw estimate, then every other channel of the input as it is.
-    let mut extra: Vec<(String, Vec<f32>)> = ["R", "G", "B"]
-        .iter()
-        .enumerate()
-        .map(|(c, ch)| (format!("raw.{ch}"), color.iter().map(|p| p[c]).collect()))
-        .collect();
+    let mut extra = raw_channels(&color);
     extra.extend(
         exr.channels
             .iter()

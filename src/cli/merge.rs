@@ -7,9 +7,8 @@ use clap::Args;
 use std::path::PathBuf;
 use vkpath::Error;
 use vkpath::checkpoint::{Checkpoint, Header};
-use vkpath::denoise::{Denoiser, DeviceChoice};
-use vkpath::output::{Aov, ImageFile, ImageMetadata, Layers, write_images};
-use vkpath::session::{denoise_with_aux, raw_layers};
+use vkpath::denoise::{Denoiser, DeviceChoice, Quality};
+use vkpath::output::{Aov, ImageFile, ImageMetadata, Layers, raw_channels, write_images};
 
 #[derive(Args)]
 pub struct MergeArgs {
@@ -132,8 +131,11 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
     };
     let (written, description) = match (&denoiser, &merged.aux) {
         (Some(d), Some(aux)) => {
-            layers.extra = raw_layers(&film);
-            (denoise_with_aux(d, &film, aux)?, Some(d.describe()))
+            layers.extra = raw_channels(&film.mean);
+            (
+                d.denoise_film(&film, aux, Quality::High)?,
+                Some(d.describe()),
+            )
         }
         _ => (film.clone(), None),
     };

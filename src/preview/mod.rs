@@ -809,33 +809,13 @@ impl DenoisedView {
                 |code| crate::render::render_aov(ctx, scene, &aux_options, code, PREVIEW_AUX_SPP);
             let albedo = layer(crate::kernel::abi::AOV_ALBEDO)?;
             let normal = layer(crate::kernel::abi::AOV_NORMAL)?;
-            self.aux = Some(crate::checkpoint::Aux {
-                albedo: albedo.mean,
-                normal: normal
-                    .mean
-                    .iter()
-                    .map(|p| p.map(|v| 2.0 * v - 1.0))
-                    .collect(),
-            });
+            self.aux = Some(crate::checkpoint::Aux::from_films(&albedo, &normal));
             self.last = None;
         }
         let (Some(d), Some(aux)) = (&self.denoiser, &self.aux) else {
             return Ok(None);
         };
-        let mean = d.denoise(
-            &crate::denoise::Inputs {
-                width: film.width,
-                height: film.height,
-                color: &film.mean,
-                albedo: &aux.albedo,
-                normal: &aux.normal,
-            },
-            crate::denoise::Quality::Balanced,
-        )?;
-        let image = Film {
-            mean,
-            ..film.clone()
-        };
+        let image = d.denoise_film(film, aux, crate::denoise::Quality::Balanced)?;
         self.last = Some((Instant::now(), started.elapsed(), image.clone()));
         Ok(Some(image))
     }

@@ -692,6 +692,28 @@ impl Parser {
         }
     }
 
+    /// The file `name` names from `src`, found as Mitsuba's file resolver finds it ([`resolve`]), or an
+    /// error at `loc` saying that the `what` was not found and where it was looked for.
+    fn find_file(
+        &self,
+        src: &Src,
+        name: &str,
+        loc: &Loc,
+        what: &str,
+        hint: &str,
+    ) -> Result<PathBuf, SceneError> {
+        resolve(name, &src.file, &self.search_dirs()).ok_or_else(|| {
+            loc.error(
+                format!(
+                    "the {what} \"{name}\" was not found (looked beside {} and in {})",
+                    src.file.display(),
+                    listed_dirs(&self.search_dirs())
+                ),
+                hint,
+            )
+        })
+    }
+
     /// `<spectrum filename="...">`: a spectral data file as Mitsuba 3 reads one (`spectrum_from_file`):
     /// one `wavelength value` pair a line (nm; white space between), empty lines and lines starting with
     /// `#` skipped, anything more on a line an error; here also in increasing wavelength, two pairs at
@@ -703,22 +725,14 @@ impl Parser {
         name: &str,
         loc: &Loc,
     ) -> Result<Vec<(f64, f64)>, SceneError> {
-        let Some(path) = resolve(name, &src.file, &self.search_dirs()) else {
-            return Err(loc.error(
-                format!(
-                    "the spectrum file \"{name}\" was not found (looked beside {} and in {})",
-                    src.file.display(),
-                    listed_dirs(&self.search_dirs())
-                ),
-                "Check the filename: it is relative to the file that names it.",
-            ));
-        };
-        let text = read_scene_text(&path).map_err(|e| {
-            loc.error(
-                format!("the spectrum file {} cannot be read: {e}", path.display()),
-                "Check the filename.",
-            )
-        })?;
+        let path = self.find_file(
+            src,
+            name,
+            loc,
+            "spectrum file",
+            "Check the filename: it is relative to the file that names it.",
+        )?;
+        let text = read_named(&path, loc, "spectrum file", "Check the filename.")?;
         let bad = |line: usize, why: String| {
             loc.error(
                 format!("{}, line {line}: {why}", path.display()),
@@ -768,16 +782,13 @@ impl Parser {
     ) -> Result<(), SceneError> {
         let a = self.attrs(src, node, &["filename"], &["filename"])?;
         let name = a.get("filename").unwrap_or("");
-        let Some(target) = resolve(name, &src.file, &self.search_dirs()) else {
-            return Err(loc.error(
-                format!(
-                    "the included file \"{name}\" was not found (looked beside {} and in {})",
-                    src.file.display(),
-                    listed_dirs(&self.search_dirs())
-                ),
-                "Check the include's filename: it is relative to the including file.",
-            ));
-        };
+        let target = self.find_file(
+            src,
+            name,
+            &loc,
+            "included file",
+            "Check the include's filename: it is relative to the including file.",
+        )?;
         let canonical = target.canonicalize().unwrap_or_else(|_| target.clone());
         if let Some(i) = self.chain.iter().position(|p| *p == canonical) {
             let cycle: Vec<String> = self.chain[i..]
@@ -811,12 +822,12 @@ impl Parser {
                 "Include each file once; to use an object in many places, give it an id and <ref> it.",
             ));
         }
-        let text = read_scene_text(&target).map_err(|e| {
-            loc.error(
-                format!("the included file {} cannot be read: {e}", target.display()),
-                "Check the include's filename.",
-            )
-        })?;
+        let text = read_named(
+            &target,
+            &loc,
+            "included file",
+            "Check the include's filename.",
+        )?;
         self.read_bytes += text.len() as u64;
         if self.read_bytes > MAX_XML_BYTES {
             return Err(loc.error(
@@ -1058,6 +1069,16 @@ fn xyz(a: &Attrs, default: f64) -> Result<DVec3, String> {
         }
     }
     Ok(DVec3::from_array(out))
+}
+
+/// The text of the `what` at `path` (under the scene-file size limit), or an error at `loc`.
+fn read_named(path: &Path, loc: &Loc, what: &str, hint: &str) -> Result<String, SceneError> {
+    read_scene_text(path).map_err(|e| {
+        loc.error(
+            format!("the {what} {} cannot be read: {e}", path.display()),
+            hint,
+        )
+    })
 }
 
 /// A file named in `file`: absolute as given, else beside `file`, else in the first of `dirs` (the
