@@ -30,6 +30,7 @@ override HAS_BUMP_MAPS: bool = true;
 override HAS_BACK_MATERIALS: bool = true;
 override HAS_BLEND_MATERIALS: bool = true;
 override HAS_OPACITY: bool = true;
+override HAS_CHECKERBOARD: bool = true; // some texture is Mitsuba's procedural checkerboard (texture.wgsl)
 override HAS_MATERIAL_TEXTURES: bool = true;
 override HAS_MESH_SHADING: bool = true;
 // Materials: one override per material kind, HAS_<KIND>, generated with the kinds (bsdf_kinds.wgsl,

@@ -99,48 +99,7 @@ fn ggx_sample_visible(wo: vec3<f32>, alpha: vec2<f32>, u: vec2<f32>) -> vec3<f32
 // the microfacets are Gaussian, D(h) = exp(-((hx/ax)^2 + (hy/ay)^2) / hz^2) / (pi ax ay hz^4), normalised
 // as GGX's (the integral of D(h) hz is 1). Mitsuba 3's default distribution.
 
-// erfc(x) for x >= 0 (Abramowitz & Stegun 7.1.26: |error| <= 1.5e-7, from a rational function of
-// t = 1 / (1 + p x) times exp(-x^2), so that it stays accurate in the tail where 1 - erf(x) cancels).
-fn erfc_nonneg(x: f32) -> f32 {
-    let t = 1.0 / (1.0 + 0.3275911 * x);
-    let poly = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
-    return poly * exp(-x * x);
-}
-
-fn erf_approx(x: f32) -> f32 {
-    return sign(x) * (1.0 - erfc_nonneg(abs(x)));
-}
-
-// The inverse error function on (-1, 1) (Giles, "Approximating the erfinv function", GPU Computing Gems
-// 2011: the single-precision polynomials in w = -ln(1 - x^2), relative error about 1e-7 before rounding).
-fn erfinv_approx(x: f32) -> f32 {
-    var w = -log(max((1.0 - x) * (1.0 + x), 1e-30));
-    var p: f32;
-    if w < 5.0 {
-        w = w - 2.5;
-        p = 2.81022636e-08;
-        p = 3.43273939e-07 + p * w;
-        p = -3.5233877e-06 + p * w;
-        p = -4.39150654e-06 + p * w;
-        p = 0.00021858087 + p * w;
-        p = -0.00125372503 + p * w;
-        p = -0.00417768164 + p * w;
-        p = 0.246640727 + p * w;
-        p = 1.50140941 + p * w;
-    } else {
-        w = sqrt(w) - 3.0;
-        p = -0.000200214257;
-        p = 0.000100950558 + p * w;
-        p = 0.00134934322 + p * w;
-        p = -0.00367342844 + p * w;
-        p = 0.00573950773 + p * w;
-        p = -0.0076224613 + p * w;
-        p = 0.00943887047 + p * w;
-        p = 1.00167406 + p * w;
-        p = 2.83297682 + p * w;
-    }
-    return p * x;
-}
+// (erf_approx and erfinv_approx: sampling.wgsl.)
 
 const INV_SQRT_PI: f32 = 0.56418958354775628695;
 

@@ -8,6 +8,7 @@
 const PI: f32 = 3.14159265358979323846;
 const TWO_PI: f32 = 6.28318530717958647692;
 const INV_PI: f32 = 0.31830988618379067154;
+const SQRT_2: f32 = 1.41421356237309504880;
 
 // An orthonormal basis (t, b, n) around a unit vector n, without branches on n's direction except its sign:
 // Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 6(1), 2017.
@@ -112,6 +113,49 @@ fn sample_gaussian2(u: vec2<f32>, sigma: f32) -> vec2<f32> {
     return vec2<f32>(r * cos(phi), r * sin(phi));
 }
 
+// erfc(x) for x >= 0 (Abramowitz & Stegun 7.1.26: |error| <= 1.5e-7, from a rational function of
+// t = 1 / (1 + p x) times exp(-x^2), so that it stays accurate in the tail where 1 - erf(x) cancels).
+fn erfc_nonneg(x: f32) -> f32 {
+    let t = 1.0 / (1.0 + 0.3275911 * x);
+    let poly = t * (0.254829592 + t * (-0.284496736 + t * (1.421413741 + t * (-1.453152027 + t * 1.061405429))));
+    return poly * exp(-x * x);
+}
+
+fn erf_approx(x: f32) -> f32 {
+    return sign(x) * (1.0 - erfc_nonneg(abs(x)));
+}
+
+// The inverse error function on (-1, 1) (Giles, "Approximating the erfinv function", GPU Computing Gems
+// 2011: the single-precision polynomials in w = -ln(1 - x^2), relative error about 1e-7 before rounding).
+fn erfinv_approx(x: f32) -> f32 {
+    var w = -log(max((1.0 - x) * (1.0 + x), 1e-30));
+    var p: f32;
+    if w < 5.0 {
+        w = w - 2.5;
+        p = 2.81022636e-08;
+        p = 3.43273939e-07 + p * w;
+        p = -3.5233877e-06 + p * w;
+        p = -4.39150654e-06 + p * w;
+        p = 0.00021858087 + p * w;
+        p = -0.00125372503 + p * w;
+        p = -0.00417768164 + p * w;
+        p = 0.246640727 + p * w;
+        p = 1.50140941 + p * w;
+    } else {
+        w = sqrt(w) - 3.0;
+        p = -0.000200214257;
+        p = 0.000100950558 + p * w;
+        p = 0.00134934322 + p * w;
+        p = -0.00367342844 + p * w;
+        p = 0.00573950773 + p * w;
+        p = -0.0076224613 + p * w;
+        p = 0.00943887047 + p * w;
+        p = 1.00167406 + p * w;
+        p = 2.83297682 + p * w;
+    }
+    return p * x;
+}
+
 // One coordinate of the tent filter of radius r, f(x) = max(0, 1 - |x| / r) / r (a triangle of unit
 // area), by inverting its CDF: F(x) = (1 + x / r)^2 / 2 on [-r, 0] and 1 - (1 - x / r)^2 / 2 on [0, r], so
 // x = r (sqrt(2 u) - 1) for u < 1/2 and r (1 - sqrt(2 - 2 u)) otherwise. Mitsuba 3's tent filter is this
@@ -125,6 +169,33 @@ fn sample_tent(u: f32, r: f32) -> f32 {
 
 fn sample_tent2(u: vec2<f32>, r: f32) -> vec2<f32> {
     return vec2<f32>(sample_tent(u.x, r), sample_tent(u.y, r));
+}
+
+// The tent's CDF (above): F(x) = (1 + x / r)^2 / 2 on [-r, 0], 1 - (1 - x / r)^2 / 2 on [0, r]. F(-r) = 0
+// and F(r) = 1 exactly.
+fn tent_cdf(x: f32, r: f32) -> f32 {
+    let t = clamp(x / r, -1.0, 1.0);
+    return select(1.0 - 0.5 * (1.0 - t) * (1.0 - t), 0.5 * (1.0 + t) * (1.0 + t), t < 0.0);
+}
+
+// One coordinate of the tent of radius r cut off to [lo, hi] (-r <= lo < hi <= r) and renormalised: the
+// CDF inverted on [F(lo), F(hi)], x = F^-1(F(lo) + u (F(hi) - F(lo))). Uncut (lo = -r, hi = r) it is
+// sample_tent(u, r) bit for bit (0 + u * 1 = u).
+fn sample_tent_within(u: f32, r: f32, lo: f32, hi: f32) -> f32 {
+    let a = tent_cdf(lo, r);
+    let b = tent_cdf(hi, r);
+    return clamp(sample_tent(a + u * (b - a), r), lo, hi);
+}
+
+// One coordinate of a Gaussian of std-dev sigma cut off to [lo, hi] and renormalised, by inverting its
+// CDF Phi(x) = (1 + erf(x / (sigma sqrt 2))) / 2 on [Phi(lo), Phi(hi)]: in erf's terms
+// x = sigma sqrt(2) erfinv(e(lo) + u (e(hi) - e(lo))), e(x) = erf(x / (sigma sqrt 2)) (erf_approx's
+// absolute error 1.5e-7 and erfinv_approx's relative 1e-7 move the density by as little).
+fn sample_gaussian_within(u: f32, sigma: f32, lo: f32, hi: f32) -> f32 {
+    let s = sigma * SQRT_2;
+    let a = erf_approx(lo / s);
+    let b = erf_approx(hi / s);
+    return clamp(s * erfinv_approx(a + u * (b - a)), lo, hi);
 }
 
 // Density of sample_gaussian2 per unit area at offset x: exp(-|x|^2 / (2 sigma^2)) / (2 pi sigma^2).

@@ -34,9 +34,9 @@ struct Params {
     guard_one: f32, // always 1.0; see accumulate.wgsl
     camera_kind: u32, // CAMERA_PERSPECTIVE or CAMERA_ORTHOGRAPHIC (camera.wgsl)
     aov: u32, // AOV_NONE (radiance) or the --aov layer the samples are (trace.wgsl)
+    filter_in_image: u32, // 1: the pixel filter is cut off at the image's edges (film_position, trace.wgsl)
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 struct Sphere {

@@ -3,7 +3,7 @@
 // channel(s) it takes and whether the texels are sRGB-encoded (src/scene/texture.rs has the host's side,
 // docs/scene-format.md the keys).
 //
-// requires: scene_data.wgsl
+// requires: scene_data.wgsl, features.wgsl
 //
 // Filtering policy: bilinear (or nearest) on the full-resolution image, no mip levels. A path tracer
 // integrates over each pixel's footprint with many samples anyway, so a minified texture converges to
@@ -16,6 +16,7 @@ const TEXTURE_HALF: u32 = 2u; // two words per texel, RGBA as four f16 (EXR and 
 const TEXTURE_NEAREST: u32 = 4u; // nearest texel; else bilinear
 const TEXTURE_CLAMP: u32 = 8u; // uv outside [0, 1] clamps to the edge; else repeats
 const TEXTURE_MIRROR: u32 = 16u; // uv outside [0, 1] repeats mirrored
+const TEXTURE_CHECKERBOARD: u32 = 32u; // Mitsuba's checkerboard: two colours as six f32 (texture_checkerboard)
 // Bits 8-10: which channel(s) the texture gives, spread over the three components.
 const TEXTURE_CHANNEL_SHIFT: u32 = 8u;
 const TEXTURE_CHANNEL_RGB: u32 = 0u;
@@ -49,25 +50,43 @@ fn texel_linear(tex: TextureInfo, x: u32, y: u32) -> vec3<f32> {
     if (tex.flags & TEXTURE_SRGB) != 0u {
         rgb = srgb_to_linear(rgb);
     }
-    switch (tex.flags >> TEXTURE_CHANNEL_SHIFT) & 7u {
+    return texture_channel(rgb, c.a, tex.flags);
+}
+
+// The texture's channel (TEXTURE_CHANNEL_*) of a linear colour rgb with alpha a, spread over the three
+// components.
+fn texture_channel(rgb: vec3<f32>, a: f32, flags: u32) -> vec3<f32> {
+    var out = rgb;
+    switch (flags >> TEXTURE_CHANNEL_SHIFT) & 7u {
         case TEXTURE_CHANNEL_R: {
-            rgb = vec3<f32>(rgb.r);
+            out = vec3<f32>(rgb.r);
         }
         case TEXTURE_CHANNEL_G: {
-            rgb = vec3<f32>(rgb.g);
+            out = vec3<f32>(rgb.g);
         }
         case TEXTURE_CHANNEL_B: {
-            rgb = vec3<f32>(rgb.b);
+            out = vec3<f32>(rgb.b);
         }
         case TEXTURE_CHANNEL_A: {
-            rgb = vec3<f32>(c.a);
+            out = vec3<f32>(a);
         }
         case TEXTURE_CHANNEL_LUMINANCE: {
-            rgb = vec3<f32>(dot(rgb, vec3<f32>(0.2126, 0.7152, 0.0722)));
+            out = vec3<f32>(dot(rgb, vec3<f32>(0.2126, 0.7152, 0.0722)));
         }
         default: {}
     }
-    return rgb;
+    return out;
+}
+
+// Mitsuba 3's procedural `checkerboard` at (transformed) uv: with f = uv - floor(uv), colour 0 where
+// f.x > 1/2 and f.y > 1/2 agree, colour 1 where they differ (Mitsuba's `eval`), so four squares per unit
+// of uv, colour 0 at the origin's corner. The colours are six f32 at the texture's offset, read exactly.
+// (Wrap and filter do not apply: the pattern tiles the plane and has no texels to filter.)
+fn texture_checkerboard(tex: TextureInfo, uv: vec2<f32>) -> vec3<f32> {
+    let f = uv - floor(uv);
+    let w = tex.offset + select(0u, 3u, (f.x > 0.5) != (f.y > 0.5));
+    let rgb = vec3<f32>(bitcast<f32>(texel_at(w)), bitcast<f32>(texel_at(w + 1u)), bitcast<f32>(texel_at(w + 2u)));
+    return texture_channel(rgb, 1.0, tex.flags);
 }
 
 // A coordinate outside [0, 1] brought back in by the wrap mode: repeat keeps the fractional part,
@@ -118,9 +137,25 @@ fn texture_uv(tex: TextureInfo, uv: vec2<f32>) -> vec2<f32> {
 // handed on rounds the same in both.)
 fn texture_lookup(index: u32, uv_in: vec2<f32>, scale: vec3<f32>) -> vec3<f32> {
     let tex = textures[index];
+    let uv = texture_uv(tex, uv_in);
+    var value = vec3<f32>(0.0);
+    var image = true;
+    if HAS_CHECKERBOARD {
+        if (tex.flags & TEXTURE_CHECKERBOARD) != 0u {
+            value = scale * texture_checkerboard(tex, uv);
+            image = false;
+        }
+    }
+    if image {
+        value = image_lookup(tex, uv, scale);
+    }
+    return value;
+}
+
+// An image texture's filtered value at the transformed uv, times `scale` (see texture_lookup).
+fn image_lookup(tex: TextureInfo, uv: vec2<f32>, scale: vec3<f32>) -> vec3<f32> {
     let w = tex.width;
     let h = tex.height;
-    let uv = texture_uv(tex, uv_in);
     // Wrapped into [0, 1] first, so that huge uvs never reach an integer conversion.
     let u = texture_wrap(uv.x, tex.flags);
     let v = texture_wrap(uv.y, tex.flags);

@@ -85,23 +85,46 @@ fn aov_step(kind: u32, path: ptr<function, Path>) -> bool {
 
 // Position on the film of one sample of pixel `px`, importance-sampled from the pixel filter: the
 // filter's weight is then 1 for every sample, and the pixel value is the plain mean of its samples.
+//
+// With params.filter_in_image (render.sample_border = false, Mitsuba 3's default) the filter is cut off
+// at the image's edges and renormalised, so that an edge pixel averages what lies on the image only:
+// Mitsuba's film, which splats samples drawn on the image only with the filter's weights and divides by
+// their sum, converges to that. Mitsuba's filters are separable (its film weighs a sample by f(dx) f(dy)),
+// so each axis is sampled from its cut-off 1-D filter: the tent's, and the Gaussian's over Mitsuba's radius
+// 4 sigma (Mitsuba's Gaussian also subtracts its value there, exp(-8) = 3.4e-4 of the peak, which is not
+// modelled: it moves 0.1 % of each axis's mass towards the radius).
 fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
     let center = vec2<f32>(px) + vec2<f32>(0.5);
     let u = rng_next2(rng);
+    // The offsets that keep the sample on the image.
+    let lo = -center;
+    let hi = vec2<f32>(f32(params.width), f32(params.height)) - center;
+    let w = params.filter_width;
+    var x = center;
     switch select(FILTER_KIND, params.filter_kind, FILTER_FROM_PARAMS) {
         case FILTER_BOX: {
-            return vec2<f32>(px) + u;
+            x = vec2<f32>(px) + u;
         }
         case FILTER_GAUSSIAN: {
-            return center + sample_gaussian2(u, params.filter_width);
+            if params.filter_in_image != 0u {
+                let r = 4.0 * w;
+                x = center + vec2<f32>(sample_gaussian_within(u.x, w, max(-r, lo.x), min(r, hi.x)),
+                                       sample_gaussian_within(u.y, w, max(-r, lo.y), min(r, hi.y)));
+            } else {
+                x = center + sample_gaussian2(u, w);
+            }
         }
         case FILTER_TENT: {
-            return center + sample_tent2(u, params.filter_width);
+            if params.filter_in_image != 0u {
+                x = center + vec2<f32>(sample_tent_within(u.x, w, max(-w, lo.x), min(w, hi.x)),
+                                       sample_tent_within(u.y, w, max(-w, lo.y), min(w, hi.y)));
+            } else {
+                x = center + sample_tent2(u, w);
+            }
         }
-        default: {
-            return center;
-        }
+        default: {}
     }
+    return x;
 }
 
 // A hit seen along d: the geometric normal turned to the side d came from (both faces scatter) and the

@@ -299,7 +299,7 @@ fn params_matches_wgsl() {
             cam_position, lens_radius, cam_right, view_half_width, cam_up, focus_distance, cam_forward,
             filter_width, environment_light, triangle_light, sample_clamp, filter_kind, width, height, max_bounces, seed, sampler,
             light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, camera_kind,
-            aov, _pad),
+            aov, filter_in_image, _pad),
     );
     // The uniform buffer holds one Params.
     let (_, params) = module

@@ -728,6 +728,153 @@ fn masks_and_bitmaps_become_opacity_and_texture_references() {
     }
 }
 
+/// Mitsuba's `checkerboard` texture becomes vkpath's (its two colours exact, as f32) with the texture's
+/// `to_uv` as the reference's scale, rotation and offset (Mitsuba applies the 4x4's x-y block and
+/// translation: scale(4, 3), then rotate 20 degrees, then translate (0.1, 0.2) is uv' = R S uv + t); a
+/// rectangle and a cube carry Mitsuba's uvs (the rectangle's (x + 1, y + 1) / 2, the cube's own mesh);
+/// a scalar parameter (a mask's opacity) reads each colour's channel mean with the colours swapped, as
+/// Mitsuba 3.9.1's `eval_1` does; a sphere (no uvs), a bump map of a checkerboard and a shearing to_uv
+/// are refused at their elements.
+#[test]
+fn checkerboards_and_to_uv_become_texture_references_on_rectangles_and_cubes() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = load_in(
+        dir.path(),
+        r#"
+        <shape type="rectangle"><transform name="to_world"><scale value="2"/></transform>
+            <bsdf type="diffuse"><texture type="checkerboard" name="reflectance">
+                <rgb name="color0" value="0.9, 0.5, 0.1"/><rgb name="color1" value="0.1, 0.2, 0.7"/>
+                <transform name="to_uv"><scale x="4" y="3"/><rotate z="1" angle="20"/><translate x="0.1" y="0.2"/></transform>
+            </texture></bsdf></shape>
+        <shape type="cube"><bsdf type="mask"><texture type="checkerboard" name="opacity">
+            <rgb name="color0" value="0.9, 0.6, 0.3"/><float name="color1" value="0.25"/></texture>
+            <bsdf type="diffuse"/></bsdf></shape>"#,
+    );
+    assert_eq!(
+        s.meshes.len(),
+        2 + 12,
+        "a textured rectangle and cube: a mesh per triangle"
+    );
+    let rect = &s.meshes[0];
+    for (p, uv) in rect.positions.iter().zip(&rect.uvs) {
+        assert_eq!(
+            *uv,
+            [(p.x / 2.0 + 1.0) / 2.0, (p.y / 2.0 + 1.0) / 2.0],
+            "{p}"
+        );
+    }
+    let albedo = s.materials[rect.material as usize]
+        .textures
+        .albedo
+        .as_ref()
+        .expect("textured");
+    assert!(albedo.image.checkerboard && !albedo.srgb);
+    let bits = |c: [f32; 6]| c.map(f32::to_bits).to_vec();
+    assert_eq!(albedo.image.texels, bits([0.9, 0.5, 0.1, 0.1, 0.2, 0.7]));
+    assert_eq!(albedo.scale, [4.0, 3.0]);
+    assert!(
+        (albedo.rotation_deg - 20.0).abs() < 1e-4,
+        "{}",
+        albedo.rotation_deg
+    );
+    assert!((albedo.offset[0] - 0.1).abs() < 1e-6 && (albedo.offset[1] - 0.2).abs() < 1e-6);
+    // Each cube face's uvs span [0, 1]^2 and every triangle faces outwards.
+    for m in &s.meshes[2..] {
+        let p = &m.positions;
+        let n = (p[1] - p[0]).cross(p[2] - p[0]);
+        assert!(n.dot(p[0] + p[1] + p[2]) > 0.0, "outward");
+        assert!(
+            m.uvs.iter().flatten().all(|&t| t == 0.0 || t == 1.0),
+            "{:?}",
+            m.uvs
+        );
+    }
+    let opacity = s.materials[s.meshes[2].material as usize]
+        .textures
+        .opacity
+        .as_ref()
+        .expect("textured");
+    assert_eq!(
+        opacity.image.texels,
+        bits([0.25, 0.25, 0.25, 0.6, 0.6, 0.6]),
+        "swapped means"
+    );
+    assert_eq!(opacity.channel, Channel::R);
+    for (body, needle, want) in [
+        (
+            r#"<shape type="sphere"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"/></bsdf></shape>"#,
+            "<shape",
+            "textures meshes",
+        ),
+        (
+            r#"<shape type="rectangle"><bsdf type="bumpmap"><texture type="checkerboard"/><bsdf type="diffuse"/></bsdf></shape>"#,
+            "<texture",
+            "of a checkerboard",
+        ),
+        (
+            r#"<shape type="rectangle"><bsdf type="diffuse"><texture type="checkerboard" name="reflectance">
+                <transform name="to_uv"><matrix value="1 0.5 0 0  0 1 0 0  0 0 1 0  0 0 0 1"/></transform></texture></bsdf></shape>"#,
+            "name=\"to_uv\"",
+            "shears",
+        ),
+    ] {
+        let e = error_in(dir.path(), body);
+        assert!(
+            e.contains(want) && e.contains(&format!("line {}", line_of(body, needle))),
+            "{e}"
+        );
+    }
+}
+
+/// Mitsuba's film draws samples on the image only (hdrfilm's `sample_border`, default false): an edge
+/// pixel's filter is cut off at the edge. An emitter whose edge crosses the last column of an 8-pixel
+/// orthographic view at 0.4 of the pixel: with the default tent (radius 1 px, centred 0.5 px from the
+/// edge) the column sees the tent's mass over [-0.1, 0.5] of its cut-off mass over [-1, 0.5],
+/// (F(0.5) - F(-0.1)) / F(0.5) = 0.470 / 0.875 = 0.5371 (F the tent's CDF); with sample_border true the
+/// whole tent's mass over [-0.1, 1], 0.595. Within 5 standard errors of the column's mean.
+#[test]
+fn the_film_keeps_samples_on_the_image_unless_sample_border() {
+    let dir = tempfile::tempdir().unwrap();
+    let tent_cdf = |x: f64| {
+        if x < 0.0 {
+            0.5 * (1.0 + x) * (1.0 + x)
+        } else {
+            1.0 - 0.5 * (1.0 - x) * (1.0 - x)
+        }
+    };
+    for (border, want) in [
+        ("", (tent_cdf(0.5) - tent_cdf(-0.1)) / tent_cdf(0.5)),
+        (
+            r#"<boolean name="sample_border" value="true"/>"#,
+            1.0 - tent_cdf(-0.1),
+        ),
+    ] {
+        let body = format!(
+            r#"
+            <integrator type="path"><integer name="max_depth" value="1"/></integrator>
+            <sensor type="orthographic">
+                <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+                <sampler type="independent"><integer name="sample_count" value="16384"/></sampler>
+                <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
+                    <rfilter type="tent"/>{border}</film>
+            </sensor>
+            <shape type="rectangle"><transform name="to_world"><scale x="1" y="3"/><translate x="1.85"/></transform>
+                <emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>"#
+        );
+        let s = load_in(dir.path(), &body);
+        assert_eq!(s.render.sample_border, !border.is_empty());
+        let film = common::render(&s);
+        let column: Vec<f64> = (0..8).map(|y| f64::from(film.pixel(7, y)[0])).collect();
+        let mean = column.iter().sum::<f64>() / 8.0;
+        // Each sample is 0 or 1: a pixel's variance of its mean is p (1 - p) / n.
+        let se = (want * (1.0 - want) / (8.0 * 16384.0)).sqrt();
+        assert!(
+            (mean - want).abs() < 5.0 * se,
+            "{border}: {mean} vs {want} (se {se})"
+        );
+    }
+}
+
 /// Mitsuba's reflecting BSDFs scatter on their front face only unless wrapped in twosided (a mask
 /// around a twosided too); its dielectrics on both; a shape without a BSDF gets Mitsuba's one-sided
 /// default diffuse. vkpath's one_sided says the same.
@@ -1468,6 +1615,7 @@ max_bounces = 3
 seed = 7
 sampler = "independent"
 filter = "box"
+sample_border = false
 [environment]
 radiance = [0.2, 0.2, 0.2]
 [materials]
@@ -1674,6 +1822,8 @@ const FUZZ_SEED: &str = r#"<?xml version="1.0"?>
   <shape type="sphere"><float name="radius" value="0.2"/><bsdf type="thindielectric"/></shape>
   <emitter type="spot"><transform name="to_world"><lookat origin="0, 2, 0" target="0, 0, 0" up="1, 0, 0"/></transform>
     <float name="cutoff_angle" value="30"/><rgb name="intensity" value="2, 1, 1"/></emitter>
+  <shape type="cube"><bsdf type="diffuse"><texture name="reflectance" type="checkerboard">
+    <rgb name="color0" value="0.9, 0.5, 0.1"/><transform name="to_uv"><scale x="4" y="2"/></transform></texture></bsdf></shape>
 </scene>
 "#;
 

@@ -259,12 +259,32 @@ fn cone_coords(w: V3, axis: V3, basis: (V3, V3)) -> (f64, f64) {
 
 #[derive(Clone, Copy, Debug)]
 enum Warp {
-    Cosine { n: [f32; 3] },
-    Cone { axis: [f32; 3], omc: f32 },
-    SphereCone { axis: [f32; 3], r: f32, d2: f32 },
-    Gaussian { sigma: f32 },
+    Cosine {
+        n: [f32; 3],
+    },
+    Cone {
+        axis: [f32; 3],
+        omc: f32,
+    },
+    SphereCone {
+        axis: [f32; 3],
+        r: f32,
+        d2: f32,
+    },
+    Gaussian {
+        sigma: f32,
+    },
     Disk,
-    Tent { radius: f32 },
+    Tent {
+        radius: f32,
+    },
+    /// Mode 6: a tent of `radius` (x) and a Gaussian of `sigma` (y), each cut off to [lo, hi].
+    CutOff {
+        radius: f32,
+        sigma: f32,
+        lo: f32,
+        hi: f32,
+    },
 }
 
 fn header(w: Warp, seed: u32) -> [[f32; 4]; 2] {
@@ -277,6 +297,12 @@ fn header(w: Warp, seed: u32) -> [[f32; 4]; 2] {
         Warp::Gaussian { sigma } => [[3.0, s, 0.0, 0.0], [0.0, 0.0, 0.0, sigma]],
         Warp::Disk => [[4.0, s, 0.0, 0.0], [0.0; 4]],
         Warp::Tent { radius } => [[5.0, s, 0.0, 0.0], [0.0, 0.0, 0.0, radius]],
+        Warp::CutOff {
+            radius,
+            sigma,
+            lo,
+            hi,
+        } => [[6.0, s, lo, hi], [sigma, 0.0, 0.0, radius]],
     }
 }
 
@@ -781,6 +807,73 @@ fn tent_chi_square() {
     );
     let box_cdf = |x: f64, w: f64| ((x / w + 1.0) / 2.0).clamp(0.0, 1.0);
     assert_rejects("box", &grid.chi2(&coords(r, &box_cdf), &uniform), 5.0);
+}
+
+/// The standard normal CDF, Phi(z) = (1 + erf(z / sqrt 2)) / 2, with erf by its Taylor series
+/// 2 / sqrt(pi) sum (-1)^n x^(2n+1) / (n! (2n+1)) (independent of the shader's erf; for |z| <= 6, the range
+/// used here, 100 terms leave an error below 1e-9 after the series' cancellation).
+fn normal_cdf(z: f64) -> f64 {
+    let x = (z / 2f64.sqrt()).clamp(-4.3, 4.3);
+    let (mut term, mut sum) = (x, x);
+    for n in 1..100 {
+        term *= -x * x / n as f64;
+        sum += term / (2 * n + 1) as f64;
+    }
+    0.5 * (1.0 + (2.0 / PI.sqrt() * sum).clamp(-1.0, 1.0))
+}
+
+/// The filters cut off at the image's edge (render.sample_border = false, trace.wgsl's film_position):
+/// sample_tent_within and sample_gaussian_within on [lo, hi] follow the renormalised CDFs of the cut-off
+/// filters, (F(x) - F(lo)) / (F(hi) - F(lo)), each through its own coordinate (chi-square on a 32 x 32
+/// grid of the two), on a cut that takes one side off (an edge pixel's) and on the uncut range, where
+/// the tent is sample_tent's bit for bit; every sample lies in [lo, hi]. The uncut filters' CDFs are
+/// rejected on the cut range.
+#[test]
+fn filters_cut_off_at_the_image_edge_follow_their_renormalised_cdfs() {
+    let (r, sigma) = (1.0f64, 0.5f64);
+    for (lo, hi) in [(-1.0f64, 0.5f64), (-0.3, 0.8), (-1.0, 1.0)] {
+        let w = Warp::CutOff {
+            radius: r as f32,
+            sigma: sigma as f32,
+            lo: lo as f32,
+            hi: hi as f32,
+        };
+        let s = warp(w, 11, N);
+        assert!(
+            s.iter()
+                .all(|o| (lo..=hi).contains(&f64::from(o[0]))
+                    && (lo..=hi).contains(&f64::from(o[1])))
+        );
+        let cut = |cdf: &dyn Fn(f64) -> f64, x: f64| (cdf(x) - cdf(lo)) / (cdf(hi) - cdf(lo));
+        let tent = |x: f64| tent_cdf(x, r);
+        let gauss = |x: f64| normal_cdf(x / sigma);
+        let coords = |t: &dyn Fn(f64) -> f64, g: &dyn Fn(f64) -> f64| -> Vec<(f64, f64)> {
+            s.iter()
+                .map(|o| (t(f64::from(o[0])), 2.0 * PI * g(f64::from(o[1]))))
+                .collect()
+        };
+        let grid = Grid::from_inverse_cdf(32, 32, |p| p);
+        let uniform = |a0: f64, a1: f64, p0: f64, p1: f64| (a1 - a0) * (p1 - p0) / (2.0 * PI);
+        let name = format!("cut to [{lo}, {hi}]");
+        assert_fits(
+            &name,
+            &grid.chi2(&coords(&|x| cut(&tent, x), &|x| cut(&gauss, x)), &uniform),
+        );
+        if hi - lo < 2.0 {
+            assert_rejects(
+                &format!("{name}, the uncut filters"),
+                &grid.chi2(&coords(&tent, &gauss), &uniform),
+                5.0,
+            );
+        } else {
+            let whole = warp(Warp::Tent { radius: r as f32 }, 11, N);
+            assert!(
+                s.iter()
+                    .zip(&whole)
+                    .all(|(a, b)| a[0].to_bits() == b[0].to_bits())
+            );
+        }
+    }
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -212,6 +212,115 @@ fn texture_lookups_match_an_f64_reference() {
     }
 }
 
+/// Mitsuba 3's procedural checkerboard (`checkerboard = [c0, c1]`): every pixel of an emitter whose
+/// radiance is one is, bit for bit, the f32 product factor x colour of the square its uv falls in, where
+/// colour 0 is where frac(u) > 1/2 and frac(v) > 1/2 agree (what Mitsuba 3.9.1's `eval` gives), through
+/// the uv transform (scale, rotation, offset); a channel spreads one component (here b). Pixels whose
+/// uv lies within 1e-4 of a square's edge are skipped (f32 and f64 may put them on either side). Same
+/// bits from the generic kernel.
+#[test]
+fn a_checkerboard_gives_its_exact_colours_on_mitsubas_squares() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    let n = 24u32;
+    let colours = [[0.9f32, 0.5, 0.1], [0.1, 0.2, 0.7]];
+    let (scale, rot, offset) = ([2.6f64, 1.7f64], 25.0f64, [-0.3f64, 0.45f64]);
+    let (sin, cos) = rot.to_radians().sin_cos();
+    for (channel, factor) in [("rgb", 2.0f32), ("b", 1.0)] {
+        let toml = format!(
+            "{}[materials]\nlamp = {{ type = \"emitter\", radiance = {{ checkerboard = [[0.9, 0.5, 0.1], [0.1, 0.2, 0.7]], \
+             channel = \"{channel}\", factor = {factor:?}, scale = [{}, {}], rotation = {rot}, offset = [{}, {}] }} }}\n\
+             [[mesh]]\nobj = \"square.obj\"\nmaterial = \"lamp\"\n",
+            square_view(n, 1, 0),
+            scale[0],
+            scale[1],
+            offset[0],
+            offset[1]
+        );
+        let scene = scene_in(dir.path(), &toml);
+        let film = render(&scene, false);
+        assert_eq!(film.mean, render(&scene, true).mean, "{channel}: generic");
+        let (mut checked, mut seen) = (0, [false; 2]);
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y) = (
+                    (f64::from(i) + 0.5) / f64::from(n),
+                    1.0 - (f64::from(j) + 0.5) / f64::from(n),
+                );
+                let (su, sv) = (scale[0] * x, scale[1] * y);
+                let uv = [
+                    cos * su - sin * sv + offset[0],
+                    sin * su + cos * sv + offset[1],
+                ];
+                let f = uv.map(|t| t - t.floor());
+                if f.iter()
+                    .any(|&t| [0.0, 0.5, 1.0].iter().any(|e| (t - e).abs() < 1e-4))
+                {
+                    continue;
+                }
+                let square = usize::from((f[0] > 0.5) != (f[1] > 0.5));
+                seen[square] = true;
+                let c = colours[square];
+                let want = if channel == "b" { [c[2]; 3] } else { c };
+                let got = film.pixel(i, j);
+                for k in 0..3 {
+                    assert_eq!(
+                        got[k].to_bits(),
+                        (factor * want[k]).to_bits(),
+                        "{channel}: pixel ({i}, {j}) channel {k}: {} vs {}",
+                        got[k],
+                        factor * want[k]
+                    );
+                }
+                checked += 1;
+            }
+        }
+        assert!(
+            checked > 400 && seen == [true; 2],
+            "{checked} pixels checked, {seen:?}"
+        );
+    }
+}
+
+/// A `[[triangle]]` with `uv` is textured at those coordinates: the unit square as two such triangles
+/// renders the bits of the same square as an OBJ mesh with the same uvs (a checkerboard's squares
+/// crossing the diagonal), and without `uv` a triangle's uv is its barycentrics, another image.
+#[test]
+fn triangles_with_uvs_are_textured_like_the_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    write_square(dir.path());
+    let head = format!(
+        "{}[materials]\nlamp = {{ type = \"emitter\", radiance = {{ checkerboard = [[1, 0.5, 0.25], [0.125, 0.25, 1]], scale = [3, 3] }} }}\n",
+        square_view(16, 1, 0)
+    );
+    let mesh = format!("{head}[[mesh]]\nobj = \"square.obj\"\nmaterial = \"lamp\"\n");
+    let triangles = |uv: bool| {
+        let uvs = |a: &str| {
+            if uv {
+                format!("uv = {a}\n")
+            } else {
+                String::new()
+            }
+        };
+        format!(
+            "{head}[[triangle]]\nvertices = [[0, 0, 0], [1, 0, 0], [1, 1, 0]]\nmaterial = \"lamp\"\n{}\
+             [[triangle]]\nvertices = [[0, 0, 0], [1, 1, 0], [0, 1, 0]]\nmaterial = \"lamp\"\n{}",
+            uvs("[[0, 0], [1, 0], [1, 1]]"),
+            uvs("[[0, 0], [1, 1], [0, 1]]")
+        )
+    };
+    let want = render(&scene_in(dir.path(), &mesh), false).mean;
+    assert!(want.iter().any(|p| p[0] != want[0][0]), "the pattern shows");
+    assert_eq!(
+        render(&scene_in(dir.path(), &triangles(true)), false).mean,
+        want
+    );
+    assert_ne!(
+        render(&scene_in(dir.path(), &triangles(false)), false).mean,
+        want
+    );
+}
+
 /// A one-texel texture of value c renders the same bits as the constant c, specialised and generic, on a
 /// glTF metallic-roughness surface lit by a sun (base colour, roughness and metallic all from it): an f16
 /// texel (EXR) holds c = 0.625 exactly, and the nearest filter returns it unweighted. (Bilinear weights
@@ -490,6 +599,27 @@ fn bad_texture_references_are_refused_by_key() {
         (
             "albedo = [0.5, 0.5, 0.5], bump = { texture = \"c.png\", factor = 2.0 }",
             "materials.m.bump.factor",
+        ),
+        (
+            "albedo = { texture = \"c.png\", checkerboard = [0.1, 0.2] }",
+            "materials.m.albedo",
+        ),
+        ("albedo = { factor = 0.5 }", "materials.m.albedo"),
+        (
+            "albedo = { checkerboard = [0.1, 0.2, 0.3] }",
+            "materials.m.albedo.checkerboard",
+        ),
+        (
+            "albedo = { checkerboard = [0.1, -0.2] }",
+            "materials.m.albedo.checkerboard",
+        ),
+        (
+            "albedo = { checkerboard = [0.1, 0.2], wrap = \"clamp\" }",
+            "materials.m.albedo.wrap",
+        ),
+        (
+            "albedo = [0.5, 0.5, 0.5], bump = { checkerboard = [0.1, 0.2] }",
+            "materials.m.bump.checkerboard",
         ),
     ];
     for (material, key) in cases {

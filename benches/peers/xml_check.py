@@ -21,15 +21,15 @@ compilation included); Mitsuba's the sum of its render calls after loading (its 
 first). Equal-time error ratio: sqrt(vkpath's mean per-pixel variance x its time / Mitsuba's x its time),
 below 1 when vkpath reaches a given per-pixel error sooner.
 
-Blocks and the tent filter (measured 2026-12-04 on Bitterli's veach-mis, 128 px, 2048 spp, 8 batches): with
-the file's `tent` filter 18 of 144 blocks lay beyond 4 sigma (vkpath 0.5-3 % darker along the floor's far
-edge and beside the lights), with the filter set to `box` in both renderers none did. Mitsuba splats each
-sample into the pixels under the filter and divides by the summed weights when the film is developed, a
-ratio estimator biased by O(1 / samples per render call) where the image has edges; vkpath draws each
-pixel's samples from the filter itself (unbiased, the plain mean). Mitsuba's block values moved towards
-vkpath's as its batches grew (64 -> 256 spp each: 0.09351 -> 0.09329 against vkpath's 0.0929-0.0930 at one
-block). With a tent (or Gaussian) filter, read the block count with that in mind, or use fewer, larger
-batches (the means are unaffected).
+Blocks at the image's edges (2026-12-05): Mitsuba 3's hdrfilm draws samples on the image only (its
+`sample_border` is false by default), so an edge pixel's tent or Gaussian is cut off at the edge; vkpath
+read such files with each pixel's filter whole until it learnt `render.sample_border`, and the edge rows
+differed by up to 2.5 % (Bitterli's veach-mis: 16-18 of 144 blocks beyond 4 sigma, the floor's near edge
+along the image's bottom; none once the filter is cut off alike, nor on the Cornell box, which had 9).
+An earlier reading blamed the ratio estimator of Mitsuba's splatting: Mitsuba with 16x the samples per
+batch (--mitsuba-spp) left the blocks as they were, which ruled it out. A block's luminance variance is
+taken from each batch's luminance for Mitsuba and bounded by (sum_c w_c sd_c)^2 for vkpath, the
+channels being correlated (summing w_c^2 var_c understated it by up to 1.34x in sd).
 """
 
 import argparse
@@ -51,6 +51,8 @@ def main() -> int:
     ap.add_argument("--size", type=int, default=128, help="image width (the height keeps the film's aspect)")
     ap.add_argument("--spp", type=int, default=1024, help="samples per pixel, for each renderer")
     ap.add_argument("--batches", type=int, default=16, help="Mitsuba renders (seeds) the spp is split into")
+    ap.add_argument("--mitsuba-spp", type=int, default=None,
+                    help="Mitsuba's samples per pixel over all batches (default: --spp)")
     default_vkpath = ROOT / "target" / "release" / "vkpath"
     if not default_vkpath.exists():
         default_vkpath = ROOT / "target" / "debug" / "vkpath"
@@ -86,7 +88,7 @@ def main() -> int:
                         "--spp", str(a.spp), "--aov", "variance", "-o", str(exr), "--quiet", *flags], check=True)
         v_time = time.perf_counter() - t0
         copy = mx.copy(a.scene, Path(tmp) / "mitsuba.xml", width, height, "independent", 3, box=False)
-        per_batch = max(1, a.spp // a.batches)
+        per_batch = max(1, (a.mitsuba_spp or a.spp) // a.batches)
         scene = mi.load_file(str(copy))
         with OpenEXR.File(str(exr)) as f:
             ch = f.channels()
@@ -113,8 +115,7 @@ def main() -> int:
     # Per pixel: Mitsuba's variance of its mean over the batches, vkpath's from its AOV.
     m_var = imgs.var(axis=0, ddof=1) / a.batches
 
-    # Per-block z-test on the luminance (Rec. 709 weights; the channels' variances summed with the
-    # squared weights: a pixel's channels are treated as independent, which overstates nothing much).
+    # Per-block z-test on the luminance (Rec. 709 weights; its variance below).
     lum = np.array([0.2126, 0.7152, 0.0722])
     bx, by = max(1, width // a.block), max(1, height // a.block)
     def blocks(x):
@@ -125,7 +126,19 @@ def main() -> int:
         return v.reshape(by, a.block, bx, a.block).sum(axis=(1, 3)) / (a.block * a.block) ** 2
     v_blocks = blocks(rgb @ lum)
     m_blocks = blocks(imgs.mean(axis=0) @ lum)
-    z_blocks = (v_blocks - m_blocks) / np.sqrt(block_var(var @ lum**2) + block_var(m_var @ lum**2))
+    # A block both renderers see without noise (the environment alone) has no variance: it agrees when
+    # the values do (z 0), else it is infinitely far.
+    diff = v_blocks - m_blocks
+    # A pixel's channels are strongly correlated (one path carries all three), so the luminance's
+    # variance is not the weighted sum of the channels' variances (which understated it by up to 1.34x in
+    # sd on grey scenes and so inflated z). Mitsuba's: exact, from each batch's luminance. vkpath's AOV has
+    # the channels' variances only: its bound for correlation 1, (sum_c w_c sd_c)^2, which cannot
+    # understate it.
+    m_lum_var = (imgs @ lum).var(axis=0, ddof=1) / a.batches
+    v_lum_var = (np.sqrt(var) @ lum) ** 2
+    sd = np.sqrt(block_var(v_lum_var) + block_var(m_lum_var))
+    z_blocks = np.where(sd > 0, diff / np.where(sd > 0, sd, 1.0),
+                        np.where(np.abs(diff) <= 1e-6 * np.abs(m_blocks), 0.0, np.inf))
     beyond = int((np.abs(z_blocks) > 4).sum())
     expected = 6.334e-5 * z_blocks.size
 
@@ -144,9 +157,11 @@ def main() -> int:
         print(f"    block at pixel ({bx_ * a.block}, {by_ * a.block}): vkpath {v_blocks[by_, bx_]:.5f}, "
               f"Mitsuba {m_blocks[by_, bx_]:.5f}, z {z_blocks[by_, bx_]:+.2f}")
     samples = width * height * a.spp
+    m_samples = width * height * per_batch * a.batches
+    # (Variance x time does not depend on the sample count: the ratio holds for unequal spp.)
     eq = math.sqrt(var.mean() * v_time / (m_var.mean() * m_time))
     print(f"  vkpath {samples / v_time / 1e6:.3f} Msamples/s ({v_time:.1f} s, load and compile included), "
-          f"Mitsuba {samples / m_time / 1e6:.3f} Msamples/s ({m_time:.1f} s); equal-time error ratio "
+          f"Mitsuba {m_samples / m_time / 1e6:.3f} Msamples/s ({m_time:.1f} s); equal-time error ratio "
           f"vkpath / Mitsuba {eq:.2f}")
     # Blocks beyond 4 sigma: more than noise predicts when at least 2 (P(>= 2) < 1e-3 for the block
     # counts used here).

@@ -12,6 +12,8 @@
 // mode 3: sample_gaussian2(u, sigma = p2)                             -> (g.xy, 0, 0)
 // mode 4: sample_uniform_disk(u)                                      -> (p.xy, 0, 0)
 // mode 5: sample_tent2(u, radius = p2)                                -> (t.xy, 0, 0)
+// mode 6: the filters cut off to [lo, hi] = [p0, p1]: sample_tent_within(u.x, radius = p2, lo, hi) and
+//         sample_gaussian_within(u.y, sigma = axis.x, lo, hi)         -> (t, g, 0, 0)
 //
 // requires: sampling.wgsl, rng.wgsl
 
@@ -52,6 +54,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         case 5u: {
             out = vec4<f32>(sample_tent2(u, p2), 0.0, 0.0);
+        }
+        case 6u: {
+            out = vec4<f32>(sample_tent_within(u.x, p2, head.z, head.w),
+                            sample_gaussian_within(u.y, axis.x, head.z, head.w), 0.0, 0.0);
         }
         default: {
             out = vec4<f32>(sample_uniform_disk(u), 0.0, 0.0);

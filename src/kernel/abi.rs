@@ -53,7 +53,9 @@ pub struct GpuParams {
     /// What a sample is: [`AOV_NONE`], radiance (the render); else one of the `AOV_*` layers of
     /// `--aov`, traced by the same kernel through the same camera rays (trace.wgsl, `trace_aov`).
     pub aov: u32,
-    pub _pad: [u32; 3],
+    /// 1: a pixel's filter is cut off at the image's edges (`render.sample_border = false`); 0: not.
+    pub filter_in_image: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Mirrors `PassConstants` in scene_data.wgsl: which samples the next dispatch traces (`sample_count`
@@ -284,6 +286,9 @@ pub const TEXTURE_NEAREST: u32 = 4;
 pub const TEXTURE_CLAMP: u32 = 8;
 /// `GpuTextureInfo::flags`: uv outside [0, 1] repeats mirrored.
 pub const TEXTURE_MIRROR: u32 = 16;
+/// `GpuTextureInfo::flags`: not an image but Mitsuba's checkerboard of two colours, stored as six f32
+/// at `offset` (`Texture::checkerboard`).
+pub const TEXTURE_CHECKERBOARD: u32 = 32;
 /// `GpuTextureInfo::flags` bits 8-10: the channel(s) the texture gives (`TEXTURE_CHANNEL_*`).
 pub const TEXTURE_CHANNEL_SHIFT: u32 = 8;
 pub const TEXTURE_CHANNEL_RGB: u32 = 0;
@@ -613,6 +618,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("TEXTURE_NEAREST", TEXTURE_NEAREST),
     ("TEXTURE_CLAMP", TEXTURE_CLAMP),
     ("TEXTURE_MIRROR", TEXTURE_MIRROR),
+    ("TEXTURE_CHECKERBOARD", TEXTURE_CHECKERBOARD),
     ("TEXTURE_CHANNEL_SHIFT", TEXTURE_CHANNEL_SHIFT),
     ("TEXTURE_CHANNEL_RGB", TEXTURE_CHANNEL_RGB),
     ("TEXTURE_CHANNEL_R", TEXTURE_CHANNEL_R),

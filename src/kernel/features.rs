@@ -36,6 +36,7 @@ pub enum Feature {
     BackMaterials,
     BlendMaterials,
     Opacity,
+    Checkerboard,
     Anisotropy,
     Beckmann,
     Emission,
@@ -231,6 +232,19 @@ const BEFORE_MATERIALS: &[FeatureRow] = &[
             used_material_textures(g).any(|t| {
                 t.opacity < 1.0 || t.opacity_texture != NO_TEXTURE || t.flags & MATERIAL_CUTOUT != 0
             })
+        },
+        reported: true,
+    },
+    FeatureRow {
+        // Some texture is Mitsuba's procedural checkerboard (texture.wgsl, texture_checkerboard).
+        feature: Feature::Checkerboard,
+        name: "checkerboard",
+        constant: "HAS_CHECKERBOARD",
+        group: Group::Other,
+        needed: |g, _| {
+            g.textures
+                .iter()
+                .any(|t| t.flags & TEXTURE_CHECKERBOARD != 0)
         },
         reported: true,
     },

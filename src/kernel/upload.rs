@@ -289,6 +289,9 @@ fn texture_flags(r: &TextureRef) -> u32 {
     if r.image.half {
         flags |= TEXTURE_HALF;
     }
+    if r.image.checkerboard {
+        flags |= TEXTURE_CHECKERBOARD;
+    }
     if r.filter == TextureFilter::Nearest {
         flags |= TEXTURE_NEAREST;
     }
@@ -883,7 +886,8 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
             Projection::Orthographic => CAMERA_ORTHOGRAPHIC,
         },
         aov: AOV_NONE,
-        _pad: [0; 3],
+        filter_in_image: u32::from(!scene.render.sample_border),
+        _pad: [0; 2],
     }
 }
 

@@ -23,6 +23,26 @@ pub struct Texture {
     /// an IEEE binary16 (WGSL's `unpack2x16float` order).
     pub texels: Vec<u32>,
     pub half: bool,
+    /// Not an image but Mitsuba 3's `checkerboard` ([`Texture::checkerboard`]): `texels` holds its two
+    /// colours as six f32 (linear RGB, colour 0 then colour 1), read exactly (texture.wgsl).
+    pub checkerboard: bool,
+}
+
+impl Texture {
+    /// The procedural checkerboard of two colours (Mitsuba 3's `checkerboard` texture): at texture
+    /// coordinates uv, with f = uv - floor(uv), colour 0 where f.x > 1/2 and f.y > 1/2 agree (both or
+    /// neither), colour 1 where they differ: four squares per unit of uv. The colours are stored as f32
+    /// bits, so a checkerboard reads its colours exactly (no 8-bit or f16 rounding).
+    pub fn checkerboard(colors: [[f32; 3]; 2]) -> Texture {
+        Texture {
+            path: PathBuf::from("checkerboard"),
+            width: 2,
+            height: 2,
+            texels: colors.iter().flatten().map(|c| c.to_bits()).collect(),
+            half: false,
+            checkerboard: true,
+        }
+    }
 }
 
 impl std::fmt::Debug for Texture {
@@ -33,6 +53,7 @@ impl std::fmt::Debug for Texture {
             .field("width", &self.width)
             .field("height", &self.height)
             .field("half", &self.half)
+            .field("checkerboard", &self.checkerboard)
             .finish_non_exhaustive()
     }
 }
@@ -111,6 +132,7 @@ fn decode_texture(bytes: &[u8], path: &Path) -> Result<Texture, String> {
         height,
         texels,
         half,
+        checkerboard: false,
     })
 }
 
@@ -164,6 +186,7 @@ fn decode_jpeg(bytes: &[u8], path: &Path, width: u32, height: u32) -> Result<Tex
         height,
         texels,
         half: false,
+        checkerboard: false,
     })
 }
 

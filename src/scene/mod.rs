@@ -236,6 +236,10 @@ pub struct RenderSettings {
     pub filter_sigma: f32,
     /// The tent filter's radius, in pixels (> 0; default 1).
     pub filter_radius: f32,
+    /// `render.sample_border` (default true): a pixel's filter reaches past the image's edges, as it
+    /// does inside. False: samples stay on the image, an edge pixel's filter is cut off there and
+    /// renormalised (Mitsuba 3's hdrfilm with its default `sample_border = false`).
+    pub sample_border: bool,
     pub sampler: Sampler,
     pub light_sampling: LightSampling,
     /// `render.clamp`: each sample's radiance is scaled down so that its largest channel is at most this

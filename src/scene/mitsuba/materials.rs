@@ -330,6 +330,13 @@ impl Tr<'_> {
                             "Give a bitmap texture, or leave the normalmap out.",
                         ));
                     }
+                    ColorTex::Bitmap(bitmap) if bitmap.path().is_none() => {
+                        return Err(bitmap.loc.error(
+                            format!("a {kind} of a checkerboard"),
+                            "vkpath's bump and normal maps read a bitmap: a checkerboard's steps have no \
+                             slope to tilt a normal by.",
+                        ));
+                    }
                     ColorTex::Bitmap(bitmap) => Some(bitmap),
                 };
                 let Some(mut out) = self.bsdf(b)? else {

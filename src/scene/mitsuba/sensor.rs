@@ -15,6 +15,7 @@ struct FilmOut {
     width: i64,
     height: i64,
     filter: (&'static str, Option<f64>),
+    sample_border: bool,
 }
 
 /// A camera as vkpath keys.
@@ -26,6 +27,8 @@ pub(super) struct CameraOut {
     pub(super) seed: i64,
     pub(super) sampler: &'static str,
     pub(super) filter: (&'static str, Option<f64>),
+    /// The film's `sample_border` (Mitsuba's default false: samples stay on the image).
+    pub(super) sample_border: bool,
     pub(super) film_loc: Loc,
     pub(super) sampler_loc: Loc,
 }
@@ -44,16 +47,17 @@ impl Tr<'_> {
         let args = Args::new(obj);
         // Film.
         let film = args.object("film", self.ids)?;
-        let (width, height, filter, film_loc) = match &film {
+        let (width, height, filter, sample_border, film_loc) = match &film {
             Some((f, _)) => {
                 let FilmOut {
                     width,
                     height,
                     filter,
+                    sample_border,
                 } = self.film(f)?;
-                (width, height, filter, f.loc.clone())
+                (width, height, filter, sample_border, f.loc.clone())
             }
-            None => (768, 576, ("gaussian", Some(0.5)), obj.loc.clone()),
+            None => (768, 576, ("gaussian", Some(0.5)), false, obj.loc.clone()),
         };
         // Sampler: Mitsuba's default is `independent` with 4 samples.
         let sampler = args.object("sampler", self.ids)?;
@@ -226,6 +230,7 @@ impl Tr<'_> {
             seed,
             sampler: sampler_name,
             filter,
+            sample_border,
             film_loc,
             sampler_loc,
         })
@@ -324,14 +329,15 @@ impl Tr<'_> {
         for name in ["file_format", "pixel_format", "component_format"] {
             let _ = args.string(name)?;
         }
-        let _ = args.boolean("sample_border")?;
+        // sample_border (default false): whether samples are also drawn beyond the image's edges, so that
+        // an edge pixel's filter is whole; without, its filter is cut off at the edge (vkpath's
+        // render.sample_border says the same).
+        let mut sample_border = args.boolean("sample_border")?.is_some_and(|(b, _)| b);
         // Mitsuba 0.5/0.6's film parameters, read in files written for them (Mitsuba 3 refuses them):
-        // high_quality_edges is Mitsuba 3's sample_border (samples beyond the edge splat into the border
-        // pixels; vkpath samples each pixel's filter whole, so its edges are as good either way);
-        // attach_log stored the render log in the EXR; banner drew Mitsuba's logo into the image, which
-        // vkpath does not (a warning when asked for).
+        // high_quality_edges is Mitsuba 3's sample_border; attach_log stored the render log in the EXR;
+        // banner drew Mitsuba's logo into the image, which vkpath does not (a warning when asked for).
         if obj.legacy {
-            let _ = args.boolean("high_quality_edges")?;
+            sample_border |= args.boolean("high_quality_edges")?.is_some_and(|(b, _)| b);
             let _ = args.boolean("attach_log")?;
             if let Some((true, loc)) = args.boolean("banner")? {
                 self.warnings.push(loc.warning(
@@ -392,6 +398,7 @@ impl Tr<'_> {
             width,
             height,
             filter,
+            sample_border,
         })
     }
 

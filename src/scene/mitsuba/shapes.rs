@@ -126,11 +126,11 @@ impl Tr<'_> {
         )?;
         let material = toml_string(&material);
         let loc = Some(&obj.loc);
-        let mesh_kind = matches!(kind, "obj" | "ply" | "serialized");
-        if texture.is_some() && !mesh_kind {
+        let uv_kind = matches!(kind, "obj" | "ply" | "serialized" | "rectangle" | "cube");
+        if texture.is_some() && !uv_kind {
             return Err(obj.loc.error(
-                format!("a bitmap texture on a {kind}: vkpath textures meshes (obj, ply) only, at their uvs"),
-                "Give the shape a plain colour, or make it an OBJ mesh with texture coordinates.",
+                format!("a texture on a {kind}: vkpath textures meshes, rectangles and cubes only, at their uvs (a {kind} has none in vkpath)"),
+                "Give the shape a plain colour, or make it a mesh with texture coordinates.",
             ));
         }
         match kind {
@@ -181,10 +181,24 @@ impl Tr<'_> {
             }
             "rectangle" | "cube" | "disk" => {
                 self.finish(&args, &["to_world", "flip_normals", "bsdf", "emitter"])?;
-                let local = match kind {
-                    "rectangle" => rectangle_triangles(),
-                    "cube" => cube_triangles(),
-                    _ => disk_triangles(),
+                // Textured: Mitsuba's own vertices with their uvs (rectangle: (x + 1, y + 1) / 2; the cube
+                // its 24-vertex mesh); else the plain triangles (the same surfaces).
+                let (local, uvs) = match (kind, texture.is_some()) {
+                    ("rectangle", false) => (rectangle_triangles(), None),
+                    ("cube", false) => (cube_triangles(), None),
+                    ("rectangle", true) => {
+                        let t = rectangle_triangles();
+                        let uv = t
+                            .iter()
+                            .map(|f| f.map(|p| [(p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0]))
+                            .collect();
+                        (t, Some(uv))
+                    }
+                    ("cube", true) => {
+                        let (t, uv) = mitsuba_cube();
+                        (t, Some(uv))
+                    }
+                    _ => (disk_triangles(), None),
                 };
                 // Mitsuba's rectangle and disk take their normal through the inverse transpose, so a
                 // mirroring to_world (det < 0) keeps it on the side that +z maps to, while the winding of
@@ -193,7 +207,7 @@ impl Tr<'_> {
                 let det = DMat3::from_mat4(m).determinant();
                 let reverse = (det < 0.0 && kind != "cube") != flip.is_some_and(|(f, _)| f);
                 let o = &mut self.out_shapes;
-                for [a, b, c] in local {
+                for (k, [a, b, c]) in local.into_iter().enumerate() {
                     let [a, b, c] = [a, b, c].map(|p| m.transform_point3(p));
                     let (b, c) = if reverse { (c, b) } else { (b, c) };
                     o.line("", None);
@@ -203,6 +217,15 @@ impl Tr<'_> {
                         loc,
                     );
                     o.line(format!("material = {material}"), loc);
+                    if let Some(uvs) = &uvs {
+                        let [ua, ub, uc]: [[f64; 2]; 3] = uvs[k];
+                        let (ub, uc) = if reverse { (uc, ub) } else { (ub, uc) };
+                        let uv = |[u, v]: [f64; 2]| format!("[{}, {}]", num(u), num(v));
+                        o.line(
+                            format!("uv       = [{}, {}, {}]", uv(ua), uv(ub), uv(uc)),
+                            loc,
+                        );
+                    }
                 }
             }
             _ => {
@@ -385,6 +408,49 @@ fn cube_triangles() -> Vec<[DVec3; 3]> {
         }
     }
     out
+}
+
+/// Mitsuba 3's cube as its own mesh (cube.cpp): 24 vertices, four per face, each face's uvs running
+/// over [0, 1]^2, and 12 counter-clockwise triangles seen from outside, with each triangle's uvs. The
+/// faces in Mitsuba's order: -y, +y, +x, +z, -x, -z. (Checked against Mitsuba 3.9.1's
+/// `vertex_positions`, `vertex_texcoords` and `faces`.)
+fn mitsuba_cube() -> (Vec<[DVec3; 3]>, Vec<[[f64; 2]; 3]>) {
+    // Each face: its four corners, in the order of uvs (0, 1), (1, 1), (1, 0), (0, 0); triangles
+    // (0, 1, 2) and (3, 0, 2).
+    const FACES: [[[f64; 3]; 4]; 6] = [
+        [
+            [1., -1., -1.],
+            [1., -1., 1.],
+            [-1., -1., 1.],
+            [-1., -1., -1.],
+        ],
+        [[1., 1., -1.], [-1., 1., -1.], [-1., 1., 1.], [1., 1., 1.]],
+        [[1., -1., -1.], [1., 1., -1.], [1., 1., 1.], [1., -1., 1.]],
+        [[1., -1., 1.], [1., 1., 1.], [-1., 1., 1.], [-1., -1., 1.]],
+        [
+            [-1., -1., 1.],
+            [-1., 1., 1.],
+            [-1., 1., -1.],
+            [-1., -1., -1.],
+        ],
+        [
+            [1., 1., -1.],
+            [1., -1., -1.],
+            [-1., -1., -1.],
+            [-1., 1., -1.],
+        ],
+    ];
+    const UV: [[f64; 2]; 4] = [[0., 1.], [1., 1.], [1., 0.], [0., 0.]];
+    let mut triangles = Vec::new();
+    let mut uvs = Vec::new();
+    for face in FACES {
+        let p = face.map(DVec3::from_array);
+        for [i, j, k] in [[0, 1, 2], [3, 0, 2]] {
+            triangles.push([p[i], p[j], p[k]]);
+            uvs.push([UV[i], UV[j], UV[k]]);
+        }
+    }
+    (triangles, uvs)
 }
 
 /// Mitsuba's disk (the unit disk at z = 0, normal +z) as a fan of [`DISK_SEGMENTS`] triangles: a regular

@@ -182,6 +182,10 @@ impl Tr<'_> {
             };
             head.line(format!("{key} = {}", num(s)), Some(&cam.film_loc));
         }
+        head.line(
+            format!("sample_border = {}", cam.sample_border),
+            Some(&cam.film_loc),
+        );
 
         // Emitters (lights and the environment), then shapes (which write the materials).
         let mut env = TomlOut::default();

@@ -143,6 +143,38 @@ impl Checker<'_> {
         Ok(Triangle { vertices, material })
     }
 
+    /// A `[[triangle]]`'s texture coordinates (`uv`, one [u, v] per vertex), when it gives them: the
+    /// triangle is then a one-triangle mesh, whose uvs a textured material reads (without them a
+    /// triangle's uv is its barycentrics).
+    pub(super) fn triangle_uv(
+        &self,
+        i: usize,
+        raw: &RawTriangle,
+    ) -> Result<Option<[[f32; 2]; 3]>, SceneError> {
+        let Some(uv) = &raw.uv else { return Ok(None) };
+        let key = format!("triangle[{i}].uv");
+        let given = uv.get_ref();
+        if given.len() != 3 {
+            return Err(self.error(
+                uv.span(),
+                &key,
+                format!(
+                    "a triangle's uv has one [u, v] per vertex, 3; got {}",
+                    given.len()
+                ),
+                "Give uv = [[u, v], [u, v], [u, v]], in the order of `vertices`.",
+            ));
+        }
+        let mut out = [[0.0; 2]; 3];
+        for (slot, [u, v]) in out.iter_mut().zip(given.iter().map(|p| p.0)) {
+            if !(u.is_finite() && v.is_finite()) {
+                return Err(self.not_finite(uv.span(), &key, &format!("[{u}, {v}]")));
+            }
+            *slot = [u, v];
+        }
+        Ok(Some(out))
+    }
+
     /// A `[[mesh]]`: the OBJ read and placed, its normals and texture resolved. OBJ problems are reported
     /// at the `obj` key, with the OBJ's own file and line in the message.
     pub(super) fn mesh(

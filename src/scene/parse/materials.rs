@@ -413,7 +413,8 @@ impl Checker<'_> {
         ] {
             let Some(raw) = raw else { continue };
             let t = &raw.get_ref().0;
-            let (mut r, scale) = self.texture_ref(t, &key(field), false, true, files)?;
+            let (mut r, scale) =
+                self.texture_ref(t, raw.span(), &key(field), false, true, files)?;
             // A normal map is a vector: all three channels (a height map, like a scalar, reads "r").
             if field == "normal_map" && t.channel.is_none() {
                 r.channel = crate::scene::texture::Channel::Rgb;

@@ -154,11 +154,24 @@ impl Checker<'_> {
             spheres.push(self.sphere(i, sphere.get_ref(), &material_names)?);
         }
         let mut triangles = Vec::with_capacity(raw.triangle.len());
-        for (i, triangle) in raw.triangle.iter().enumerate() {
-            triangles.push(self.triangle(i, triangle.get_ref(), &material_names)?);
-        }
         let mut meshes = Vec::with_capacity(raw.mesh.len());
-        let mut total = triangles.len();
+        for (i, triangle) in raw.triangle.iter().enumerate() {
+            let t = self.triangle(i, triangle.get_ref(), &material_names)?;
+            match self.triangle_uv(i, triangle.get_ref())? {
+                None => triangles.push(t),
+                Some(uv) => meshes.push(mesh::Mesh {
+                    obj: PathBuf::from(format!("triangle[{i}]")),
+                    positions: t.vertices.to_vec(),
+                    normals: Vec::new(),
+                    uvs: uv.to_vec(),
+                    triangles: vec![[0, 1, 2]],
+                    material: t.material,
+                    texture: None,
+                    maps: mesh::MeshMaps::default(),
+                }),
+            }
+        }
+        let mut total = triangles.len() + meshes.len(); // (a textured [[triangle]] is a one-triangle mesh)
         let mut warnings = Vec::new();
         // Named meshes, for [[instance]]s.
         let mut sources: Vec<(String, geometry::MeshSource)> = Vec::new();
@@ -469,6 +482,7 @@ fov      = 45
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
                 filter_radius: 1.0,
+                sample_border: true,
                 sampler: Sampler::Sobol,
                 light_sampling: LightSampling::Mis,
                 clamp: None,
@@ -554,6 +568,7 @@ fov      = 45
                 filter: Filter::Gaussian,
                 filter_sigma: 0.5,
                 filter_radius: 1.0,
+                sample_border: true,
                 sampler: Sampler::Sobol,
                 light_sampling: LightSampling::Mis,
                 clamp: None,

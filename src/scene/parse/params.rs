@@ -7,6 +7,7 @@ use super::{Checker, Files};
 use crate::scene::Roughness;
 use crate::scene::texture::TextureRef;
 use glam::Vec3;
+use std::sync::Arc;
 use toml::Spanned;
 
 impl Checker<'_> {
@@ -28,7 +29,7 @@ impl Checker<'_> {
                 self.vec3_unless(&Spanned::new(v.span(), *c), key, bad, problem, hint)
             }
             RawParam::Texture(t) => {
-                let (r, _) = self.texture_ref(t, key, true, false, files)?;
+                let (r, _) = self.texture_ref(t, v.span(), key, true, false, files)?;
                 let factor = match &t.factor {
                     None => Vec3::ONE,
                     Some(f) => {
@@ -64,7 +65,7 @@ impl Checker<'_> {
                 self.number_unless(&Spanned::new(v.span(), *x), key, bad, problem, hint)
             }
             RawParam::Texture(t) => {
-                let (r, _) = self.texture_ref(t, key, false, false, files)?;
+                let (r, _) = self.texture_ref(t, v.span(), key, false, false, files)?;
                 let factor = match &t.factor {
                     None => 1.0,
                     Some(f) => match f.get_ref() {
@@ -99,6 +100,7 @@ impl Checker<'_> {
     pub(super) fn texture_ref(
         &self,
         t: &RawTextureRef,
+        span: std::ops::Range<usize>,
         key: &str,
         colour: bool,
         modifier: bool,
@@ -106,14 +108,64 @@ impl Checker<'_> {
     ) -> Result<(TextureRef, Option<f32>), SceneError> {
         use crate::scene::texture::{Channel, TextureFilter, Wrap};
         let sub = |field: &str| format!("{key}.{field}");
-        let image = self.mesh_texture(
-            &t.texture,
-            &sub("texture"),
-            files.base,
-            &mut files.loaded,
-            "The path is relative to the scene file; PNG, JPEG, EXR and HDR images are read.",
-        )?;
+        let image = match (&t.texture, &t.checkerboard) {
+            (Some(file), None) => self.mesh_texture(
+                file,
+                &sub("texture"),
+                files.base,
+                &mut files.loaded,
+                "The path is relative to the scene file; PNG, JPEG, EXR and HDR images are read.",
+            )?,
+            (None, Some(colors)) if !modifier => {
+                Arc::new(self.checkerboard(colors, &sub("checkerboard"))?)
+            }
+            (None, Some(colors)) => {
+                return Err(self.error(
+                    colors.span(),
+                    &sub("checkerboard"),
+                    "a bump or normal map of a checkerboard",
+                    "Bump and normal maps read an image (`texture = \"file.png\"`); a checkerboard's \
+                     steps have no slope to tilt a normal by.",
+                ));
+            }
+            (Some(file), Some(_)) => {
+                return Err(self.error(
+                    file.span(),
+                    key,
+                    "a texture reference with both `texture` and `checkerboard`",
+                    "Give the image file (`texture`) or the checkerboard's two colours, not both.",
+                ));
+            }
+            (None, None) => {
+                return Err(self.error(
+                    span,
+                    key,
+                    "a texture reference without `texture` (or `checkerboard`)",
+                    "Give `texture = \"file.png\"` (relative to the scene file), or                      `checkerboard = [colour0, colour1]`.",
+                ));
+            }
+        };
         let mut r = TextureRef::plain(image, colour);
+        if r.image.checkerboard {
+            // Its colours are linear values, whatever the parameter; it tiles the plane and has no texels
+            // to filter.
+            r.srgb = false;
+            for (field, v) in [
+                ("color_space", &t.color_space),
+                ("filter", &t.filter),
+                ("wrap", &t.wrap),
+            ] {
+                if let Some(v) = v {
+                    return Err(self.error(
+                        v.span(),
+                        &sub(field),
+                        format!("a checkerboard has no {field}"),
+                        "Its colours are linear and exact, its squares tile the plane: leave the key out \
+                         (scale, offset, rotation, channel and factor apply).",
+                    ));
+                }
+            }
+        }
         if !colour {
             r.channel = Channel::R;
         }
@@ -211,6 +263,43 @@ impl Checker<'_> {
             ));
         }
         Ok((r, modifier_scale))
+    }
+
+    /// A checkerboard's two colours (`checkerboard = [c0, c1]`, each a number or [r, g, b], finite and
+    /// >= 0): Mitsuba's procedural texture (`Texture::checkerboard`).
+    fn checkerboard(
+        &self,
+        colors: &Spanned<Vec<RawFactor>>,
+        key: &str,
+    ) -> Result<crate::scene::image_texture::Texture, SceneError> {
+        let hint = "Give the two colours: `checkerboard = [[0.4, 0.4, 0.4], [0.2, 0.2, 0.2]]` (numbers \
+                    for greys), colour 0 on the square at uv (0, 0).";
+        let [c0, c1] = colors.get_ref().as_slice() else {
+            return Err(self.error(
+                colors.span(),
+                key,
+                format!("{} colours; a checkerboard has two", colors.get_ref().len()),
+                hint,
+            ));
+        };
+        let rgb = |c: &RawFactor| match c {
+            RawFactor::Number(x) => [*x; 3],
+            RawFactor::Color(c) => c.0,
+        };
+        let pair = [rgb(c0), rgb(c1)];
+        if let Some(bad) = pair
+            .iter()
+            .flatten()
+            .find(|x| !(x.is_finite() && **x >= 0.0))
+        {
+            return Err(self.error(
+                colors.span(),
+                key,
+                format!("a checkerboard colour component {bad}: they must be finite and >= 0"),
+                hint,
+            ));
+        }
+        Ok(crate::scene::image_texture::Texture::checkerboard(pair))
     }
 
     /// An index of refraction: finite and > 0.

@@ -73,6 +73,7 @@ pub(super) struct RawRender {
     pub(super) filter: Option<Spanned<String>>,
     pub(super) filter_sigma: Option<Spanned<f32>>,
     pub(super) filter_radius: Option<Spanned<f32>>,
+    pub(super) sample_border: Option<Spanned<bool>>,
     pub(super) background: Option<Spanned<RawVec3>>,
     pub(super) sampler: Option<Spanned<String>>,
     pub(super) light_sampling: Option<Spanned<String>>,
@@ -153,6 +154,8 @@ pub(super) struct RawSphere {
 pub(super) struct RawTriangle {
     pub(super) vertices: Spanned<Vec<Spanned<RawVec3>>>,
     pub(super) material: Spanned<String>,
+    /// Optional texture coordinates of the three vertices (a textured material reads them).
+    pub(super) uv: Option<Spanned<Vec<RawVec2>>>,
 }
 
 #[derive(Deserialize)]
@@ -255,7 +258,10 @@ impl<'de> Deserialize<'de> for RawMatrix {
 #[derive(Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct RawTextureRef {
-    pub(super) texture: Spanned<String>,
+    /// The image file; or, instead, `checkerboard`.
+    pub(super) texture: Option<Spanned<String>>,
+    /// Mitsuba's procedural checkerboard: its two colours (each a number or [r, g, b]).
+    pub(super) checkerboard: Option<Spanned<Vec<RawFactor>>>,
     pub(super) channel: Option<Spanned<String>>,
     pub(super) color_space: Option<Spanned<String>>,
     pub(super) filter: Option<Spanned<String>>,

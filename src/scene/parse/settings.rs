@@ -404,6 +404,7 @@ impl Checker<'_> {
             filter,
             filter_sigma,
             filter_radius,
+            sample_border: raw.sample_border.as_ref().is_none_or(|b| *b.get_ref()),
             sampler,
             light_sampling,
             clamp,
