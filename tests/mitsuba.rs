@@ -875,6 +875,85 @@ fn the_film_keeps_samples_on_the_image_unless_sample_border() {
     }
 }
 
+/// Mitsuba's `principled` becomes vkpath's (its parameters as given, `specular` through Mitsuba's
+/// eta = 2 / (1 - sqrt(0.08 specular)) - 1, Mitsuba's defaults otherwise, one-sided without twosided);
+/// `eta` is read instead of specular; spec_trans and anisotropy are refused at their elements. (Its
+/// render against Mitsuba 3: docs/scene-format.md.)
+#[test]
+fn principled_becomes_the_principled_material() {
+    let s = load(
+        r#"
+        <shape type="sphere"><bsdf type="principled">
+            <rgb name="base_color" value="0.8, 0.2, 0.1"/><float name="metallic" value="0.3"/>
+            <float name="roughness" value="0.4"/><float name="specular" value="0.6"/>
+            <float name="spec_tint" value="0.2"/><float name="sheen" value="0.5"/><float name="sheen_tint" value="0.1"/>
+            <float name="clearcoat" value="0.7"/><float name="clearcoat_gloss" value="0.8"/><float name="flatness" value="0.25"/>
+            <float name="main_specular_sampling_rate" value="2"/>
+        </bsdf></shape>
+        <shape type="sphere"><point name="center" value="2, 0, 0"/><bsdf type="twosided"><bsdf type="principled"><float name="eta" value="1.33"/></bsdf></bsdf></shape>"#,
+    );
+    let m = &s.materials[s.spheres[0].material as usize];
+    let eta = (2.0 / (1.0 - (0.08f64 * 0.6).sqrt()) - 1.0) as f32;
+    assert_eq!(
+        m.bsdf,
+        Bsdf::Principled {
+            base_color: Vec3::new(0.8, 0.2, 0.1),
+            roughness: 0.4,
+            anisotropic: 0.0,
+            metallic: 0.3,
+            eta,
+            spec_tint: 0.2,
+            sheen: 0.5,
+            sheen_tint: 0.1,
+            clearcoat: 0.7,
+            clearcoat_gloss: 0.8,
+            flatness: 0.25,
+        }
+    );
+    assert!(m.textures.one_sided);
+    let m2 = &s.materials[s.spheres[1].material as usize];
+    assert!(!m2.textures.one_sided);
+    match m2.bsdf {
+        Bsdf::Principled {
+            base_color,
+            roughness,
+            metallic,
+            eta,
+            ..
+        } => {
+            assert_eq!(
+                (base_color, roughness, metallic, eta),
+                (Vec3::splat(0.5), 0.5, 0.0, 1.33)
+            )
+        }
+        ref b => panic!("{b:?}"),
+    }
+    let dir = tempfile::tempdir().unwrap();
+    for (body, needle, want) in [
+        (
+            r#"<shape type="sphere"><bsdf type="principled"><float name="spec_trans" value="0.5"/></bsdf></shape>"#,
+            "spec_trans",
+            "specular transmission",
+        ),
+        (
+            r#"<shape type="sphere"><bsdf type="principled"><float name="anisotropic" value="0.5"/></bsdf></shape>"#,
+            "anisotropic",
+            "tangent frame",
+        ),
+        (
+            r#"<shape type="sphere"><bsdf type="principled"><float name="specular" value="0.5"/><float name="eta" value="1.5"/></bsdf></shape>"#,
+            "name=\"eta\"",
+            "both specular and eta",
+        ),
+    ] {
+        let e = error_in(dir.path(), body);
+        assert!(
+            e.contains(want) && e.contains(&format!("line {}", line_of(body, needle))),
+            "{e}"
+        );
+    }
+}
+
 /// Mitsuba's reflecting BSDFs scatter on their front face only unless wrapped in twosided (a mask
 /// around a twosided too); its dielectrics on both; a shape without a BSDF gets Mitsuba's one-sided
 /// default diffuse. vkpath's one_sided says the same.

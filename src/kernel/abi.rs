@@ -119,6 +119,7 @@ pub const MAT_ROUGH_DIELECTRIC: u32 = bsdfs::kind("rough_dielectric");
 pub const MAT_PLASTIC: u32 = bsdfs::kind("plastic");
 pub const MAT_METALLIC_ROUGHNESS: u32 = bsdfs::kind("metallic_roughness");
 pub const MAT_THIN_DIELECTRIC: u32 = bsdfs::kind("thin_dielectric");
+pub const MAT_PRINCIPLED: u32 = bsdfs::kind("principled");
 
 /// `GpuMaterial::flags`: the material emits from both faces (else only from the front: the side its
 /// geometric normal faces).

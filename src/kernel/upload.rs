@@ -196,6 +196,36 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             g.metallic = metallic;
             set_alpha(&mut g, Roughness::isotropic(roughness));
         }
+        Bsdf::Principled {
+            base_color,
+            roughness,
+            anisotropic,
+            metallic,
+            eta,
+            spec_tint,
+            sheen,
+            sheen_tint,
+            clearcoat,
+            clearcoat_gloss,
+            flatness,
+        } => {
+            // bsdfs/principled.wgsl lists the fields. alpha = r^2 / aspect and r^2 aspect with Mitsuba's
+            // aspect = sqrt(1 - 0.9 anisotropic), unclamped (the shader takes max(0.001, alpha), as
+            // Mitsuba, and the retro-reflection's roughness as (alpha_x alpha_y)^(1/4) = r).
+            g.kind = MAT_PRINCIPLED;
+            g.albedo = base_color.into();
+            g.metallic = metallic;
+            g.ior = eta;
+            let r2 = roughness * roughness;
+            let aspect = (1.0 - 0.9 * anisotropic).sqrt();
+            (g.alpha_x, g.alpha_y) = if anisotropic == 0.0 {
+                (r2, r2)
+            } else {
+                (r2 / aspect, r2 * aspect)
+            };
+            g.eta = [spec_tint, sheen, sheen_tint];
+            g.k = [clearcoat, clearcoat_gloss, flatness];
+        }
         Bsdf::Black => g.kind = MAT_EMITTER,
         Bsdf::ThinDielectric { ior } => (g.kind, g.ior) = (MAT_THIN_DIELECTRIC, ior),
         Bsdf::Registered {

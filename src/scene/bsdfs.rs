@@ -143,6 +143,13 @@ pub const BSDFS: &[BsdfKind] = &[
         feature: "thin_dielectric",
         keys: Keys::Builtin,
     },
+    BsdfKind {
+        // Mitsuba 3's `principled` (Burley's Disney BSDF), its reflecting lobes.
+        name: "principled",
+        source: include_str!("../../shaders/bsdfs/principled.wgsl"),
+        feature: "principled",
+        keys: Keys::Builtin,
+    },
 ];
 
 /// Files the kinds' files require that are not kinds themselves (shared code).

@@ -325,6 +325,22 @@ pub enum Bsdf {
         metallic: f32,
         roughness: f32,
     },
+    /// Mitsuba 3's `principled` BSDF without specular transmission (shaders/bsdfs/principled.wgsl, which
+    /// gives the model): perceptual `roughness`, `eta` the specular's relative index (from Mitsuba's
+    /// `specular` or given), the other weights in [0, 1].
+    Principled {
+        base_color: Vec3,
+        roughness: f32,
+        anisotropic: f32,
+        metallic: f32,
+        eta: f32,
+        spec_tint: f32,
+        sheen: f32,
+        sheen_tint: f32,
+        clearcoat: f32,
+        clearcoat_gloss: f32,
+        flatness: f32,
+    },
     /// Reflects and transmits nothing (the `emitter` material: a lamp's surface).
     Black,
     /// A kind of the registry that its generic reader reads (`bsdfs::Keys::Params`): the kind's number

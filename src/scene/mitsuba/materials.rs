@@ -573,10 +573,95 @@ impl Tr<'_> {
                 };
                 self.finish(&args, known)?;
             }
+            "principled" => {
+                lines.push(at("type = \"principled\"".into()));
+                match self.color_tex(&args, "base_color", DVec3::splat(0.5))? {
+                    ColorTex::Color(c) => lines.push(at(format!("base_color = {}", vec3(c)))),
+                    ColorTex::Bitmap(b) => {
+                        lines.push(at(format!("base_color = {}", self.texture_ref(&b, false))));
+                        textured = Some(b.loc);
+                    }
+                }
+                // roughness and metallic may be textures (read as Mitsuba's eval_1); the other weights
+                // are numbers here.
+                for (name, default) in [("roughness", 0.5), ("metallic", 0.0)] {
+                    if args.prop(name).is_some() {
+                        let (value, _) =
+                            self.scalar_tex(&args, obj, name, "principled", &mut textured)?;
+                        lines.push(at(format!("{name} = {value}")));
+                    } else {
+                        lines.push(at(format!("{name} = {}", num(default))));
+                    }
+                }
+                if let Some((t, l)) = args.float("spec_trans")?.filter(|(t, _)| *t != 0.0) {
+                    return Err(l.error(
+                        format!("spec_trans = {t}: vkpath reads the principled BSDF without its specular transmission"),
+                        "Give spec_trans 0 (or leave it out), or use a roughdielectric for the glass.",
+                    ));
+                }
+                if let Some((a, l)) = args.float("anisotropic")?.filter(|(a, _)| *a != 0.0) {
+                    return Err(l.error(
+                        format!("anisotropic = {a}: vkpath's tangent frame is not Mitsuba's, so the anisotropy would run another way"),
+                        "Give anisotropic 0 (or leave it out).",
+                    ));
+                }
+                match (args.float("specular")?, args.float("eta")?) {
+                    (Some(_), Some((_, l))) => {
+                        return Err(l.error(
+                            "both specular and eta (Mitsuba refuses them together)",
+                            "Give one of the two.",
+                        ));
+                    }
+                    (None, Some((eta, _))) => lines.push(at(format!("ior = {}", num(eta)))),
+                    (Some((s, _)), None) => lines.push(at(format!("specular = {}", num(s)))),
+                    (None, None) => {}
+                }
+                for name in [
+                    "spec_tint",
+                    "sheen",
+                    "sheen_tint",
+                    "clearcoat",
+                    "clearcoat_gloss",
+                    "flatness",
+                ] {
+                    if let Some((x, _)) = args.float(name)? {
+                        lines.push(at(format!("{name} = {}", num(x))));
+                    }
+                }
+                // The sampling rates change how Mitsuba draws directions, not the image it converges to.
+                for name in [
+                    "diffuse_reflectance_sampling_rate",
+                    "main_specular_sampling_rate",
+                    "clearcoat_sampling_rate",
+                ] {
+                    let _ = args.float(name)?;
+                }
+                self.finish(
+                    &args,
+                    &[
+                        "base_color",
+                        "roughness",
+                        "metallic",
+                        "spec_trans",
+                        "anisotropic",
+                        "specular",
+                        "eta",
+                        "spec_tint",
+                        "sheen",
+                        "sheen_tint",
+                        "clearcoat",
+                        "clearcoat_gloss",
+                        "flatness",
+                        "diffuse_reflectance_sampling_rate",
+                        "main_specular_sampling_rate",
+                        "clearcoat_sampling_rate",
+                    ],
+                )?;
+            }
             _ => {
                 self.unsupported(
                     obj,
-                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, twosided, mask, bumpmap, normalmap and blendbsdf",
+                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, twosided, mask, bumpmap, normalmap and blendbsdf",
                 )?;
                 return Ok(None);
             }

@@ -256,6 +256,7 @@ impl Checker<'_> {
                     },
                 )
             }
+            "principled" => self.principled(name, m, files, &mut textures)?,
             "emitter" => (vec!["radiance", "two_sided"], Bsdf::Black),
             "thin_dielectric" => {
                 let ior = match &m.ior {
@@ -287,7 +288,7 @@ impl Checker<'_> {
                         "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior), \
                          \"thin_dielectric\" (optional ior), \
                          \"conductor\" (with preset, eta and k, or base_color), \"plastic\" (with albedo), \
-                         \"metallic_roughness\", \"emitter\" (with radiance), or {} (see docs/scene-format.md).",
+                         \"metallic_roughness\", \"principled\", \"emitter\" (with radiance), or {} (see docs/scene-format.md).",
                         registered.join(", ")
                     ),
                 ));
@@ -305,6 +306,17 @@ impl Checker<'_> {
             ("base_color", m.base_color.as_ref().map(Spanned::span)),
             ("roughness", m.roughness.as_ref().map(Spanned::span)),
             ("metallic", m.metallic.as_ref().map(Spanned::span)),
+            ("specular", m.specular.as_ref().map(Spanned::span)),
+            ("spec_tint", m.spec_tint.as_ref().map(Spanned::span)),
+            ("anisotropic", m.anisotropic.as_ref().map(Spanned::span)),
+            ("sheen", m.sheen.as_ref().map(Spanned::span)),
+            ("sheen_tint", m.sheen_tint.as_ref().map(Spanned::span)),
+            ("clearcoat", m.clearcoat.as_ref().map(Spanned::span)),
+            (
+                "clearcoat_gloss",
+                m.clearcoat_gloss.as_ref().map(Spanned::span),
+            ),
+            ("flatness", m.flatness.as_ref().map(Spanned::span)),
             ("radiance", m.radiance.as_ref().map(Spanned::span)),
             ("two_sided", m.two_sided.as_ref().map(Spanned::span)),
             ("emission", m.emission.as_ref().map(Spanned::span)),
@@ -589,5 +601,113 @@ impl Checker<'_> {
                 ))
             }
         }
+    }
+}
+
+impl Checker<'_> {
+    /// A `principled` material (Mitsuba 3's, bsdfs/principled.wgsl): its keys and the material. The
+    /// defaults are Mitsuba's: base_color 0.5, roughness 0.5, specular 0.5 (eta = 2 / (1 - sqrt(0.08
+    /// specular)) - 1, Mitsuba's mapping; or `ior`), every other weight 0.
+    fn principled(
+        &self,
+        name: &str,
+        m: &RawMaterial,
+        files: &mut Files,
+        textures: &mut MaterialTextures,
+    ) -> Result<(Vec<&'static str>, Bsdf), SceneError> {
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let base_color = match &m.base_color {
+            Some(c) => self.unit_color(c, &key("base_color"), files, &mut textures.albedo)?,
+            None => Vec3::splat(0.5),
+        };
+        let metallic = match &m.metallic {
+            Some(v) => self.scalar_param(
+                v,
+                &key("metallic"),
+                |x| !(0.0..=1.0).contains(&x),
+                "metallic must be in [0, 1]",
+                "0 is a dielectric, 1 a metal.",
+                files,
+                &mut textures.metallic,
+            )?,
+            None => 0.0,
+        };
+        let roughness = match &m.roughness {
+            None => 0.5,
+            Some(r) => match self.roughness(
+                &m.roughness,
+                &key("roughness"),
+                files,
+                &mut textures.roughness,
+            )? {
+                crate::scene::Roughness { u, v, .. } if u == v => u,
+                _ => {
+                    return Err(self.error(
+                        r.span(),
+                        &key("roughness"),
+                        "a principled material's roughness is one number",
+                        "Its anisotropy is `anisotropic` (0 to 1), as in Mitsuba and Disney's model.",
+                    ));
+                }
+            },
+        };
+        let weight = |v: &Option<Spanned<f32>>, field: &str, default: f32| {
+            match v {
+            None => Ok(default),
+            Some(x) => self.number_unless(
+                x,
+                &key(field),
+                |x| !(0.0..=1.0).contains(&x),
+                &format!("{field} must be in [0, 1]"),
+                "The principled material's weights run from 0 to 1 (Burley 2012; Mitsuba's principled).",
+            ),
+        }
+        };
+        let eta = match (&m.specular, &m.ior) {
+            (Some(s), Some(_)) => {
+                return Err(self.error(
+                    s.span(),
+                    &key("specular"),
+                    "both `specular` and `ior`",
+                    "`specular` is another way to give the index (eta = 2 / (1 - sqrt(0.08 specular)) - 1): give one.",
+                ));
+            }
+            (None, Some(ior)) => self.ior(ior, &key("ior"))?,
+            (s, None) => {
+                let specular = weight(s, "specular", 0.5)?;
+                2.0 / (1.0 - (0.08 * specular).sqrt()) - 1.0
+            }
+        };
+        Ok((
+            vec![
+                "base_color",
+                "roughness",
+                "metallic",
+                "specular",
+                "ior",
+                "spec_tint",
+                "anisotropic",
+                "sheen",
+                "sheen_tint",
+                "clearcoat",
+                "clearcoat_gloss",
+                "flatness",
+                "emission",
+                "two_sided_emission",
+            ],
+            Bsdf::Principled {
+                base_color,
+                roughness,
+                anisotropic: weight(&m.anisotropic, "anisotropic", 0.0)?,
+                metallic,
+                eta,
+                spec_tint: weight(&m.spec_tint, "spec_tint", 0.0)?,
+                sheen: weight(&m.sheen, "sheen", 0.0)?,
+                sheen_tint: weight(&m.sheen_tint, "sheen_tint", 0.0)?,
+                clearcoat: weight(&m.clearcoat, "clearcoat", 0.0)?,
+                clearcoat_gloss: weight(&m.clearcoat_gloss, "clearcoat_gloss", 0.0)?,
+                flatness: weight(&m.flatness, "flatness", 0.0)?,
+            },
+        ))
     }
 }

@@ -107,8 +107,17 @@ pub(super) struct RawMaterial {
     pub(super) base_color: Option<Spanned<RawParam<RawVec3>>>,
     /// The glossy types: perceptual roughness, one number or [along u, along v], or a texture.
     pub(super) roughness: Option<Spanned<RawRoughness>>,
-    /// `metallic_roughness`.
+    /// `metallic_roughness`, `principled`.
     pub(super) metallic: Option<Spanned<RawParam<f32>>>,
+    /// `principled` (Mitsuba 3's): its weights in [0, 1] (`specular` or `ior`, not both).
+    pub(super) specular: Option<Spanned<f32>>,
+    pub(super) spec_tint: Option<Spanned<f32>>,
+    pub(super) anisotropic: Option<Spanned<f32>>,
+    pub(super) sheen: Option<Spanned<f32>>,
+    pub(super) sheen_tint: Option<Spanned<f32>>,
+    pub(super) clearcoat: Option<Spanned<f32>>,
+    pub(super) clearcoat_gloss: Option<Spanned<f32>>,
+    pub(super) flatness: Option<Spanned<f32>>,
     /// `emitter`: its radiance, and whether both faces emit.
     pub(super) radiance: Option<Spanned<RawParam<RawVec3>>>,
     pub(super) two_sided: Option<Spanned<bool>>,
