@@ -513,6 +513,64 @@ fn render_and_convert_a_gltf_scene_from_the_command_line() {
     assert_eq!(out.status.code(), Some(2));
 }
 
+/// `--environment MAP` lights a scene with a map, replacing its environment: on the lightless glTF
+/// (whose own would be the uniform white sky, with its note) a uniform map of radiance 2.5 shows as 2.5
+/// exactly in every pixel that sees the sky (an EXR out, no filter: each of those samples is the map's
+/// value), and the note is gone; a map that is not .exr/.hdr, or missing, is refused naming the flag
+/// (exit 2, nothing written).
+#[test]
+fn the_environment_flag_replaces_the_scenes_environment() {
+    use std::process::Command;
+    let dir = tempfile::tempdir().unwrap();
+    write_gltf(dir.path());
+    let json = std::fs::read_to_string(dir.path().join("scene.gltf")).unwrap();
+    let bare = json.replace(
+        r#""scenes": [{"nodes": [0, 2, 3, 4, 5, 6]}]"#,
+        r#""scenes": [{"nodes": [0]}]"#,
+    );
+    std::fs::write(dir.path().join("bare.gltf"), bare).unwrap();
+    image::Rgb32FImage::from_pixel(8, 4, image::Rgb([2.5, 2.5, 2.5]))
+        .save(dir.path().join("sky.exr"))
+        .unwrap();
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_vkpath"))
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .unwrap()
+    };
+    let out = run(&[
+        "render",
+        "bare.gltf",
+        "--environment",
+        "sky.exr",
+        "--spp",
+        "2",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "-o",
+        "lit.exr",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("uniform white environment"), "{stderr}");
+    let img = image::open(dir.path().join("lit.exr")).unwrap().to_rgb32f();
+    let sky = img.pixels().filter(|p| p.0 == [2.5; 3]).count();
+    assert!(
+        sky > 32 * 24 / 2,
+        "{sky} of {} pixels show the map",
+        32 * 24
+    );
+    for bad in ["sky.png", "missing.exr"] {
+        let out = run(&["render", "bare.gltf", "--environment", bad, "-o", "bad.png"]);
+        assert_eq!(out.status.code(), Some(2));
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--environment"));
+        assert!(!dir.path().join("bad.png").exists());
+    }
+}
+
 /// The gallery's glTF scene (scenes/gltf/materials.gltf, written by make_gltf.py) reads as a scene: its
 /// camera, a sun and a point light, the floor, five balls and the emissive one; and its specialised kernel
 /// renders the same bits as the generic one (metallic_roughness is a feature like the others).

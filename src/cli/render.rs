@@ -234,6 +234,7 @@ fn prepare(a: &RenderArgs, is_part: bool) -> Result<Job, Error> {
     let import = ImportOptions {
         xml_lenient: a.xml_lenient,
         defines: a.defines.clone(),
+        environment_given: a.environment.is_some(),
         ..super::CameraArg::options(a.camera)
     };
     let mut scene = load_scene_with(a.scene.as_deref(), &import)?;
@@ -507,6 +508,10 @@ pub struct RenderArgs {
     /// Image height in pixels (overrides the scene).
     #[arg(long, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(1..))]
     height: Option<u32>,
+    /// Light the scene with this equirectangular map (.exr or .hdr, linear radiance, oriented as
+    /// Mitsuba's envmap), replacing its environment (and a glTF scene's default uniform one).
+    #[arg(long, value_name = "MAP")]
+    environment: Option<PathBuf>,
     /// Scattering events per path, -1 for no limit (overrides the scene).
     #[arg(long = "max-bounces", allow_negative_numbers = true, value_parser = super::parse_max_bounces)]
     max_bounces: Option<u32>,
@@ -606,6 +611,16 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
     }
     if let Some(s) = a.seed {
         scene.render.seed = s;
+    }
+    if let Some(path) = &a.environment {
+        // The same reader and checks as the scene file's [environment] map; radiance 1, no rotation.
+        let map = vkpath::scene::environment::load_map(path)
+            .map_err(|e| usage(format!("--environment {}: {e}.", path.display())))?;
+        scene.environment = vkpath::scene::Environment {
+            radiance: glam::Vec3::ONE,
+            map: Some(std::sync::Arc::new(map)),
+            rotate_deg: 0.0,
+        };
     }
     Ok(())
 }

@@ -67,7 +67,7 @@ pub fn to_toml(
     } else {
         Pick::Node(options.camera)
     };
-    scene_toml(path, camera, &mesh_ref)
+    scene_toml(path, camera, &mesh_ref, options.environment_given)
 }
 
 /// The camera asked for: a camera node (`None`: the first, or the framed view when there is none), or
@@ -119,7 +119,12 @@ fn scene_bounds(nodes: &[(gltf::Node, glam::Mat4)]) -> Option<(Vec3, Vec3)> {
 }
 
 /// [`to_toml`], with the mesh's `obj` written as `mesh_ref`.
-fn scene_toml(path: &Path, camera: Pick, mesh_ref: &str) -> Result<Translated, SceneError> {
+fn scene_toml(
+    path: &Path,
+    camera: Pick,
+    mesh_ref: &str,
+    environment_given: bool,
+) -> Result<Translated, SceneError> {
     let hint = "vkpath reads glTF 2.0 (.gltf with its buffers, or .glb); see docs/scene-format.md, \"glTF scenes\".";
     let bytes = crate::memory::read_file(path).map_err(|e| {
         error(
@@ -245,7 +250,7 @@ fn scene_toml(path: &Path, camera: Pick, mesh_ref: &str) -> Result<Translated, S
     toml += &lights;
     // Viewers (the Khronos sample viewer, Blender, model-viewer) light an asset that has no lights with
     // an environment: vkpath with a uniform white one (its emissive materials glow on top of it).
-    if lights.is_empty() {
+    if lights.is_empty() && !environment_given {
         toml += "\n[environment]                   # the file has no lights: a uniform white sky, as viewers light it\nradiance = [1.0, 1.0, 1.0]\n";
         warnings.push(
             "the glTF scene has no point or directional lights: lit by a uniform white environment (radiance 1), as viewers light such assets".into(),

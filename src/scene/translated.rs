@@ -23,6 +23,9 @@ pub struct ImportOptions {
     /// They win over the file's own `<default>`s, as on Mitsuba's command line; the first of a repeated
     /// name wins.
     pub defines: Vec<(String, String)>,
+    /// `--environment MAP`: the command line lights the scene, so a glTF scene without lights gets no
+    /// uniform environment of its own (nor the note that says so).
+    pub environment_given: bool,
 }
 
 /// Where a line of translated TOML came from: the file, its 1-based line (none where lines mean nothing:
