@@ -259,7 +259,8 @@ fn a_gltf_mesh_renders_like_its_hand_written_equivalent() {
     );
 }
 
-/// What glTF brings that vkpath does not use (here an occlusionTexture) is a warning; a broken file is an error at the mesh's `obj`.
+/// An occlusionTexture is read past with a note (a scene warning marked `NOTE`, printed as `vkpath:
+/// note:`); a broken file is an error at the mesh's `obj`.
 #[test]
 fn gltf_notes_and_errors() {
     let dir = tempfile::tempdir().unwrap();
@@ -277,10 +278,12 @@ fn gltf_notes_and_errors() {
     );
     assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
     assert!(
-        scene.warnings[0].contains("occlusionTexture"),
+        scene.warnings[0].contains("occlusionTexture")
+            && scene.warnings[0].starts_with(vkpath::scene::NOTE),
         "{:?}",
         scene.warnings
     );
+    assert!(vkpath::scene::warning_line(&scene.warnings[0]).starts_with("vkpath: note: mesh[0]"));
 
     std::fs::write(dir.path().join("scene.gltf"), "{\"asset\": {}}").unwrap();
     let path = dir.path().join("scene.toml");

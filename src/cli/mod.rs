@@ -149,7 +149,7 @@ fn load_scene_with(path: Option<&Path>, options: &ImportOptions) -> Result<Scene
         }
     };
     for w in &scene.warnings {
-        eprintln!("vkpath: warning: {w}");
+        eprintln!("{}", vkpath::scene::warning_line(w));
     }
     Ok(scene)
 }

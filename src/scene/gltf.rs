@@ -480,17 +480,17 @@ fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMa
     // glTF multiplies each texture by its factor (base colour, emissive, metallic and roughness); the
     // material holds the factors and the shader multiplies.
     out.maps.base_color_factor = true;
-    let unused = [
-        ("occlusionTexture", m.occlusion_texture().is_some()),
-        (
-            "an alpha mode other than OPAQUE",
-            m.alpha_mode() != gltf::material::AlphaMode::Opaque,
-        ),
-    ];
-    for (what, present) in unused {
-        if present {
-            notes.add(format!("material \"{name}\": {what} is not used"));
-        }
+    // Occlusion is what a path tracer computes: its texture is read past, with a note.
+    if m.occlusion_texture().is_some() {
+        notes.add(format!(
+            "{}material \"{name}\": occlusionTexture is read past (a path tracer computes occlusion)",
+            super::NOTE
+        ));
+    }
+    if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+        notes.add(format!(
+            "material \"{name}\": an alpha mode other than OPAQUE is not used"
+        ));
     }
     let mut texture = |what: &str, tex: gltf::Texture, tex_coord: u32| {
         if tex_coord != 0 {

@@ -16,6 +16,7 @@
 //! ratio give vkpath's horizontal field of view, fov_x = 2 atan(aspect tan(yfov / 2)), and the image
 //! 640 pixels wide (height = 640 / aspect); an orthographic camera's xmag is half the view's width.
 
+use super::NOTE;
 use super::SceneError;
 use super::toml_text::{absolute, num, relative_to, toml_string};
 use super::translated::{ImportOptions, Origin, Translated};
@@ -228,7 +229,7 @@ fn scene_toml(
             };
             if cameras.is_empty() {
                 warnings.push(format!(
-                    "the glTF scene has no camera: framed from its bounds (--camera auto: from +z, y up, {AUTO_YFOV_DEG} degrees vertically)"
+                    "{NOTE}the glTF scene has no camera: framed from its bounds (--camera auto: from +z, y up, {AUTO_YFOV_DEG} degrees vertically)"
                 ));
             }
             (
@@ -252,9 +253,9 @@ fn scene_toml(
     // an environment: vkpath with a uniform white one (its emissive materials glow on top of it).
     if lights.is_empty() && !environment_given {
         toml += "\n[environment]                   # the file has no lights: a uniform white sky, as viewers light it\nradiance = [1.0, 1.0, 1.0]\n";
-        warnings.push(
-            "the glTF scene has no point or directional lights: lit by a uniform white environment (radiance 1), as viewers light such assets".into(),
-        );
+        warnings.push(format!(
+            "{NOTE}the glTF scene has no point or directional lights: lit by a uniform white environment (radiance 1), as viewers light such assets"
+        ));
     }
     let origins = origins(path, &toml, &camera_element);
     Ok(Translated {

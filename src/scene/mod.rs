@@ -29,6 +29,20 @@ use std::path::{Path, PathBuf};
 use translated::ImportOptions;
 
 pub use environment::{Environment, EnvironmentMap};
+
+/// A scene warning that begins with this is a note: what vkpath does by design with such a file (a glTF
+/// file without a camera is framed from its bounds, without lights lit by a uniform sky, its occlusion
+/// texture read past: a path tracer computes occlusion), documented in docs/scene-format.md; the command
+/// line prints it as `vkpath: note: ...` rather than as a warning.
+pub const NOTE: &str = "note: ";
+
+/// A scene warning as the command line prints it: `note: ...` or `warning: ...` (see [`NOTE`]).
+pub fn warning_line(w: &str) -> String {
+    match w.strip_prefix(NOTE) {
+        Some(note) => format!("vkpath: note: {note}"),
+        None => format!("vkpath: warning: {w}"),
+    }
+}
 pub use image_texture::Texture;
 pub use mesh::Mesh;
 pub use parse::SceneError;

@@ -403,7 +403,14 @@ impl Checker<'_> {
         table.warnings.extend(
             obj.notes
                 .iter()
-                .map(|n| format!("mesh[{i}]: {}: {n}", obj_path.display())),
+                .map(|n| match n.strip_prefix(crate::scene::NOTE) {
+                    Some(note) => format!(
+                        "{}mesh[{i}]: {}: {note}",
+                        crate::scene::NOTE,
+                        obj_path.display()
+                    ),
+                    None => format!("mesh[{i}]: {}: {n}", obj_path.display()),
+                }),
         );
         if let Some(material) = material {
             // The scene's material applies to every face, whatever the OBJ's MTL says.
