@@ -714,6 +714,68 @@ fn region(
     [0, 1, 2].map(|c| (sum[c] / n, var[c].sqrt() / n))
 }
 
+/// glTF's alpha coverage (§3.9.4) on the quad in front of a uniform sky of radiance 1: MASK with a 2 x 2
+/// alpha checker (255 and 0) cuts two diagonal quarters out (every pixel there sees the sky: exactly 1,
+/// in every sample), the other two stay solid (their dim reflection, below 0.5); BLEND with a factor
+/// alpha of 0.3 lets 0.7 of the sky through: the mean over the quad is 0.7 + 0.3 x the opaque quad's, within
+/// 5 standard errors. OPAQUE ignores the alpha.
+#[test]
+fn gltf_alpha_modes_cut_out_and_blend() {
+    let dir = tempfile::tempdir().unwrap();
+    let material = |mode: &str, alpha: f32| {
+        format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [0.0, 0.0, 0.0, {alpha}], "baseColorTexture": {{"index": 0}},
+                "metallicFactor": 0.0, "roughnessFactor": 1.0}}, "alphaMode": "{mode}"}}"#
+        )
+    };
+    let checker = image::RgbaImage::from_fn(2, 2, |x, y| {
+        image::Rgba([255, 255, 255, if (x + y) % 2 == 0 { 255 } else { 0 }])
+    });
+    let white = image::RgbaImage::from_pixel(2, 2, image::Rgba([255; 4]));
+    let render = |mode: &str, alpha: f32, img: &image::RgbaImage, spp: u32| {
+        write_textured_quad(dir.path(), &material(mode, alpha), &[flat(2, 2, [0, 0, 0])]);
+        img.save(dir.path().join("tex0.png")).unwrap();
+        let scene = quad_scene(dir.path(), 1.0, spp);
+        assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+        common::render_passes(&scene, &Default::default(), 1, spp)
+    };
+    let mask = render("MASK", 1.0, &checker, 4);
+    let quarter = |f: &vkpath::Film, qx: u32, qy: u32| -> Vec<f32> {
+        (0..16)
+            .flat_map(|y| (0..16).map(move |x| (x + 16 * qx, y + 16 * qy)))
+            .map(|(x, y)| f.pixel(x, y)[1])
+            .collect()
+    };
+    let holes: Vec<bool> = [(0, 0), (1, 0), (0, 1), (1, 1)]
+        .iter()
+        .map(|&(qx, qy)| {
+            let q = quarter(&mask, qx, qy);
+            let hole = q.iter().all(|&v| v == 1.0);
+            assert!(
+                hole || q.iter().all(|&v| v < 0.5),
+                "quarter ({qx}, {qy}): {q:?}"
+            );
+            hole
+        })
+        .collect();
+    assert_eq!(
+        holes,
+        [holes[0], !holes[0], !holes[0], holes[0]],
+        "a checker of holes"
+    );
+    let opaque = render("OPAQUE", 1.0, &checker, 64);
+    assert!(
+        (0..32).all(|y| (0..32).all(|x| opaque.pixel(x, y)[1] < 0.5)),
+        "OPAQUE ignores alpha"
+    );
+    let blend = render("BLEND", 0.3, &white, 64);
+    let (o, so) = region(&opaque, 0..=31, 0..=31)[1];
+    let (b, sb) = region(&blend, 0..=31, 0..=31)[1];
+    let want = 0.7 + 0.3 * o;
+    let se = (sb * sb + 0.09 * so * so).sqrt();
+    assert!((b - want).abs() < 5.0 * se, "BLEND {b} vs {want} (se {se})");
+}
+
 /// What the importer makes of a material with every texture glTF's metallic-roughness model has: the
 /// factors in the material, the base colour, emissive, metallic-roughness and normal textures on the mesh
 /// (the first two colour, sRGB; the others linear data), the normal map's scale, and in the GPU tables: one texel block per image

@@ -601,6 +601,7 @@ impl GpuScene {
             && maps.emissive.is_none()
             && maps.metallic_roughness.is_none()
             && maps.normal.is_none()
+            && maps.alpha.is_none()
         {
             return m.material;
         }
@@ -644,6 +645,17 @@ impl GpuScene {
         if let Some(tex) = &maps.normal {
             entry.normal_texture = plain(self, tex, false, Channel::Rgb);
             entry.normal_scale = maps.normal_scale;
+        }
+        // glTF's alpha coverage: opacity = the base colour factor's alpha x the texture's (linear).
+        if let Some((factor, cutoff)) = maps.alpha {
+            entry.opacity = factor;
+            if let Some(tex) = &m.texture {
+                entry.opacity_texture = plain(self, tex, false, Channel::A);
+            }
+            if let Some(c) = cutoff {
+                entry.flags |= MATERIAL_CUTOUT;
+                entry.alpha_cutoff = c;
+            }
         }
         self.materials.push(material);
         self.material_textures.push(entry);

@@ -487,11 +487,15 @@ fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMa
             super::NOTE
         ));
     }
-    if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-        notes.add(format!(
-            "material \"{name}\": an alpha mode other than OPAQUE is not used"
-        ));
-    }
+    // Alpha coverage (§3.9.4): MASK cuts out where factor x texel alpha is below alphaCutoff (default
+    // 0.5); BLEND lets light through with probability 1 - alpha (stochastic transparency: the expected
+    // image of alpha blending, in any order of surfaces).
+    let alpha = pbr.base_color_factor()[3];
+    out.maps.alpha = match m.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => None,
+        gltf::material::AlphaMode::Mask => Some((alpha, Some(m.alpha_cutoff().unwrap_or(0.5)))),
+        gltf::material::AlphaMode::Blend => Some((alpha, None)),
+    };
     let mut texture = |what: &str, tex: gltf::Texture, tex_coord: u32| {
         if tex_coord != 0 {
             notes.add(format!(

@@ -58,6 +58,11 @@ pub struct MeshMaps {
     /// (normalTexture.scale; read only with a map, so the default's 0 never applies).
     pub normal: Option<Arc<Texture>>,
     pub normal_scale: f32,
+    /// glTF's alphaMode MASK or BLEND (OPAQUE: `None`): the surface's opacity is the base colour factor's
+    /// alpha (the first number) times the base colour texture's alpha, where the mesh has that texture;
+    /// with MASK's alphaCutoff (the second) a cut-out, with BLEND (`None`) stochastic transparency
+    /// (glTF 2.0 §3.9.4, "Alpha Coverage").
+    pub alpha: Option<(f32, Option<f32>)>,
 }
 
 /// A mesh as the OBJ file gives it, in the file's own coordinates.
