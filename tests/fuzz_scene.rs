@@ -276,11 +276,17 @@ fn check_scene_answer(result: Result<Scene, vkpath::scene::SceneError>, file: &s
                         color,
                         cutoff_deg,
                         beam_deg,
+                        falloff,
                     } => {
                         assert!(finite(position) && finite(axis) && finite(color));
                         assert!((axis.length() - 1.0).abs() < 1e-5);
                         assert!(intensity > 0.0 && intensity.is_finite());
-                        assert!(0.0 < beam_deg && beam_deg <= cutoff_deg && cutoff_deg <= 90.0);
+                        let smooth = falloff == vkpath::scene::SpotFalloff::Smooth;
+                        assert!(
+                            (0.0 < beam_deg || (smooth && beam_deg == 0.0))
+                                && beam_deg <= cutoff_deg
+                                && cutoff_deg <= 90.0
+                        );
                     }
                     vkpath::scene::Light::Directional {
                         direction,

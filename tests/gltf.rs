@@ -341,7 +341,7 @@ fn a_gltf_scene_without_a_camera_is_framed_from_its_bounds() {
         );
     }
     // The file's lights are kept (no environment added).
-    assert_eq!(scene.lights.len(), 2);
+    assert_eq!(scene.lights.len(), 3);
     // No camera and no lights: framed by default, and lit by a white sky.
     let json = std::fs::read_to_string(&path).unwrap();
     let bare = json.replace(
@@ -410,7 +410,8 @@ fn texture_coordinates_are_per_primitive() {
 }
 
 /// `vkpath render scene.gltf`: the file as a scene of its own, its first camera (or `--camera N`), its
-/// point and directional lights (a candela as a W/sr, a lux as a W/m^2), spot lights a warning.
+/// point, directional and spot lights (a candela as a W/sr, a lux as a W/m^2; a spot's cone angles with
+/// the extension's smooth falloff, its defaults inner 0 and outer pi / 4).
 #[test]
 fn a_gltf_file_is_a_scene_with_its_camera_and_lights() {
     use vkpath::scene::{Light, Projection};
@@ -418,11 +419,7 @@ fn a_gltf_file_is_a_scene_with_its_camera_and_lights() {
     write_gltf(dir.path());
     let path = dir.path().join("scene.gltf");
     let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    assert!(
-        scene.warnings.iter().any(|w| w.contains("spot light 2")),
-        "{:?}",
-        scene.warnings
-    );
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
     let c = scene.camera;
     assert!((c.position - Vec3::new(0.5, 1.0, 6.0)).length() < 1e-6);
     assert!((c.look_at - Vec3::new(0.5, 1.0, 5.0)).length() < 1e-6);
@@ -443,10 +440,25 @@ fn a_gltf_file_is_a_scene_with_its_camera_and_lights() {
             irradiance,
             ..
         },
+        Light::Spot {
+            position: spot_position,
+            axis,
+            intensity: spot_intensity,
+            cutoff_deg,
+            beam_deg,
+            falloff: vkpath::scene::SpotFalloff::Smooth,
+            ..
+        },
     ] = &scene.lights[..]
     else {
-        panic!("a point and a directional light: {:?}", scene.lights)
+        panic!(
+            "a point, a directional and a smooth spot light: {:?}",
+            scene.lights
+        )
     };
+    assert_eq!(*spot_position, Vec3::ZERO);
+    assert!((*axis - Vec3::NEG_Z).length() < 1e-6, "{axis}");
+    assert_eq!((*spot_intensity, *cutoff_deg, *beam_deg), (1.0, 45.0, 0.0));
     assert!((*position - Vec3::new(0.5, 1.0, 3.0)).length() < 1e-6);
     assert!((power - 40.0 * std::f32::consts::PI).abs() < 1e-3);
     assert_eq!(*color, Vec3::new(1.0, 0.5, 0.25));
@@ -487,7 +499,7 @@ fn render_and_convert_a_gltf_scene_from_the_command_line() {
     let out = run(&["render", "scene.gltf", "--spp", "1", "-o", "out.png"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("warning: glTF spot light 2"), "{stderr}");
+    assert!(!stderr.contains("warning"), "{stderr}");
     let png = image::open(dir.path().join("out.png")).unwrap();
     assert_eq!((png.width(), png.height()), (640, 320));
 

@@ -384,7 +384,7 @@ fn light_matches_wgsl() {
         "Light",
         "GpuLight",
         size_of::<GpuLight>(),
-        fields!(GpuLight: position, radius, intensity, kind, index, map_width, map_height, _pad0, axis, spot_inv_width, spot_cone),
+        fields!(GpuLight: position, radius, intensity, kind, index, map_width, map_height, spot_falloff, axis, spot_inv_width, spot_cone),
     );
     check_storage_array(
         &module,

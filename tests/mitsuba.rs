@@ -330,6 +330,7 @@ fn spot_emitters_become_spot_lights() {
             color,
             cutoff_deg,
             beam_deg,
+            falloff: vkpath::scene::SpotFalloff::Linear,
         },
     ] = s.lights[..]
     else {

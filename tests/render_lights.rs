@@ -375,10 +375,24 @@ fn polygon_irradiance_formula_checks_out() {
 /// Given by its on-axis `intensity` instead, the same image.
 #[test]
 fn a_spot_light_lights_the_floor_by_its_falloff_and_power() {
+    spot_floor(false);
+}
+
+/// The same with glTF's smooth falloff (`falloff = "smooth"`, KHR_lights_punctual's recommended form):
+/// f = t^2, t = clamp((cos theta - cos c) / (cos b - cos c), 0, 1).
+#[test]
+fn a_smooth_spot_light_lights_the_floor_by_the_gltf_falloff() {
+    spot_floor(true);
+}
+
+fn spot_floor(smooth: bool) {
     let (a, h, power, cutoff, beam) = (0.5f64, 2.0f64, 30.0f64, 40.0f64, 25.0f64);
     let falloff = |t: f64| {
         let (c, b) = (cutoff.to_radians(), beam.to_radians());
-        if t >= c {
+        if smooth {
+            let x = ((t.cos() - c.cos()) / (b.cos() - c.cos())).clamp(0.0, 1.0);
+            x * x
+        } else if t >= c {
             0.0
         } else if t <= b {
             1.0
@@ -428,7 +442,9 @@ position = [0.0, {h}, 0.0]
 look_at = [0.0, 0.0, 0.0]
 cutoff_angle = {cutoff}
 beam_width = {beam}
-"#
+falloff = "{}"
+"#,
+        if smooth { "smooth" } else { "linear" }
     );
     let by_power = render(&scene(&format!("{head}power = {power}\n")));
     let by_intensity = render(&scene(&format!("{head}intensity = {intensity}\n")));
@@ -461,6 +477,8 @@ beam_width = {beam}
             }
         }
     }
-    println!("spot: {lit} lit and {dark} dark pixel checks, worst relative error {worst:.2e}");
+    println!(
+        "spot (smooth: {smooth}): {lit} lit and {dark} dark pixel checks, worst relative error {worst:.2e}"
+    );
     assert!(lit > 800 && dark > 800, "{lit} lit, {dark} dark");
 }

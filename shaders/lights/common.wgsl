@@ -48,9 +48,10 @@ struct Light {
     index: u32,
     map_width: u32, // environment: the map's size in pixels; 0 x 0 without a map
     map_height: u32,
-    _pad0: u32,
-    // spot: the unit axis its cone opens around, 1 / (cutoff - beam) (the angles in radians), and
-    // (cos, sin) of the cutoff and of the beam half-angles (lights/spot.wgsl)
+    spot_falloff: u32, // spot: 0 linear in the angle (Mitsuba's), 1 smooth (glTF's)
+    // spot: the unit axis its cone opens around, 1 / (cutoff - beam) (the angles in radians; smooth:
+    // 1 / max(0.001, cos beam - cos cutoff)), and (cos, sin) of the cutoff and of the beam half-angles
+    // (lights/spot.wgsl)
     axis: vec3<f32>,
     spot_inv_width: f32,
     spot_cone: vec4<f32>,

@@ -14,8 +14,15 @@
 // c - theta = atan2(sin(c - theta), cos(c - theta)): a GPU's cos and acos may be off by 2^-11 absolute
 // (the Vulkan precision rules), which would move the cutoff by a fraction of a degree, while atan2's
 // error is relative to its (here small) result.
+//
+// The smooth falloff (spot_falloff 1; glTF's KHR_lights_punctual, its recommended implementation):
+// t = clamp((cos theta - cos c) / (cos b - cos c), 0, 1), f = t^2.
 fn spot_falloff(light: Light, w: vec3<f32>) -> f32 {
     let cos_t = dot(w, light.axis);
+    if light.spot_falloff == 1u {
+        let t = clamp((cos_t - light.spot_cone.x) * light.spot_inv_width, 0.0, 1.0);
+        return t * t;
+    }
     let sin_t = length(cross(w, light.axis));
     let cone = light.spot_cone; // (cos c, sin c, cos b, sin b)
     let sin_to_cutoff = cone.y * cos_t - cone.x * sin_t;

@@ -207,9 +207,10 @@ pub struct GpuLight {
     /// Environment light: the map's size in pixels (0 x 0: no map, a uniform radiance).
     pub map_width: u32,
     pub map_height: u32,
-    pub _pad0: u32,
-    /// Spot light: the unit axis of its cone, 1 / (cutoff - beam) (radians), and (cos, sin) of the
-    /// cutoff and the beam half-angles.
+    /// Spot light: 0 the linear falloff (in the angle), 1 the smooth one (glTF's; `SpotFalloff`).
+    pub spot_falloff: u32,
+    /// Spot light: the unit axis of its cone, 1 / (cutoff - beam) (radians; smooth: 1 / max(0.001,
+    /// cos beam - cos cutoff)), and (cos, sin) of the cutoff and the beam half-angles.
     pub axis: [f32; 3],
     pub spot_inv_width: f32,
     pub spot_cone: [f32; 4],

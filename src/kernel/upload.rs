@@ -19,7 +19,7 @@ use crate::scene::environment::channel_mean;
 use crate::scene::texture::{Channel, TextureFilter, Wrap};
 use crate::scene::{
     Bsdf, ConductorFresnel, Emission, Filter, Light, LightSampling, Material, MaterialTextures,
-    Mesh, Projection, Roughness, Sampler, Scene, Texture, TextureRef,
+    Mesh, Projection, Roughness, Sampler, Scene, SpotFalloff, Texture, TextureRef,
 };
 use glam::Vec3;
 use rayon::prelude::*;
@@ -108,9 +108,18 @@ impl GpuScene {
 ///       = 2 pi [1 - (sin c - sin b) / (c - b)]
 /// (the second integral by parts: (c - b) cos b - (sin c - sin b)); as b -> c it tends to the cap's
 /// 2 pi (1 - cos c).
-pub fn spot_cone_solid_angle(cutoff_deg: f64, beam_deg: f64) -> f64 {
+///
+/// The smooth falloff (glTF's), f = t^2 with t = (cos theta - cos c) / (cos b - cos c) between the
+/// angles: with x = cos theta, Omega = 2 pi [integral_{cos b}^1 dx + integral_{cos c}^{cos b} t^2 dx]
+/// = 2 pi [(1 - cos b) + (cos b - cos c) / 3].
+pub fn spot_cone_solid_angle(cutoff_deg: f64, beam_deg: f64, falloff: SpotFalloff) -> f64 {
     let (c, b) = (cutoff_deg.to_radians(), beam_deg.to_radians());
     let tau = std::f64::consts::TAU;
+    if falloff == SpotFalloff::Smooth {
+        // 1 - cos b as 2 sin^2(b / 2), without cancellation.
+        let one_minus_cos_b = 2.0 * (b / 2.0).sin().powi(2);
+        return tau * (one_minus_cos_b + (b.cos() - c.cos()) / 3.0);
+    }
     if c - b < 1e-6 {
         // 1 - cos c without cancellation.
         return tau * 2.0 * (c / 2.0).sin().powi(2);
@@ -454,6 +463,7 @@ impl GpuScene {
                     color,
                     cutoff_deg,
                     beam_deg,
+                    falloff,
                 } => {
                     // The cone's trigonometry in f64 here: the shader only multiplies and takes one
                     // atan2 of a small angle (lights/spot.wgsl), so the falloff is accurate to its
@@ -462,11 +472,18 @@ impl GpuScene {
                         f64::from(cutoff_deg).to_radians(),
                         f64::from(beam_deg).to_radians(),
                     );
-                    let inv_width = if c > b { 1.0 / (c - b) } else { 0.0 };
+                    // Linear: 1 / (c - b) in radians; smooth: 1 / max(0.001, cos b - cos c), the
+                    // extension's guard against a beam as wide as the cone.
+                    let inv_width = match falloff {
+                        SpotFalloff::Linear if c > b => 1.0 / (c - b),
+                        SpotFalloff::Linear => 0.0,
+                        SpotFalloff::Smooth => 1.0 / (b.cos() - c.cos()).max(0.001),
+                    };
                     g.lights.push(GpuLight {
                         position: position.into(),
                         intensity: (color * intensity).into(),
                         kind: LIGHT_SPOT,
+                        spot_falloff: u32::from(falloff == SpotFalloff::Smooth),
                         axis: axis.normalize().into(),
                         spot_inv_width: inv_width as f32,
                         spot_cone: [c.cos(), c.sin(), b.cos(), b.sin()].map(|v| v as f32),

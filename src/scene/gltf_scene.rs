@@ -12,7 +12,8 @@
 //! Units. glTF point lights give a luminous intensity in candela and directional lights an illuminance in
 //! lux; vkpath is radiometric and uncoloured by a luminous efficacy, so one candela is read as one watt per
 //! steradian (a point light's power P = 4 pi I) and one lux as one watt per square metre, times the
-//! light's colour. Spot lights are not read (a warning). Cameras: glTF's vertical field of view and aspect
+//! light's colour; spot lights likewise (candela as W/sr on the axis), with their cone angles and the
+//! extension's smooth falloff (`falloff = "smooth"`). Cameras: glTF's vertical field of view and aspect
 //! ratio give vkpath's horizontal field of view, fov_x = 2 atan(aspect tan(yfov / 2)), and the image
 //! 640 pixels wide (height = 640 / aspect); an orthographic camera's xmag is half the view's width.
 
@@ -178,10 +179,30 @@ fn scene_toml(
                         vec3(Vec3::from_array(color))
                     );
                 }
-                gltf::khr_lights_punctual::Kind::Spot { .. } => warnings.push(format!(
-                    "glTF spot light {} is not read (vkpath has no spot lights)",
-                    light.index()
-                )),
+                gltf::khr_lights_punctual::Kind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } => {
+                    // The extension's cone angles (radians, 0 <= inner < outer <= pi / 2) as the spot's
+                    // beam and cutoff, with its smooth falloff; the intensity in candela as W/sr on the axis.
+                    let (beam, cutoff) = (
+                        inner_cone_angle.max(0.0).to_degrees(),
+                        outer_cone_angle.to_degrees(),
+                    );
+                    let _ = write!(
+                        lights,
+                        "\n[[light]]                       # glTF spot light {}\ntype         = \"spot\"\n\
+                         position     = {}\nlook_at      = {}\nintensity    = {}        # {intensity} cd\n\
+                         cutoff_angle = {}\nbeam_width   = {}\nfalloff      = \"smooth\"\ncolor        = {}\n",
+                        light.index(),
+                        vec3(position),
+                        vec3(position + direction),
+                        num(intensity),
+                        num(cutoff),
+                        num(beam.min(cutoff)),
+                        vec3(Vec3::from_array(color))
+                    );
+                }
             }
         }
     }

@@ -491,8 +491,8 @@ pub enum Light {
         angle_deg: f32,
     },
     /// A spot: a point at `position` radiating `intensity * color` W/sr along its unit `axis`, the
-    /// same out to `beam_deg` from the axis, falling linearly in the angle to 0 at `cutoff_deg` (Mitsuba
-    /// 3's `spot`; 0 < beam_deg <= cutoff_deg <= 90).
+    /// same out to `beam_deg` from the axis, falling to 0 at `cutoff_deg` as `falloff` says (0 <=
+    /// beam_deg <= cutoff_deg <= 90; beam_deg > 0 for the linear falloff).
     Spot {
         position: Vec3,
         axis: Vec3,
@@ -500,7 +500,19 @@ pub enum Light {
         color: Vec3,
         cutoff_deg: f32,
         beam_deg: f32,
+        falloff: SpotFalloff,
     },
+}
+
+/// How a spot light's intensity falls from its beam to its cutoff angle (`falloff` in a scene file).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SpotFalloff {
+    /// Linearly in the angle, (c - theta) / (c - b): Mitsuba 3's `spot` ("linear", the default).
+    #[default]
+    Linear,
+    /// glTF's KHR_lights_punctual: t = clamp((cos theta - cos c) / (cos b - cos c), 0, 1), f = t^2
+    /// ("smooth"; the extension's recommended implementation).
+    Smooth,
 }
 
 impl Scene {

@@ -4,6 +4,7 @@ use super::Checker;
 use super::error::SceneError;
 use super::raw::{RawLight, RawScene};
 use crate::scene::Light;
+use crate::scene::SpotFalloff;
 use crate::scene::environment::{self, Environment};
 use glam::Vec3;
 use std::path::Path;
@@ -115,6 +116,7 @@ impl Checker<'_> {
                     "intensity",
                     "cutoff_angle",
                     "beam_width",
+                    "falloff",
                 ],
                 self.spot_light(raw, &key, color)?,
             ),
@@ -141,6 +143,7 @@ impl Checker<'_> {
             ("intensity", l.intensity.as_ref().map(Spanned::span)),
             ("cutoff_angle", l.cutoff_angle.as_ref().map(Spanned::span)),
             ("beam_width", l.beam_width.as_ref().map(Spanned::span)),
+            ("falloff", l.falloff.as_ref().map(Spanned::span)),
         ];
         self.reject_foreign_keys(
             &present,
@@ -251,13 +254,31 @@ impl Checker<'_> {
                 "cutoff_angle is the half-angle of the cone, in degrees, where the light ends.",
             )?,
         };
+        let falloff = match &l.falloff {
+            None => SpotFalloff::Linear,
+            Some(f) => match f.get_ref().as_str() {
+                "linear" => SpotFalloff::Linear,
+                "smooth" => SpotFalloff::Smooth,
+                other => {
+                    return Err(self.error(
+                        f.span(),
+                        &key("falloff"),
+                        format!("unknown falloff \"{other}\""),
+                        "Use \"linear\" (in the angle, Mitsuba's spot; the default) or \"smooth\" (glTF's: the \
+                         square of a ramp in the cosine).",
+                    ));
+                }
+            },
+        };
+        // The smooth falloff is defined with no beam at all (glTF's innerConeAngle 0).
+        let smooth = falloff == SpotFalloff::Smooth;
         let beam_deg = match &l.beam_width {
             None => 0.75 * cutoff_deg,
             Some(b) => self.number_unless(
                 b,
                 &key("beam_width"),
-                |b| !(b > 0.0 && b <= cutoff_deg),
-                "the beam width must be in (0, cutoff_angle] degrees",
+                |b| !((b > 0.0 || (smooth && b == 0.0)) && b <= cutoff_deg),
+                "the beam width must be in (0, cutoff_angle] degrees ([0, cutoff_angle] with the smooth falloff)",
                 "beam_width is the half-angle of full intensity, in degrees, at most cutoff_angle (default 3/4 of it).",
             )?,
         };
@@ -289,6 +310,7 @@ impl Checker<'_> {
                 let omega = crate::kernel::upload::spot_cone_solid_angle(
                     f64::from(cutoff_deg),
                     f64::from(beam_deg),
+                    falloff,
                 );
                 (f64::from(power) / omega) as f32
             }
@@ -307,6 +329,7 @@ impl Checker<'_> {
             color,
             cutoff_deg,
             beam_deg,
+            falloff,
         })
     }
 

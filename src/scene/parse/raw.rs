@@ -224,6 +224,8 @@ pub(super) struct RawLight {
     pub(super) intensity: Option<Spanned<f32>>,
     pub(super) cutoff_angle: Option<Spanned<f32>>,
     pub(super) beam_width: Option<Spanned<f32>>,
+    /// `spot`: "linear" (Mitsuba's, the default) or "smooth" (glTF's).
+    pub(super) falloff: Option<Spanned<String>>,
 }
 
 /// A TOML array of exactly three numbers (integers accepted). serde's own `[f32; 3]` silently ignores
