@@ -132,9 +132,13 @@ def copy(path: Path, out: Path, width: int, height: int, sampler: str, rr_depth:
     rr.set("value", str(rr_depth))
     film = _film(root)
     # Mitsuba 0.5/0.6 film parameters Mitsuba 3 refuses (Bitterli's living room gives them; vkpath reads
-    # them in a 0.x file): the copy drops them, changing nothing in the image but the 0.x logo.
+    # them in a 0.x file): the copy drops them, changing nothing in the image but the 0.x logo, except
+    # high_quality_edges, which is Mitsuba 3's sample_border (samples beyond the image's edges, so that
+    # the edge pixels' filters are whole) and becomes it, as vkpath reads it.
     for e in list(film):
-        if e.get("name") in ("banner", "high_quality_edges", "highQualityEdges", "attach_log", "attachLog"):
+        if e.get("name") in ("high_quality_edges", "highQualityEdges"):
+            e.set("name", "sample_border")
+        elif e.get("name") in ("banner", "attach_log", "attachLog"):
             film.remove(e)
     for name, value in (("width", width), ("height", height)):
         e = _named(film, "integer", name)
