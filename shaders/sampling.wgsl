@@ -31,17 +31,22 @@ fn frame_to_world(f: Frame, v: vec3<f32>) -> vec3<f32> {
     return v.x * f.t + v.y * f.b + v.z * f.n;
 }
 
-// Cosine-weighted direction on the hemisphere around n (Malley's method: uniform disk, lifted).
-// pdf(w) = cos(theta) / pi, with cos(theta) = dot(w, n).
-fn sample_cosine_hemisphere(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+// Cosine-weighted direction on the hemisphere about z, in a local frame (Malley's method: a uniform
+// disk point, lifted): pdf(w) = cos(theta) / pi.
+fn sample_cosine_local(u: vec2<f32>) -> vec3<f32> {
     let r = sqrt(u.x);
     let phi = TWO_PI * u.y;
-    let z = sqrt(max(0.0, 1.0 - u.x));
-    return frame_to_world(frame_from_normal(n), vec3<f32>(r * cos(phi), r * sin(phi), z));
+    return vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u.x)));
+}
+
+// The same about n: pdf(w) = cos(theta) / pi, with cos(theta) = dot(w, n).
+fn sample_cosine_hemisphere(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    return frame_to_world(frame_from_normal(n), sample_cosine_local(u));
 }
 
 // Density of sample_cosine_hemisphere per unit solid angle, given cos(theta) = dot(w, n): cos / pi
 // above the surface, 0 below.
+
 fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
     return max(cos_theta, 0.0) * INV_PI;
 }

@@ -290,16 +290,7 @@ fn principled_keys_are_checked() {
         (aniso.alpha_x - 0.25 / aspect).abs() < 1e-6
             && (aniso.alpha_y - 0.25 * aspect).abs() < 1e-6
     );
-    let load = |spec: &str| {
-        let text = format!(
-            "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[materials]\nm = {spec}\n\
-             [[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n"
-        );
-        vkpath::Scene::from_toml_str(&text, None)
-            .err()
-            .map(|e| e.to_string())
-            .unwrap_or_default()
-    };
+    let load = material_error;
     for (spec, key) in [
         (
             "{ type = \"principled\", specular = 0.5, ior = 1.5 }",

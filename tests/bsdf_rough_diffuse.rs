@@ -99,16 +99,7 @@ fn rough_diffuse_matches_oren_nayar_in_f64() {
 /// roughness given per axis.
 #[test]
 fn rough_diffuse_keys_are_checked() {
-    let load = |spec: &str| {
-        let text = format!(
-            "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[materials]\nm = {spec}\n\
-             [[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n"
-        );
-        vkpath::Scene::from_toml_str(&text, None)
-            .err()
-            .map(|e| e.to_string())
-            .unwrap_or_default()
-    };
+    let load = material_error;
     let missing = load("{ type = \"rough_diffuse\", roughness = 0.5 }");
     assert!(
         missing.contains("materials.m.albedo") && missing.contains("missing"),

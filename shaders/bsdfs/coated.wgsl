@@ -141,9 +141,7 @@ fn coated_sample(mat: Material, wo_w: vec3<f32>, sh: Shading, rng: ptr<function,
                 wi = reflect_dir(-wo, microfacet_sample_visible(wo, material_microfacet(mat), u));
             }
         } else {
-            let r = sqrt(u.x);
-            let phi = TWO_PI * u.y;
-            wi = vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u.x)));
+            wi = sample_cosine_local(u);
         }
         if wi.z > 0.0 {
             let e = coated_at(mat, wo, wi);

@@ -164,9 +164,7 @@ fn principled_sample(mat: Material, wo_w: vec3<f32>, sh: Shading, rng: ptr<funct
         let lobes = principled_lobes(mat);
         var wi = vec3<f32>(0.0);
         if uc < lobes.z {
-            let r = sqrt(u.x);
-            let phi = TWO_PI * u.y;
-            wi = vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u.x)));
+            wi = sample_cosine_local(u);
         } else if uc < lobes.z + lobes.y {
             // GTR1's D(h) cos(h): cos^2 = (1 - a^(2 (1 - u))) / (1 - a^2) (Burley 2012, eq. 2).
             let a2 = mix(0.1, 0.001, mat.k.y) * mix(0.1, 0.001, mat.k.y);

@@ -429,6 +429,19 @@ pub fn assert_reciprocal_and_one_sided_at_the_horizon(what: &str, mat: GpuMateri
     );
 }
 
+/// The error a scene file gives for the material `spec` (an inline table) on a sphere, as text; empty
+/// when it loads.
+pub fn material_error(spec: &str) -> String {
+    let text = format!(
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[materials]\nm = {spec}\n\
+         [[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n"
+    );
+    vkpath::Scene::from_toml_str(&text, None)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default()
+}
+
 /// The material `spec` (a scene file's inline table, e.g. `{ type = "diffuse", albedo = [0.5, 0.5, 0.5] }`)
 /// as the renderer reads and uploads it.
 pub fn material_from_toml(spec: &str) -> GpuMaterial {

@@ -209,38 +209,9 @@ impl Checker<'_> {
                     }
                     None => Vec3::ONE,
                 };
-                let metallic = match &m.metallic {
-                    Some(v) => self.scalar_param(
-                        v,
-                        &key("metallic"),
-                        |x| !(0.0..=1.0).contains(&x),
-                        "metallic must be in [0, 1]",
-                        "0 is a dielectric (plastic-like), 1 a metal; glTF's default is 1.",
-                        files,
-                        &mut textures.metallic,
-                    )?,
-                    None => 1.0,
-                };
-                // glTF's default roughness is 1.
-                let roughness = match &m.roughness {
-                    None => 1.0,
-                    Some(r) => match self.roughness(
-                        &m.roughness,
-                        &key("roughness"),
-                        files,
-                        &mut textures.roughness,
-                    )? {
-                        Roughness { u, v, .. } if u == v => u,
-                        _ => {
-                            return Err(self.error(
-                                r.span(),
-                                &key("roughness"),
-                                "a metallic_roughness material's roughness is one number",
-                                "glTF 2.0's metallic-roughness model is isotropic; give one number in [0, 1].",
-                            ));
-                        }
-                    },
-                };
+                // glTF's defaults: metallic 1, roughness 1.
+                let (metallic, roughness) =
+                    self.metallic_and_roughness(name, m, files, &mut textures, (1.0, 1.0))?;
                 (
                     vec![
                         "base_color",
@@ -605,6 +576,51 @@ impl Checker<'_> {
 }
 
 impl Checker<'_> {
+    /// The `metallic` (in [0, 1], or a texture) and the isotropic `roughness` (one number in [0, 1], or
+    /// a texture) of a metallic_roughness or principled material, with the type's `defaults`.
+    fn metallic_and_roughness(
+        &self,
+        name: &str,
+        m: &RawMaterial,
+        files: &mut Files,
+        textures: &mut MaterialTextures,
+        defaults: (f32, f32),
+    ) -> Result<(f32, f32), SceneError> {
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let metallic = match &m.metallic {
+            Some(v) => self.scalar_param(
+                v,
+                &key("metallic"),
+                |x| !(0.0..=1.0).contains(&x),
+                "metallic must be in [0, 1]",
+                "0 is a dielectric (plastic-like), 1 a metal.",
+                files,
+                &mut textures.metallic,
+            )?,
+            None => defaults.0,
+        };
+        let roughness = match &m.roughness {
+            None => defaults.1,
+            Some(r) => match self.roughness(
+                &m.roughness,
+                &key("roughness"),
+                files,
+                &mut textures.roughness,
+            )? {
+                Roughness { u, v, .. } if u == v => u,
+                _ => {
+                    return Err(self.error(
+                        r.span(),
+                        &key("roughness"),
+                        format!("a {} material's roughness is one number", m.kind.get_ref()),
+                        "The model is isotropic (principled: its anisotropy is `anisotropic`); give one number in [0, 1].",
+                    ));
+                }
+            },
+        };
+        Ok((metallic, roughness))
+    }
+
     /// A `principled` material (Mitsuba 3's, bsdfs/principled.wgsl): its keys and the material. The
     /// defaults are Mitsuba's: base_color 0.5, roughness 0.5, specular 0.5 (eta = 2 / (1 - sqrt(0.08
     /// specular)) - 1, Mitsuba's mapping; or `ior`), every other weight 0.
@@ -620,37 +636,9 @@ impl Checker<'_> {
             Some(c) => self.unit_color(c, &key("base_color"), files, &mut textures.albedo)?,
             None => Vec3::splat(0.5),
         };
-        let metallic = match &m.metallic {
-            Some(v) => self.scalar_param(
-                v,
-                &key("metallic"),
-                |x| !(0.0..=1.0).contains(&x),
-                "metallic must be in [0, 1]",
-                "0 is a dielectric, 1 a metal.",
-                files,
-                &mut textures.metallic,
-            )?,
-            None => 0.0,
-        };
-        let roughness = match &m.roughness {
-            None => 0.5,
-            Some(r) => match self.roughness(
-                &m.roughness,
-                &key("roughness"),
-                files,
-                &mut textures.roughness,
-            )? {
-                crate::scene::Roughness { u, v, .. } if u == v => u,
-                _ => {
-                    return Err(self.error(
-                        r.span(),
-                        &key("roughness"),
-                        "a principled material's roughness is one number",
-                        "Its anisotropy is `anisotropic` (0 to 1), as in Mitsuba and Disney's model.",
-                    ));
-                }
-            },
-        };
+        // Mitsuba's defaults: metallic 0, roughness 0.5.
+        let (metallic, roughness) =
+            self.metallic_and_roughness(name, m, files, textures, (0.0, 0.5))?;
         let weight = |v: &Option<Spanned<f32>>, field: &str, default: f32| {
             match v {
             None => Ok(default),
