@@ -21,6 +21,9 @@ const FILTER_TENT: u32 = 3u;
 // on a constant then folds to one case).
 override FILTER_FROM_PARAMS: bool = true;
 override FILTER_KIND: u32 = 0u;
+// Whether the filter is cut off at the image's edges (params.filter_in_image, film_position): likewise.
+override FILTER_IN_IMAGE_FROM_PARAMS: bool = true;
+override FILTER_IN_IMAGE: bool = false;
 
 // What a sample is (params.aov): radiance, or a layer of `--aov` (aov_step). Read from `params` by the
 // generic kernel; a constant when specialised, so that a render's kernel has no AOV code at all.
@@ -96,17 +99,18 @@ fn aov_step(kind: u32, path: ptr<function, Path>) -> bool {
 fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
     let center = vec2<f32>(px) + vec2<f32>(0.5);
     let u = rng_next2(rng);
+    let w = params.filter_width;
+    let in_image = select(FILTER_IN_IMAGE, params.filter_in_image != 0u, FILTER_IN_IMAGE_FROM_PARAMS);
     // The offsets that keep the sample on the image.
     let lo = -center;
     let hi = vec2<f32>(f32(params.width), f32(params.height)) - center;
-    let w = params.filter_width;
     var x = center;
     switch select(FILTER_KIND, params.filter_kind, FILTER_FROM_PARAMS) {
         case FILTER_BOX: {
             x = vec2<f32>(px) + u;
         }
         case FILTER_GAUSSIAN: {
-            if params.filter_in_image != 0u {
+            if in_image {
                 let r = 4.0 * w;
                 x = center + vec2<f32>(sample_gaussian_within(u.x, w, max(-r, lo.x), min(r, hi.x)),
                                        sample_gaussian_within(u.y, w, max(-r, lo.y), min(r, hi.y)));
@@ -115,7 +119,7 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
             }
         }
         case FILTER_TENT: {
-            if params.filter_in_image != 0u {
+            if in_image {
                 x = center + vec2<f32>(sample_tent_within(u.x, w, max(-w, lo.x), min(w, hi.x)),
                                        sample_tent_within(u.y, w, max(-w, lo.y), min(w, hi.y)));
             } else {

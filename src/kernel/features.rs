@@ -415,6 +415,13 @@ pub const KNOBS: &[KnobRow] = &[
         read: |_, p| p.filter_kind,
     },
     KnobRow {
+        // render.sample_border = false (trace.wgsl, film_position): the filter cut off at the edges.
+        name: "filter_in_image",
+        from_params: "FILTER_IN_IMAGE_FROM_PARAMS",
+        values: &[("FILTER_IN_IMAGE", 1)],
+        read: |_, p| p.filter_in_image,
+    },
+    KnobRow {
         name: "sampler",
         from_params: "SAMPLER_FROM_RNG",
         values: &[("SAMPLER_IS_SOBOL", SAMPLER_SOBOL)],
