@@ -788,6 +788,99 @@ fn gltf_alpha_modes_cut_out_and_blend() {
     assert!((b - want).abs() < 5.0 * se, "BLEND {b} vs {want} (se {se})");
 }
 
+/// A texture's sampler and KHR_texture_transform: an emissive quad whose 4 x 4 texture (every texel its
+/// own colour) is read with magFilter NEAREST, wrap REPEAT and a transform of offset, rotation and scale
+/// shows, at every pixel centre, the texel the extension's own formula picks in glTF's uv space (uv' =
+/// T R S uv, R the extension's column-major rotation, v down the image), computed here in f64: its sRGB
+/// decoding, to f32 rounding; pixels within 1e-3 texel of a texel edge are skipped. The same image given as
+/// a base64 data URI renders the same bits.
+#[test]
+fn gltf_texture_transform_and_sampler_pick_the_specifications_texel() {
+    let dir = tempfile::tempdir().unwrap();
+    let img = image::RgbImage::from_fn(4, 4, |x, y| {
+        image::Rgb([
+            (20 + 60 * x) as u8,
+            (30 + 55 * y) as u8,
+            (200 - 40 * x - 7 * y) as u8,
+        ])
+    });
+    let (tx, ty, r, sx, sy) = (0.3f64, -0.2f64, 0.5f64, 1.7f64, 2.3f64);
+    write_textured_quad(
+        dir.path(),
+        &format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [0.0, 0.0, 0.0, 1.0]}},
+               "emissiveFactor": [1.0, 1.0, 1.0],
+               "emissiveTexture": {{"index": 0, "extensions": {{"KHR_texture_transform":
+                   {{"offset": [{tx}, {ty}], "rotation": {r}, "scale": [{sx}, {sy}]}}}}}}}}"#
+        ),
+        std::slice::from_ref(&img),
+    );
+    let json = std::fs::read_to_string(dir.path().join("quad.gltf")).unwrap();
+    let json = json.replace(
+        r#""textures": [{"source": 0}]"#,
+        r#""samplers": [{"magFilter": 9728, "wrapS": 10497, "wrapT": 10497}], "textures": [{"source": 0, "sampler": 0}]"#,
+    );
+    std::fs::write(dir.path().join("quad.gltf"), &json).unwrap();
+    let n = 32u32;
+    let toml = format!(
+        "[camera]\ntype = \"orthographic\"\nextent = 2.0\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\n\
+         [image]\nwidth = {n}\nheight = {n}\n[render]\nsamples = 1\nmax_bounces = 0\nfilter = \"none\"\n\
+         [[mesh]]\nobj = \"quad.gltf\"\n"
+    );
+    let scene = load(dir.path(), &toml);
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let film = common::render_passes(&scene, &Default::default(), 1, 1);
+    let (c, s) = (r.cos(), r.sin());
+    let mut checked = 0;
+    for j in 0..n {
+        for i in 0..n {
+            let x = -1.0 + (f64::from(i) + 0.5) / 16.0;
+            let y = 1.0 - (f64::from(j) + 0.5) / 16.0;
+            let (u, v) = ((x + 1.0) / 2.0, (1.0 - y) / 2.0);
+            let (su, sv) = (sx * u, sy * v);
+            let uv = [c * su - s * sv + tx, s * su + c * sv + ty];
+            let t = uv.map(|a| (a - a.floor()) * 4.0);
+            if t.iter().any(|a| (a - a.round()).abs() < 1e-3) {
+                continue;
+            }
+            let texel = img.get_pixel(t[0] as u32, t[1] as u32);
+            let got = film.pixel(i, j);
+            for k in 0..3 {
+                let want = srgb_decode(texel[k]);
+                assert!(
+                    (f64::from(got[k]) - want).abs() <= 1e-5 * want + 1e-7,
+                    "pixel ({i}, {j}) channel {k}: {} vs texel ({}, {}) {want}",
+                    got[k],
+                    t[0] as u32,
+                    t[1] as u32
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 800, "{checked}");
+    // The image as a data URI: the same bits.
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let uri = format!(
+        "data:image/png;base64,{}",
+        base64::Engine::encode(&base64::engine::general_purpose::STANDARD, &png)
+    );
+    std::fs::write(
+        dir.path().join("quad.gltf"),
+        json.replace(r#""uri": "tex0.png""#, &format!(r#""uri": "{uri}""#)),
+    )
+    .unwrap();
+    std::fs::remove_file(dir.path().join("tex0.png")).unwrap();
+    let scene = load(dir.path(), &toml);
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(
+        common::render_passes(&scene, &Default::default(), 1, 1).mean,
+        film.mean
+    );
+}
+
 /// What the importer makes of a material with every texture glTF's metallic-roughness model has: the
 /// factors in the material, the base colour, emissive, metallic-roughness and normal textures on the mesh
 /// (the first two colour, sRGB; the others linear data), the normal map's scale, and in the GPU tables: one texel block per image

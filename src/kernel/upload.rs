@@ -625,10 +625,14 @@ impl GpuScene {
         let base = m.material as usize;
         let mut material = self.materials[base];
         let mut entry = self.material_textures[base];
-        let mut plain = |g: &mut GpuScene, tex: &Arc<Texture>, colour: bool, channel: Channel| {
+        let mut plain = |g: &mut GpuScene,
+                         tex: &Arc<Texture>,
+                         colour: bool,
+                         channel: Channel,
+                         read: &crate::scene::mesh::TextureRead| {
             g.add_texture(
                 images,
-                &TextureRef::plain(tex.clone(), colour).with_channel(channel),
+                &read.apply(TextureRef::plain(tex.clone(), colour).with_channel(channel)),
             )
         };
         // (A conductor given by eta and k has no colour for `texture` to replace: its albedo is its tint,
@@ -644,30 +648,31 @@ impl GpuScene {
             if !maps.base_color_factor {
                 material.albedo = [1.0; 3];
             }
-            entry.albedo_texture = plain(self, tex, true, Channel::Rgb);
+            entry.albedo_texture = plain(self, tex, true, Channel::Rgb, &maps.base_color_read);
         }
         let emits = scene.materials[base].emission.is_some();
         let emissive = match (&maps.emissive, &m.texture) {
-            (Some(e), _) => Some(e),
-            (None, Some(t)) if emits && !maps.base_color_factor => Some(t),
+            (Some(e), _) => Some((e, &maps.emissive_read)),
+            (None, Some(t)) if emits && !maps.base_color_factor => Some((t, &maps.base_color_read)),
             _ => None,
         };
-        if let Some(tex) = emissive {
-            entry.emission_texture = plain(self, tex, true, Channel::Rgb);
+        if let Some((tex, read)) = emissive {
+            entry.emission_texture = plain(self, tex, true, Channel::Rgb, read);
         }
         if let Some(tex) = &maps.metallic_roughness {
-            entry.metallic_texture = plain(self, tex, false, Channel::B);
-            entry.roughness_texture = plain(self, tex, false, Channel::G);
+            let read = &maps.metallic_roughness_read;
+            entry.metallic_texture = plain(self, tex, false, Channel::B, read);
+            entry.roughness_texture = plain(self, tex, false, Channel::G, read);
         }
         if let Some(tex) = &maps.normal {
-            entry.normal_texture = plain(self, tex, false, Channel::Rgb);
+            entry.normal_texture = plain(self, tex, false, Channel::Rgb, &maps.normal_read);
             entry.normal_scale = maps.normal_scale;
         }
         // glTF's alpha coverage: opacity = the base colour factor's alpha x the texture's (linear).
         if let Some((factor, cutoff)) = maps.alpha {
             entry.opacity = factor;
             if let Some(tex) = &m.texture {
-                entry.opacity_texture = plain(self, tex, false, Channel::A);
+                entry.opacity_texture = plain(self, tex, false, Channel::A, &maps.base_color_read);
             }
             if let Some(c) = cutoff {
                 entry.flags |= MATERIAL_CUTOUT;

@@ -6,7 +6,7 @@
 //! column-vector convention), and every triangle primitive of every mesh a node instances: positions,
 //! normals (transformed by the inverse transpose), TEXCOORD_0, indices. Materials are glTF's
 //! metallic-roughness ones (Appendix B), which vkpath's `metallic_roughness` implements: baseColorFactor
-//! (its alpha ignored), metallicFactor, roughnessFactor, emissiveFactor x KHR_materials_emissive_strength,
+//! (its alpha the MASK/BLEND opacity), metallicFactor, roughnessFactor, emissiveFactor x KHR_materials_emissive_strength,
 //! and the textures each factor multiplies (glTF 2.0 §3.9): baseColorTexture and emissiveTexture (sRGB
 //! colour: base colour = baseColorFactor x texel, emission = emissive factor x texel) and
 //! metallicRoughnessTexture (linear: metallic = metallicFactor x B, roughness = roughnessFactor x G), and
@@ -16,8 +16,10 @@
 //!
 //! What is not, each said in a note (a warning of the scene, never silent): non-triangle primitives
 //! (points, lines, strips and fans are skipped), occlusionTexture, texture coordinate sets
-//! other than TEXCOORD_0, alpha modes other than OPAQUE, images given as data URIs, cameras and lights (a
-//! mesh file brings geometry and materials only).
+//! other than TEXCOORD_0, cameras and lights (a mesh file brings geometry and materials only). Each
+//! texture is read with its sampler's filter and wrap mode and its KHR_texture_transform
+//! (`texture_read`); images may be files, buffer views or data URIs. Alpha modes: MASK and BLEND through
+//! the opacity modifier.
 
 use super::image_texture::{Texture, load_texture, load_texture_bytes};
 use super::mesh::{FileMaterial, MAX_TRIANGLES, ObjError, ObjMesh};
@@ -496,36 +498,120 @@ fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMa
         gltf::material::AlphaMode::Mask => Some((alpha, Some(m.alpha_cutoff().unwrap_or(0.5)))),
         gltf::material::AlphaMode::Blend => Some((alpha, None)),
     };
-    let mut texture = |what: &str, tex: gltf::Texture, tex_coord: u32| {
+    let mut texture = |what: &str,
+                       tex: gltf::Texture,
+                       tex_coord: u32,
+                       transform: Option<&gltf::json::Value>| {
+        let (read, tex_coord) = texture_read(&tex, transform, tex_coord, &mut |n| {
+            notes.add(format!("material \"{name}\": its {what} texture: {n}"))
+        });
         if tex_coord != 0 {
             notes.add(format!(
                 "material \"{name}\": its {what} texture uses TEXCOORD_{tex_coord}; only TEXCOORD_0 is read"
             ));
         }
-        images
+        let image = images
             .get(tex.source())
             .map_err(|e| {
                 notes.add(format!(
                     "material \"{name}\": its {what} texture: {e}; it is not used"
                 ))
             })
-            .ok()
+            .ok();
+        (image, read)
     };
+    const TRANSFORM: &str = "KHR_texture_transform";
     if let Some(info) = pbr.base_color_texture() {
-        out.texture = texture("base colour", info.texture(), info.tex_coord());
+        let t = info.extension_value(TRANSFORM);
+        (out.texture, out.maps.base_color_read) =
+            texture("base colour", info.texture(), info.tex_coord(), t);
     }
     if let Some(info) = m.emissive_texture() {
-        out.maps.emissive = texture("emissive", info.texture(), info.tex_coord());
+        let t = info.extension_value(TRANSFORM);
+        (out.maps.emissive, out.maps.emissive_read) =
+            texture("emissive", info.texture(), info.tex_coord(), t);
     }
     if let Some(info) = pbr.metallic_roughness_texture() {
-        out.maps.metallic_roughness =
-            texture("metallic-roughness", info.texture(), info.tex_coord());
+        let t = info.extension_value(TRANSFORM);
+        (
+            out.maps.metallic_roughness,
+            out.maps.metallic_roughness_read,
+        ) = texture("metallic-roughness", info.texture(), info.tex_coord(), t);
     }
     if let Some(info) = m.normal_texture() {
-        out.maps.normal = texture("normal", info.texture(), info.tex_coord());
+        let t = info.extension_value(TRANSFORM);
+        (out.maps.normal, out.maps.normal_read) =
+            texture("normal", info.texture(), info.tex_coord(), t);
         out.maps.normal_scale = info.scale();
     }
     out
+}
+
+/// How a glTF texture is read (a `mesh::TextureRead`), and the texture coordinate set it reads: its
+/// sampler's magnification filter (NEAREST, else bilinear: vkpath has no mip levels, so the minification
+/// filter does not apply) and wrap mode (wrapS; a different wrapT is a note), and its KHR_texture_transform
+/// (`transform`, the extension's JSON; its texCoord overrides the textureInfo's).
+///
+/// The extension's transform is uv' = T R S uv in glTF's uv space, whose v runs down the image, with
+/// R = [[cos r, -sin r], [sin r, cos r]] (the extension's column-major mat3), S = diag(sx, sy) and T the
+/// offset (tx, ty). vkpath's uv has v up, v_vk = 1 - v_gl (F = diag(1, -1) plus (0, 1)), so in vkpath's
+/// space the same lookup is F T R S F: its linear part is diag(1, -1) R S diag(1, -1) = R(-r) S, and its
+/// offset F(T R S (0, 1)) = (tx - sin r sy, 1 - ty - cos r sy). Written as the texture reference's scale
+/// (sx, sy), rotation -r and that offset.
+fn texture_read(
+    tex: &gltf::Texture,
+    transform: Option<&gltf::json::Value>,
+    tex_coord: u32,
+    note: &mut dyn FnMut(String),
+) -> (super::mesh::TextureRead, u32) {
+    use gltf::texture::{MagFilter, WrappingMode};
+    let sampler = tex.sampler();
+    let wrap = |w: WrappingMode| match w {
+        WrappingMode::ClampToEdge => super::texture::Wrap::Clamp,
+        WrappingMode::MirroredRepeat => super::texture::Wrap::Mirror,
+        WrappingMode::Repeat => super::texture::Wrap::Repeat,
+    };
+    if sampler.wrap_s() != sampler.wrap_t() {
+        note(format!(
+            "its sampler wraps s and t differently ({:?}, {:?}); vkpath wraps both as s",
+            sampler.wrap_s(),
+            sampler.wrap_t()
+        ));
+    }
+    let mut read = super::mesh::TextureRead {
+        nearest: sampler.mag_filter() == Some(MagFilter::Nearest),
+        wrap: wrap(sampler.wrap_s()),
+        ..Default::default()
+    };
+    let mut tex_coord = tex_coord;
+    if let Some(t) = transform {
+        let number = |v: Option<&gltf::json::Value>| v.and_then(|x| x.as_f64());
+        let pair = |key: &str, default: [f64; 2]| -> [f64; 2] {
+            match t.get(key).and_then(|v| v.as_array()) {
+                Some(a) if a.len() == 2 => [
+                    number(a.first()).unwrap_or(default[0]),
+                    number(a.get(1)).unwrap_or(default[1]),
+                ],
+                _ => default,
+            }
+        };
+        let [tx, ty] = pair("offset", [0.0, 0.0]);
+        let [sx, sy] = pair("scale", [1.0, 1.0]);
+        let r = number(t.get("rotation")).unwrap_or(0.0);
+        if let Some(k) = t.get("texCoord").and_then(|v| v.as_u64()) {
+            tex_coord = k as u32;
+        }
+        let (sin, cos) = r.sin_cos();
+        let finite = [tx, ty, sx, sy, r].iter().all(|x| x.is_finite());
+        if finite {
+            read.scale = [sx as f32, sy as f32];
+            read.rotation_deg = (-r).to_degrees() as f32;
+            read.offset = [(tx - sin * sy) as f32, (1.0 - ty - cos * sy) as f32];
+        } else {
+            note("its KHR_texture_transform is not finite; not applied".into());
+        }
+    }
+    (read, tex_coord)
 }
 
 /// The glTF file's images, each decoded once however many textures use it (and so uploaded once).
@@ -547,7 +633,16 @@ impl Images<'_> {
         }
         let result = match image.source() {
             gltf::image::Source::Uri { uri, .. } if uri.starts_with("data:") => {
-                Err("the image is a data URI, which is not read".to_owned())
+                match uri.split_once(";base64,") {
+                    None => Err("the image is a data URI that is not base64".to_owned()),
+                    Some((_, encoded)) => {
+                        base64::Engine::decode(&base64::engine::general_purpose::STANDARD, encoded)
+                            .map_err(|e| format!("the image's data URI is not valid base64: {e}"))
+                            .and_then(|b| {
+                                load_texture_bytes(&b, &format!("image {k} (a data URI)"))
+                            })
+                    }
+                }
             }
             gltf::image::Source::Uri { uri, .. } => {
                 load_texture(&self.dir.join(percent_decode(uri)))

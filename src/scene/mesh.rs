@@ -8,6 +8,7 @@
 //! them into a `SceneError` that also names the scene file, its line and the `[[mesh]]` key.
 
 use super::image_texture::Texture;
+use super::texture::{TextureFilter, TextureRef, Wrap};
 use glam::{DAffine3, DMat3, DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -63,6 +64,51 @@ pub struct MeshMaps {
     /// with MASK's alphaCutoff (the second) a cut-out, with BLEND (`None`) stochastic transparency
     /// (glTF 2.0 §3.9.4, "Alpha Coverage").
     pub alpha: Option<(f32, Option<f32>)>,
+    /// How each of the textures above is read (glTF: its sampler and KHR_texture_transform): the base
+    /// colour texture's (the mesh's `texture`; also the alpha's), the emissive, the metallic-roughness and
+    /// the normal texture's.
+    pub base_color_read: TextureRead,
+    pub emissive_read: TextureRead,
+    pub metallic_roughness_read: TextureRead,
+    pub normal_read: TextureRead,
+}
+
+/// How a mesh's texture is read besides its image: the filter, the wrap mode and the uv transform of a
+/// texture reference (glTF: its sampler and KHR_texture_transform, already in vkpath's uv convention).
+/// The default reads it plainly: bilinear, repeated, untransformed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRead {
+    pub nearest: bool,
+    pub wrap: Wrap,
+    pub scale: [f32; 2],
+    pub rotation_deg: f32,
+    pub offset: [f32; 2],
+}
+
+impl Default for TextureRead {
+    fn default() -> TextureRead {
+        TextureRead {
+            nearest: false,
+            wrap: Wrap::Repeat,
+            scale: [1.0, 1.0],
+            rotation_deg: 0.0,
+            offset: [0.0, 0.0],
+        }
+    }
+}
+
+impl TextureRead {
+    /// `r` read this way.
+    pub fn apply(&self, mut r: TextureRef) -> TextureRef {
+        r.filter = if self.nearest {
+            TextureFilter::Nearest
+        } else {
+            TextureFilter::Bilinear
+        };
+        r.wrap = self.wrap;
+        (r.scale, r.rotation_deg, r.offset) = (self.scale, self.rotation_deg, self.offset);
+        r
+    }
 }
 
 /// A mesh as the OBJ file gives it, in the file's own coordinates.
