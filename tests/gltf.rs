@@ -881,6 +881,122 @@ fn gltf_texture_transform_and_sampler_pick_the_specifications_texel() {
     );
 }
 
+/// KHR_mesh_quantization: the textured quad with its POSITION as normalized i16 (32767 = 1), NORMAL as
+/// normalized i8 and TEXCOORD_0 as normalized u16, or with POSITION as plain i8 (+-2) under a node scale
+/// of 1/2 (the extension's way of scaling back), loads to the float quad's vertices, normals and uvs and
+/// renders its bits; without the extension declared in extensionsUsed, the integer POSITION is refused
+/// naming its accessor.
+#[test]
+fn gltf_quantized_attributes_are_the_float_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let material = r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}, "emissiveFactor": [1, 1, 1], "emissiveTexture": {"index": 0}}"#;
+    let img = image::RgbImage::from_fn(4, 4, |x, y| {
+        image::Rgb([(40 * x + 30) as u8, (50 * y + 20) as u8, 90])
+    });
+    write_textured_quad(dir.path(), material, std::slice::from_ref(&img));
+    let toml = "[camera]\ntype = \"orthographic\"\nextent = 2.0\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\n\
+                [image]\nwidth = 16\nheight = 16\n[render]\nsamples = 2\nmax_bounces = 1\n\
+                [environment]\nradiance = [0.5, 0.5, 0.5]\n[[mesh]]\nobj = \"quad.gltf\"\n";
+    let float = load(dir.path(), toml);
+    let want = common::render_passes(&float, &Default::default(), 1, 2).mean;
+    let json = std::fs::read_to_string(dir.path().join("quad.gltf")).unwrap();
+    let i16s = |v: &[i16]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    let u16s = |v: &[u16]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
+    for (name, position_bytes, position_type, normalized, node) in [
+        // 4 vertices x (3 i16 + 2 bytes of padding): 8-byte elements.
+        (
+            "normalized i16",
+            {
+                let mut b = Vec::new();
+                for p in [[-1i16, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]] {
+                    b.extend(i16s(&p.map(|c| c * 32767)));
+                    b.extend([0, 0]);
+                }
+                b
+            },
+            5122,
+            true,
+            r#"{"mesh": 0}"#,
+        ),
+        (
+            "plain i8 under a node scale",
+            {
+                let mut b = Vec::new();
+                for p in [[-2i8, -2, 0], [2, -2, 0], [2, 2, 0], [-2, 2, 0]] {
+                    b.extend(p.map(|c| c as u8));
+                    b.extend([0, 0, 0, 0, 0]);
+                }
+                b
+            },
+            5120,
+            false,
+            r#"{"mesh": 0, "scale": [0.5, 0.5, 0.5]}"#,
+        ),
+    ] {
+        // POSITION (32 bytes), NORMAL as normalized i8 (4 bytes each: 0, 0, 127, pad), TEXCOORD_0 as
+        // normalized u16 (4 bytes each), indices as u32.
+        let mut bin = position_bytes;
+        bin.extend([0u8, 0, 127, 0].repeat(4));
+        bin.extend(u16s(&[0, 65535, 65535, 65535, 65535, 0, 0, 0]));
+        bin.extend(u32s(&[0, 1, 2, 0, 2, 3]));
+        std::fs::write(dir.path().join("quant.bin"), &bin).unwrap();
+        let quant = |declare: bool| {
+            let start = json.find(r#""accessors""#).unwrap();
+            let middle = format!(
+                r#""accessors": [
+    {{"bufferView": 0, "componentType": {position_type}, "normalized": {normalized}, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3"}},
+    {{"bufferView": 2, "componentType": 5123, "normalized": true, "count": 4, "type": "VEC2"}},
+    {{"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}}
+  ],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 32, "byteStride": 8}},
+    {{"buffer": 0, "byteOffset": 32, "byteLength": 16, "byteStride": 4}},
+    {{"buffer": 0, "byteOffset": 48, "byteLength": 16, "byteStride": 4}},
+    {{"buffer": 0, "byteOffset": 64, "byteLength": 24}}
+  ],
+  "buffers": [{{"uri": "quant.bin", "byteLength": {}}}]
+}}"#,
+                bin.len()
+            );
+            let head = json[..start].replace(
+                r#""nodes": [{"mesh": 0}]"#,
+                &format!(r#""nodes": [{node}]"#),
+            );
+            let head = if declare {
+                head.replace(
+                    r#""asset": {"version": "2.0"},"#,
+                    r#""asset": {"version": "2.0"}, "extensionsUsed": ["KHR_mesh_quantization"], "extensionsRequired": ["KHR_mesh_quantization"],"#,
+                )
+            } else {
+                head
+            };
+            format!("{head}{middle}")
+        };
+        std::fs::write(dir.path().join("quad.gltf"), quant(true)).unwrap();
+        let scene = load(dir.path(), toml);
+        assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
+        assert_eq!(
+            scene.meshes[0].positions, float.meshes[0].positions,
+            "{name}"
+        );
+        assert_eq!(scene.meshes[0].normals, float.meshes[0].normals, "{name}");
+        assert_eq!(scene.meshes[0].uvs, float.meshes[0].uvs, "{name}");
+        assert_eq!(
+            common::render_passes(&scene, &Default::default(), 1, 2).mean,
+            want,
+            "{name}"
+        );
+        std::fs::write(dir.path().join("quad.gltf"), quant(false)).unwrap();
+        let e = Scene::load(&dir.path().join("scene.toml").with_file_name("quad.gltf"))
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert!(e.contains("accessors[0]"), "{name}: {e}");
+        std::fs::write(dir.path().join("quad.gltf"), &json).unwrap();
+    }
+}
+
 /// What the importer makes of a material with every texture glTF's metallic-roughness model has: the
 /// factors in the material, the base colour, emissive, metallic-roughness and normal textures on the mesh
 /// (the first two colour, sRGB; the others linear data), the normal map's scale, and in the GPU tables: one texel block per image

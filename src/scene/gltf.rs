@@ -78,6 +78,9 @@ pub fn scene_nodes<'a>(
     Ok(out)
 }
 
+/// The glTF extensions vkpath implements beyond those the `gltf` crate's features validate.
+const VKPATH_EXTENSIONS: &[&str] = &["KHR_mesh_quantization", "KHR_texture_transform"];
+
 /// Parses and validates a glTF file's bytes (JSON or GLB) as the `gltf` crate does, with the checks
 /// the crate (1.4) leaves to a panic, found by the fuzzer: its validation of a primitive reads
 /// `accessors[i]` for the POSITION index `i` before that index is checked, `Image::source` unwraps an
@@ -100,7 +103,11 @@ pub fn read_gltf(bytes: &[u8]) -> Result<gltf::Gltf, String> {
         ));
     }
     let unchecked = gltf::Gltf::from_slice_without_validation(bytes).map_err(invalid)?;
-    let json = unchecked.document.into_json();
+    let mut json = unchecked.document.into_json();
+    // Extensions vkpath reads itself (the crate's validation refuses a required extension it does not
+    // know): KHR_mesh_quantization (read_attribute) and KHR_texture_transform (texture_read).
+    json.extensions_required
+        .retain(|e| !VKPATH_EXTENSIONS.contains(&e.as_str()));
     for (m, mesh) in json.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             for (semantic, index) in &primitive.attributes {
@@ -165,6 +172,8 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| ObjError::whole_file("the glTF file has no scene"))?;
     let nodes = scene_nodes(doc, &scene, true).map_err(ObjError::whole_file)?;
+    // KHR_mesh_quantization: attributes may be 8- and 16-bit integers (read_attribute dequantizes them).
+    let quantized = doc.extensions_used().any(|e| e == "KHR_mesh_quantization");
     let mut all_normals = true;
     // Texture coordinates are per primitive: one without TEXCOORD_0 gets (0, 0) at its vertices (a valid
     // file textures only primitives that have them), so that the others keep theirs.
@@ -184,14 +193,17 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                 ));
                 continue;
             }
-            check_accessors(&p, &buffers, &at).map_err(ObjError::whole_file)?;
+            check_accessors(&p, &buffers, &at, quantized).map_err(ObjError::whole_file)?;
             let reader = p.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
-            let Some(positions) = reader.read_positions() else {
+            let attribute =
+                |s: gltf::Semantic| p.get(&s).and_then(|a| read_attribute::<3>(&a, &buffers));
+            let Some(positions) = attribute(gltf::Semantic::Positions) else {
                 notes.add(format!("{at} has no POSITION: it is skipped"));
                 continue;
             };
             let base = mesh.positions.len();
             let positions: Vec<Vec3> = positions
+                .into_iter()
                 .map(|p| world.transform_point3(Vec3::from_array(p)))
                 .collect();
             let count = positions.len();
@@ -223,14 +235,19 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                 )));
             }
             mesh.positions.extend(positions);
-            match reader.read_normals() {
-                Some(n) if all_normals => normals
-                    .extend(n.map(|n| (normal_matrix * Vec3::from_array(n)).normalize_or_zero())),
+            match attribute(gltf::Semantic::Normals) {
+                Some(n) if all_normals => normals.extend(
+                    n.into_iter()
+                        .map(|n| (normal_matrix * Vec3::from_array(n)).normalize_or_zero()),
+                ),
                 _ => all_normals = false,
             }
-            match reader.read_tex_coords(0) {
+            let tex_coords = p
+                .get(&gltf::Semantic::TexCoords(0))
+                .and_then(|a| read_attribute::<2>(&a, &buffers));
+            match tex_coords {
                 Some(t) => {
-                    uvs.extend(t.into_f32());
+                    uvs.extend(t);
                     any_uvs = true;
                 }
                 None => {
@@ -338,21 +355,101 @@ fn load_buffers(
     Ok(out)
 }
 
+/// An attribute's elements as f32 (the accessor checked by `check_accessors`; sparse accessors
+/// included, through the gltf crate's iterator): floats as they are; KHR_mesh_quantization's integers
+/// as their values, or normalized (glTF 2.0 §3.11: c / 255, c / 65535 unsigned, max(c / 127, -1),
+/// max(c / 32767, -1) signed). The node's transform, which the extension relies on to scale them back,
+/// applies afterwards. `None` for another component type.
+fn read_attribute<const N: usize>(a: &gltf::Accessor, buffers: &[Vec<u8>]) -> Option<Vec<[f32; N]>>
+where
+    [f32; N]: gltf::accessor::Item,
+    [i8; N]: gltf::accessor::Item,
+    [u8; N]: gltf::accessor::Item,
+    [i16; N]: gltf::accessor::Item,
+    [u16; N]: gltf::accessor::Item,
+{
+    use gltf::accessor::{DataType, Iter};
+    let get = |b: gltf::Buffer| buffers.get(b.index()).map(|d| &d[..]);
+    let normalized = a.normalized();
+    fn convert<T: Copy, const N: usize>(
+        it: impl Iterator<Item = [T; N]>,
+        to_f32: impl Fn(T) -> f32,
+        normalized: bool,
+        scale: f32,
+        min: f32,
+    ) -> Vec<[f32; N]> {
+        it.map(|v| {
+            v.map(|c| {
+                let x = to_f32(c);
+                if normalized { (x / scale).max(min) } else { x }
+            })
+        })
+        .collect()
+    }
+    Some(match a.data_type() {
+        DataType::F32 => Iter::<[f32; N]>::new(a.clone(), get)?.collect(),
+        DataType::I8 => convert(
+            Iter::<[i8; N]>::new(a.clone(), get)?,
+            f32::from,
+            normalized,
+            127.0,
+            -1.0,
+        ),
+        DataType::U8 => convert(
+            Iter::<[u8; N]>::new(a.clone(), get)?,
+            f32::from,
+            normalized,
+            255.0,
+            0.0,
+        ),
+        DataType::I16 => convert(
+            Iter::<[i16; N]>::new(a.clone(), get)?,
+            f32::from,
+            normalized,
+            32767.0,
+            -1.0,
+        ),
+        DataType::U16 => convert(
+            Iter::<[u16; N]>::new(a.clone(), get)?,
+            f32::from,
+            normalized,
+            65535.0,
+            0.0,
+        ),
+        DataType::U32 => return None,
+    })
+}
+
 /// Checks every accessor primitive `p` is read through (POSITION, NORMAL, TEXCOORD_0, indices) before
 /// the gltf crate's reader touches it: the component type and shape the reader assumes, a stride at least
 /// an element, and every element inside its buffer view, every view inside its buffer (glTF 2.0 §3.6.2).
 /// The reader itself stops early at a view that is too short, which used to render a mesh with faces
 /// missing and no word (7 indices in a 12-byte view). `at` names the primitive (`meshes[0].primitives[0]`).
-fn check_accessors(p: &gltf::Primitive, buffers: &[Vec<u8>], at: &str) -> Result<(), String> {
+fn check_accessors(
+    p: &gltf::Primitive,
+    buffers: &[Vec<u8>],
+    at: &str,
+    quantized: bool,
+) -> Result<(), String> {
+    use DataType::{F32, I8, I16, U8, U16, U32};
     use gltf::Semantic;
     use gltf::accessor::{DataType, Dimensions};
-    let float = &[DataType::F32][..];
-    let uv = &[DataType::F32, DataType::U8, DataType::U16][..];
-    let index = &[DataType::U8, DataType::U16, DataType::U32][..];
+    // glTF 2.0 §3.7.2.1, and with KHR_mesh_quantization its integer forms (normals normalized).
+    let (position, normal, uv): (&[DataType], &[DataType], &[DataType]) = if quantized {
+        (
+            &[F32, I8, U8, I16, U16],
+            &[F32, I8, I16],
+            &[F32, I8, U8, I16, U16],
+        )
+    } else {
+        (&[F32], &[F32], &[F32, U8, U16])
+    };
+    let index = &[U8, U16, U32][..];
     let mut read: Vec<(String, gltf::Accessor, Dimensions, &[DataType])> = Vec::new();
     for (semantic, a) in p.attributes() {
         let (dims, types) = match semantic {
-            Semantic::Positions | Semantic::Normals => (Dimensions::Vec3, float),
+            Semantic::Positions => (Dimensions::Vec3, position),
+            Semantic::Normals => (Dimensions::Vec3, normal),
             Semantic::TexCoords(0) => (Dimensions::Vec2, uv),
             _ => continue,
         };
