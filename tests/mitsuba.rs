@@ -1074,7 +1074,7 @@ fn approximations_are_refused_unless_lenient_and_model_differences_are_warnings(
             r#"<medium type="homogeneous"/>
                <shape type="cylinder"/>
                <shape type="sphere"><float name="wobble" value="1"/></shape>
-               <shape type="sphere"><bsdf type="principled"/></shape>
+               <shape type="sphere"><bsdf type="measured"/></shape>
                <fancy/>"#,
         ),
     );
@@ -1084,7 +1084,7 @@ fn approximations_are_refused_unless_lenient_and_model_differences_are_warnings(
     for (w, what) in s
         .warnings
         .iter()
-        .zip(["fancy", "medium", "cylinder", "wobble", "principled"])
+        .zip(["fancy", "medium", "cylinder", "wobble", "measured"])
     {
         assert!(w.contains(what) && w.contains("lenient.xml, line"), "{w}");
     }
@@ -1380,9 +1380,9 @@ fn errors_name_the_file_the_line_and_the_element() {
         assert!(!e.contains('\n'), "one paragraph: {e}");
     };
     check(
-        "<shape type=\"sphere\">\n<bsdf type=\"principled\"/></shape>",
-        "principled",
-        "<bsdf type=\"principled\">",
+        "<shape type=\"sphere\">\n<bsdf type=\"measured\"/></shape>",
+        "measured",
+        "<bsdf type=\"measured\">",
         &["diffuse, conductor"],
     );
     check(
