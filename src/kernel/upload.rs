@@ -47,8 +47,8 @@ pub struct GpuScene {
     pub mesh_faces: Vec<GpuMeshFace>,
     pub mesh_vertices: Vec<GpuMeshVertex>,
     pub meshes: Vec<GpuMeshInfo>,
-    /// Every image's texels, RGBA8 or RGBA f16, one image after the other, each uploaded once however
-    /// many texture references read it.
+    /// Every image's texels, RGBA8 or RGBA f16 (a checkerboard: its two colours as six f32), one image
+    /// after the other, each uploaded once however many texture references read it.
     pub texels: Vec<u32>,
     /// The texture table (`GpuMaterialTextures`' indices): each texture reference, where its image's
     /// texels are and how it reads them.
