@@ -299,6 +299,18 @@ fn gltf_notes_and_errors() {
     assert!(message.contains("scene.gltf"), "{message}");
 }
 
+/// bare.gltf beside write_gltf's scene.gltf: the same file whose scene holds only the mesh node, so it
+/// has no camera and no lights.
+fn write_bare_gltf(dir: &Path) {
+    let json = std::fs::read_to_string(dir.join("scene.gltf")).unwrap();
+    let bare = json.replace(
+        r#""scenes": [{"nodes": [0, 2, 3, 4, 5, 6]}]"#,
+        r#""scenes": [{"nodes": [0]}]"#,
+    );
+    assert_ne!(bare, json, "the fixture's scene list moved");
+    std::fs::write(dir.join("bare.gltf"), bare).unwrap();
+}
+
 /// The framed view (`--camera auto`, and the default when the file has no camera): the scene's bounding
 /// box from the POSITION bounds through the node transforms, here (x, y, z) -> (1 - y, 2x, z): the quad's
 /// [0, 1]^2 goes to [0, 1] x [0, 2], the triangle's [3, 4] x [0, 1] to [0, 1] x [6, 8]: the box [0, 1] x
@@ -343,13 +355,7 @@ fn a_gltf_scene_without_a_camera_is_framed_from_its_bounds() {
     // The file's lights are kept (no environment added).
     assert_eq!(scene.lights.len(), 3);
     // No camera and no lights: framed by default, and lit by a white sky.
-    let json = std::fs::read_to_string(&path).unwrap();
-    let bare = json.replace(
-        r#""scenes": [{"nodes": [0, 2, 3, 4, 5, 6]}]"#,
-        r#""scenes": [{"nodes": [0]}]"#,
-    );
-    assert_ne!(bare, json, "the fixture's scene list moved");
-    std::fs::write(dir.path().join("bare.gltf"), bare).unwrap();
+    write_bare_gltf(dir.path());
     let bare = Scene::load(&dir.path().join("bare.gltf")).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(bare.camera, scene.camera);
     assert!(bare.lights.is_empty());
@@ -538,12 +544,7 @@ fn the_environment_flag_replaces_the_scenes_environment() {
     use std::process::Command;
     let dir = tempfile::tempdir().unwrap();
     write_gltf(dir.path());
-    let json = std::fs::read_to_string(dir.path().join("scene.gltf")).unwrap();
-    let bare = json.replace(
-        r#""scenes": [{"nodes": [0, 2, 3, 4, 5, 6]}]"#,
-        r#""scenes": [{"nodes": [0]}]"#,
-    );
-    std::fs::write(dir.path().join("bare.gltf"), bare).unwrap();
+    write_bare_gltf(dir.path());
     image::Rgb32FImage::from_pixel(8, 4, image::Rgb([2.5, 2.5, 2.5]))
         .save(dir.path().join("sky.exr"))
         .unwrap();
@@ -988,7 +989,7 @@ fn gltf_quantized_attributes_are_the_float_ones() {
             "{name}"
         );
         std::fs::write(dir.path().join("quad.gltf"), quant(false)).unwrap();
-        let e = Scene::load(&dir.path().join("scene.toml").with_file_name("quad.gltf"))
+        let e = Scene::load(&dir.path().join("quad.gltf"))
             .err()
             .map(|e| e.to_string())
             .unwrap_or_default();

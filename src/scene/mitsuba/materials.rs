@@ -616,47 +616,40 @@ impl Tr<'_> {
                     (Some((s, _)), None) => lines.push(at(format!("specular = {}", num(s)))),
                     (None, None) => {}
                 }
-                for name in [
+                // The weights vkpath's principled takes by the same names.
+                const WEIGHTS: [&str; 6] = [
                     "spec_tint",
                     "sheen",
                     "sheen_tint",
                     "clearcoat",
                     "clearcoat_gloss",
                     "flatness",
-                ] {
+                ];
+                // The sampling rates change how Mitsuba draws directions, not the image it converges to.
+                const RATES: [&str; 3] = [
+                    "diffuse_reflectance_sampling_rate",
+                    "main_specular_sampling_rate",
+                    "clearcoat_sampling_rate",
+                ];
+                for name in WEIGHTS {
                     if let Some((x, _)) = args.float(name)? {
                         lines.push(at(format!("{name} = {}", num(x))));
                     }
                 }
-                // The sampling rates change how Mitsuba draws directions, not the image it converges to.
-                for name in [
-                    "diffuse_reflectance_sampling_rate",
-                    "main_specular_sampling_rate",
-                    "clearcoat_sampling_rate",
-                ] {
+                for name in RATES {
                     let _ = args.float(name)?;
                 }
-                self.finish(
-                    &args,
-                    &[
-                        "base_color",
-                        "roughness",
-                        "metallic",
-                        "spec_trans",
-                        "anisotropic",
-                        "specular",
-                        "eta",
-                        "spec_tint",
-                        "sheen",
-                        "sheen_tint",
-                        "clearcoat",
-                        "clearcoat_gloss",
-                        "flatness",
-                        "diffuse_reflectance_sampling_rate",
-                        "main_specular_sampling_rate",
-                        "clearcoat_sampling_rate",
-                    ],
-                )?;
+                let read = [
+                    "base_color",
+                    "roughness",
+                    "metallic",
+                    "spec_trans",
+                    "anisotropic",
+                    "specular",
+                    "eta",
+                ];
+                let known: Vec<&str> = read.into_iter().chain(WEIGHTS).chain(RATES).collect();
+                self.finish(&args, &known)?;
             }
             _ => {
                 self.unsupported(
