@@ -353,7 +353,7 @@ fn count_bounce_cap() {
 fn path_step(path: ptr<function, Path>) -> bool {
     let o = (*path).o;
     let d = (*path).d;
-    let beta = (*path).beta;
+    var beta = (*path).beta;
     let strategy = light_sampling_strategy();
     let mis = lights_mis(strategy);
     let hit = scene_intersect(o, d, T_MISS);
@@ -417,6 +417,14 @@ fn path_step(path: ptr<function, Path>) -> bool {
     // material, which scatters there as on its own front. surface_at chose the material the hit shows
     // (a back material, a blend's): shaded with it from here on.
     let back_face = !f.sh.entering;
+    // A path inside a glTF volume (KHR_materials_volume) meets its boundary from behind: the segment it
+    // travelled lay inside, where the medium absorbs exp(-sigma_a t) (Beer-Lambert; d is a unit vector,
+    // so t is the distance). Everything this path gathers from here on passes through that factor.
+    if HAS_GLTF_PBR {
+        if back_face && mat.kind == MAT_GLTF_PBR && (mat.flags & MATERIAL_VOLUME) != 0u {
+            beta *= exp(-vec3<f32>(mat.coat[4], mat.coat[5], mat.coat[6]) * hit.t);
+        }
+    }
     if back_face && (mat.flags & MATERIAL_ONE_SIDED) != 0u && !(HAS_BACK_MATERIALS && mat.back != 0u) {
         return false;
     }

@@ -155,7 +155,8 @@ fn a_gltf_mesh_loads_with_its_transforms_and_materials() {
         Bsdf::MetallicRoughness {
             base_color: Vec3::ONE,
             metallic: 0.0,
-            roughness: 0.8
+            roughness: 0.8,
+            layers: vkpath::scene::GltfLayers::NONE
         }
     );
     assert_eq!(scene.materials[0].emission, None);
@@ -1033,7 +1034,8 @@ fn gltf_textures_load_with_their_factors() {
         Bsdf::MetallicRoughness {
             base_color: Vec3::new(0.5, 0.25, 1.0),
             metallic: 0.75,
-            roughness: 0.5
+            roughness: 0.5,
+            layers: vkpath::scene::GltfLayers::NONE
         }
     );
     assert_eq!(

@@ -1116,7 +1116,8 @@ fn mtl_illumination_models_and_overrides() {
         Bsdf::MetallicRoughness {
             base_color: glam::Vec3::new(0.2, 0.4, 0.6),
             metallic: 0.7,
-            roughness: 0.25
+            roughness: 0.25,
+            layers: vkpath::scene::GltfLayers::NONE
         }
     );
     let text = "[materials]\nwhite = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }\n";

@@ -87,6 +87,7 @@ fn gltf(base: [f32; 3], metallic: f32, r: f32) -> GpuMaterial {
         base_color: Vec3::from_array(base),
         metallic,
         roughness: r,
+        layers: vkpath::scene::GltfLayers::NONE,
     })
 }
 

@@ -53,6 +53,9 @@ const MATERIAL_BECKMANN: u32 = 8u;
 const MATERIAL_ROUGH_COAT: u32 = 16u;
 // Material::flags: only the front face scatters; a path reaching the back ends (trace.wgsl, path_step).
 const MATERIAL_ONE_SIDED: u32 = 32u;
+// Material::flags: a gltf_pbr material's transmission bounds an absorbing medium (bsdfs/gltf_pbr.wgsl;
+// path_step absorbs along the segments inside).
+const MATERIAL_VOLUME: u32 = 64u;
 // Entries of Material::coat (src/kernel/coat.rs).
 const COAT_NODES: u32 = 16u;
 

@@ -120,6 +120,7 @@ pub const MAT_PLASTIC: u32 = bsdfs::kind("plastic");
 pub const MAT_METALLIC_ROUGHNESS: u32 = bsdfs::kind("metallic_roughness");
 pub const MAT_THIN_DIELECTRIC: u32 = bsdfs::kind("thin_dielectric");
 pub const MAT_PRINCIPLED: u32 = bsdfs::kind("principled");
+pub const MAT_GLTF_PBR: u32 = bsdfs::kind("gltf_pbr");
 
 /// `GpuMaterial::flags`: the material emits from both faces (else only from the front: the side its
 /// geometric normal faces).
@@ -139,6 +140,9 @@ pub const MATERIAL_ROUGH_COAT: u32 = 16;
 /// GpuMaterial::flags: only the front face scatters; a path reaching the back ends there (trace.wgsl,
 /// path_step; Mitsuba's BSDFs without `twosided`).
 pub const MATERIAL_ONE_SIDED: u32 = 32;
+/// GpuMaterial::flags: a gltf_pbr material's transmission bounds an absorbing medium
+/// (KHR_materials_volume; bsdfs/gltf_pbr.wgsl, and trace.wgsl's path_step, which absorbs).
+pub const MATERIAL_VOLUME: u32 = 64;
 
 /// GGX alpha below which a glossy surface is uploaded (and shaded) as smooth: a delta lobe
 /// (`SMOOTH_ALPHA` in microfacet.wgsl, which says why).
@@ -584,6 +588,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("MATERIAL_BECKMANN", MATERIAL_BECKMANN),
     ("MATERIAL_ROUGH_COAT", MATERIAL_ROUGH_COAT),
     ("MATERIAL_ONE_SIDED", MATERIAL_ONE_SIDED),
+    ("MATERIAL_VOLUME", MATERIAL_VOLUME),
     ("COAT_NODES", COAT_NODES as u32),
     ("BSDF_REFLECTION", BSDF_REFLECTION),
     ("BSDF_TRANSMISSION", BSDF_TRANSMISSION),

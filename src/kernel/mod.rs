@@ -14,6 +14,7 @@ pub mod coat;
 pub mod features;
 pub mod library;
 pub mod light_kinds;
+pub mod sheen;
 pub mod specialise;
 pub mod upload;
 

@@ -14,6 +14,7 @@
 use super::abi::*;
 use super::alias;
 use super::coat::{GL4, coat_table};
+use super::sheen::{SHEEN_MIN_ALPHA, sheen_albedo_table};
 use crate::scene::bvh::{self, Bvh};
 use crate::scene::environment::channel_mean;
 use crate::scene::texture::{Channel, TextureFilter, Wrap};
@@ -199,11 +200,32 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             base_color,
             metallic,
             roughness,
+            layers,
         } => {
             g.kind = MAT_METALLIC_ROUGHNESS;
             g.albedo = base_color.into();
             g.metallic = metallic;
             set_alpha(&mut g, Roughness::isotropic(roughness));
+            if !layers.is_none() {
+                // bsdfs/gltf_pbr.wgsl lists the fields.
+                g.kind = MAT_GLTF_PBR;
+                g.ior = layers.ior;
+                g.eta = layers.specular_color.into();
+                g.fdr_int = layers.specular;
+                g.k = layers.sheen_color.into();
+                g.coat[0] = layers.transmission;
+                g.coat[1] = layers.clearcoat;
+                g.coat[2] = layers.clearcoat_roughness * layers.clearcoat_roughness;
+                let sheen_alpha = layers.sheen_roughness.max(SHEEN_MIN_ALPHA);
+                g.coat[3] = sheen_alpha;
+                if let Some(sigma) = layers.volume {
+                    g.flags |= MATERIAL_VOLUME;
+                    g.coat[4..7].copy_from_slice(&sigma.to_array());
+                }
+                if layers.sheen_color != Vec3::ZERO {
+                    g.coat[8..16].copy_from_slice(&sheen_albedo_table(f64::from(sheen_alpha)));
+                }
+            }
         }
         Bsdf::Principled {
             base_color,

@@ -116,6 +116,14 @@ pub const BSDFS: &[BsdfKind] = &[
         keys: Keys::Builtin,
     },
     BsdfKind {
+        // metallic_roughness with the Khronos PBR extensions' layers (`scene::GltfLayers`): read by the
+        // metallic_roughness reader, uploaded as this kind when a layer is present.
+        name: "gltf_pbr",
+        source: include_str!("../../shaders/bsdfs/gltf_pbr.wgsl"),
+        feature: "gltf_pbr",
+        keys: Keys::Builtin,
+    },
+    BsdfKind {
         // Oren & Nayar's rough diffuse reflector (Mitsuba's `roughdiffuse`).
         name: "rough_diffuse",
         source: include_str!("../../shaders/bsdfs/rough_diffuse.wgsl"),

@@ -22,6 +22,7 @@
 //! the opacity modifier.
 
 use super::image_texture::{Texture, load_texture, load_texture_bytes};
+use super::GltfLayers;
 use super::mesh::{FileMaterial, MAX_TRIANGLES, ObjError, ObjMesh};
 use glam::{Mat3, Mat4, Vec3};
 use std::path::Path;
@@ -77,6 +78,20 @@ pub fn scene_nodes<'a>(
     }
     Ok(out)
 }
+
+/// Every glTF extension vkpath reads (a file using another gets a warning naming it).
+const READ_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_mesh_quantization",
+    "KHR_texture_transform",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
+    "KHR_materials_volume",
+    "KHR_materials_clearcoat",
+    "KHR_materials_sheen",
+];
 
 /// The glTF extensions vkpath implements beyond those the `gltf` crate's features validate.
 const VKPATH_EXTENSIONS: &[&str] = &["KHR_mesh_quantization", "KHR_texture_transform"];
@@ -166,6 +181,13 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
         .materials()
         .map(|m| material(m, &mut images, &mut notes))
         .collect();
+    // An extension the file uses that vkpath does not read is said, never skipped silently (cameras and
+    // lights are the scene reader's: gltf_scene.rs).
+    for e in doc.extensions_used() {
+        if !READ_EXTENSIONS.contains(&e) {
+            notes.add(format!("the file uses the extension {e}, which vkpath does not read"));
+        }
+    }
 
     let scene = doc
         .default_scene()
@@ -576,6 +598,7 @@ fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMa
         metallic: Some(pbr.metallic_factor()),
         ..FileMaterial::default()
     };
+    out.layers = layers(&m, &name, notes);
     // glTF multiplies each texture by its factor (base colour, emissive, metallic and roughness); the
     // material holds the factors and the shader multiplies.
     out.maps.base_color_factor = true;
@@ -640,6 +663,125 @@ fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMa
         (out.maps.normal, out.maps.normal_read) =
             texture("normal", info.texture(), info.tex_coord(), t);
         out.maps.normal_scale = info.scale();
+    }
+    out
+}
+
+/// The Khronos PBR extensions of material `m` (`name`) as vkpath's layers (bsdfs/gltf_pbr.wgsl has the
+/// model): each factor with its extension's default, a value that is not a number or out of its range
+/// replaced by the default or clamped, with a warning. Their textures are not read (a warning each: the
+/// factor is used alone), except KHR_materials_volume's thicknessTexture, which the extension tells path
+/// tracers to ignore (they measure the thickness along the ray): a note. attenuationDistance is in the
+/// file's units; a node's scale does not change it.
+fn layers(m: &gltf::Material, name: &str, notes: &mut Notes) -> GltfLayers {
+    let mut out = GltfLayers::NONE;
+    let extension = |ext: &str, notes: &mut Notes| {
+        let value = m.extension_value(ext)?.as_object()?.clone();
+        for (key, v) in &value {
+            if key.ends_with("Texture") && v.is_object() {
+                let message = if key == "thicknessTexture" {
+                    format!(
+                        "{}material \"{name}\": {ext}'s thicknessTexture is read past (a path tracer \
+                         measures the thickness along each ray)",
+                        super::NOTE
+                    )
+                } else {
+                    format!(
+                        "material \"{name}\": {ext}'s {key} is not read; its factor is used alone"
+                    )
+                };
+                notes.add(message);
+            }
+        }
+        Some(value)
+    };
+    let number = |obj: &gltf::json::Value, ext: &str, key: &str, range: (f32, f32), notes: &mut Notes| {
+        let default = match (ext, key) {
+            (_, "ior") => 1.5,
+            (_, "specularFactor") => 1.0,
+            (_, "attenuationDistance") => f32::INFINITY,
+            _ => 0.0,
+        };
+        let Some(v) = obj.get(key) else { return default };
+        match v.as_f64().map(|x| x as f32) {
+            Some(x) if x.is_nan() => default,
+            Some(x) if x >= range.0 && x <= range.1 => x,
+            Some(x) => {
+                notes.add(format!(
+                    "material \"{name}\": {ext}.{key} = {x} is outside [{}, {}]; clamped",
+                    range.0, range.1
+                ));
+                x.clamp(range.0, range.1)
+            }
+            None => {
+                notes.add(format!(
+                    "material \"{name}\": {ext}.{key} is not a number; its default {default} is used"
+                ));
+                default
+            }
+        }
+    };
+    let color = |obj: &gltf::json::Value, ext: &str, key: &str, default: Vec3, max: f32, notes: &mut Notes| {
+        let Some(v) = obj.get(key) else { return default };
+        let values: Option<Vec<f32>> = v
+            .as_array()
+            .filter(|a| a.len() == 3)
+            .and_then(|a| a.iter().map(|x| x.as_f64().map(|x| x as f32)).collect());
+        match values {
+            Some(c) if c.iter().all(|x| x.is_finite()) => {
+                let clamped = Vec3::from_slice(&c).clamp(Vec3::ZERO, Vec3::splat(max));
+                if clamped != Vec3::from_slice(&c) {
+                    notes.add(format!(
+                        "material \"{name}\": {ext}.{key} has components outside [0, {max}]; clamped"
+                    ));
+                }
+                clamped
+            }
+            _ => {
+                notes.add(format!(
+                    "material \"{name}\": {ext}.{key} is not three numbers; its default is used"
+                ));
+                default
+            }
+        }
+    };
+    let object = |v: serde_json::Map<String, gltf::json::Value>| gltf::json::Value::Object(v);
+    const IOR: &str = "KHR_materials_ior";
+    if let Some(v) = extension(IOR, notes).map(object) {
+        // ior 0 is the specification's way to give f0 = 1 (a specular-glossiness conversion).
+        out.ior = number(&v, IOR, "ior", (0.0, f32::MAX), notes);
+    }
+    const SPECULAR: &str = "KHR_materials_specular";
+    if let Some(v) = extension(SPECULAR, notes).map(object) {
+        out.specular = number(&v, SPECULAR, "specularFactor", (0.0, 1.0), notes);
+        out.specular_color = color(&v, SPECULAR, "specularColorFactor", Vec3::ONE, f32::MAX, notes);
+    }
+    const TRANSMISSION: &str = "KHR_materials_transmission";
+    if let Some(v) = extension(TRANSMISSION, notes).map(object) {
+        out.transmission = number(&v, TRANSMISSION, "transmissionFactor", (0.0, 1.0), notes);
+    }
+    const VOLUME: &str = "KHR_materials_volume";
+    if let Some(v) = extension(VOLUME, notes).map(object) {
+        // thicknessFactor 0 (the default) is a thin surface: the extension has no effect.
+        if number(&v, VOLUME, "thicknessFactor", (0.0, f32::MAX), notes) > 0.0 {
+            let distance = number(&v, VOLUME, "attenuationDistance", (f32::MIN_POSITIVE, f32::INFINITY), notes);
+            let c = color(&v, VOLUME, "attenuationColor", Vec3::ONE, 1.0, notes).max(Vec3::splat(1e-6));
+            out.volume = Some(if distance.is_finite() {
+                -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / distance
+            } else {
+                Vec3::ZERO
+            });
+        }
+    }
+    const CLEARCOAT: &str = "KHR_materials_clearcoat";
+    if let Some(v) = extension(CLEARCOAT, notes).map(object) {
+        out.clearcoat = number(&v, CLEARCOAT, "clearcoatFactor", (0.0, 1.0), notes);
+        out.clearcoat_roughness = number(&v, CLEARCOAT, "clearcoatRoughnessFactor", (0.0, 1.0), notes);
+    }
+    const SHEEN: &str = "KHR_materials_sheen";
+    if let Some(v) = extension(SHEEN, notes).map(object) {
+        out.sheen_color = color(&v, SHEEN, "sheenColorFactor", Vec3::ZERO, 1.0, notes);
+        out.sheen_roughness = number(&v, SHEEN, "sheenRoughnessFactor", (0.0, 1.0), notes);
     }
     out
 }

@@ -203,6 +203,8 @@ pub struct FileMaterial {
     /// glTF's other textures, and that its base colour factor multiplies `texture` (set for every glTF
     /// material; MTL ones keep the default).
     pub maps: MeshMaps,
+    /// A glTF material's Khronos PBR extension layers (none for MTL materials).
+    pub layers: crate::scene::GltfLayers,
 }
 
 /// What is wrong with an OBJ file, and on which of its lines (1-based) when that is known.

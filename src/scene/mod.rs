@@ -333,11 +333,13 @@ pub enum Bsdf {
         roughness: Roughness,
         nonlinear: bool,
     },
-    /// glTF 2.0's metallic-roughness material (the specification's Appendix B).
+    /// glTF 2.0's metallic-roughness material (the specification's Appendix B), with the layers of the
+    /// Khronos PBR extensions ([`GltfLayers`]; none: the plain material).
     MetallicRoughness {
         base_color: Vec3,
         metallic: f32,
         roughness: f32,
+        layers: GltfLayers,
     },
     /// Mitsuba 3's `principled` BSDF without specular transmission (shaders/bsdfs/principled.wgsl, which
     /// gives the model): perceptual `roughness`, `eta` the specular's relative index (from Mitsuba's
@@ -365,6 +367,54 @@ pub enum Bsdf {
         albedo: Vec3,
         roughness: Roughness,
     },
+}
+
+/// What the Khronos PBR extensions add to a glTF metallic-roughness material (shaders/bsdfs/gltf_pbr.wgsl
+/// gives the model): KHR_materials_ior, _specular, _transmission, _volume, _clearcoat and _sheen, each
+/// with the specification's default when absent ([`GltfLayers::NONE`] is the core material).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GltfLayers {
+    /// The dielectric's index of refraction (its Fresnel f0 = ((ior - 1) / (ior + 1))^2; with a volume
+    /// also the refraction's).
+    pub ior: f32,
+    /// The dielectric's specular weight and the colour its f0 is multiplied by.
+    pub specular: f32,
+    pub specular_color: Vec3,
+    /// The share of the light entering the dielectric that is transmitted rather than diffused.
+    pub transmission: f32,
+    /// KHR_materials_volume with thicknessFactor > 0: the surface bounds a medium that absorbs
+    /// sigma_a = -ln(attenuationColor) / attenuationDistance per scene unit; `None`: a thin surface.
+    pub volume: Option<Vec3>,
+    pub clearcoat: f32,
+    pub clearcoat_roughness: f32,
+    pub sheen_color: Vec3,
+    pub sheen_roughness: f32,
+}
+
+impl GltfLayers {
+    /// The core material: no extension's layer.
+    pub const NONE: GltfLayers = GltfLayers {
+        ior: 1.5,
+        specular: 1.0,
+        specular_color: Vec3::ONE,
+        transmission: 0.0,
+        volume: None,
+        clearcoat: 0.0,
+        clearcoat_roughness: 0.0,
+        sheen_color: Vec3::ZERO,
+        sheen_roughness: 0.0,
+    };
+
+    /// Whether these are the core material's (uploaded as the plainer `metallic_roughness` kind).
+    pub fn is_none(&self) -> bool {
+        *self == Self::NONE
+    }
+}
+
+impl Default for GltfLayers {
+    fn default() -> Self {
+        Self::NONE
+    }
 }
 
 /// A microfacet roughness as scenes give it: perceptual, in [0, 1], along the surface's tangent (`u`)

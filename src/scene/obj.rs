@@ -25,6 +25,7 @@ impl FileMaterial {
             metallic: number("Pm"),
             texture: None,
             maps: MeshMaps::default(),
+            layers: crate::scene::GltfLayers::NONE,
         }
     }
 }

@@ -67,6 +67,7 @@ fn mtl_material(m: &mesh::FileMaterial) -> (Material, bool) {
             base_color: color(m.diffuse, 0.8),
             metallic: unit(m.metallic, 0.0),
             roughness: unit(m.roughness, 1.0),
+            layers: m.layers,
         }
     } else {
         match m.illum {

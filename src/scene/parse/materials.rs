@@ -8,7 +8,9 @@ use super::raw::{RawMaterial, RawParam, RawVec3};
 use super::{Checker, Files};
 use crate::scene::bsdfs;
 use crate::scene::texture::{MaterialTextures, TextureRef};
-use crate::scene::{Bsdf, CONDUCTOR_PRESETS, ConductorFresnel, Emission, Material, Roughness};
+use crate::scene::{
+    Bsdf, CONDUCTOR_PRESETS, ConductorFresnel, Emission, GltfLayers, Material, Roughness,
+};
 use glam::Vec3;
 use toml::Spanned;
 
@@ -217,6 +219,17 @@ impl Checker<'_> {
                         "base_color",
                         "metallic",
                         "roughness",
+                        "ior",
+                        "specular",
+                        "specular_color",
+                        "transmission",
+                        "volume",
+                        "attenuation_color",
+                        "attenuation_distance",
+                        "clearcoat",
+                        "clearcoat_roughness",
+                        "sheen_color",
+                        "sheen_roughness",
                         EMISSION[0],
                         EMISSION[1],
                     ],
@@ -224,6 +237,7 @@ impl Checker<'_> {
                         base_color,
                         metallic,
                         roughness,
+                        layers: self.gltf_layers(name, m)?,
                     },
                 )
             }
@@ -619,6 +633,114 @@ impl Checker<'_> {
             },
         };
         Ok((metallic, roughness))
+    }
+
+    /// The Khronos PBR extensions' layers of a `metallic_roughness` material (`scene::GltfLayers`), each
+    /// key with its extension's default and range: `ior` (> 0, 1.5), `specular` (in [0, 1], 1),
+    /// `specular_color` (>= 0, white), `transmission` ([0, 1], 0), `volume` (false: a thin surface),
+    /// `attenuation_color` (in (0, 1], white) and `attenuation_distance` (> 0, infinite; both need
+    /// `volume`), `clearcoat` and `clearcoat_roughness` ([0, 1], 0), `sheen_color` ([0, 1], black) and
+    /// `sheen_roughness` ([0, 1], 0).
+    fn gltf_layers(&self, name: &str, m: &RawMaterial) -> Result<GltfLayers, SceneError> {
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let unit = |v: &Option<Spanned<f32>>, field: &str, default: f32| match v {
+            None => Ok(default),
+            Some(x) => self.number_unless(
+                x,
+                &key(field),
+                |x| !(0.0..=1.0).contains(&x),
+                &format!("{field} must be in [0, 1]"),
+                "The glTF extensions' factors run from 0 to 1 (docs/scene-format.md, metallic_roughness).",
+            ),
+        };
+        let color = |v: &Option<Spanned<RawVec3>>,
+                     field: &str,
+                     default: Vec3,
+                     bad: fn(f32) -> bool,
+                     rule: &str|
+         -> Result<Vec3, SceneError> {
+            match v {
+                None => Ok(default),
+                Some(c) => {
+                    let value = self.vec3(c, &key(field))?;
+                    if value.to_array().iter().any(|&x| bad(x)) {
+                        return Err(self.error(
+                            c.span(),
+                            &key(field),
+                            format!("every component of {field} must be {rule}"),
+                            "The glTF extensions' colours are linear RGB (docs/scene-format.md, metallic_roughness).",
+                        ));
+                    }
+                    Ok(value)
+                }
+            }
+        };
+        let mut layers = GltfLayers::NONE;
+        if let Some(ior) = &m.ior {
+            layers.ior = self.ior(ior, &key("ior"))?;
+        }
+        layers.specular = unit(&m.specular, "specular", 1.0)?;
+        layers.specular_color = color(
+            &m.specular_color,
+            "specular_color",
+            Vec3::ONE,
+            |x| x < 0.0,
+            ">= 0",
+        )?;
+        layers.transmission = unit(&m.transmission, "transmission", 0.0)?;
+        layers.clearcoat = unit(&m.clearcoat, "clearcoat", 0.0)?;
+        layers.clearcoat_roughness = unit(&m.clearcoat_roughness, "clearcoat_roughness", 0.0)?;
+        layers.sheen_color = color(
+            &m.sheen_color,
+            "sheen_color",
+            Vec3::ZERO,
+            |x| !(0.0..=1.0).contains(&x),
+            "in [0, 1]",
+        )?;
+        layers.sheen_roughness = unit(&m.sheen_roughness, "sheen_roughness", 0.0)?;
+        let volume = m.volume.as_ref().is_some_and(|v| *v.get_ref());
+        let attenuation = color(
+            &m.attenuation_color,
+            "attenuation_color",
+            Vec3::ONE,
+            |x| !(x > 0.0 && x <= 1.0),
+            "in (0, 1]",
+        )?;
+        let distance = match &m.attenuation_distance {
+            None => f32::INFINITY,
+            Some(d) => self.number_unless(
+                d,
+                &key("attenuation_distance"),
+                |d| d <= 0.0,
+                "attenuation_distance must be > 0",
+                "The distance, in scene units, over which white light becomes attenuation_color.",
+            )?,
+        };
+        if !volume {
+            for (given, field) in [
+                (m.attenuation_color.as_ref().map(|c| c.span()), "attenuation_color"),
+                (m.attenuation_distance.as_ref().map(|d| d.span()), "attenuation_distance"),
+            ] {
+                if let Some(span) = given {
+                    return Err(self.error(
+                        span,
+                        &key(field),
+                        format!("{field} without `volume = true`"),
+                        "Only a surface that bounds a volume (`volume = true`) has a medium to attenuate light; a thin one has none.",
+                    ));
+                }
+            }
+        }
+        if volume {
+            // sigma_a = -ln(attenuationColor) / attenuationDistance (KHR_materials_volume); an infinite
+            // distance absorbs nothing.
+            layers.volume = Some(if distance.is_finite() {
+                -Vec3::new(attenuation.x.ln(), attenuation.y.ln(), attenuation.z.ln()) / distance
+            } else {
+                Vec3::ZERO
+            });
+        }
+        Ok(layers)
     }
 
     /// A `principled` material (Mitsuba 3's, bsdfs/principled.wgsl): its keys and the material. The

@@ -118,6 +118,15 @@ pub(super) struct RawMaterial {
     pub(super) clearcoat: Option<Spanned<f32>>,
     pub(super) clearcoat_gloss: Option<Spanned<f32>>,
     pub(super) flatness: Option<Spanned<f32>>,
+    /// `metallic_roughness`: the Khronos PBR extensions' layers (also `ior`, `specular`, `clearcoat`).
+    pub(super) specular_color: Option<Spanned<RawVec3>>,
+    pub(super) transmission: Option<Spanned<f32>>,
+    pub(super) volume: Option<Spanned<bool>>,
+    pub(super) attenuation_color: Option<Spanned<RawVec3>>,
+    pub(super) attenuation_distance: Option<Spanned<f32>>,
+    pub(super) clearcoat_roughness: Option<Spanned<f32>>,
+    pub(super) sheen_color: Option<Spanned<RawVec3>>,
+    pub(super) sheen_roughness: Option<Spanned<f32>>,
     /// `emitter`: its radiance, and whether both faces emit.
     pub(super) radiance: Option<Spanned<RawParam<RawVec3>>>,
     pub(super) two_sided: Option<Spanned<bool>>,
