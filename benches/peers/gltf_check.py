@@ -20,7 +20,8 @@ For each file:
   glTF (x, y, z) to Blender (x, -z, y): checked here on the framed bounding-sphere centre against the
   imported objects' bounds), the world a Background of (1, 1, 1) strength 1 or the map through an
   Environment Texture rotated to Mitsuba's orientation (below), Cycles on the CPU with the same size and
-  spp, box filter width 1, no clamping, Filter Glossy 0, both caustics on, every bounce kind limited alike
+  spp, box filter width 1, no clamping, Filter Glossy 0, both caustics on, no shadow terminator offset,
+  every bounce kind limited alike
   (max_bounces = --bounces - 1: Cycles counts bounces after the first hit's direct light, Blender's "0 =
   direct lighting only", checked on an emitting grey box: 0 gives L = 1 + a for albedo a), no denoising,
   no adaptive sampling, view transform Standard, look None, exposure 0, a linear float EXR.
@@ -37,15 +38,21 @@ For each file:
   pixels vkpath's depth marks as the model's (the background, identical in both under a uniform sky,
   dilutes the whole-image ratio), and the ratios of 8x8-pixel block means of the luminance (percentiles
   over the blocks on the model). Side-by-side PNGs go to --png-dir (default /tmp/gltf-check), never the
-  repository; --out writes the markdown table (default benches/peers/results/gltf-cycles.md).
+  repository (vkpath, then each Cycles variant, then the luminance ratio Cycles / vkpath of `multiggx` and
+  of `ggx`: grey equal, red Cycles brighter, blue darker, saturating at 25 %); --out writes the markdown
+  table (default benches/peers/results/gltf-cycles.md).
 
 The environment map (--environment): vkpath and Mitsuba 3 read an equirectangular map with +y up and u =
 atan2(x, -z) / 2 pi (docs/scene-format.md, [environment]). Blender's Environment Texture, in its Z-up
-world, reads u = atan2(d_y, -d_x) / 2 pi + 1/2, v = 1/2 + asin(d_z) / pi. With Blender's d = (x, -z, y)
-of the glTF direction, Mitsuba's u is 1/4 - phi / 2 pi and Blender's -phi / 2 pi (phi = atan2(d_y, d_x)),
-so the lookup direction is the view direction rotated by -90 degrees about Blender's Z (a Mapping node of
-type Point). Rows: Mitsuba puts the first and last rows on the poles (v = j / (H - 1)), Blender at texel
-centres, a shift of at most half a row.
+world, reads u = (atan2(d_y, d_x) - pi) / (-2 pi) = 1/2 - phi / 2 pi (Cycles'
+direction_to_equirectangular), the top row at +Z. With Blender's d = (x, -z, y) of the glTF direction,
+Mitsuba's u = atan2(x, -z) / 2 pi = 1/4 - phi / 2 pi, so Blender must look the map up at phi + 90
+degrees: the view direction rotated by +90 degrees about Blender's Z (a Mapping node of type Point).
+Checked (2026-12-05) by rendering the bare map in both through 90-degree cameras looking along glTF -z,
++x, +z, +y and one oblique direction: +90 matched (image means within 0.1 %, the pixels within the noise
+of 256 spp) and -90, 0, 180 and the mirrored mappings did not (relative RMS 0.6-16). Rows: Mitsuba puts
+the first and last rows on the poles (v = j / (H - 1)), Blender at texel centres, a shift of at most half
+a row (the view straight up differed by 0.4-0.9 %).
 """
 
 from __future__ import annotations
@@ -61,6 +68,7 @@ import sys
 import tempfile
 import time
 import tomllib
+import warnings
 import zlib
 import struct
 from pathlib import Path
@@ -146,6 +154,13 @@ def cycles_scene(bpy, gltf: Path, cam: dict, w: int, h: int, spp: int, bounces: 
                 lo[i] = min(lo[i], p[i])
                 hi[i] = max(hi[i], p[i])
     centre_b = [(a + b) / 2 for a, b in zip(lo, hi)]
+    # Cycles moves shadow rays' origins off smooth-shaded low-poly surfaces by default (the shadow
+    # terminator geometry offset, 0.1); a plain path tracer, vkpath, does not. Off here (measured: no change
+    # on DamagedHelmet under the map, 1.0161 against 1.0160 in the model's ratio).
+    for o in sc.objects:
+        if o.type == "MESH":
+            o.shadow_terminator_geometry_offset = 0.0
+            o.cycles.shadow_terminator_geometry_offset = 0.0
     centre_gltf = (centre_b[0], centre_b[2], -centre_b[1])
 
     # Camera: Blender's camera looks along its local -Z with +Y up; X = forward x up is the image's right.
@@ -170,10 +185,10 @@ def cycles_scene(bpy, gltf: Path, cam: dict, w: int, h: int, spp: int, bounces: 
 
     # World: a uniform white sky (the converted scene's [environment] radiance) or the map.
     world = bpy.data.worlds.new("vkpath environment")
-    try:
-        world.use_nodes = True
-    except AttributeError:
-        pass
+    with warnings.catch_warnings():  # Blender 5 always uses nodes and warns that the switch will go
+        warnings.simplefilter("ignore", DeprecationWarning)
+        if not getattr(world, "use_nodes", True):
+            world.use_nodes = True
     sc.world = world
     nt = world.node_tree
     bg = next(n for n in nt.nodes if n.bl_idname == "ShaderNodeBackground")
@@ -189,7 +204,7 @@ def cycles_scene(bpy, gltf: Path, cam: dict, w: int, h: int, spp: int, bounces: 
         coord = nt.nodes.new("ShaderNodeTexCoord")
         mapping = nt.nodes.new("ShaderNodeMapping")
         mapping.vector_type = "POINT"
-        mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(-90.0))
+        mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(90.0))  # see the docstring
         nt.links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
         nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
         nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
@@ -415,16 +430,24 @@ def compare(v: dict, c, block: int) -> dict:
     p = v["rgb"].shape[0] * v["rgb"].shape[1]
     se = np.sqrt(v["var"].reshape(-1, 3).sum(axis=0)) / p
     mask = v["mask"]
+    # Noise: vkpath's per-pixel variance of the mean (its AOV); the luminance's bounded by (sum_c w_c sd_c)^2
+    # (the channels are correlated, as in xml_check.py). Cycles' is taken to be the same, so a difference
+    # has sqrt(2) times vkpath's standard error.
+    lum_var = (np.sqrt(v["var"]) @ lum) ** 2
     obj_v = (v["rgb"][mask] @ lum).mean() if mask.any() else float("nan")
+    obj_se = math.sqrt(2 * lum_var[mask].sum()) / mask.sum() / obj_v if mask.any() else float("nan")
     obj_c = (c[mask] @ lum).mean() if mask.any() else float("nan")
     vb = block_means(v["rgb"] @ lum, block)
     cb = block_means(c @ lum, block)
     on_model = block_means(mask.astype(np.float64), block) > 0.5
+    b_sd = np.sqrt(2 * block_means(lum_var, block) / block ** 2) / np.where(vb > 0, vb, np.nan)
     ratios = (cb / np.where(vb > 0, vb, np.nan))[on_model]
+    block_noise = float(np.nanmedian(b_sd[on_model])) if on_model.any() else float("nan")
     ratios = ratios[np.isfinite(ratios)]
     pct = np.percentile(ratios, [5, 50, 95]) if ratios.size else [float("nan")] * 3
     within = float((np.abs(ratios - 1) < 0.05).mean()) if ratios.size else float("nan")
-    return {"v_mean": vm, "c_mean": cm, "v_se": se, "ratio": cm / vm, "obj_ratio": obj_c / obj_v,
+    return {"v_mean": vm, "c_mean": cm, "v_se": se, "ratio": cm / vm, "obj_ratio": obj_c / obj_v, "obj_se": obj_se,
+            "block_noise": block_noise,
             "blocks": int(ratios.size), "block_pct": list(pct), "within5": within,
             "coverage": float(mask.mean())}
 
@@ -497,6 +520,10 @@ def main() -> int:
     ap.add_argument("--threads", type=int, default=os.cpu_count() or 1, help="Cycles' CPU threads")
     default_vkpath = ROOT / "target" / "release" / "vkpath"
     ap.add_argument("--vkpath", type=Path, default=default_vkpath)
+    ap.add_argument("--vkpath-label", default=None,
+                    help="the vkpath build the table names (default: the checkout's `git rev-parse --short "
+                         "HEAD`, +dirty with uncommitted changes); give it when --vkpath is a copy of another "
+                         "build")
     ap.add_argument("--out", type=Path, default=HERE / "results" / "gltf-cycles.md",
                     help="markdown table ('-' for none)")
     ap.add_argument("--append", action="store_true", help="append to --out instead of replacing it")
@@ -539,6 +566,7 @@ def main() -> int:
             pictures = [srgb8(v["rgb"])]
             results = {}
             images = {}
+            ratio_pictures = []
             for variant in a.variants:
                 facts = cycles_scene(bpy, f, cam, w, h, a.spp, a.bounces, a.seed, a.threads, a.environment)
                 dc = np.array(facts["centre_gltf"]) - np.array(cam["look_at"])
@@ -559,10 +587,11 @@ def main() -> int:
                 images[variant] = c
                 pictures += [srgb8(c)]
                 print(f"  Cycles {variant} ({n} Principled nodes): mean {np.round(cmp['c_mean'], 5)}  ratio "
-                      f"{np.round(cmp['ratio'], 4)}  model pixels {cmp['obj_ratio']:.4f}  blocks p5/p50/p95 "
-                      f"{np.round(cmp['block_pct'], 3)}  ({wall:.1f} s wall)", flush=True)
-                if variant == a.variants[0]:
-                    pictures_ratio = ratio_picture(c, v["rgb"])
+                      f"{np.round(cmp['ratio'], 4)}  model pixels {cmp['obj_ratio']:.4f} +- {cmp['obj_se']:.4f}  blocks "
+                      f"p5/p50/p95 {np.round(cmp['block_pct'], 3)} (noise sd of one block's ratio ~"
+                      f"{cmp['block_noise']:.3f})  ({wall:.1f} s wall)", flush=True)
+                if variant in ("multiggx", "ggx"):
+                    ratio_pictures.append(ratio_picture(c, v["rgb"]))
             if "ggx" in images:
                 for variant, c in images.items():
                     if variant != "ggx":
@@ -579,15 +608,17 @@ def main() -> int:
             x0, x1 = max(0, xs.min() - 4), min(w, xs.max() + 5)
             k = max(1, math.ceil(256 / (y1 - y0)))
             crop = [np.repeat(np.repeat(p[y0:y1, x0:x1], k, axis=0), k, axis=1)
-                    for p in pictures + ([pictures_ratio] if results else [])]
+                    for p in pictures + ratio_pictures]
             gap = np.full((crop[0].shape[0], 4, 3), 255, dtype=np.uint8)
             strip = [crop[0]]
             for p in crop[1:]:
                 strip += [gap, p]
             png = a.png_dir / f"{name}{'-env' if a.environment else ''}.png"
             write_png(png, np.concatenate(strip, axis=1))
+            shown = [x for x in ("multiggx", "ggx") if x in results]
             print(f"  side by side: {png} (vkpath, then Cycles {', '.join(results)}, then the luminance ratio "
-                  f"Cycles {next(iter(results), '')} / vkpath: red brighter, blue darker, saturating at 25 %)")
+                  f"Cycles / vkpath of {' and '.join(shown) or 'none'}: red brighter, blue darker, saturating at "
+                  f"25 %)")
             rows.append((name, w, h, v, results))
 
     if str(a.out) == "-":
@@ -600,13 +631,14 @@ def main() -> int:
                   "Written by `benches/peers/gltf_check.py` (the method and the findings are in "
                   "benches/peers/README.md, \"glTF files: Blender's Cycles\").", ""]
     lines += [f"## {_dt.date.today().isoformat()}: {', '.join(r[0] for r in rows)}; {env_text}", "",
-              f"vkpath {git_commit()} on {vkpath_driver(a.vkpath)}; bpy {bpy_version} (Cycles, CPU, "
+              f"vkpath {a.vkpath_label or git_commit()} on {vkpath_driver(a.vkpath)}; bpy {bpy_version} (Cycles, CPU, "
               f"{a.threads} threads); {platform.machine()}, {os.cpu_count()} cores. {a.spp} spp, box filter, "
               f"vkpath max_bounces {a.bounces} = Cycles max_bounces {a.bounces - 1}, seed {a.seed}. Means are "
               f"linear radiance over the whole image (+- vkpath's standard error); ratios Cycles / vkpath; "
-              f"\"model\" = the luminance over the pixels vkpath's depth AOV marks as wholly on the model; "
+              f"\"model\" = the luminance over the pixels vkpath's depth AOV marks as wholly on the model (+- the "
+              f"difference's standard error, sqrt 2 times vkpath's, Cycles' noise taken as equal); "
               f"blocks = {a.block}x{a.block}-pixel luminance ratios on the model (5th, 50th, 95th percentile; "
-              f"share within 5 %); vs ggx = the RMS of the per-pixel luminance difference from the Cycles `ggx` "
+              f"share within 5 %; noise = the median standard deviation of one block's ratio from noise alone); vs ggx = the RMS of the per-pixel luminance difference from the Cycles `ggx` "
               f"image (same seed) over its mean, on the model. Seconds: wall time of each render (vkpath's command, load and kernel "
               f"compilation included; Cycles' render call, BVH build and image loading included).", "",
               "| file | size | renderer | mean R | mean G | mean B | ratio R | ratio G | ratio B | model | "
@@ -621,7 +653,7 @@ def main() -> int:
             pct = " / ".join(f"{x:.3f}" for x in cmp["block_pct"])
             lines.append(f"| {name} | {w}x{h} | Cycles {variant} | " + " | ".join(f"{m:.4f}" for m in cmp["c_mean"])
                          + " | " + " | ".join(f"{r:.4f}" for r in cmp["ratio"])
-                         + f" | {cmp['obj_ratio']:.4f} | {pct} | {cmp['within5'] * 100:.0f} % | "
+                         + f" | {cmp['obj_ratio']:.4f} +- {cmp['obj_se']:.4f} | {pct} (noise ~{cmp['block_noise']:.3f}) | {cmp['within5'] * 100:.0f} % | "
                          + (f"{cmp['vs_ggx']:.4f}" if "vs_ggx" in cmp else "") + f" | {wall:.1f} |")
     lines.append("")
     a.out.parent.mkdir(parents=True, exist_ok=True)

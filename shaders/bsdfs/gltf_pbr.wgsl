@@ -9,7 +9,7 @@
 // c_sh; coat[0] = transmission t, coat[1] = clearcoat w_c, coat[2] = clearcoatRoughness^2 a_c, coat[3] =
 // the sheen's alpha (sheenRoughness, at least 0.07), coat[4..7] = the volume's absorption coefficient
 // sigma_a = -ln(attenuationColor) / attenuationDistance (per scene unit; MATERIAL_VOLUME), coat[8..16] =
-// the sheen lobe's directional albedo E at mu_j = (j / 7)^2 (computed on the host, src/kernel/coat.rs).
+// the sheen lobe's directional albedo E at mu_j = (j / 7)^3 (computed on the host, src/kernel/sheen.rs).
 //
 // The model, in the specification's words (glTF 2.0 Appendix B and each extension's "Implementation"):
 //   fr(c)       = f0 + (1 - f0) (1 - c)^5,  f0 = min(((ior - 1) / (ior + 1))^2 c_s, 1)   (KHR_materials_ior, _specular)
@@ -84,10 +84,10 @@ fn gltf_coat_weight(mat: Material, cos_o: f32, outside: bool) -> f32 {
     return select(0.0, mat.coat[1] * (0.04 + 0.96 * gltf_pow5(cos_o)), outside);
 }
 
-// The Charlie sheen lobe's directional albedo E(mu) from its table (nodes at mu_j = (j / 7)^2),
-// interpolated linearly in x = 7 sqrt(mu).
+// The Charlie sheen lobe's directional albedo E(mu) from its table (nodes at mu_j = (j / 7)^3),
+// interpolated linearly in x = 7 cbrt(mu).
 fn gltf_sheen_albedo(mat: Material, mu: f32) -> f32 {
-    let x = sqrt(clamp(mu, 0.0, 1.0)) * f32(SHEEN_NODES - 1u);
+    let x = pow(clamp(mu, 1e-6, 1.0), 1.0 / 3.0) * f32(SHEEN_NODES - 1u); // pow(0, y): undefined in WGSL
     let j = min(u32(x), SHEEN_NODES - 2u);
     let u = x - f32(j);
     return mix(mat.coat[8u + j], mat.coat[9u + j], u);
@@ -101,7 +101,7 @@ fn gltf_sheen_l(x: f32, a: f32) -> f32 {
     let r = mix(0.19823, 0.16801, t);
     let s = mix(-1.97760, -1.27393, t);
     let u = mix(-4.32054, -4.85967, t);
-    return p / (1.0 + q * pow(x, r)) + s * x + u;
+    return p / (1.0 + q * pow(max(x, 1e-7), r)) + s * x + u; // pow(0, y) is undefined in WGSL
 }
 
 fn gltf_sheen_lambda(c: f32, a: f32) -> f32 {
@@ -115,7 +115,7 @@ fn gltf_sheen_lambda(c: f32, a: f32) -> f32 {
 fn gltf_sheen_lobe(mat: Material, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
     let a = mat.coat[3];
     let h = normalize(wo + wi);
-    let sin2 = max(0.0, 1.0 - h.z * h.z);
+    let sin2 = max(1e-12, 1.0 - h.z * h.z); // pow(0, y) is undefined in WGSL
     let d = (2.0 + 1.0 / a) * pow(sin2, 0.5 / a) * (0.5 * INV_PI);
     let lo = gltf_sheen_lambda(wo.z, a);
     let li = gltf_sheen_lambda(wi.z, a);

@@ -21,8 +21,8 @@
 //! (`texture_read`); images may be files, buffer views or data URIs. Alpha modes: MASK and BLEND through
 //! the opacity modifier.
 
-use super::image_texture::{Texture, load_texture, load_texture_bytes};
 use super::GltfLayers;
+use super::image_texture::{Texture, load_texture, load_texture_bytes};
 use super::mesh::{FileMaterial, MAX_TRIANGLES, ObjError, ObjMesh};
 use glam::{Mat3, Mat4, Vec3};
 use std::path::Path;
@@ -185,7 +185,9 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     // lights are the scene reader's: gltf_scene.rs).
     for e in doc.extensions_used() {
         if !READ_EXTENSIONS.contains(&e) {
-            notes.add(format!("the file uses the extension {e}, which vkpath does not read"));
+            notes.add(format!(
+                "the file uses the extension {e}, which vkpath does not read"
+            ));
         }
     }
 
@@ -695,14 +697,20 @@ fn layers(m: &gltf::Material, name: &str, notes: &mut Notes) -> GltfLayers {
         }
         Some(value)
     };
-    let number = |obj: &gltf::json::Value, ext: &str, key: &str, range: (f32, f32), notes: &mut Notes| {
+    let number = |obj: &gltf::json::Value,
+                  ext: &str,
+                  key: &str,
+                  range: (f32, f32),
+                  notes: &mut Notes| {
         let default = match (ext, key) {
             (_, "ior") => 1.5,
             (_, "specularFactor") => 1.0,
             (_, "attenuationDistance") => f32::INFINITY,
             _ => 0.0,
         };
-        let Some(v) = obj.get(key) else { return default };
+        let Some(v) = obj.get(key) else {
+            return default;
+        };
         match v.as_f64().map(|x| x as f32) {
             Some(x) if x.is_nan() => default,
             Some(x) if x >= range.0 && x <= range.1 => x,
@@ -721,8 +729,15 @@ fn layers(m: &gltf::Material, name: &str, notes: &mut Notes) -> GltfLayers {
             }
         }
     };
-    let color = |obj: &gltf::json::Value, ext: &str, key: &str, default: Vec3, max: f32, notes: &mut Notes| {
-        let Some(v) = obj.get(key) else { return default };
+    let color = |obj: &gltf::json::Value,
+                 ext: &str,
+                 key: &str,
+                 default: Vec3,
+                 max: f32,
+                 notes: &mut Notes| {
+        let Some(v) = obj.get(key) else {
+            return default;
+        };
         let values: Option<Vec<f32>> = v
             .as_array()
             .filter(|a| a.len() == 3)
@@ -754,7 +769,14 @@ fn layers(m: &gltf::Material, name: &str, notes: &mut Notes) -> GltfLayers {
     const SPECULAR: &str = "KHR_materials_specular";
     if let Some(v) = extension(SPECULAR, notes).map(object) {
         out.specular = number(&v, SPECULAR, "specularFactor", (0.0, 1.0), notes);
-        out.specular_color = color(&v, SPECULAR, "specularColorFactor", Vec3::ONE, f32::MAX, notes);
+        out.specular_color = color(
+            &v,
+            SPECULAR,
+            "specularColorFactor",
+            Vec3::ONE,
+            f32::MAX,
+            notes,
+        );
     }
     const TRANSMISSION: &str = "KHR_materials_transmission";
     if let Some(v) = extension(TRANSMISSION, notes).map(object) {
@@ -764,8 +786,15 @@ fn layers(m: &gltf::Material, name: &str, notes: &mut Notes) -> GltfLayers {
     if let Some(v) = extension(VOLUME, notes).map(object) {
         // thicknessFactor 0 (the default) is a thin surface: the extension has no effect.
         if number(&v, VOLUME, "thicknessFactor", (0.0, f32::MAX), notes) > 0.0 {
-            let distance = number(&v, VOLUME, "attenuationDistance", (f32::MIN_POSITIVE, f32::INFINITY), notes);
-            let c = color(&v, VOLUME, "attenuationColor", Vec3::ONE, 1.0, notes).max(Vec3::splat(1e-6));
+            let distance = number(
+                &v,
+                VOLUME,
+                "attenuationDistance",
+                (f32::MIN_POSITIVE, f32::INFINITY),
+                notes,
+            );
+            let c =
+                color(&v, VOLUME, "attenuationColor", Vec3::ONE, 1.0, notes).max(Vec3::splat(1e-6));
             out.volume = Some(if distance.is_finite() {
                 -Vec3::new(c.x.ln(), c.y.ln(), c.z.ln()) / distance
             } else {
@@ -776,7 +805,8 @@ fn layers(m: &gltf::Material, name: &str, notes: &mut Notes) -> GltfLayers {
     const CLEARCOAT: &str = "KHR_materials_clearcoat";
     if let Some(v) = extension(CLEARCOAT, notes).map(object) {
         out.clearcoat = number(&v, CLEARCOAT, "clearcoatFactor", (0.0, 1.0), notes);
-        out.clearcoat_roughness = number(&v, CLEARCOAT, "clearcoatRoughnessFactor", (0.0, 1.0), notes);
+        out.clearcoat_roughness =
+            number(&v, CLEARCOAT, "clearcoatRoughnessFactor", (0.0, 1.0), notes);
     }
     const SHEEN: &str = "KHR_materials_sheen";
     if let Some(v) = extension(SHEEN, notes).map(object) {

@@ -643,7 +643,8 @@ impl Checker<'_> {
     /// `sheen_roughness` ([0, 1], 0).
     fn gltf_layers(&self, name: &str, m: &RawMaterial) -> Result<GltfLayers, SceneError> {
         let key = |field: &str| format!("materials.{name}.{field}");
-        let unit = |v: &Option<Spanned<f32>>, field: &str, default: f32| match v {
+        let unit = |v: &Option<Spanned<f32>>, field: &str, default: f32| {
+            match v {
             None => Ok(default),
             Some(x) => self.number_unless(
                 x,
@@ -652,6 +653,7 @@ impl Checker<'_> {
                 &format!("{field} must be in [0, 1]"),
                 "The glTF extensions' factors run from 0 to 1 (docs/scene-format.md, metallic_roughness).",
             ),
+        }
         };
         let color = |v: &Option<Spanned<RawVec3>>,
                      field: &str,
@@ -718,8 +720,14 @@ impl Checker<'_> {
         };
         if !volume {
             for (given, field) in [
-                (m.attenuation_color.as_ref().map(|c| c.span()), "attenuation_color"),
-                (m.attenuation_distance.as_ref().map(|d| d.span()), "attenuation_distance"),
+                (
+                    m.attenuation_color.as_ref().map(|c| c.span()),
+                    "attenuation_color",
+                ),
+                (
+                    m.attenuation_distance.as_ref().map(|d| d.span()),
+                    "attenuation_distance",
+                ),
             ] {
                 if let Some(span) = given {
                     return Err(self.error(
