@@ -5,8 +5,9 @@
 //! (glTF 2.0 Appendix B and each extension's "Implementation" section), the sampler against its own pdf
 //! (chi-square), sample / eval / pdf consistency, the directional albedo (a furnace) with a clearcoat
 //! and with a sheen against an f64 quadrature of the same model, the smooth surfaces' closed forms
-//! (Fresnel of a thin sheet; refraction by Snell's law), and the keys' checks. The renders (a slab's
-//! transmittance with absorption) are in tests/gltf_extensions.rs.
+//! (Fresnel of a thin sheet; refraction by Snell's law), the keys' checks, and renders of slabs (a thin
+//! sheet, a volume with and without absorption) against their closed forms. The glTF reader's side is
+//! tests/gltf.rs (`gltf_pbr_extensions_are_read_into_the_materials_layers`).
 
 mod common;
 
@@ -299,12 +300,12 @@ fn model_f(p: &P, mat: &GpuMaterial, ns: V3, wo: V3, wi: V3, entering: bool) -> 
             (spec_brdf(h, ns, wo, wm, a), dot(wo, h))
         };
         let fr = fr(c, !entering && p.volume);
-        for k in 0..3 {
-            f[k] = (1.0 - fc)
+        for (fk, b) in f.iter_mut().zip(p.base) {
+            *fk = (1.0 - fc)
                 * scale
                 * (1.0 - p.metallic)
                 * p.transmission
-                * p.base[k]
+                * b
                 * (1.0 - p.specular * max3(fr))
                 * value;
         }
@@ -670,5 +671,125 @@ fn gltf_pbr_keys_are_checked() {
     ] {
         let e = material_error(spec);
         assert!(e.contains(key) && e.contains("line"), "{spec}: {e}");
+    }
+}
+
+// --- Renders: a slab's transmittance -------------------------------------------------------------------
+
+/// The TOML of an axis-aligned box [lo, hi] as twelve triangles, wound so that every geometric normal
+/// points out of the box (the side a refracting material counts as outside).
+fn box_triangles(lo: [f64; 3], hi: [f64; 3], material: &str) -> String {
+    let corner = |i: usize| -> [f64; 3] {
+        [
+            if i & 1 != 0 { hi[0] } else { lo[0] },
+            if i & 2 != 0 { hi[1] } else { lo[1] },
+            if i & 4 != 0 { hi[2] } else { lo[2] },
+        ]
+    };
+    // Each face as four corners counter-clockwise seen from outside.
+    let faces = [
+        [0, 2, 3, 1], // z = lo
+        [4, 5, 7, 6], // z = hi
+        [0, 1, 5, 4], // y = lo
+        [2, 6, 7, 3], // y = hi
+        [0, 4, 6, 2], // x = lo
+        [1, 3, 7, 5], // x = hi
+    ];
+    let mut out = String::new();
+    for f in faces {
+        for tri in [[f[0], f[1], f[2]], [f[0], f[2], f[3]]] {
+            let v: Vec<String> = tri.iter().map(|&i| arr(corner(i))).collect();
+            out += &format!(
+                "[[triangle]]\nvertices = [{}]\nmaterial = \"{material}\"\n",
+                v.join(", ")
+            );
+        }
+    }
+    out
+}
+
+/// A camera on the z axis looking down -z through a narrow field (rays within 0.5 degrees of the axis),
+/// a surface `body` between it and a wall at z = -5 that emits radiance 1 towards +z, nothing else (a
+/// black sky): each pixel sees the wall through the body. Returns per channel the image mean and its
+/// standard error.
+fn seen_through(material: &str, body: &str) -> [(f64, f64); 3] {
+    let toml = format!(
+        "[camera]\nposition = [0.0, 0.0, 10.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 1.0\n\
+         [image]\nwidth = 8\nheight = 8\n[render]\nsamples = 2048\nmax_bounces = -1\n\
+         [materials]\nbody = {material}\nlamp = {{ type = \"emitter\", radiance = [1.0, 1.0, 1.0] }}\n\
+         [[triangle]]\nvertices = [[-100.0, -100.0, -5.0], [100.0, -100.0, -5.0], [100.0, 100.0, -5.0]]\nmaterial = \"lamp\"\n\
+         [[triangle]]\nvertices = [[-100.0, -100.0, -5.0], [100.0, 100.0, -5.0], [-100.0, 100.0, -5.0]]\nmaterial = \"lamp\"\n\
+         {body}"
+    );
+    let film = common::render(&common::scene(&toml));
+    let n = film.mean.len() as f64;
+    std::array::from_fn(|c| {
+        let mean = film.mean.iter().map(|p| f64::from(p[c])).sum::<f64>() / n;
+        let var = film
+            .variance
+            .iter()
+            .map(|v| f64::from(v[c]).max(0.0))
+            .sum::<f64>()
+            / (n * n);
+        (mean, var.sqrt())
+    })
+}
+
+/// Transmission through smooth slabs at normal incidence, against the closed forms with the
+/// specification's Fresnel F = 0.04 (ior 1.5; Schlick at cos 1):
+/// - a thin sheet (KHR_materials_transmission alone: one surface, the light tinted by the base colour
+///   b): T = (1 - F) b;
+/// - a volumetric slab of thickness d = 1 (KHR_materials_volume) absorbing sigma_a = -ln(c) / D with
+///   D = attenuation_distance = 1, so that one crossing keeps e^{-sigma_a d} = c: the light crosses the
+///   front (1 - F), the inside (c), the back (1 - F), and reflects back and forth inside (F^2 c^2 per
+///   round trip), T = (1 - F)^2 c / (1 - F^2 c^2), the geometric series summed (Beer-Lambert between
+///   Fresnel interfaces);
+/// - the same slab without absorption (c = 1): (1 - F) / (1 + F).
+///
+/// Each within 5 standard errors (unbounded paths, Russian roulette).
+#[test]
+fn slabs_transmit_by_fresnel_and_beer_lambert() {
+    let f = 0.04;
+    let sheet = "[[triangle]]\nvertices = [[-50.0, -50.0, 0.0], [50.0, -50.0, 0.0], [50.0, 50.0, 0.0]]\nmaterial = \"body\"\n\
+                 [[triangle]]\nvertices = [[-50.0, -50.0, 0.0], [50.0, 50.0, 0.0], [-50.0, 50.0, 0.0]]\nmaterial = \"body\"\n";
+    let b = [1.0, 0.5, 0.25];
+    let thin = seen_through(
+        &format!(
+            "{{ type = \"metallic_roughness\", base_color = {}, metallic = 0.0, roughness = 0.0, transmission = 1.0 }}",
+            arr(b)
+        ),
+        sheet,
+    );
+    let slab = box_triangles([-50.0, -50.0, -0.5], [50.0, 50.0, 0.5], "body");
+    let c = [0.5, 0.7, 0.9];
+    let absorbing = seen_through(
+        &format!(
+            "{{ type = \"metallic_roughness\", base_color = [1.0, 1.0, 1.0], metallic = 0.0, roughness = 0.0, \
+             transmission = 1.0, volume = true, attenuation_color = {}, attenuation_distance = 1.0 }}",
+            arr(c)
+        ),
+        &slab,
+    );
+    let clear = seen_through(
+        "{ type = \"metallic_roughness\", base_color = [1.0, 1.0, 1.0], metallic = 0.0, roughness = 0.0, \
+         transmission = 1.0, volume = true }",
+        &slab,
+    );
+    for k in 0..3 {
+        for (what, (mean, se), want) in [
+            ("thin sheet", thin[k], (1.0 - f) * b[k]),
+            (
+                "absorbing slab",
+                absorbing[k],
+                (1.0 - f) * (1.0 - f) * c[k] / (1.0 - f * f * c[k] * c[k]),
+            ),
+            ("clear slab", clear[k], (1.0 - f) / (1.0 + f)),
+        ] {
+            eprintln!("{what}, channel {k}: {mean:.5} +- {se:.5}, closed form {want:.5}");
+            assert!(
+                (mean - want).abs() < 5.0 * se + 1e-6,
+                "{what}, channel {k}: {mean} +- {se}, closed form {want}"
+            );
+        }
     }
 }

@@ -1963,3 +1963,72 @@ fn gltf_buffers_are_files_or_data_uris() {
         "{e}"
     );
 }
+
+/// The Khronos PBR extensions (KHR_materials_ior, _specular, _transmission, _volume, _clearcoat,
+/// _sheen) are read into the material's layers (bsdfs/gltf_pbr.wgsl; their shading is tested in
+/// tests/bsdf_gltf.rs), the volume's absorption as -ln(attenuationColor) / attenuationDistance; a texture
+/// an extension names is a warning (its factor is used alone), the volume's thicknessTexture a note (a
+/// path tracer measures thickness), and an extension the file uses that vkpath does not read a warning
+/// naming it.
+#[test]
+fn gltf_pbr_extensions_are_read_into_the_materials_layers() {
+    let dir = tempfile::tempdir().unwrap();
+    let material = r#"{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "metallicFactor": 0.25, "roughnessFactor": 0.5},
+      "extensions": {
+        "KHR_materials_ior": {"ior": 1.33},
+        "KHR_materials_specular": {"specularFactor": 0.5, "specularColorFactor": [1, 0.5, 0.25]},
+        "KHR_materials_transmission": {"transmissionFactor": 0.75},
+        "KHR_materials_volume": {"thicknessFactor": 0.1, "attenuationDistance": 2.0, "attenuationColor": [0.5, 0.25, 1.0], "thicknessTexture": {"index": 0}},
+        "KHR_materials_clearcoat": {"clearcoatFactor": 1.0, "clearcoatRoughnessFactor": 0.2, "clearcoatTexture": {"index": 0}},
+        "KHR_materials_sheen": {"sheenColorFactor": [0.2, 0.3, 0.4], "sheenRoughnessFactor": 0.6}
+      }}"#;
+    write_textured_quad(dir.path(), material, &[flat(1, 1, [255, 255, 255])]);
+    let path = dir.path().join("quad.gltf");
+    let json = std::fs::read_to_string(&path).unwrap().replacen(
+        r#""asset": {"version": "2.0"},"#,
+        r#""asset": {"version": "2.0"}, "extensionsUsed": ["KHR_materials_ior", "KHR_materials_specular",
+          "KHR_materials_transmission", "KHR_materials_volume", "KHR_materials_clearcoat",
+          "KHR_materials_sheen", "KHR_materials_iridescence"],"#,
+        1,
+    );
+    std::fs::write(&path, json).unwrap();
+    let scene = quad_scene(dir.path(), 1.0, 1);
+    let layers = scene
+        .materials
+        .iter()
+        .find_map(|m| match m.bsdf {
+            Bsdf::MetallicRoughness { layers, .. } => Some(layers),
+            _ => None,
+        })
+        .expect("the quad's material");
+    let want = vkpath::scene::GltfLayers {
+        ior: 1.33,
+        specular: 0.5,
+        specular_color: Vec3::new(1.0, 0.5, 0.25),
+        transmission: 0.75,
+        volume: Some(Vec3::new(0.5f32.ln(), 0.25f32.ln(), 0.0) / -2.0),
+        clearcoat: 1.0,
+        clearcoat_roughness: 0.2,
+        sheen_color: Vec3::new(0.2, 0.3, 0.4),
+        sheen_roughness: 0.6,
+    };
+    assert_eq!(layers, want);
+    let has = |text: &str, note: bool| {
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains(text) && w.starts_with(vkpath::scene::NOTE) == note)
+    };
+    assert!(
+        has(
+            "KHR_materials_iridescence, which vkpath does not read",
+            false
+        ) && has(
+            "KHR_materials_clearcoat's clearcoatTexture is not read",
+            false
+        ) && has("thicknessTexture is read past", true)
+            && scene.warnings.len() == 3,
+        "{:?}",
+        scene.warnings
+    );
+}

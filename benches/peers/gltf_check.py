@@ -67,10 +67,10 @@ import subprocess
 import sys
 import tempfile
 import time
+import struct
 import tomllib
 import warnings
 import zlib
-import struct
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -539,7 +539,6 @@ def main() -> int:
     addon_utils.enable("io_scene_gltf2", default_set=True)
     a.png_dir.mkdir(parents=True, exist_ok=True)
     rows = []
-    notes = []
     with tempfile.TemporaryDirectory(prefix="gltf-check-") as tmpd:
         tmp = Path(tmpd)
         for f in a.files:

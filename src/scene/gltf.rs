@@ -19,7 +19,9 @@
 //! other than TEXCOORD_0, cameras and lights (a mesh file brings geometry and materials only). Each
 //! texture is read with its sampler's filter and wrap mode and its KHR_texture_transform
 //! (`texture_read`); images may be files, buffer views or data URIs. Alpha modes: MASK and BLEND through
-//! the opacity modifier.
+//! the opacity modifier. The Khronos PBR extensions KHR_materials_ior, _specular, _transmission, _volume,
+//! _clearcoat and _sheen: their factors, as the material's layers (`layers`; bsdfs/gltf_pbr.wgsl); their
+//! textures are warnings. Any other extension the file uses is a warning naming it.
 
 use super::GltfLayers;
 use super::image_texture::{Texture, load_texture, load_texture_bytes};
