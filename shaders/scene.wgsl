@@ -249,21 +249,51 @@ fn triangle_derivatives(tri: Triangle, uv: TriangleUvDeltas) -> SurfaceDerivativ
     return out;
 }
 
+// The tangent at a mesh hit from its vertices' (glTF's TANGENT, or MikkTSpace's): the barycentric blend
+// of the three directions (unnormalised, as MikkTSpace's reference shader interpolates them) and the
+// sign of the blended w; w = 0 when the hit is not on a mesh whose three vertices have tangents.
+fn vertex_tangent(hit: Hit) -> vec4<f32> {
+    var out = vec4<f32>(0.0);
+    if HAS_TRIANGLES && HAS_MESH_SHADING {
+        if hit.prim_kind == PRIM_TRIANGLE {
+            let face = triangle_face(hit.prim_index);
+            if face.mesh != NO_MESH {
+                let t0 = mesh_tangent(mesh_vertex_at(face.vertices.x).tangent);
+                let t1 = mesh_tangent(mesh_vertex_at(face.vertices.y).tangent);
+                let t2 = mesh_tangent(mesh_vertex_at(face.vertices.z).tangent);
+                if t0.w != 0.0 && t1.w != 0.0 && t2.w != 0.0 {
+                    let b = hit.b;
+                    let t = b.x * t0 + b.y * t1 + b.z * t2;
+                    out = vec4<f32>(t.xyz, select(1.0, -1.0, t.w < 0.0));
+                }
+            }
+        }
+    }
+    return out;
+}
+
 // A tangent-space normal map (glTF 2.0 §3.9.3) applied to surface s: texel t (linear data) encodes
 // m = 2 t - 1 in the frame (T, B, N) of the surface at the hit, N the shading normal so far (interpolated
-// or geometric), T the direction in which u increases, dp/du, made perpendicular to N, and B = +-N x T,
-// on the side in which v increases (dp/dv: the image's up, glTF's +Y). The shading normal becomes
+// or geometric). With the vertices' tangents (`tangent`, w != 0: glTF's TANGENT or MikkTSpace's, as the
+// map was baked), T is theirs made perpendicular to N and B = w N x T (glTF 2.0 §3.7.2.1); without, T is
+// the direction in which u increases, dp/du, made perpendicular to N, and B = +-N x T, on the side in
+// which v increases (dp/dv: the image's up, glTF's +Y). The shading normal becomes
 //   normalize(T (scale m.x) + B (scale m.y) + N m.z),  scale = the map's scale.
 // Degenerate derivatives, or a mapped normal on the far side of the geometric surface (which no shading
 // frame can use), keep the normal it had.
-fn normal_mapped(s: Surface, dp: SurfaceDerivatives, texture: u32, scale: f32) -> Surface {
+fn normal_mapped(s: Surface, dp: SurfaceDerivatives, tangent: vec4<f32>, texture: u32, scale: f32) -> Surface {
     var out = s;
     let n = s.ns;
-    let t_raw = dp.dpdu - dot(dp.dpdu, n) * n;
+    let given = tangent.w != 0.0;
+    let along = select(dp.dpdu, tangent.xyz, given);
+    let t_raw = along - dot(along, n) * n;
     let t_len2 = dot(t_raw, t_raw);
     if t_len2 > 0.0 && t_len2 < 1e30 {
         let t = t_raw * inverseSqrt(t_len2);
-        let bt = select(cross(n, t), -cross(n, t), dot(cross(n, t), dp.dpdv) < 0.0);
+        var bt = select(cross(n, t), -cross(n, t), dot(cross(n, t), dp.dpdv) < 0.0);
+        if given {
+            bt = tangent.w * cross(n, t);
+        }
         let m = 2.0 * texture_value(texture, s.uv) - vec3<f32>(1.0);
         let p = t * (m.x * scale) + bt * (m.y * scale) + n * m.z;
         let len2 = dot(p, p);
@@ -321,7 +351,7 @@ fn modified_surface(hit: Hit, s: Surface) -> Surface {
             let dp = surface_derivatives(hit, s);
             if HAS_NORMAL_MAPS {
                 if mt.normal_texture != NO_TEXTURE {
-                    out = normal_mapped(out, dp, mt.normal_texture, mt.normal_scale);
+                    out = normal_mapped(out, dp, vertex_tangent(hit), mt.normal_texture, mt.normal_scale);
                 }
             }
             if HAS_BUMP_MAPS {

@@ -82,13 +82,30 @@ struct MeshFace {
     mesh: u32,
 }
 
-// A shading normal (unit, world space; zero means "use the geometric normal") and texture coordinates.
+// A shading normal (unit, world space; zero means "use the geometric normal"), texture coordinates, and
+// a normal map's tangent, octahedral-encoded (mesh_tangent; 0: none).
 struct MeshVertex {
     nx: f32,
     ny: f32,
     nz: f32,
     u: f32,
     v: f32,
+    tangent: u32,
+}
+
+// A vertex's tangent (xyz unit, w = +-1 the bitangent's sign), decoded from MeshVertex::tangent
+// (encode_tangent in src/kernel/abi.rs gives the layout); w = 0 where it has none.
+fn mesh_tangent(bits: u32) -> vec4<f32> {
+    if (bits & 0x80000000u) == 0u {
+        return vec4<f32>(0.0);
+    }
+    let p = vec2<f32>(f32(bits & 0x7fffu), f32((bits >> 15u) & 0x7fffu)) * (2.0 / 32767.0) - vec2<f32>(1.0);
+    var d = vec3<f32>(p, 1.0 - abs(p.x) - abs(p.y));
+    if d.z < 0.0 {
+        let s = select(vec2<f32>(-1.0), vec2<f32>(1.0), p >= vec2<f32>(0.0));
+        d = vec3<f32>((vec2<f32>(1.0) - abs(p.yx)) * s, d.z);
+    }
+    return vec4<f32>(normalize(d), select(1.0, -1.0, (bits & 0x40000000u) != 0u));
 }
 
 // A mesh's MESH_* flags. (Its textures belong to its material: MaterialTextures.)

@@ -2032,3 +2032,76 @@ fn gltf_pbr_extensions_are_read_into_the_materials_layers() {
         scene.warnings
     );
 }
+
+/// Adds a TANGENT attribute, the same for the quad's four vertices, to the quad of
+/// [`write_textured_quad`] (a second buffer, `tangent.bin`).
+fn add_quad_tangents(dir: &Path, tangent: [f32; 4]) {
+    std::fs::write(dir.join("tangent.bin"), f32s(&tangent.repeat(4))).unwrap();
+    let path = dir.join("quad.gltf");
+    let json = std::fs::read_to_string(&path).unwrap();
+    let with = json
+        .replacen(r#""TEXCOORD_0": 2}"#, r#""TEXCOORD_0": 2, "TANGENT": 4}"#, 1)
+        .replacen(
+            r#"{"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}"#,
+            r#"{"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"},
+    {"bufferView": 4, "componentType": 5126, "count": 4, "type": "VEC4"}"#,
+            1,
+        )
+        .replacen(
+            r#"{"buffer": 0, "byteOffset": 128, "byteLength": 24}"#,
+            r#"{"buffer": 0, "byteOffset": 128, "byteLength": 24},
+    {"buffer": 1, "byteOffset": 0, "byteLength": 64}"#,
+            1,
+        )
+        .replacen(
+            r#""buffers": [{"uri": "quad.bin", "byteLength": 152}]"#,
+            r#""buffers": [{"uri": "quad.bin", "byteLength": 152}, {"uri": "tangent.bin", "byteLength": 64}]"#,
+            1,
+        );
+    assert_eq!(with.matches("tangent.bin").count(), 1, "the fixture moved");
+    std::fs::write(path, with).unwrap();
+}
+
+/// Normal maps with the file's tangents (glTF's TANGENT) and without (MikkTSpace's, which glTF asks
+/// clients to generate: glTF 2.0 §3.7.2.1). On the quad, whose u runs along +x and v up along +y, the
+/// supplied TANGENT (1, 0, 0, +1) (B = w N x T = +y) is what MikkTSpace generates: the same image, bit
+/// for bit. A TANGENT of (0, 1, 0, -1) (T = +y, B = -(z x y) = +x) swaps the map's axes: the texel
+/// (210, 128, 220) then renders like (128, 210, 220) with the generated frame (within f32 rounding of
+/// the two frames' sums), and far from its own image with the generated frame.
+#[test]
+fn gltf_tangents_given_or_generated_orient_the_normal_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let material = format!(r#"{{{GLOSSY}, "normalTexture": {{"index": 0}}}}"#);
+    let render = |texel: [u8; 3], tangent: Option<[f32; 4]>| {
+        write_textured_quad(dir.path(), &material, &[flat(1, 1, texel)]);
+        if let Some(t) = tangent {
+            add_quad_tangents(dir.path(), t);
+        }
+        let scene = sunlit_quad_scene(dir.path());
+        assert_eq!(
+            scene.meshes[0].tangents.len(),
+            4,
+            "tangents given ({tangent:?}) or generated"
+        );
+        common::render(&scene)
+    };
+    let generated = render([210, 128, 220], None);
+    let given = render([210, 128, 220], Some([1.0, 0.0, 0.0, 1.0]));
+    assert_eq!(generated.mean, given.mean);
+    let swapped = render([210, 128, 220], Some([0.0, 1.0, 0.0, -1.0]));
+    let reference = render([128, 210, 220], None);
+    let (a, b, c) = (
+        region(&swapped, 4..=27, 4..=27),
+        region(&reference, 4..=27, 4..=27),
+        region(&generated, 4..=27, 4..=27),
+    );
+    for k in 0..3 {
+        assert!(
+            (a[k].0 - b[k].0).abs() <= 1e-4 * b[k].0,
+            "channel {k}: TANGENT (0, 1, 0, -1) {} vs the swapped texel {}",
+            a[k].0,
+            b[k].0
+        );
+        assert!((a[k].0 - c[k].0).abs() > 0.05 * c[k].0, "channel {k}");
+    }
+}

@@ -669,7 +669,7 @@ fn mesh_structs_match_wgsl() {
         "MeshVertex",
         "GpuMeshVertex",
         size_of::<GpuMeshVertex>(),
-        fields!(GpuMeshVertex: nx, ny, nz, u, v),
+        fields!(GpuMeshVertex: nx, ny, nz, u, v, tangent),
     );
     check_storage_array(
         &module,

@@ -376,6 +376,7 @@ power = 50000.0
             positions,
             normals: Vec::new(),
             uvs: Vec::new(),
+            tangents: Vec::new(),
             triangles,
             material: 0,
             texture: None,

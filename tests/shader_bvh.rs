@@ -38,6 +38,7 @@ fn mesh_scene(positions: Vec<Vec3>, normals: Vec<Vec3>, triangles: Vec<[u32; 3]>
         positions,
         normals,
         uvs: Vec::new(),
+        tangents: Vec::new(),
         triangles,
         material: 0,
         texture: None,

@@ -68,6 +68,7 @@ pub fn scaling_scene(triangles: usize, settings: &BenchSettings) -> Scene {
         positions: shape.positions,
         normals: shape.normals,
         uvs: Vec::new(),
+        tangents: Vec::new(),
         triangles: shape.triangles,
         material: 4, // the course's white
         texture: None,

@@ -317,7 +317,8 @@ pub struct GpuMeshFace {
 }
 
 /// Mirrors `MeshVertex` in scene_data.wgsl: a shading normal (world space, unit, or zero for "use the
-/// geometric normal") and texture coordinates. Scalars only, so 20 bytes with no padding.
+/// geometric normal"), texture coordinates, and a normal map's tangent ([`encode_tangent`]; 0: none).
+/// Scalars only, so 24 bytes with no padding.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMeshVertex {
@@ -326,6 +327,28 @@ pub struct GpuMeshVertex {
     pub nz: f32,
     pub u: f32,
     pub v: f32,
+    pub tangent: u32,
+}
+
+/// `GpuMeshVertex::tangent`: bit 31 set when the vertex has a tangent, bit 30 set when its bitangent
+/// sign w is negative, and the unit direction in bits 0-29 as its octahedral map (Cigolle et al.,
+/// "A Survey of Efficient Representations for Independent Unit Vectors", JCGT 2014): p = (x, y) /
+/// (|x| + |y| + |z|), folded over the diagonals when z < 0 ((1 - |p.yx|) sign(p)), each coordinate in
+/// [-1, 1] stored in 15 bits (an angular error below 1e-4 rad). Decoded by `mesh_tangent` in
+/// scene_data.wgsl. A zero or non-finite direction is no tangent (0).
+pub fn encode_tangent(t: [f32; 4]) -> u32 {
+    let [x, y, z, w] = t;
+    let l1 = x.abs() + y.abs() + z.abs();
+    if !(l1 > 0.0 && l1.is_finite()) {
+        return 0;
+    }
+    let (mut px, mut py) = (x / l1, y / l1);
+    if z < 0.0 {
+        let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+        (px, py) = ((1.0 - py.abs()) * sign(px), (1.0 - px.abs()) * sign(py));
+    }
+    let q = |v: f32| ((v.clamp(-1.0, 1.0) * 0.5 + 0.5) * 32767.0).round() as u32;
+    (1 << 31) | (u32::from(w < 0.0) << 30) | (q(py) << 15) | q(px)
 }
 
 /// Mirrors `MeshInfo` in scene_data.wgsl: per mesh, its `MESH_*` flags. (A mesh's textures belong to
@@ -647,7 +670,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
 const _: () = assert!(std::mem::size_of::<GpuParams>() == 144);
 const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuMeshFace>() == 16);
-const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 20);
+const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 24);
 const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuTextureInfo>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterialTextures>() == 64);

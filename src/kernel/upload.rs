@@ -836,6 +836,7 @@ impl GpuScene {
                     nz: n.z,
                     u: uv[0],
                     v: uv[1],
+                    tangent: m.tangents.get(k).map_or(0, |&t| encode_tangent(t)),
                 });
             }
         }

@@ -11,7 +11,8 @@
 //! colour: base colour = baseColorFactor x texel, emission = emissive factor x texel) and
 //! metallicRoughnessTexture (linear: metallic = metallicFactor x B, roughness = roughnessFactor x G), and
 //! normalTexture (linear: a tangent-space normal map, its x and y times normalTexture.scale, in the frame
-//! of the triangle's uv directions; the TANGENT attribute is not read), each a file beside the glTF or an
+//! of the primitive's TANGENT, or of MikkTSpace's tangents where it has none: `mikktspace_tangents`),
+//! each a file beside the glTF or an
 //! image in a buffer (PNG, JPEG), decoded once however many use it.
 //!
 //! What is not, each said in a note (a warning of the scene, never silent): non-triangle primitives
@@ -206,6 +207,7 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     let mut any_uvs = false;
     let mut normals = Vec::new();
     let mut uvs = Vec::new();
+    let mut tangents: Vec<[f32; 4]> = Vec::new();
     for (node, world) in nodes {
         let Some(m) = node.mesh() else { continue };
         // Normals go by the inverse transpose of the upper 3x3 (a non-uniform scale bends them).
@@ -227,7 +229,6 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                 notes.add(format!("{at} has no POSITION: it is skipped"));
                 continue;
             };
-            let base = mesh.positions.len();
             let positions: Vec<Vec3> = positions
                 .into_iter()
                 .map(|p| world.transform_point3(Vec3::from_array(p)))
@@ -253,6 +254,73 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                     "{at}.indices refers to vertex {bad} of {count}"
                 )));
             }
+            let prim_normals: Option<Vec<Vec3>> = attribute(gltf::Semantic::Normals).map(|n| {
+                n.into_iter()
+                    .map(|n| (normal_matrix * Vec3::from_array(n)).normalize_or_zero())
+                    .collect()
+            });
+            let tex_coords = p
+                .get(&gltf::Semantic::TexCoords(0))
+                .and_then(|a| read_attribute::<2>(&a, &buffers));
+            let normal_mapped = p.material().normal_texture().is_some();
+            // Tangents where the material has a normal map: the file's TANGENT (its xyz mapped by the
+            // node's linear part, like a direction on the surface; its w, the bitangent's sign,
+            // flipped by a mirroring transform, which reverses cross(N, T)), else MikkTSpace's.
+            let mut prim_tangents: Option<Vec<[f32; 4]>> = None;
+            let mut vertices: Option<Vec<u32>> = None; // the source vertex of each vertex, when split
+            let mut indices = indices;
+            if normal_mapped {
+                let linear = Mat3::from_mat4(world);
+                let flip = if linear.determinant() < 0.0 {
+                    -1.0
+                } else {
+                    1.0
+                };
+                if let Some(t) = p
+                    .get(&gltf::Semantic::Tangents)
+                    .and_then(|a| read_attribute::<4>(&a, &buffers))
+                {
+                    prim_tangents = Some(
+                        t.into_iter()
+                            .map(|[x, y, z, w]| {
+                                let d = (linear * Vec3::new(x, y, z)).normalize_or_zero();
+                                [d.x, d.y, d.z, if w < 0.0 { -flip } else { flip }]
+                            })
+                            .collect(),
+                    );
+                } else if let Some(t) = &tex_coords {
+                    // MikkTSpace runs on vkpath's uvs (v up, as the image's +Y that glTF's normal
+                    // maps take as up) and on the file's normals, or the triangles' own.
+                    let uv_up: Vec<[f32; 2]> = t.iter().map(|&[u, v]| [u, 1.0 - v]).collect();
+                    let tris: Vec<[u32; 3]> = indices
+                        .chunks_exact(3)
+                        .map(|c| [c[0], c[1], c[2]])
+                        .collect();
+                    let n = prim_normals
+                        .clone()
+                        .unwrap_or_else(|| super::mesh::vertex_normals(&positions, &tris));
+                    let split = mikktspace_tangents(&positions, &n, &uv_up, &indices);
+                    indices = split.indices;
+                    prim_tangents = Some(split.tangents);
+                    vertices = Some(split.vertices);
+                }
+            }
+            // A split (MikkTSpace gives a vertex different tangents on different faces at uv seams)
+            // copies the vertex's attributes.
+            let gather = |v: Vec<[f32; 2]>| match &vertices {
+                Some(src) => src.iter().map(|&i| v[i as usize]).collect(),
+                None => v,
+            };
+            let (positions, prim_normals, tex_coords) = match &vertices {
+                Some(src) => (
+                    src.iter().map(|&i| positions[i as usize]).collect(),
+                    prim_normals.map(|n| src.iter().map(|&i| n[i as usize]).collect()),
+                    tex_coords.map(gather),
+                ),
+                None => (positions, prim_normals, tex_coords),
+            };
+            let count = positions.len();
+            let base = mesh.positions.len();
             if base + count > MAX_TRIANGLES
                 || mesh.triangles.len() + indices.len() / 3 > MAX_TRIANGLES
             {
@@ -261,16 +329,19 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                 )));
             }
             mesh.positions.extend(positions);
-            match attribute(gltf::Semantic::Normals) {
-                Some(n) if all_normals => normals.extend(
-                    n.into_iter()
-                        .map(|n| (normal_matrix * Vec3::from_array(n)).normalize_or_zero()),
-                ),
+            match prim_normals {
+                Some(n) if all_normals => normals.extend(n),
                 _ => all_normals = false,
             }
-            let tex_coords = p
-                .get(&gltf::Semantic::TexCoords(0))
-                .and_then(|a| read_attribute::<2>(&a, &buffers));
+            match prim_tangents {
+                Some(t) => {
+                    // Zero (no tangent: the shader's per-triangle frame) for the earlier vertices.
+                    tangents.resize(base, [0.0; 4]);
+                    tangents.extend(t);
+                }
+                None if !tangents.is_empty() => tangents.resize(base + count, [0.0; 4]),
+                None => {}
+            }
             match tex_coords {
                 Some(t) => {
                     uvs.extend(t);
@@ -317,6 +388,10 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
     // glTF's texture v runs down from the top of the image; the OBJ convention (and vkpath's sampling)
     // has v up from the bottom.
+    if !tangents.is_empty() {
+        tangents.resize(mesh.positions.len(), [0.0; 4]);
+        mesh.tangents = Some(tangents);
+    }
     mesh.uvs = (any_uvs && uvs.len() == mesh.positions.len())
         .then(|| uvs.into_iter().map(|[u, v]| [u, 1.0 - v]).collect());
     if mesh.materials.is_empty() {
@@ -379,6 +454,88 @@ fn load_buffers(
         out.push(data);
     }
     Ok(out)
+}
+
+/// A primitive re-indexed with MikkTSpace tangents: its vertices (each the index of its source vertex:
+/// a source vertex whose corners got different tangents is split, one vertex per tangent), their
+/// tangents (xyz, and w = +-1, the bitangent's sign: B = w cross(N, T)), and the triangles' new indices.
+struct SplitTangents {
+    vertices: Vec<u32>,
+    tangents: Vec<[f32; 4]>,
+    indices: Vec<u32>,
+}
+
+/// Tangents by MikkTSpace (Mikkelsen, "Simulation of Wrinkled Surfaces Revisited", 2008: the algorithm
+/// glTF 2.0 §3.7.2.1 asks clients to use when TANGENT is absent, and that the sample models' normal maps
+/// are baked against), through `bevy_mikktspace`, a port that gives the reference implementation's bits.
+/// It yields a tangent per triangle corner; corners of one vertex that disagree (uv seams, mirrored uvs)
+/// split it. A corner it leaves without one (a degenerate triangle with no neighbour) gets zero: the
+/// shader's per-triangle frame there.
+fn mikktspace_tangents(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    uvs: &[[f32; 2]],
+    indices: &[u32],
+) -> SplitTangents {
+    struct Geometry<'a> {
+        positions: &'a [Vec3],
+        normals: &'a [Vec3],
+        uvs: &'a [[f32; 2]],
+        indices: &'a [u32],
+        corners: Vec<[f32; 4]>,
+    }
+    impl bevy_mikktspace::Geometry for Geometry<'_> {
+        fn num_faces(&self) -> usize {
+            self.indices.len() / 3
+        }
+        fn num_vertices_of_face(&self, _face: usize) -> usize {
+            3
+        }
+        fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.positions[self.indices[face * 3 + vert] as usize].to_array()
+        }
+        fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+            self.normals[self.indices[face * 3 + vert] as usize].to_array()
+        }
+        fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+            self.uvs[self.indices[face * 3 + vert] as usize]
+        }
+        fn set_tangent(
+            &mut self,
+            tangent: Option<bevy_mikktspace::TangentSpace>,
+            face: usize,
+            vert: usize,
+        ) {
+            self.corners[face * 3 + vert] = tangent.map_or([0.0; 4], |t| t.tangent_encoded());
+        }
+    }
+    let mut g = Geometry {
+        positions,
+        normals,
+        uvs,
+        indices,
+        corners: vec![[0.0; 4]; indices.len()],
+    };
+    // (The crate's error type has no values: generation cannot fail.)
+    let _ = bevy_mikktspace::generate_tangents(&mut g);
+    let mut out = SplitTangents {
+        vertices: Vec::with_capacity(positions.len()),
+        tangents: Vec::with_capacity(positions.len()),
+        indices: Vec::with_capacity(indices.len()),
+    };
+    let mut seen: std::collections::HashMap<(u32, [u32; 4]), u32> =
+        std::collections::HashMap::with_capacity(positions.len());
+    for (&source, tangent) in indices.iter().zip(&g.corners) {
+        let key = (source, tangent.map(f32::to_bits));
+        let next = out.vertices.len() as u32;
+        let index = *seen.entry(key).or_insert(next);
+        if index == next {
+            out.vertices.push(source);
+            out.tangents.push(*tangent);
+        }
+        out.indices.push(index);
+    }
+    out
 }
 
 /// An attribute's elements as f32 (the accessor checked by `check_accessors`; sparse accessors
@@ -446,7 +603,7 @@ where
     })
 }
 
-/// Checks every accessor primitive `p` is read through (POSITION, NORMAL, TEXCOORD_0, indices) before
+/// Checks every accessor primitive `p` is read through (POSITION, NORMAL, TANGENT, TEXCOORD_0, indices) before
 /// the gltf crate's reader touches it: the component type and shape the reader assumes, a stride at least
 /// an element, and every element inside its buffer view, every view inside its buffer (glTF 2.0 §3.6.2).
 /// The reader itself stops early at a view that is too short, which used to render a mesh with faces
@@ -477,6 +634,7 @@ fn check_accessors(
             Semantic::Positions => (Dimensions::Vec3, position),
             Semantic::Normals => (Dimensions::Vec3, normal),
             Semantic::TexCoords(0) => (Dimensions::Vec2, uv),
+            Semantic::Tangents => (Dimensions::Vec4, normal),
             _ => continue,
         };
         read.push((

@@ -32,6 +32,10 @@ pub struct Mesh {
     pub normals: Vec<Vec3>,
     /// Texture coordinates per vertex when the mesh has a texture; empty otherwise.
     pub uvs: Vec<[f32; 2]>,
+    /// Tangents per vertex (world space; see [`ObjMesh::tangents`]) when the mesh has a normal map and
+    /// its file gives or generates them; empty otherwise (the shader then orients the normal map by each
+    /// triangle's dp/du).
+    pub tangents: Vec<[f32; 4]>,
     /// Vertex indices, counter-clockwise seen from the front (the OBJ's winding).
     pub triangles: Vec<[u32; 3]>,
     /// Index into `Scene::materials`.
@@ -130,6 +134,10 @@ pub struct ObjMesh {
     pub mtl_problem: Option<String>,
     /// What else the reader could not use (glTF: unsupported textures, primitives): warnings.
     pub notes: Vec<String>,
+    /// Per vertex, tangents for a normal map (glTF's TANGENT, or MikkTSpace's): xyz the direction of
+    /// increasing u, w = +-1 the sign of the bitangent B = w cross(N, T) (towards increasing v); zero
+    /// where a vertex has none.
+    pub tangents: Option<Vec<[f32; 4]>>,
     /// The file asks for face normals (a `.serialized` mesh's flag 0x0010): shaded flat whatever the
     /// `[[mesh]]`'s `smooth` says, as Mitsuba does.
     pub face_normals: bool,
@@ -146,6 +154,11 @@ impl ObjMesh {
                 .iter()
                 .flatten()
                 .all(|t| t[0].is_finite() && t[1].is_finite())
+            && self
+                .tangents
+                .iter()
+                .flatten()
+                .all(|t| t.iter().all(|c| c.is_finite()))
     }
 
     /// The triangles whose `usemtl` material is `material`, with only the vertices they use (renumbered
@@ -155,6 +168,7 @@ impl ObjMesh {
         let mut out = ObjMesh::default();
         let mut normals = Vec::new();
         let mut uvs = Vec::new();
+        let mut tangents = Vec::new();
         for (t, tri) in self.triangles.iter().enumerate() {
             if self.face_materials.get(t).copied().flatten() != material {
                 continue;
@@ -170,12 +184,16 @@ impl ObjMesh {
                     if let Some(uv) = &self.uvs {
                         uvs.push(uv[v]);
                     }
+                    if let Some(t) = &self.tangents {
+                        tangents.push(t[v]);
+                    }
                 }
                 remap[v]
             }));
         }
         out.normals = self.normals.as_ref().map(|_| normals);
         out.uvs = self.uvs.as_ref().map(|_| uvs);
+        out.tangents = self.tangents.as_ref().map(|_| tangents);
         out
     }
 }
@@ -268,6 +286,17 @@ impl Placement {
         }
     }
 
+    /// The linear part, which maps directions in the surface (edges, tangents): the rotation and the
+    /// scale, or the matrix's upper 3 x 3.
+    fn linear(&self) -> DMat3 {
+        match self {
+            Placement::Srt {
+                scale, rotate_deg, ..
+            } => srt_rotation(*rotate_deg) * f64::from(*scale),
+            Placement::Matrix(m) => m.matrix3,
+        }
+    }
+
     /// The map of normals: the rotation (a uniform scale changes no direction), or the inverse
     /// transpose of the matrix's linear part, which keeps a normal perpendicular to the transformed
     /// surface under non-uniform scales and shears (pbrt-v4 §3.10.3).
@@ -296,7 +325,13 @@ fn srt_rotation(rotate_deg: Vec3) -> DMat3 {
 /// shading normals are the file's (mapped by [`Placement::normal_map`]) when it gives one for every
 /// vertex, else computed (see [`vertex_normals`]). `keep_uvs` keeps the texture coordinates (the caller
 /// has checked they exist). A mirroring placement reverses each triangle's winding.
-pub fn place(obj: &ObjMesh, placement: &Placement, smooth: bool, keep_uvs: bool) -> PlacedMesh {
+pub fn place(
+    obj: &ObjMesh,
+    placement: &Placement,
+    smooth: bool,
+    keep_uvs: bool,
+    keep_tangents: bool,
+) -> PlacedMesh {
     let positions: Vec<Vec3> = obj
         .positions
         .iter()
@@ -325,10 +360,26 @@ pub fn place(obj: &ObjMesh, placement: &Placement, smooth: bool, keep_uvs: bool)
         (Some(uvs), true) => uvs.clone(),
         _ => Vec::new(),
     };
+    // Tangents lie in the surface: mapped by the linear part, as edges are; a mirroring placement
+    // reverses cross(N, T), so the bitangent's sign flips with it.
+    let tangents = match (&obj.tangents, keep_tangents) {
+        (Some(t), true) => {
+            let m = placement.linear();
+            let flip = if placement.mirrors() { -1.0 } else { 1.0 };
+            t.iter()
+                .map(|&[x, y, z, w]| {
+                    let d = unit_or_zero(m * DVec3::new(x.into(), y.into(), z.into()));
+                    [d.x, d.y, d.z, w * flip]
+                })
+                .collect()
+        }
+        _ => Vec::new(),
+    };
     PlacedMesh {
         positions,
         normals,
         uvs,
+        tangents,
         triangles,
     }
 }
@@ -338,6 +389,7 @@ pub struct PlacedMesh {
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,
     pub uvs: Vec<[f32; 2]>,
+    pub tangents: Vec<[f32; 4]>,
     pub triangles: Vec<[u32; 3]>,
 }
 
@@ -411,7 +463,7 @@ mod tests {
             rotate_deg: Vec3::new(90.0, 0.0, 90.0),
             translate: Vec3::new(0.0, 0.0, 5.0),
         };
-        let placed = place(&obj, &p, true, false);
+        let placed = place(&obj, &p, true, false, false);
         let (pos, nrm) = (placed.positions, placed.normals);
         // Rx(90) leaves x alone, Rz(90) turns x into y: 2 x -> 2 y, then + 5 z.
         assert!(
@@ -430,7 +482,7 @@ mod tests {
             ..obj
         };
         // Rx(90): y -> z; then Ry(90): z -> x.
-        let pos = place(&obj_y, &p, false, false).positions;
+        let pos = place(&obj_y, &p, false, false, false).positions;
         assert!((pos[0] - Vec3::X).length() < 1e-6, "{:?}", pos[0]);
     }
 
@@ -453,13 +505,13 @@ mod tests {
             (b - a).cross(c - a).normalize()
         };
         assert!(
-            (face_normal(&place(&obj, &Placement::default(), true, false))
+            (face_normal(&place(&obj, &Placement::default(), true, false, false))
                 - obj.normals.as_ref().unwrap()[0])
                 .length()
                 < 1e-6
         );
         let stretch = Placement::Matrix(DAffine3::from_scale(DVec3::new(2.0, 1.0, 1.0)));
-        let placed = place(&obj, &stretch, true, false);
+        let placed = place(&obj, &stretch, true, false, false);
         // The stretched face is x/2 + y = 1: normal (1/2, 1, 0) normalised.
         let expected = Vec3::new(0.5, 1.0, 0.0).normalize();
         assert!(
@@ -470,12 +522,40 @@ mod tests {
         assert!((face_normal(&placed) - expected).length() < 1e-6);
         let mirror = Placement::Matrix(DAffine3::from_scale(DVec3::new(-1.0, 1.0, 1.0)));
         assert!(mirror.mirrors() && !stretch.mirrors());
-        let placed = place(&obj, &mirror, true, false);
+        let placed = place(&obj, &mirror, true, false, false);
         let expected = Vec3::new(-1.0, 1.0, 0.0).normalize();
         assert!((placed.normals[0] - expected).length() < 1e-6);
         assert!(
             (face_normal(&placed) - expected).length() < 1e-6,
             "the mirrored face's front turned inward"
         );
+    }
+
+    /// Tangents follow the surface (the linear part, renormalised) and a mirroring placement flips
+    /// their bitangent's sign: B = w N x T must stay the mapped bitangent. Kept only when asked.
+    #[test]
+    fn tangents_are_mapped_with_the_surface_and_flip_sign_in_a_mirror() {
+        let obj = ObjMesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            normals: Some(vec![Vec3::Z; 3]),
+            tangents: Some(vec![[1.0, 0.0, 0.0, 1.0]; 3]),
+            triangles: vec![[0, 1, 2]],
+            ..ObjMesh::default()
+        };
+        let stretch = Placement::Matrix(DAffine3::from_cols_array(&[
+            2.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0,
+        ]));
+        let t = place(&obj, &stretch, true, false, true).tangents[0];
+        let want = Vec3::new(2.0, 1.0, 0.0).normalize();
+        assert!((Vec3::new(t[0], t[1], t[2]) - want).length() < 1e-6 && t[3] == 1.0);
+        let mirror = Placement::Matrix(DAffine3::from_scale(DVec3::new(1.0, -1.0, 1.0)));
+        let placed = place(&obj, &mirror, true, false, true);
+        let t = placed.tangents[0];
+        assert_eq!(t, [1.0, 0.0, 0.0, -1.0]);
+        // The bitangent, mapped: +y -> -y; and w N' x T' with N' = +z (the mirror keeps z): -(z x x) = -y.
+        let n = placed.normals[0];
+        let b = n.cross(Vec3::new(t[0], t[1], t[2])) * t[3];
+        assert!((b - Vec3::new(0.0, -1.0, 0.0)).length() < 1e-6, "{b}");
+        assert!(place(&obj, &mirror, true, false, false).tangents.is_empty());
     }
 }

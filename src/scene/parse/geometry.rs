@@ -599,7 +599,8 @@ impl Checker<'_> {
             || part.maps.emissive.is_some()
             || part.maps.metallic_roughness.is_some()
             || part.maps.normal.is_some();
-        let placed = mesh::place(&part.obj, placement, source.smooth, textured);
+        // (Tangents exist only where the file gave or generated them for its normal map.)
+        let placed = mesh::place(&part.obj, placement, source.smooth, textured, textured);
         if let Some(p) = placed.positions.iter().find(|p| !p.is_finite()) {
             return Err(self.error(
                 span,
@@ -616,6 +617,7 @@ impl Checker<'_> {
             positions: placed.positions,
             normals: placed.normals,
             uvs: placed.uvs,
+            tangents: placed.tangents,
             triangles: placed.triangles,
             material,
             texture: part.texture.clone(),

@@ -164,6 +164,7 @@ impl Checker<'_> {
                     positions: t.vertices.to_vec(),
                     normals: Vec::new(),
                     uvs: uv.to_vec(),
+                    tangents: Vec::new(),
                     triangles: vec![[0, 1, 2]],
                     material: t.material,
                     texture: None,
