@@ -2105,3 +2105,102 @@ fn gltf_tangents_given_or_generated_orient_the_normal_map() {
         assert!((a[k].0 - c[k].0).abs() > 0.05 * c[k].0, "channel {k}");
     }
 }
+
+/// A replica of Khronos' TextureCoordinateTest (its layout, not its files): four quads facing -z, each
+/// showing a 0.4 x 0.4 corner of one texture (glTF uv: "TopLeft" reads u, v in [0, 0.4], v running down
+/// the image), placed where its name says for a viewer looking from -z (+y up, so screen right is -x),
+/// emissive (black base, emission = the texture), nearest filtering. The texture's four corner blocks
+/// have four colours: each quad must show its own corner's colour, exactly (sRGB-decoded), in the screen
+/// quadrant its name gives: a v not flipped, or u and v swapped, would put another corner's colour there.
+#[test]
+fn gltf_texture_coordinates_follow_the_specification_corner_by_corner() {
+    let dir = tempfile::tempdir().unwrap();
+    // 10 x 10 texels: 4 x 4 corner blocks (top-left red, top-right green, bottom-left blue, bottom-right
+    // yellow; image rows from the top), grey between.
+    let colour = |x: u32, y: u32| match (x < 4, x >= 6, y < 4, y >= 6) {
+        (true, _, true, _) => [200, 30, 30],
+        (_, true, true, _) => [30, 200, 30],
+        (true, _, _, true) => [30, 30, 200],
+        (_, true, _, true) => [220, 220, 40],
+        _ => [128, 128, 128],
+    };
+    image::RgbImage::from_fn(10, 10, |x, y| image::Rgb(colour(x, y)))
+        .save(dir.path().join("uv.png"))
+        .unwrap();
+    // (name, uv origin (u0, v0), screen origin of the quad's top-left corner (sx, sy)); screen x = -x.
+    let quads = [
+        ("TopLeft", (0.0, 0.0), (-1.2, 1.2), [200u8, 30, 30]),
+        ("TopRight", (0.6, 0.0), (0.2, 1.2), [30, 200, 30]),
+        ("BottomLeft", (0.0, 0.6), (-1.2, -0.2), [30, 30, 200]),
+        ("BottomRight", (0.6, 0.6), (0.2, -0.2), [220, 220, 40]),
+    ];
+    let mut positions = Vec::new();
+    let mut uvs = Vec::new();
+    let mut indices = Vec::new();
+    for (k, (_, (u0, v0), (sx, sy), _)) in quads.iter().enumerate() {
+        // Corners in uv order (0,0), (1,0), (1,1), (0,1) of the 0.4 block; 1 unit of screen per 0.4 of uv.
+        for (du, dv) in [(0.0, 0.0), (0.4, 0.0), (0.4, 0.4), (0.0, 0.4)] {
+            let (screen_x, screen_y) = (sx + du * 2.5, sy - dv * 2.5);
+            positions.extend([-screen_x, screen_y, 0.0f32]);
+            uvs.extend([u0 + du, v0 + dv]);
+        }
+        let b = 4 * k as u32;
+        // Counter-clockwise seen from -z (the quads' front).
+        indices.extend([b, b + 2, b + 1, b, b + 3, b + 2]);
+    }
+    let mut bin = f32s(&positions);
+    bin.extend(f32s(&[0.0, 0.0, -1.0].repeat(16)));
+    bin.extend(f32s(&uvs));
+    bin.extend(u32s(&indices));
+    std::fs::write(dir.path().join("uv.bin"), &bin).unwrap();
+    let json = format!(
+        r#"{{
+  "asset": {{"version": "2.0"}},
+  "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}, "indices": 3, "material": 0}}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": [0, 0, 0, 1], "metallicFactor": 0}},
+    "emissiveFactor": [1, 1, 1], "emissiveTexture": {{"index": 0}}, "doubleSided": true}}],
+  "samplers": [{{"magFilter": 9728, "minFilter": 9728}}],
+  "textures": [{{"source": 0, "sampler": 0}}],
+  "images": [{{"uri": "uv.png"}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 16, "type": "VEC3", "min": [-1.3, -1.2, 0], "max": [1.2, 1.2, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 16, "type": "VEC3"}},
+    {{"bufferView": 2, "componentType": 5126, "count": 16, "type": "VEC2"}},
+    {{"bufferView": 3, "componentType": 5125, "count": 24, "type": "SCALAR"}}
+  ],
+  "bufferViews": [
+    {{"buffer": 0, "byteOffset": 0, "byteLength": 192}},
+    {{"buffer": 0, "byteOffset": 192, "byteLength": 192}},
+    {{"buffer": 0, "byteOffset": 384, "byteLength": 128}},
+    {{"buffer": 0, "byteOffset": 512, "byteLength": 96}}
+  ],
+  "buffers": [{{"uri": "uv.bin", "byteLength": {}}}]
+}}"#,
+        bin.len()
+    );
+    std::fs::write(dir.path().join("uv.gltf"), json).unwrap();
+    // Looking from -z at the origin, +y up: 48 x 48 pixels over [-1.5, 1.5]^2 of screen.
+    let scene = load(
+        dir.path(),
+        "[camera]\ntype = \"orthographic\"\nextent = 3.0\nposition = [0.0, 0.0, -5.0]\n\
+         look_at = [0.0, 0.0, 0.0]\n[image]\nwidth = 48\nheight = 48\n[render]\nsamples = 1\n\
+         max_bounces = 0\nfilter = \"box\"\n[[mesh]]\nobj = \"uv.gltf\"\n",
+    );
+    let film = common::render(&scene);
+    // Pixel (px, py) from the top-left covers screen x in -1.5 + px / 16 .. +1/16, y from 1.5 down.
+    for (name, _, (sx, sy), texel) in quads {
+        let px0 = ((sx + 1.5) * 16.0) as usize + 2;
+        let py0 = ((1.5 - sy) * 16.0) as usize + 2;
+        let got = region(&film, px0..=px0 + 11, py0..=py0 + 11);
+        for k in 0..3 {
+            let want = srgb_decode(texel[k]);
+            assert!(
+                (got[k].0 - want).abs() < 1e-4,
+                "{name}, channel {k}: {} where the texture's corner is {want}",
+                got[k].0
+            );
+        }
+    }
+}
