@@ -2204,3 +2204,69 @@ fn gltf_texture_coordinates_follow_the_specification_corner_by_corner() {
         }
     }
 }
+
+/// TEXCOORD_1 where the material's textures ask for it: the quad of [`write_textured_quad`] with its
+/// proper uvs as TEXCOORD_1 and a scrambled TEXCOORD_0 (the normals' floats read as pairs) renders, with
+/// the base colour texture on texCoord 1, the bits of the plain quad; on texCoord 0, another image. A
+/// material whose textures read different sets reads them all at TEXCOORD_0, with a note.
+#[test]
+fn gltf_textures_read_the_texture_coordinate_set_they_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let texture = image::RgbImage::from_fn(2, 2, |x, y| {
+        image::Rgb([[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]][(2 * y + x) as usize])
+    });
+    let material = |set: u32| {
+        format!(
+            r#"{{"pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0, "texCoord": {set}}},
+               "metallicFactor": 0.0, "roughnessFactor": 1.0}}}}"#
+        )
+    };
+    write_textured_quad(dir.path(), &material(0), std::slice::from_ref(&texture));
+    let plain = common::render(&quad_scene(dir.path(), 1.0, 4));
+    let scramble = |dir: &Path| {
+        let path = dir.join("quad.gltf");
+        let json = std::fs::read_to_string(&path).unwrap();
+        let two = json
+            .replacen(
+                r#""TEXCOORD_0": 2}"#,
+                r#""TEXCOORD_0": 4, "TEXCOORD_1": 2}"#,
+                1,
+            )
+            .replacen(
+                r#"{"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}"#,
+                r#"{"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"},
+    {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"}"#,
+                1,
+            );
+        assert_ne!(two, json);
+        std::fs::write(path, two).unwrap();
+    };
+    write_textured_quad(dir.path(), &material(1), std::slice::from_ref(&texture));
+    scramble(dir.path());
+    let scene = quad_scene(dir.path(), 1.0, 4);
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(common::render(&scene).mean, plain.mean);
+    write_textured_quad(dir.path(), &material(0), std::slice::from_ref(&texture));
+    scramble(dir.path());
+    assert_ne!(
+        common::render(&quad_scene(dir.path(), 1.0, 4)).mean,
+        plain.mean
+    );
+    // Mixed sets: the emissive texture on 1, the base colour on 0.
+    write_textured_quad(
+        dir.path(),
+        r#"{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}, "emissiveFactor": [1, 1, 1],
+            "emissiveTexture": {"index": 0, "texCoord": 1}}"#,
+        std::slice::from_ref(&texture),
+    );
+    scramble(dir.path());
+    let scene = quad_scene(dir.path(), 1.0, 4);
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("emissive texture uses TEXCOORD_1, the others TEXCOORD_0")),
+        "{:?}",
+        scene.warnings
+    );
+}

@@ -4,7 +4,8 @@
 //! What is read: the default scene (else the first), its node hierarchy with each node's transform
 //! (matrix or translation-rotation-scale, composed from the root: world = parent x local, glTF's
 //! column-vector convention), and every triangle primitive of every mesh a node instances: positions,
-//! normals (transformed by the inverse transpose), TEXCOORD_0, indices. Materials are glTF's
+//! normals (transformed by the inverse transpose), the texture coordinate set the material's textures read
+//! (`uv_set`), indices. Materials are glTF's
 //! metallic-roughness ones (Appendix B), which vkpath's `metallic_roughness` implements: baseColorFactor
 //! (its alpha the MASK/BLEND opacity), metallicFactor, roughnessFactor, emissiveFactor x KHR_materials_emissive_strength,
 //! and the textures each factor multiplies (glTF 2.0 §3.9): baseColorTexture and emissiveTexture (sRGB
@@ -16,8 +17,8 @@
 //! image in a buffer (PNG, JPEG), decoded once however many use it.
 //!
 //! What is not, each said in a note (a warning of the scene, never silent): non-triangle primitives
-//! (points, lines, strips and fans are skipped), occlusionTexture, texture coordinate sets
-//! other than TEXCOORD_0, cameras and lights (a mesh file brings geometry and materials only). Each
+//! (points, lines, strips and fans are skipped), occlusionTexture, a material's textures on different
+//! texture coordinate sets (all read at TEXCOORD_0), cameras and lights (a mesh file brings geometry and materials only). Each
 //! texture is read with its sampler's filter and wrap mode and its KHR_texture_transform
 //! (`texture_read`); images may be files, buffer views or data URIs. Alpha modes: MASK and BLEND through
 //! the opacity modifier. The Khronos PBR extensions KHR_materials_ior, _specular, _transmission, _volume,
@@ -259,8 +260,10 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                     .map(|n| (normal_matrix * Vec3::from_array(n)).normalize_or_zero())
                     .collect()
             });
+            // The texture coordinate set the material's textures read (`uv_set`).
+            let set = uv_set(&p.material());
             let tex_coords = p
-                .get(&gltf::Semantic::TexCoords(0))
+                .get(&gltf::Semantic::TexCoords(set))
                 .and_then(|a| read_attribute::<2>(&a, &buffers));
             let normal_mapped = p.material().normal_texture().is_some();
             // Tangents where the material has a normal map: the file's TANGENT (its xyz mapped by the
@@ -357,7 +360,7 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                         || m.normal_texture().is_some()
                     {
                         notes.add(format!(
-                            "{at} has no TEXCOORD_0 but its material has textures: they are read at uv (0, 0) there"
+                            "{at} has no TEXCOORD_{set} but its material has textures: they are read at uv (0, 0) there"
                         ));
                     }
                 }
@@ -603,7 +606,7 @@ where
     })
 }
 
-/// Checks every accessor primitive `p` is read through (POSITION, NORMAL, TANGENT, TEXCOORD_0, indices) before
+/// Checks every accessor primitive `p` is read through (POSITION, NORMAL, TANGENT, TEXCOORD_n, indices) before
 /// the gltf crate's reader touches it: the component type and shape the reader assumes, a stride at least
 /// an element, and every element inside its buffer view, every view inside its buffer (glTF 2.0 §3.6.2).
 /// The reader itself stops early at a view that is too short, which used to render a mesh with faces
@@ -633,7 +636,7 @@ fn check_accessors(
         let (dims, types) = match semantic {
             Semantic::Positions => (Dimensions::Vec3, position),
             Semantic::Normals => (Dimensions::Vec3, normal),
-            Semantic::TexCoords(0) => (Dimensions::Vec2, uv),
+            Semantic::TexCoords(_) => (Dimensions::Vec2, uv),
             Semantic::Tangents => (Dimensions::Vec4, normal),
             _ => continue,
         };
@@ -780,6 +783,7 @@ fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMa
         gltf::material::AlphaMode::Mask => Some((alpha, Some(m.alpha_cutoff().unwrap_or(0.5)))),
         gltf::material::AlphaMode::Blend => Some((alpha, None)),
     };
+    let set = uv_set(&m);
     let mut texture = |what: &str,
                        tex: gltf::Texture,
                        tex_coord: u32,
@@ -787,9 +791,10 @@ fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMa
         let (read, tex_coord) = texture_read(&tex, transform, tex_coord, &mut |n| {
             notes.add(format!("material \"{name}\": its {what} texture: {n}"))
         });
-        if tex_coord != 0 {
+        if tex_coord != set {
             notes.add(format!(
-                "material \"{name}\": its {what} texture uses TEXCOORD_{tex_coord}; only TEXCOORD_0 is read"
+                "material \"{name}\": its {what} texture uses TEXCOORD_{tex_coord}, the others \
+                 TEXCOORD_{set}: it is read at TEXCOORD_{set} (a mesh carries one set of texture coordinates)"
             ));
         }
         let image = images
@@ -974,6 +979,39 @@ fn layers(m: &gltf::Material, name: &str, notes: &mut Notes) -> GltfLayers {
         out.sheen_roughness = number(&v, SHEEN, "sheenRoughnessFactor", (0.0, 1.0), notes);
     }
     out
+}
+
+/// The texture coordinate set (TEXCOORD_n) material `m`'s textures read, each textureInfo's texCoord or
+/// its KHR_texture_transform's: the one they share, TEXCOORD_0 when they have none or read different
+/// sets (vkpath's meshes carry one set: the others are then read at TEXCOORD_0, with a note each in
+/// `material`). The occlusion texture is read past and does not count.
+fn uv_set(m: &gltf::Material) -> u32 {
+    const TRANSFORM: &str = "KHR_texture_transform";
+    // A textureInfo's set: its texCoord, unless its transform gives another.
+    fn set(k: u32, transform: Option<&gltf::json::Value>) -> u32 {
+        transform
+            .and_then(|t| t.get("texCoord"))
+            .and_then(|v| v.as_u64())
+            .map_or(k, |k| k as u32)
+    }
+    let pbr = m.pbr_metallic_roughness();
+    let sets: Vec<u32> = [
+        pbr.base_color_texture()
+            .map(|i| set(i.tex_coord(), i.extension_value(TRANSFORM))),
+        pbr.metallic_roughness_texture()
+            .map(|i| set(i.tex_coord(), i.extension_value(TRANSFORM))),
+        m.emissive_texture()
+            .map(|i| set(i.tex_coord(), i.extension_value(TRANSFORM))),
+        m.normal_texture()
+            .map(|i| set(i.tex_coord(), i.extension_value(TRANSFORM))),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    match sets.first() {
+        Some(&first) if sets.iter().all(|&k| k == first) => first,
+        _ => 0,
+    }
 }
 
 /// How a glTF texture is read (a `mesh::TextureRead`), and the texture coordinate set it reads: its
