@@ -204,6 +204,34 @@ fn to_local(f: Frame, v: vec3<f32>) -> vec3<f32> {
 // so pdf(wi) = D_wo(h) / (4 wo.h) (the Jacobian of the reflection, Walter eq. 14), and
 // f cos_i / pdf = F G2 / G1(wo): nearly F, which is why VNDF sampling has so little variance.
 
+// The generalised half vector of a refraction from wo into wi (local frame, wo above, wi below), eta =
+// n_t / n_i (Walter et al. 2007, eq. 16): h = (wo + eta wi) / |wo + eta wi| turned to the macro normal's
+// side, with wo.h, wi.h and denom = wi.h + wo.h / eta, the Jacobian d omega_h / d omega_i being
+// |wi.h| / denom^2 (eq. 17 divided by eta^2). `valid`: the microfacet faces wo and wi crosses it from
+// below, denom != 0 (shared by rough_dielectric.wgsl and gltf_pbr.wgsl).
+struct Refraction {
+    h: vec3<f32>,
+    cos_oh: f32,
+    cos_ih: f32,
+    denom: f32,
+    valid: bool,
+}
+
+fn refraction_half_vector(wo: vec3<f32>, wi: vec3<f32>, eta: f32) -> Refraction {
+    var r = Refraction(vec3<f32>(0.0), 0.0, 0.0, 0.0, false);
+    let sum = wo + eta * wi;
+    if dot(sum, sum) > 0.0 {
+        var h = normalize(sum);
+        h = select(h, -h, h.z < 0.0);
+        r.h = h;
+        r.cos_oh = dot(wo, h);
+        r.cos_ih = dot(wi, h);
+        r.denom = r.cos_ih + r.cos_oh / eta;
+        r.valid = r.cos_oh > 0.0 && r.cos_ih < 0.0 && r.denom != 0.0;
+    }
+    return r;
+}
+
 struct GgxReflection {
     f: f32, // D G2 / (4 cos_o cos_i), without the Fresnel factor
     pdf: f32, // D_wo(h) / (4 wo.h)

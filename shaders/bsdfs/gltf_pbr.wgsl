@@ -219,22 +219,14 @@ fn gltf_pbr_at(mat: Material, wo: vec3<f32>, wi: vec3<f32>, entering: bool) -> G
         let scale = min(gltf_sheen_scale(mat, wo.z, outside), gltf_sheen_scale(mat, -wi.z, outside));
         let tint = (1.0 - wc) * scale * (1.0 - m) * t * mat.albedo;
         if gltf_volume(mat) {
-            let eta = gltf_eta(mat, entering);
-            let sum = wo + eta * wi;
-            if dot(sum, sum) > 0.0 {
-                var h = normalize(sum);
-                h = select(h, -h, h.z < 0.0);
-                let cos_oh = dot(wo, h);
-                let cos_ih = dot(wi, h);
-                let denom = cos_ih + cos_oh / eta;
-                if cos_oh > 0.0 && cos_ih < 0.0 && denom != 0.0 {
-                    let fr = gltf_fr(mat, cos_oh, entering);
-                    let jac = abs(cos_ih) / (denom * denom);
-                    let d = microfacet_d(h, mf);
-                    r.f = tint * (1.0 - s * gltf_max3(fr))
-                        * (d * microfacet_g2(wo, wi, mf) * jac * cos_oh / (wo.z * abs(wi.z)));
-                    r.pdf = p.trans * microfacet_visible_pdf(wo, h, mf) * jac;
-                }
+            let rf = refraction_half_vector(wo, wi, gltf_eta(mat, entering));
+            if rf.valid {
+                let fr = gltf_fr(mat, rf.cos_oh, entering);
+                let jac = abs(rf.cos_ih) / (rf.denom * rf.denom);
+                let d = microfacet_d(rf.h, mf);
+                r.f = tint * (1.0 - s * gltf_max3(fr))
+                    * (d * microfacet_g2(wo, wi, mf) * jac * rf.cos_oh / (wo.z * abs(wi.z)));
+                r.pdf = p.trans * microfacet_visible_pdf(wo, rf.h, mf) * jac;
             }
         } else {
             // Thin: the reflection lobe at wi mirrored through the surface.

@@ -81,21 +81,14 @@ fn rough_dielectric_at(mat: Material, wo: vec3<f32>, wi: vec3<f32>, entering: bo
         let f = fresnel_dielectric(g.cos_oh, eta);
         r = RoughDielectricEval(f * g.f, f * g.pdf);
     } else if wo.z > 0.0 && wi.z < 0.0 {
-        let sum = wo + eta * wi;
-        if dot(sum, sum) > 0.0 {
-            var h = normalize(sum);
-            h = select(h, -h, h.z < 0.0);
-            let cos_oh = dot(wo, h);
-            let cos_ih = dot(wi, h);
-            let denom = cos_ih + cos_oh / eta;
-            // Only microfacets that face wo and that wi crosses from below.
-            if cos_oh > 0.0 && cos_ih < 0.0 && denom != 0.0 {
-                let t = 1.0 - fresnel_dielectric(cos_oh, eta);
-                let d = microfacet_d(h, material_microfacet(mat));
-                let jac = abs(cos_ih) / (denom * denom);
-                r.f = t * d * microfacet_g2(wo, wi, material_microfacet(mat)) * jac * cos_oh / (wo.z * abs(wi.z));
-                r.pdf = t * microfacet_visible_pdf(wo, h, material_microfacet(mat)) * jac;
-            }
+        // Only microfacets that face wo and that wi crosses from below.
+        let rf = refraction_half_vector(wo, wi, eta);
+        if rf.valid {
+            let t = 1.0 - fresnel_dielectric(rf.cos_oh, eta);
+            let d = microfacet_d(rf.h, material_microfacet(mat));
+            let jac = abs(rf.cos_ih) / (rf.denom * rf.denom);
+            r.f = t * d * microfacet_g2(wo, wi, material_microfacet(mat)) * jac * rf.cos_oh / (wo.z * abs(wi.z));
+            r.pdf = t * microfacet_visible_pdf(wo, rf.h, material_microfacet(mat)) * jac;
         }
     }
     return r;

@@ -95,6 +95,28 @@ impl Checker<'_> {
         self.reject_if(v, key, value, bad, problem, hint)
     }
 
+    /// An optional weight in [0, 1] at `key` (its last part names it in the message): `default` when
+    /// absent.
+    pub(super) fn optional_unit(
+        &self,
+        v: &Option<Spanned<f32>>,
+        key: &str,
+        default: f32,
+        hint: &str,
+    ) -> Result<f32, SceneError> {
+        let field = key.rsplit('.').next().unwrap_or(key);
+        match v {
+            None => Ok(default),
+            Some(x) => self.number_unless(
+                x,
+                key,
+                |x| !(0.0..=1.0).contains(&x),
+                &format!("{field} must be in [0, 1]"),
+                hint,
+            ),
+        }
+    }
+
     /// Three finite numbers that `bad` does not reject (see [`Checker::reject_if`]).
     pub(super) fn vec3_unless(
         &self,

@@ -644,38 +644,28 @@ impl Checker<'_> {
     fn gltf_layers(&self, name: &str, m: &RawMaterial) -> Result<GltfLayers, SceneError> {
         let key = |field: &str| format!("materials.{name}.{field}");
         let unit = |v: &Option<Spanned<f32>>, field: &str, default: f32| {
-            match v {
-            None => Ok(default),
-            Some(x) => self.number_unless(
-                x,
+            self.optional_unit(
+                v,
                 &key(field),
-                |x| !(0.0..=1.0).contains(&x),
-                &format!("{field} must be in [0, 1]"),
+                default,
                 "The glTF extensions' factors run from 0 to 1 (docs/scene-format.md, metallic_roughness).",
-            ),
-        }
+            )
         };
         let color = |v: &Option<Spanned<RawVec3>>,
                      field: &str,
                      default: Vec3,
                      bad: fn(f32) -> bool,
-                     rule: &str|
-         -> Result<Vec3, SceneError> {
+                     rule: &str| {
             match v {
-                None => Ok(default),
-                Some(c) => {
-                    let value = self.vec3(c, &key(field))?;
-                    if value.to_array().iter().any(|&x| bad(x)) {
-                        return Err(self.error(
-                            c.span(),
-                            &key(field),
-                            format!("every component of {field} must be {rule}"),
-                            "The glTF extensions' colours are linear RGB (docs/scene-format.md, metallic_roughness).",
-                        ));
-                    }
-                    Ok(value)
-                }
-            }
+            None => Ok(default),
+            Some(c) => self.vec3_unless(
+                c,
+                &key(field),
+                |c| c.to_array().into_iter().any(bad),
+                &format!("every component of {field} must be {rule}"),
+                "The glTF extensions' colours are linear RGB (docs/scene-format.md, metallic_roughness).",
+            ),
+        }
         };
         let mut layers = GltfLayers::NONE;
         if let Some(ior) = &m.ior {
@@ -770,16 +760,12 @@ impl Checker<'_> {
         let (metallic, roughness) =
             self.metallic_and_roughness(name, m, files, textures, (0.0, 0.5))?;
         let weight = |v: &Option<Spanned<f32>>, field: &str, default: f32| {
-            match v {
-            None => Ok(default),
-            Some(x) => self.number_unless(
-                x,
+            self.optional_unit(
+                v,
                 &key(field),
-                |x| !(0.0..=1.0).contains(&x),
-                &format!("{field} must be in [0, 1]"),
+                default,
                 "The principled material's weights run from 0 to 1 (Burley 2012; Mitsuba's principled).",
-            ),
-        }
+            )
         };
         let eta = match (&m.specular, &m.ior) {
             (Some(s), Some(_)) => {
