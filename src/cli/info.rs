@@ -63,5 +63,13 @@ pub fn run_info(json: bool) -> Result<i32, Error> {
         "  device-local memory:               {} bytes",
         d.device_local_memory_bytes
     );
+    println!(
+        "  buffer bounds checks:              {}",
+        if d.robust_buffer_access {
+            "robustBufferAccess (enabled)"
+        } else {
+            "none: the device lacks robustBufferAccess"
+        }
+    );
     Ok(0)
 }

@@ -32,6 +32,9 @@ pub struct DeviceInfo {
     /// The device's UUID (VkPhysicalDeviceIDProperties::deviceUUID, core in Vulkan 1.1): the same
     /// identifier CUDA, HIP and SYCL report for the same GPU, by which the denoiser picks its device.
     pub uuid: [u8; 16],
+    /// Whether the device offers `robustBufferAccess`; vkpath enables it wherever it is offered
+    /// ([`GpuContext::robust_buffer_access`]).
+    pub robust_buffer_access: bool,
 }
 
 /// Options for creating a [`GpuContext`].
@@ -101,6 +104,8 @@ pub struct GpuContext {
     pub(crate) physical_device: vk::PhysicalDevice,
     info: DeviceInfo,
     reason: String,
+    /// Whether the device was created with `robustBufferAccess` (see [`GpuContext::robust_buffer_access`]).
+    robust_buffer_access: bool,
 }
 
 fn device_type_name(t: vk::PhysicalDeviceType) -> &'static str {
@@ -245,6 +250,9 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
         max_memory_allocation_size: maint3.max_memory_allocation_size,
         device_local_memory_bytes: device_local,
         uuid: ids.device_uuid,
+        robust_buffer_access: unsafe { instance.get_physical_device_features(pd) }
+            .robust_buffer_access
+            == vk::TRUE,
     }
 }
 
@@ -458,9 +466,19 @@ impl GpuContext {
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
+        // robustBufferAccess where the device has it (every Vulkan 1.0 device must, but only as a
+        // feature to enable): an index past the end of a storage or uniform buffer then reads zero or a
+        // value inside the buffer and writes nothing, instead of being undefined behaviour. The kernel's
+        // SPIR-V leaves buffer indices unchecked (naga's checks cost 37-42 % on sphere scenes on
+        // lavapipe, docs/performance.md); the driver's check is the guard on GPUs, where an out-of-bounds
+        // read can otherwise fault the device.
+        let robust_buffer_access = infos[index].robust_buffer_access;
+        let features =
+            vk::PhysicalDeviceFeatures::default().robust_buffer_access(robust_buffer_access);
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
-            .enabled_extension_names(&device_extensions);
+            .enabled_extension_names(&device_extensions)
+            .enabled_features(&features);
         let device = match unsafe { instance.create_device(physical, &device_info, None) } {
             Ok(d) => d,
             Err(e) => {
@@ -514,6 +532,7 @@ impl GpuContext {
             physical_device: physical,
             info: infos[index].clone(),
             reason,
+            robust_buffer_access,
         }))
     }
 
@@ -525,6 +544,13 @@ impl GpuContext {
     /// Why this device was chosen, in words.
     pub fn choice_reason(&self) -> &str {
         &self.reason
+    }
+
+    /// Whether buffer accesses are bounds-checked by the driver (`robustBufferAccess`, enabled wherever
+    /// the device offers it): an out-of-range index into a storage or uniform buffer reads zero or a value
+    /// of that buffer and writes nothing, so that a wrong index in the kernel cannot fault the device.
+    pub fn robust_buffer_access(&self) -> bool {
+        self.robust_buffer_access
     }
 
     /// Whether the Khronos validation layer is active.
@@ -637,6 +663,7 @@ mod tests {
             max_memory_allocation_size: 1,
             device_local_memory_bytes: 1,
             uuid: [0; 16],
+            robust_buffer_access: true,
         };
         let w = d.old_lavapipe_warning().expect("Mesa 22.3 is old");
         assert!(w.contains("Mesa 22.3") && w.contains("ci/setup.sh"), "{w}");
