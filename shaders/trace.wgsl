@@ -380,6 +380,18 @@ fn path_step(path: ptr<function, Path>) -> bool {
     }
     let hit_mat = hit_material(hit);
     var mat = materials[hit_mat];
+    // A path inside a glTF volume (KHR_materials_volume) meets its boundary from behind (the side its
+    // geometric normal points away from, as `facing` decides below): the segment it travelled lay inside,
+    // where the medium absorbs exp(-sigma_a t) (Beer-Lambert; d is a unit vector, so t is the distance).
+    // Everything this path gathers from here on passes through that factor, the emission found at this
+    // boundary first (light that crossed the medium too). Only such materials pay for the surface here.
+    if HAS_GLTF_PBR {
+        if mat.kind == MAT_GLTF_PBR && (mat.flags & MATERIAL_VOLUME) != 0u {
+            if dot(d, surface_at(o, d, hit).n) >= 0.0 {
+                beta *= exp(-vec3<f32>(mat.coat[4], mat.coat[5], mat.coat[6]) * hit.t);
+            }
+        }
+    }
     if HAS_EMISSION {
         if any(mat.emission > vec3<f32>(0.0)) {
             // Front or back: against the geometric normal (outward on spheres). A mesh's emissive
@@ -417,14 +429,6 @@ fn path_step(path: ptr<function, Path>) -> bool {
     // material, which scatters there as on its own front. surface_at chose the material the hit shows
     // (a back material, a blend's): shaded with it from here on.
     let back_face = !f.sh.entering;
-    // A path inside a glTF volume (KHR_materials_volume) meets its boundary from behind: the segment it
-    // travelled lay inside, where the medium absorbs exp(-sigma_a t) (Beer-Lambert; d is a unit vector,
-    // so t is the distance). Everything this path gathers from here on passes through that factor.
-    if HAS_GLTF_PBR {
-        if back_face && mat.kind == MAT_GLTF_PBR && (mat.flags & MATERIAL_VOLUME) != 0u {
-            beta *= exp(-vec3<f32>(mat.coat[4], mat.coat[5], mat.coat[6]) * hit.t);
-        }
-    }
     if back_face && (mat.flags & MATERIAL_ONE_SIDED) != 0u && !(HAS_BACK_MATERIALS && mat.back != 0u) {
         return false;
     }

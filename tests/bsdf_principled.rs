@@ -246,29 +246,15 @@ fn principled_albedo_matches_the_models_integral() {
         let cos_o = 0.6;
         let setup = Setup::new(material(p), cos_o);
         let samples = setup.samples(77, 1 << 18);
-        let (nc, np) = (1500, 600);
-        let mut integral = [0.0f64; 3];
-        for i in 0..nc {
-            let c = (i as f64 + 0.5) / nc as f64;
-            for j in 0..np {
-                let phi = 2.0 * PI * (j as f64 + 0.5) / np as f64;
-                let wi = from_angles(setup.ns, c, phi);
-                let f = principled_f(p, setup.ns, setup.wo, wi);
-                for k in 0..3 {
-                    integral[k] += f[k] * c * (2.0 * PI / (nc * np) as f64);
-                }
-            }
-        }
-        for (k, integral) in integral.iter().enumerate() {
-            let w: Vec<f64> = samples.iter().map(|o| f64::from(o.w[k])).collect();
-            let mean = w.iter().sum::<f64>() / w.len() as f64;
-            let var = w.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (w.len() - 1) as f64;
-            let se = (var / w.len() as f64).sqrt();
-            assert!(
-                (mean - integral).abs() < 5.0 * se + 2e-4,
-                "case {n} channel {k}: sampled albedo {mean} +- {se}, integral {integral}"
-            );
-        }
+        assert_albedo_matches(
+            &format!("case {n}"),
+            &samples,
+            setup.ns,
+            &[1.0],
+            (1500, 600),
+            2e-4,
+            |wi| principled_f(p, setup.ns, setup.wo, wi),
+        );
     }
 }
 

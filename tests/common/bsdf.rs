@@ -10,7 +10,9 @@
 //! * [`assert_reciprocal_and_one_sided_at_the_horizon`]: exactly at the horizon f and the pdf are 0 both
 //!   ways and a sample is absorbed;
 //! * [`material_from_toml`]: the material as a scene file gives it, read and uploaded by the renderer's
-//!   own code.
+//!   own code;
+//! * [`assert_albedo_matches`]: the sampler's directional albedo (the mean of its weights) against an f64
+//!   quadrature of the model's f cos (a furnace test against the model, not against the shader's eval).
 
 use super::stats::{GAUSS_LEGENDRE_4, assert_fits, chi2};
 use super::vec::{V3, basis, dot, from_angles, normalize, xyz};
@@ -451,4 +453,46 @@ pub fn material_from_toml(spec: &str) -> GpuMaterial {
     );
     let scene = vkpath::Scene::from_toml_str(&text, None).unwrap_or_else(|e| panic!("{spec}: {e}"));
     vkpath::kernel::upload::gpu_material(&scene.materials[0])
+}
+
+/// The directional albedo two ways: the mean of `samples`' weights f cos / pdf per channel (the sampler's
+/// estimate, with its standard error), and the integral of the model's `f(wi)` |cos theta_i| over the
+/// hemispheres on `sides` of `ns` (1: the one ns points to, -1: the other), by the midpoint rule in
+/// (|cos theta|, phi) over `cells` = (nc, np) cells. Asserts, per channel, that they agree within 5
+/// standard errors plus `slack` (the quadrature's own error), and returns the integrals.
+pub fn assert_albedo_matches(
+    what: &str,
+    samples: &[Out],
+    ns: V3,
+    sides: &[f64],
+    cells: (usize, usize),
+    slack: f64,
+    f: impl Fn(V3) -> [f64; 3],
+) -> [f64; 3] {
+    let (nc, np) = cells;
+    let cell = 2.0 * std::f64::consts::PI / (nc * np) as f64;
+    let mut integral = [0.0f64; 3];
+    for &side in sides {
+        for i in 0..nc {
+            let c = (i as f64 + 0.5) / nc as f64;
+            for j in 0..np {
+                let phi = 2.0 * std::f64::consts::PI * (j as f64 + 0.5) / np as f64;
+                let fi = f(from_angles(ns, side * c, phi));
+                for k in 0..3 {
+                    integral[k] += fi[k] * c * cell;
+                }
+            }
+        }
+    }
+    for (k, integral) in integral.iter().enumerate() {
+        let w: Vec<f64> = samples.iter().map(|o| f64::from(o.w[k])).collect();
+        let mean = w.iter().sum::<f64>() / w.len() as f64;
+        let var = w.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (w.len() - 1) as f64;
+        let se = (var / w.len() as f64).sqrt();
+        assert!(
+            (mean - integral).abs() < 5.0 * se + slack,
+            "{what} channel {k}: sampled albedo {mean} +- {se}, integral {integral}"
+        );
+    }
+    integral
 }
