@@ -838,8 +838,9 @@ fn material(m: gltf::Material, images: &mut Images, notes: &mut Notes) -> FileMa
 /// model): each factor with its extension's default, a value that is not a number or out of its range
 /// replaced by the default or clamped, with a warning. Their textures are not read (a warning each: the
 /// factor is used alone), except KHR_materials_volume's thicknessTexture, which the extension tells path
-/// tracers to ignore (they measure the thickness along the ray): a note. attenuationDistance is in the
-/// file's units; a node's scale does not change it.
+/// tracers to ignore (they measure the thickness along the ray): a note. attenuationDistance is a
+/// world-space distance (the extension says so, unlike thicknessFactor's mesh space): node scales leave it
+/// alone.
 fn layers(m: &gltf::Material, name: &str, notes: &mut Notes) -> GltfLayers {
     let mut out = GltfLayers::NONE;
     let extension = |ext: &str, notes: &mut Notes| {
