@@ -43,7 +43,8 @@ pub const STACK_SIZE: usize = 64;
 /// Depth from which splits are medians instead of SAH (see the module comment).
 pub const SAH_MAX_DEPTH: usize = 32;
 /// The traversal loop of one ray in `shaders/bvh.wgsl` runs at most this many iterations
-/// (`BVH_MAX_STEPS`). One iteration visits one interior node (its four child boxes), tests one triangle, or both.
+/// (`BVH_MAX_STEPS`). One iteration visits one interior node (its four child boxes), tests one triangle,
+/// or both.
 ///
 /// Why a cap: Mesa's lavapipe ends every loop of an invocation after 65535 iterations in total, and the
 /// renderer must bound one ray cast's iterations before it renders (`render::worst_case_loop_iterations`,
