@@ -116,6 +116,18 @@ fn bvh_push(sp: ptr<function, u32>, child: u32, t: f32) {
 // runs at most 4 nodes + triangles + 1 iterations (three pushed entries per node), as
 // render::worst_case_loop_iterations counts.
 fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
+    return bvh_walk(o, d, t_max, any_hit, false);
+}
+
+// The same for the spheres' own tree (`sphere_nodes`, whose leaves index `spheres`): the closest sphere
+// hit, as the loop over every sphere finds it (the same intersect_sphere, so the same t), or PRIM_NONE.
+fn sphere_bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
+    return bvh_walk(o, d, t_max, any_hit, true);
+}
+
+// The walk of either tree: `sphere_tree` (a constant at each call, which the drivers fold after
+// inlining) picks the node array and what a leaf holds.
+fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: bool) -> Hit {
     var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
     let inv_d = ray_inverse(d);
     let parallel = ray_parallel_axes(inv_d);
@@ -147,7 +159,12 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
             continue; // the popped entry was culled
         }
         if visit {
-            let n = bvh_node_at(node);
+            var n: BvhNode;
+            if sphere_tree {
+                n = sphere_nodes[node];
+            } else {
+                n = bvh_node_at(node);
+            }
             let boxes = intersect_boxes4(o, inv_d, parallel, decode_boxes(n), hit.t * BVH_CULL_SLACK);
             let t = select(boxes, vec4<f32>(T_MISS), n.child == vec4<u32>(BVH_NONE)); // unused slots
             // Sort the four (distance, child) pairs by distance, misses (T_MISS) last: a five-exchange
@@ -172,7 +189,22 @@ fn bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
             bvh_push(&sp, cb, tb);
             node = select(BVH_NONE, ca, ta < T_MISS);
         }
-        if test {
+        if test && sphere_tree {
+            // One sphere of the current leaf, tested as the loop over spheres tests it (scene.wgsl).
+            let sphere = spheres[first];
+            let ts = intersect_sphere(o, d, sphere.center, sphere.radius, 0.0, hit.t);
+            if ts < hit.t {
+                let candidate = Hit(ts, PRIM_SPHERE, first, vec3<f32>(0.0));
+                if !hit_is_transparent(o, d, candidate, sphere.material) {
+                    hit = candidate;
+                    if any_hit {
+                        break;
+                    }
+                }
+            }
+            first += 1u;
+        }
+        if test && !sphere_tree {
             // One triangle of the current leaf: the same watertight test as the brute-force loop, so both
             // find the same closest hit.
             let tri = triangle_at(first);

@@ -17,6 +17,9 @@ override HAS_TRIANGLES: bool = true;
 // loop over every triangle, which is also the reference the BVH is tested and benchmarked against.
 override HAS_BVH: bool = true;
 override HAS_TRIANGLE_LOOP: bool = true;
+// Spheres likewise, through their own BVH (`sphere_nodes`) when the scene has at least 16
+// (upload::SPHERE_BVH_MIN; the generic kernel finds `sphere_nodes` empty below), else by a loop.
+override HAS_SPHERE_BVH: bool = true;
 // Meshes: interpolated vertex normals. Materials' textures (scene_data.wgsl, MaterialTextures): a
 // textured albedo (base colour, tint), emission, metallic or roughness, normal maps, bump maps, and
 // opacity (cut-outs and stochastic transparency, constant or textured); any texture at all (the texture

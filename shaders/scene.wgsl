@@ -36,13 +36,23 @@ fn triangle_count() -> u32 {
 fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
     var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
     if HAS_SPHERES {
-        for (var i = 0u; i < sphere_count(); i++) {
-            let s = spheres[i];
-            let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
-            if t < hit.t {
-                let candidate = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0));
-                if !hit_is_transparent(o, d, candidate, s.material) {
-                    hit = candidate;
+        // Through the spheres' own BVH when the scene has one, else every sphere in turn.
+        var tree = false;
+        if HAS_SPHERE_BVH {
+            tree = arrayLength(&sphere_nodes) > 0u;
+            if tree {
+                hit = sphere_bvh_intersect(o, d, t_max, false);
+            }
+        }
+        if !tree {
+            for (var i = 0u; i < sphere_count(); i++) {
+                let s = spheres[i];
+                let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
+                if t < hit.t {
+                    let candidate = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0));
+                    if !hit_is_transparent(o, d, candidate, s.material) {
+                        hit = candidate;
+                    }
                 }
             }
         }
@@ -76,12 +86,21 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
 // Is anything in the way over (0, t_max)? Stops at the first blocker.
 fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
     if HAS_SPHERES {
-        for (var i = 0u; i < sphere_count(); i++) {
-            let s = spheres[i];
-            let t = intersect_sphere(o, d, s.center, s.radius, 0.0, t_max);
-            if t < t_max {
-                if !hit_is_transparent(o, d, Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0)), s.material) {
-                    return true;
+        var tree = false;
+        if HAS_SPHERE_BVH {
+            tree = arrayLength(&sphere_nodes) > 0u;
+            if tree && sphere_bvh_intersect(o, d, t_max, true).prim_kind != PRIM_NONE {
+                return true;
+            }
+        }
+        if !tree {
+            for (var i = 0u; i < sphere_count(); i++) {
+                let s = spheres[i];
+                let t = intersect_sphere(o, d, s.center, s.radius, 0.0, t_max);
+                if t < t_max {
+                    if !hit_is_transparent(o, d, Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0)), s.material) {
+                        return true;
+                    }
                 }
             }
         }

@@ -179,6 +179,9 @@ struct Hit {
 @group(0) @binding(3) var<storage, read> materials: array<Material>;
 @group(0) @binding(4) var<storage, read> lights: array<Light>;
 @group(0) @binding(7) var<storage, read> bvh_nodes: array<BvhNode>;
+// The spheres' own BVH (bvh.wgsl), when there are at least upload::SPHERE_BVH_MIN spheres: its leaves
+// index `spheres`, which the host then stores in the tree's leaf order. Empty otherwise.
+@group(0) @binding(38) var<storage, read> sphere_nodes: array<BvhNode>;
 @group(0) @binding(8) var<storage, read> mesh_faces: array<MeshFace>;
 @group(0) @binding(9) var<storage, read> mesh_vertices: array<MeshVertex>;
 @group(0) @binding(10) var<storage, read> meshes: array<MeshInfo>;

@@ -398,3 +398,165 @@ fn smooth_normals_are_continuous_across_shared_edges() {
         "shading normals jump by {worst_ratio} of the geometric jump across an edge"
     );
 }
+
+/// A scene of `n` spheres of random sizes scattered in a box (they may overlap) under a uniform sky.
+fn sphere_scene(n: usize, rng: &mut Rng) -> Scene {
+    let mut s = common::scene(&format!(
+        "{MINIMAL}\n[environment]\nradiance = [1.0, 1.0, 1.0]\n"
+    ));
+    for _ in 0..n {
+        s.spheres.push(vkpath::scene::Sphere {
+            center: rng.in_box(Vec3::splat(-20.0), Vec3::splat(20.0)),
+            radius: 0.2 + 2.0 * rng.next(),
+            material: 0,
+        });
+    }
+    s
+}
+
+/// The spheres' BVH (scenes of at least `upload::SPHERE_BVH_MIN` spheres) against the loop over every
+/// sphere, over random rays from inside and outside the cloud of 2000 spheres, grazing ones included:
+/// the same closest t, bit for bit, and the same sphere (the walk tests each sphere with the loop's own
+/// intersect_sphere, so only exact ties could differ); the any-hit walk agrees on occlusion; and a walk
+/// visits far fewer boxes and spheres than the loop tests spheres.
+#[test]
+fn sphere_bvh_matches_the_sphere_loop() {
+    let mut rng = Rng(11);
+    let scene = sphere_scene(2000, &mut rng);
+    let (mut k, gpu) = SceneKernel::new(
+        &scene,
+        include_str!("../shaders/tests/sphere_bvh_query.wgsl"),
+    );
+    assert!(
+        !gpu.sphere_nodes.is_empty(),
+        "2000 spheres get a BVH (upload::SPHERE_BVH_MIN = {})",
+        vkpath::kernel::upload::SPHERE_BVH_MIN
+    );
+    let mut rays = Vec::new();
+    for j in 0..4096 {
+        let o = if j % 2 == 0 {
+            rng.in_box(Vec3::splat(-25.0), Vec3::splat(25.0))
+        } else {
+            rng.direction() * 60.0
+        };
+        // Every fourth ray aims at a sphere's silhouette (grazing), the others anywhere.
+        let d = if j % 4 == 1 {
+            let s =
+                gpu.spheres[(rng.next() * gpu.spheres.len() as f32) as usize % gpu.spheres.len()];
+            let c = Vec3::from(s.center);
+            let to = (c - o).normalize();
+            let side = to.cross(rng.direction()).normalize();
+            (c + side * s.radius - o).normalize()
+        } else {
+            rng.direction()
+        };
+        rays.push(ray(o, d, T_MISS));
+    }
+    let out = k.run(&rays, 2, [0, 0, 0, 0]);
+    let mut hits = 0;
+    let mut steps = 0.0;
+    for i in 0..rays.len() {
+        let (walk, looped) = (out[2 * i], out[2 * i + 1]);
+        assert_eq!(
+            walk[0].to_bits(),
+            looped[0].to_bits(),
+            "ray {i}: walk t {} against loop t {}",
+            walk[0],
+            looped[0]
+        );
+        assert_eq!(
+            walk[1].to_bits(),
+            looped[1].to_bits(),
+            "ray {i}: another sphere"
+        );
+        let hit = looped[1].to_bits() != NONE;
+        assert_eq!(walk[3] == 1.0, hit, "ray {i}: any-hit walk disagrees");
+        hits += usize::from(hit);
+        steps += f64::from(walk[2]);
+    }
+    let mean_steps = steps / rays.len() as f64;
+    eprintln!(
+        "{hits} of {} rays hit; {mean_steps:.1} walk iterations a ray",
+        rays.len()
+    );
+    assert!(
+        hits > rays.len() / 4 && hits < rays.len(),
+        "{hits} hits: a poor test"
+    );
+    assert!(
+        mean_steps < 200.0,
+        "{mean_steps} iterations a ray: the walk is no better than the loop's 2000"
+    );
+}
+
+/// Renders of a field of spheres through their BVH and through the loop over every sphere (the same
+/// kernel with the sphere BVH feature off; the same uploaded spheres): the same bits, as each ray finds
+/// the same closest sphere either way.
+#[test]
+fn spheres_through_their_bvh_render_the_loops_bits() {
+    use vkpath::kernel::features::{Feature, FeatureSet};
+    use vkpath::render::{RenderOptions, Renderer, kernel_for};
+    let mut rng = Rng(5);
+    let mut scene = sphere_scene(300, &mut rng);
+    scene.image.width = 48;
+    scene.image.height = 32;
+    let ctx = testing::context();
+    let options = RenderOptions::default();
+    let gpu = GpuScene::build(&scene);
+    assert!(!gpu.sphere_nodes.is_empty());
+    let mut features = FeatureSet::of(&gpu, &params_for(&scene, options.roulette_depth));
+    assert!(features.has(Feature::SphereBvh));
+    let mut through_tree = Renderer::new(&ctx, &scene, &options).unwrap();
+    through_tree.run_pass(4).unwrap();
+    features.set(Feature::SphereBvh, false);
+    let mut looped =
+        Renderer::with_kernel(&ctx, &scene, &options, kernel_for(&features).unwrap()).unwrap();
+    looped.run_pass(4).unwrap();
+    let (a, b) = (through_tree.film().unwrap(), looped.film().unwrap());
+    assert!(
+        a.mean.iter().any(|p| p[0] > 0.0),
+        "a black image tests nothing"
+    );
+    assert_eq!(a.mean, b.mean, "the sphere BVH changed the image");
+    common::assert_no_validation_errors();
+}
+
+/// The spheres' BVH reorders the spheres (their leaf order) and renumbers what refers to them: the sphere
+/// lights. Fifteen spheres, three of them lamps (sphere lights, sampled by next-event estimation), render
+/// through the loop; the same fifteen plus a sixteenth far behind the camera, which turns the BVH on
+/// (upload::SPHERE_BVH_MIN) and changes nothing the camera sees, render the same bits.
+#[test]
+fn spheres_reordered_by_their_bvh_keep_their_lights() {
+    assert_eq!(vkpath::kernel::upload::SPHERE_BVH_MIN, 16);
+    let base = format!(
+        "{MINIMAL}lamp = {{ type = \"emitter\", radiance = [6.0, 5.0, 4.0] }}\n[image]\nwidth = 40\nheight = 30\n"
+    );
+    let mut rng = Rng(21);
+    let mut spheres = String::new();
+    for k in 0..15 {
+        let c = rng.in_box(Vec3::new(-15.0, -10.0, -15.0), Vec3::new(15.0, 10.0, 5.0));
+        let material = if k % 5 == 2 { "lamp" } else { "white" };
+        spheres += &format!(
+            "[[sphere]]\ncenter = [{}, {}, {}]\nradius = {}\nmaterial = \"{material}\"\n",
+            c.x,
+            c.y,
+            c.z,
+            1.0 + 2.0 * rng.next()
+        );
+    }
+    let fifteen = common::scene(&format!("{base}{spheres}"));
+    let sixteen = common::scene(&format!(
+        "{base}{spheres}[[sphere]]\ncenter = [0.0, 0.0, 400.0]\nradius = 1.0\nmaterial = \"white\"\n"
+    ));
+    assert!(GpuScene::build(&fifteen).sphere_nodes.is_empty());
+    assert!(!GpuScene::build(&sixteen).sphere_nodes.is_empty());
+    let (a, b) = (common::render(&fifteen), common::render(&sixteen));
+    assert!(
+        a.mean.iter().any(|p| p[0] > 0.0),
+        "a black image tests nothing"
+    );
+    assert_eq!(
+        a.mean, b.mean,
+        "the sphere BVH changed what the lamps light"
+    );
+}

@@ -26,6 +26,7 @@ pub enum Feature {
     Spheres,
     Triangles,
     Bvh,
+    SphereBvh,
     TriangleLoop,
     SmoothNormals,
     Textures,
@@ -138,6 +139,16 @@ const BEFORE_MATERIALS: &[FeatureRow] = &[
         constant: "HAS_BVH",
         group: Group::Other,
         needed: |g, _| !g.bvh_nodes.is_empty(),
+        reported: false,
+    },
+    FeatureRow {
+        // Spheres are found through their own BVH (scenes of at least `upload::SPHERE_BVH_MIN`);
+        // otherwise by a loop over every sphere.
+        feature: Feature::SphereBvh,
+        name: "sphere_bvh",
+        constant: "HAS_SPHERE_BVH",
+        group: Group::Other,
+        needed: |g, _| !g.sphere_nodes.is_empty(),
         reported: false,
     },
     FeatureRow {
@@ -611,13 +622,17 @@ impl FeatureSet {
     }
 
     /// Switches the feature named as in [`FeatureSet::absent`] on (its code back in the kernel). Naming
-    /// `triangles` brings back both ways of finding them (BVH and loop), as in the generic kernel.
+    /// `triangles` brings back both ways of finding them (BVH and loop), as in the generic kernel, and
+    /// `spheres` the sphere BVH beside their loop.
     pub fn enable(&mut self, name: &str) {
         if let Some(row) = features().iter().find(|r| r.name == name) {
             self.set(row.feature, true);
             if row.feature == Feature::Triangles {
                 self.set(Feature::Bvh, true);
                 self.set(Feature::TriangleLoop, true);
+            }
+            if row.feature == Feature::Spheres {
+                self.set(Feature::SphereBvh, true);
             }
         }
     }

@@ -84,6 +84,7 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
         materials: gpu_materials,
         lights: gpu_lights,
         bvh_nodes,
+        sphere_nodes: _, // follows from the spheres (hashed in their uploaded order)
         mesh_faces,
         mesh_vertices,
         meshes,

@@ -58,7 +58,8 @@ pub const MAX_PATHS_IN_FLIGHT: u64 = 1 << 20;
 
 /// An upper bound on the loop iterations one path can run in trace.wgsl: for each of max_bounces + 1
 /// ray casts, one scene query for the closest hit, and for each light, one shadow query, plus the loop
-/// bookkeeping. A query loops over the spheres, then walks the triangle BVH (shaders/bvh.wgsl).
+/// bookkeeping. A query loops over the spheres (or walks their BVH, when there are many), then walks the
+/// triangle BVH (shaders/bvh.wgsl).
 ///
 /// One BVH walk runs at most `bvh::MAX_STEPS` iterations (2048), whatever the number of triangles: that
 /// cap is what lets a 10^6-triangle mesh fit lavapipe's budget, and it is far above what a ray needs in
@@ -75,7 +76,16 @@ pub fn worst_case_loop_iterations(gpu: &GpuScene, max_bounces: u32) -> u64 {
         (crate::scene::bvh::WIDTH as u64 * gpu.bvh_nodes.len() as u64 + triangles + 1)
             .min(u64::from(crate::scene::bvh::MAX_STEPS))
     };
-    let per_query = gpu.spheres.len() as u64 + walk;
+    // The spheres: every one in a loop, or a walk of their own tree, bounded the same way.
+    let spheres = if gpu.sphere_nodes.is_empty() {
+        gpu.spheres.len() as u64
+    } else {
+        (crate::scene::bvh::WIDTH as u64 * gpu.sphere_nodes.len() as u64
+            + gpu.spheres.len() as u64
+            + 1)
+        .min(u64::from(crate::scene::bvh::MAX_STEPS))
+    };
+    let per_query = spheres + walk;
     let lights = gpu.lights.len() as u64;
     // Per cast: the closest hit, a shadow query per light, and (with mis) a look-up of the light a hit
     // emitter belongs to.
@@ -350,6 +360,12 @@ pub fn upload_scene(
     };
     if kernel.uses("spheres") {
         bound.push(small("spheres", bytemuck::cast_slice(&gpu.spheres))?);
+    }
+    if kernel.uses("sphere_nodes") {
+        bound.push(small(
+            "sphere_nodes",
+            bytemuck::cast_slice(&gpu.sphere_nodes),
+        )?);
     }
     if kernel.uses("materials") {
         bound.push(small("materials", bytemuck::cast_slice(&gpu.materials))?);
@@ -1056,6 +1072,7 @@ fn check_device_memory(
         materials,
         lights,
         bvh_nodes,
+        sphere_nodes,
         mesh_faces,
         mesh_vertices,
         meshes,
@@ -1069,7 +1086,12 @@ fn check_device_memory(
         triangle_light: _,
         stats: _,
     } = gpu;
-    let arrays: [(&str, &str, u64); 14] = [
+    let arrays: [(&str, &str, u64); 15] = [
+        (
+            "sphere BVH nodes",
+            "sphere_nodes",
+            std::mem::size_of_val(sphere_nodes.as_slice()) as u64,
+        ),
         (
             "spheres",
             "spheres",

@@ -153,25 +153,40 @@ struct Builder<'a> {
 /// triangles, so the tree, the order and the bits of every render are the same on any number of threads.
 pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
     use rayon::prelude::*;
-    let start = Instant::now();
-    let n = triangles.len();
-    if n == 0 {
-        return Bvh::default();
-    }
     assert!(
-        n <= super::mesh::MAX_TRIANGLES,
+        triangles.len() <= super::mesh::MAX_TRIANGLES,
         "the scene parser caps triangles"
     );
-    let prims: Vec<Prim> = triangles
+    let start = Instant::now();
+    let boxes: Vec<Aabb> = triangles
         .par_iter()
         .map(|t| {
             let mut b = Aabb::EMPTY;
             t.iter().for_each(|&p| b.grow(p));
-            // The box centre: what binning sorts by (pbrt-v4 does the same).
-            Prim {
-                bounds: b,
-                centroid: (b.lo + b.hi) * 0.5,
-            }
+            b
+        })
+        .collect();
+    build_prims(&boxes, start)
+}
+
+/// Builds the hierarchy over primitives given by their boxes (spheres: `upload`'s sphere tree), as
+/// [`build`] does over triangles; the primitives must be uploaded in `order`.
+pub fn build_boxes(boxes: &[Aabb]) -> Bvh {
+    build_prims(boxes, Instant::now())
+}
+
+fn build_prims(boxes: &[Aabb], start: Instant) -> Bvh {
+    use rayon::prelude::*;
+    let n = boxes.len();
+    if n == 0 {
+        return Bvh::default();
+    }
+    // The box centre: what binning sorts by (pbrt-v4 does the same).
+    let prims: Vec<Prim> = boxes
+        .par_iter()
+        .map(|&b| Prim {
+            bounds: b,
+            centroid: (b.lo + b.hi) * 0.5,
         })
         .collect();
     let builder = Builder { prims: &prims };
