@@ -1,5 +1,6 @@
 // bvh.wgsl: the triangle BVH (built on the host by src/scene/bvh.rs, nodes in `bvh_nodes`), walked without
-// recursion.
+// recursion; and the spheres' BVH (`sphere_nodes`, when a scene has many: src/kernel/upload.rs), the same
+// kind of tree over the spheres' boxes, walked by the same code with spheres in its leaves.
 //
 // The tree is 4 wide: node 0 is the root and is always an interior node; an interior node stores the
 // boxes of its (up to) four children, quantised to a byte per plane (Ylitie, Karras & Laine 2017), and one
@@ -8,7 +9,8 @@
 // small stack, farthest first; a popped entry is skipped when the closest hit found since is nearer than
 // where the ray enters its box (Aila & Laine, "Understanding the Efficiency of Ray Traversal on GPUs",
 // HPG 2009, for storing the children's boxes in the parent; Dammertz et al. 2008 and Embree's BVH4 for the
-// width; pbrt-v4 §7.3.5 for the stack walk). Leaves are ranges of at most 4 triangles in `triangles`.
+// width; pbrt-v4 §7.3.5 for the stack walk). Leaves are ranges of at most 4 triangles in `triangles` (of
+// spheres in `spheres`, in the spheres' tree).
 //
 // A child reference with BVH_LEAF set is a leaf, first = (ref & ~BVH_LEAF) >> BVH_LEAF_COUNT_BITS and
 // count = (ref & BVH_LEAF_COUNT_MASK) + 1; BVH_NONE is an unused slot; otherwise it is a node index.
