@@ -28,7 +28,7 @@
 
 use super::{Buffer, Command, ContextOptions, GpuContext, GpuError, Kernel};
 use crate::kernel::{library, specialise};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 
 /// A process-wide context for tests, with the Khronos validation layer on when it is installed
 /// (`VKPATH_VALIDATION=0` turns it off). Panics with the setup message if no device exists: tests need one.
@@ -130,11 +130,32 @@ impl TestKernel {
 
 /// Compiles `kernel_source` after the shader library, runs one invocation per output element over
 /// `input`, and returns the `output_len` elements of the output buffer.
+///
+/// Compiled kernels are kept for the process and reused (keyed by the context and the source): naga and
+/// the driver's compiler take about as long as a dispatch of 2^18 BSDF samples on lavapipe, and the
+/// statistical tests call this hundreds of times with the same kernel. A kernel serves one call at a
+/// time; tests that run at once on other threads compile their own copy, which then joins the pool.
 pub fn run_kernel<I: bytemuck::Pod, O: bytemuck::Pod>(
     ctx: &Arc<GpuContext>,
     kernel_source: &str,
     input: &[I],
     output_len: usize,
 ) -> Result<Vec<O>, GpuError> {
-    TestKernel::new(ctx, kernel_source)?.run(input, output_len)
+    type Pool = Vec<((usize, String), TestKernel)>;
+    static POOL: Mutex<Pool> = Mutex::new(Vec::new());
+    let key = (Arc::as_ptr(ctx) as usize, kernel_source.to_string());
+    let idle = {
+        let mut pool = POOL.lock().unwrap_or_else(|e| e.into_inner());
+        let at = pool.iter().position(|(k, _)| *k == key);
+        at.map(|i| pool.swap_remove(i).1)
+    };
+    let mut kernel = match idle {
+        Some(k) => k,
+        None => TestKernel::new(ctx, kernel_source)?,
+    };
+    let out = kernel.run(input, output_len);
+    POOL.lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .push((key, kernel));
+    out
 }
