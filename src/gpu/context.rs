@@ -97,6 +97,9 @@ pub struct GpuContext {
     pub(crate) allocator: Mutex<Option<Allocator>>,
     pub(crate) limits: vk::PhysicalDeviceLimits,
     pub(crate) pipeline_cache: vk::PipelineCache,
+    /// Compute pipelines by their SPIR-V, made once per context and kept until it drops (see
+    /// [`super::kernel::Kernel::new`]).
+    pub(crate) pipelines: Mutex<std::collections::HashMap<Vec<u32>, super::kernel::Pipeline>>,
     /// The window's surface (`ContextOptions::window`); destroyed before the instance.
     #[cfg(feature = "preview")]
     pub(crate) surface: Option<super::present::Surface>,
@@ -511,8 +514,9 @@ impl GpuContext {
             }
         };
         let limits = unsafe { instance.get_physical_device_properties(physical) }.limits;
-        // One pipeline cache for the context: renderers of the same feature set (same SPIR-V) reuse the
-        // driver's compiled pipeline instead of compiling it again. A failure just means no cache.
+        // One pipeline cache for the context, for drivers that share work between pipelines through it
+        // (renderers of the same SPIR-V share the pipeline itself: `pipelines`). A failure just means
+        // no cache.
         let pipeline_cache =
             unsafe { device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
                 .unwrap_or(vk::PipelineCache::null());
@@ -526,6 +530,7 @@ impl GpuContext {
             allocator: Mutex::new(Some(allocator)),
             limits,
             pipeline_cache,
+            pipelines: Mutex::new(Default::default()),
             #[cfg(feature = "preview")]
             surface,
             #[cfg(feature = "preview")]
@@ -614,6 +619,10 @@ impl Drop for GpuContext {
             let _ = self.device.device_wait_idle();
             // The allocator frees its memory blocks: it must go before the device.
             self.allocator().take();
+            let pipelines = self.pipelines.get_mut().unwrap_or_else(|e| e.into_inner());
+            for (_, p) in pipelines.drain() {
+                p.destroy(&self.device);
+            }
             self.device
                 .destroy_pipeline_cache(self.pipeline_cache, None);
             self.device.destroy_device(None);

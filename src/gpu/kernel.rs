@@ -10,9 +10,8 @@ pub struct Kernel {
     ctx: Arc<GpuContext>,
     bindings: Vec<BindingInfo>,
     workgroup_size: [u32; 3],
-    set_layout: vk::DescriptorSetLayout,
-    pipeline_layout: vk::PipelineLayout,
-    pipeline: vk::Pipeline,
+    /// The context's pipeline for this SPIR-V (owned by the context, not destroyed with the kernel).
+    pipeline: Pipeline,
     pool: vk::DescriptorPool,
     set: vk::DescriptorSet,
     command_pool: vk::CommandPool,
@@ -20,22 +19,56 @@ pub struct Kernel {
     fence: vk::Fence,
 }
 
-impl Kernel {
-    pub fn new(ctx: &Arc<GpuContext>, shader: &CompiledShader) -> Result<Kernel, GpuError> {
-        // Build into a Kernel with null handles first, so that Drop cleans up whatever a failure leaves.
-        let mut k = Kernel {
-            ctx: ctx.clone(),
-            bindings: shader.bindings.clone(),
-            workgroup_size: shader.workgroup_size,
-            set_layout: vk::DescriptorSetLayout::null(),
-            pipeline_layout: vk::PipelineLayout::null(),
-            pipeline: vk::Pipeline::null(),
-            pool: vk::DescriptorPool::null(),
-            set: vk::DescriptorSet::null(),
-            command_pool: vk::CommandPool::null(),
-            command_buffer: vk::CommandBuffer::null(),
-            fence: vk::Fence::null(),
+/// A compiled compute pipeline with its layouts. The context keeps one per SPIR-V module
+/// (`GpuContext::pipelines`) and destroys them when it drops: a driver's compile of the render kernel
+/// takes seconds (lavapipe runs LLVM over it), and renderers of the same scene features in one process
+/// (the tests, a preview that reloads its scene, a farm worker's parts) then compile it once. Every
+/// kernel of the module shares the pipeline and has its own descriptor set, so they can run at once.
+#[derive(Clone, Copy)]
+pub(crate) struct Pipeline {
+    set_layout: vk::DescriptorSetLayout,
+    pipeline_layout: vk::PipelineLayout,
+    pipeline: vk::Pipeline,
+}
+
+impl Pipeline {
+    const NULL: Pipeline = Pipeline {
+        set_layout: vk::DescriptorSetLayout::null(),
+        pipeline_layout: vk::PipelineLayout::null(),
+        pipeline: vk::Pipeline::null(),
+    };
+
+    /// The context's pipeline for `shader`, compiled on first use.
+    fn of(ctx: &GpuContext, shader: &CompiledShader) -> Result<Pipeline, GpuError> {
+        let known = |ctx: &GpuContext| {
+            ctx.pipelines
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .get(&shader.spirv)
+                .copied()
         };
+        if let Some(p) = known(ctx) {
+            return Ok(p);
+        }
+        // Compiled without holding the lock (other kernels go on being made); if another thread
+        // compiled the same module meanwhile, its pipeline is kept and this one destroyed.
+        let mut made = Pipeline::NULL;
+        if let Err(e) = made.compile(ctx, shader) {
+            made.destroy(&ctx.device);
+            return Err(e);
+        }
+        let mut pipelines = ctx.pipelines.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = pipelines.get(&shader.spirv) {
+            made.destroy(&ctx.device);
+            return Ok(*p);
+        }
+        pipelines.insert(shader.spirv.clone(), made);
+        Ok(made)
+    }
+
+    /// Creates the layouts (reflected bindings, one set) and the pipeline into `self`, whose handles stay
+    /// null from the first failure on.
+    fn compile(&mut self, ctx: &GpuContext, shader: &CompiledShader) -> Result<(), GpuError> {
         let device = &ctx.device;
         let layout_bindings: Vec<vk::DescriptorSetLayoutBinding> = shader
             .bindings
@@ -50,14 +83,14 @@ impl Kernel {
             .collect();
         // SAFETY (whole block): plain object creation with create-infos that outlive each call.
         unsafe {
-            k.set_layout = device
+            self.set_layout = device
                 .create_descriptor_set_layout(
                     &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
                     None,
                 )
                 .map_err(|e| GpuError::vk("vkCreateDescriptorSetLayout", e))?;
-            let set_layouts = [k.set_layout];
-            k.pipeline_layout = device
+            let set_layouts = [self.set_layout];
+            self.pipeline_layout = device
                 .create_pipeline_layout(
                     &vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts),
                     None,
@@ -75,12 +108,45 @@ impl Kernel {
                 .name(c"main");
             let info = vk::ComputePipelineCreateInfo::default()
                 .stage(stage)
-                .layout(k.pipeline_layout);
+                .layout(self.pipeline_layout);
             let pipelines = device.create_compute_pipelines(ctx.pipeline_cache, &[info], None);
             device.destroy_shader_module(module, None);
-            k.pipeline =
+            self.pipeline =
                 pipelines.map_err(|(_, e)| GpuError::vk("vkCreateComputePipelines", e))?[0];
+        }
+        Ok(())
+    }
 
+    /// Destroys the handles (null ones are ignored). Only when no kernel uses them any more: the
+    /// context's drop, or a pipeline that was never shared.
+    pub(crate) fn destroy(&self, device: &ash::Device) {
+        // SAFETY: see above; the caller guarantees nothing in flight uses the pipeline.
+        unsafe {
+            device.destroy_pipeline(self.pipeline, None);
+            device.destroy_pipeline_layout(self.pipeline_layout, None);
+            device.destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}
+
+impl Kernel {
+    pub fn new(ctx: &Arc<GpuContext>, shader: &CompiledShader) -> Result<Kernel, GpuError> {
+        // Build into a Kernel with null handles first, so that Drop cleans up whatever a failure leaves.
+        let mut k = Kernel {
+            ctx: ctx.clone(),
+            bindings: shader.bindings.clone(),
+            workgroup_size: shader.workgroup_size,
+            pipeline: Pipeline::of(ctx, shader)?,
+            pool: vk::DescriptorPool::null(),
+            set: vk::DescriptorSet::null(),
+            command_pool: vk::CommandPool::null(),
+            command_buffer: vk::CommandBuffer::null(),
+            fence: vk::Fence::null(),
+        };
+        let device = &ctx.device;
+        let set_layouts = [k.pipeline.set_layout];
+        // SAFETY (whole block): plain object creation with create-infos that outlive each call.
+        unsafe {
             let uniform_count = shader
                 .bindings
                 .iter()
@@ -202,11 +268,11 @@ impl Kernel {
                         .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
                 )
                 .map_err(|e| GpuError::vk("vkBeginCommandBuffer", e))?;
-            device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            device.cmd_bind_pipeline(cb, vk::PipelineBindPoint::COMPUTE, self.pipeline.pipeline);
             device.cmd_bind_descriptor_sets(
                 cb,
                 vk::PipelineBindPoint::COMPUTE,
-                self.pipeline_layout,
+                self.pipeline.pipeline_layout,
                 0,
                 &[self.set],
                 &[],
@@ -314,9 +380,6 @@ impl Drop for Kernel {
             d.destroy_fence(self.fence, None);
             d.destroy_command_pool(self.command_pool, None);
             d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_pipeline(self.pipeline, None);
-            d.destroy_pipeline_layout(self.pipeline_layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
         }
     }
 }
