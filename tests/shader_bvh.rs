@@ -423,10 +423,7 @@ fn sphere_scene(n: usize, rng: &mut Rng) -> Scene {
 fn sphere_bvh_matches_the_sphere_loop() {
     let mut rng = Rng(11);
     let scene = sphere_scene(2000, &mut rng);
-    let (mut k, gpu) = SceneKernel::new(
-        &scene,
-        include_str!("../shaders/tests/sphere_bvh_query.wgsl"),
-    );
+    let (mut k, gpu) = SceneKernel::new(&scene, include_str!("../shaders/tests/bvh_query.wgsl"));
     assert!(
         !gpu.sphere_nodes.is_empty(),
         "2000 spheres get a BVH (upload::SPHERE_BVH_MIN = {})",
@@ -452,7 +449,7 @@ fn sphere_bvh_matches_the_sphere_loop() {
         };
         rays.push(ray(o, d, T_MISS));
     }
-    let out = k.run(&rays, 2, [0, 0, 0, 0]);
+    let out = k.run(&rays, 2, [0, gpu.spheres.len() as u32, 1, 1]);
     let mut hits = 0;
     let mut steps = 0.0;
     for i in 0..rays.len() {

@@ -73,17 +73,13 @@ pub fn worst_case_loop_iterations(gpu: &GpuScene, max_bounces: u32) -> u64 {
     let walk = if triangles == 0 {
         0
     } else {
-        (crate::scene::bvh::WIDTH as u64 * gpu.bvh_nodes.len() as u64 + triangles + 1)
-            .min(u64::from(crate::scene::bvh::MAX_STEPS))
+        walk_iterations(gpu.bvh_nodes.len(), gpu.triangles.len())
     };
     // The spheres: every one in a loop, or a walk of their own tree, bounded the same way.
     let spheres = if gpu.sphere_nodes.is_empty() {
         gpu.spheres.len() as u64
     } else {
-        (crate::scene::bvh::WIDTH as u64 * gpu.sphere_nodes.len() as u64
-            + gpu.spheres.len() as u64
-            + 1)
-        .min(u64::from(crate::scene::bvh::MAX_STEPS))
+        walk_iterations(gpu.sphere_nodes.len(), gpu.spheres.len())
     };
     let per_query = spheres + walk;
     let lights = gpu.lights.len() as u64;
@@ -91,6 +87,15 @@ pub fn worst_case_loop_iterations(gpu: &GpuScene, max_bounces: u32) -> u64 {
     // emitter belongs to.
     let per_cast = per_query + lights * (per_query + 2) + 1;
     (max_bounces as u64 + 1) * per_cast + 1
+}
+
+/// The most iterations one walk of a BVH (bvh.wgsl, bvh_walk) runs over a tree of `nodes` interior nodes
+/// and `primitives` leaf primitives: each iteration visits a node, tests a primitive or pops an entry
+/// (at most WIDTH - 1 pushed per node), plus the last that ends the walk; and never more than the walk's
+/// own cap, `bvh::MAX_STEPS`.
+fn walk_iterations(nodes: usize, primitives: usize) -> u64 {
+    use crate::scene::bvh::{MAX_STEPS, WIDTH};
+    (WIDTH as u64 * nodes as u64 + primitives as u64 + 1).min(u64::from(MAX_STEPS))
 }
 
 /// Renderer settings that are not part of the scene file.
