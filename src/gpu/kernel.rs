@@ -390,3 +390,72 @@ fn descriptor_type(kind: BufferKind) -> vk::DescriptorType {
         BufferKind::Storage => vk::DescriptorType::STORAGE_BUFFER,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gpu::testing;
+    use crate::kernel::{library, specialise};
+
+    const DOUBLE: &str = "
+@group(0) @binding(0) var<storage, read> input: array<u32>;
+@group(0) @binding(1) var<storage, read_write> output: array<u32>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&output) { return; }
+    output[id.x] = 2u * input[id.x] + OFFSET;
+}";
+
+    fn compiled(offset: u32) -> CompiledShader {
+        let text = format!("const OFFSET: u32 = {offset}u;\n{DOUBLE}");
+        let source = library::assemble_text("test kernel", &text).unwrap();
+        specialise::compile(&source).unwrap()
+    }
+
+    /// Binds `k` to its own buffers over `input`; returns them (input, output).
+    fn bind(ctx: &Arc<GpuContext>, k: &mut Kernel, input: &[u32]) -> (Buffer, Buffer) {
+        let i = Buffer::storage_from(ctx, "input", input).unwrap();
+        let o = Buffer::readable_storage(ctx, "output", 4 * input.len() as u64).unwrap();
+        k.bind(&[("input", &i), ("output", &o)]).unwrap();
+        (i, o)
+    }
+
+    /// Runs `k` over `n` elements and reads its output buffer.
+    fn run(k: &mut Kernel, (_, o): &(Buffer, Buffer), n: usize) -> Vec<u32> {
+        k.submit(&[Command::Dispatch {
+            invocations: [n as u32, 1, 1],
+        }])
+        .unwrap();
+        bytemuck::pod_collect_to_vec(&o.read_bytes().unwrap()[..4 * n])
+    }
+
+    /// Kernels of one SPIR-V module share the context's pipeline, each with its own descriptor set (so
+    /// each runs over its own buffers), the pipeline outlives the kernels, and another module gets its own.
+    #[test]
+    fn kernels_of_one_module_share_its_pipeline_and_keep_their_own_buffers() {
+        let ctx = testing::context();
+        let one = compiled(1);
+        let mut a = Kernel::new(&ctx, &one).unwrap();
+        let mut b = Kernel::new(&ctx, &one).unwrap();
+        assert_eq!(a.pipeline.pipeline, b.pipeline.pipeline);
+        assert_ne!(a.set, b.set);
+        // Both bound before either runs: each runs over its own buffers.
+        let buffers_a = bind(&ctx, &mut a, &[1, 2, 3]);
+        let buffers_b = bind(&ctx, &mut b, &[10, 20]);
+        assert_eq!(run(&mut b, &buffers_b, 2), [21, 41]);
+        assert_eq!(run(&mut a, &buffers_a, 3), [3, 5, 7]);
+        let shared = a.pipeline.pipeline;
+        drop(a);
+        drop(b);
+        let mut c = Kernel::new(&ctx, &one).unwrap();
+        assert_eq!(c.pipeline.pipeline, shared);
+        let buffers_c = bind(&ctx, &mut c, &[5]);
+        assert_eq!(run(&mut c, &buffers_c, 1), [11]);
+        let mut other = Kernel::new(&ctx, &compiled(7)).unwrap();
+        assert_ne!(other.pipeline.pipeline, shared);
+        let buffers_other = bind(&ctx, &mut other, &[5]);
+        assert_eq!(run(&mut other, &buffers_other, 1), [17]);
+        let errors = ctx.validation_errors();
+        assert!(errors.is_empty(), "validation errors: {errors:?}");
+    }
+}
