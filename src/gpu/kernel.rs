@@ -21,8 +21,8 @@ pub struct Kernel {
 
 /// A compiled compute pipeline with its layouts. The context keeps one per SPIR-V module
 /// (`GpuContext::pipelines`) and destroys them when it drops: a driver's compile of the render kernel
-/// takes seconds (lavapipe runs LLVM over it), and renderers of the same scene features in one process
-/// (the tests, a preview that reloads its scene, a farm worker's parts) then compile it once. Every
+/// takes seconds (lavapipe runs LLVM over it), and the renderers of one feature set that a process makes on
+/// one context (the tests make many) then compile it once. Every
 /// kernel of the module shares the pipeline and has its own descriptor set, so they can run at once.
 #[derive(Clone, Copy)]
 pub(crate) struct Pipeline {
