@@ -16,8 +16,21 @@
 // count = (ref & BVH_LEAF_COUNT_MASK) + 1; BVH_NONE is an unused slot; otherwise it is a node index.
 // (Mirrors src/scene/bvh.rs.)
 //
+// Instances (a two-level BVH; src/kernel/upload.rs, add_instanced): the top-level tree's leaves are
+// placements of meshes whose triangles and trees are stored once, in the mesh's own space. Reaching one,
+// the walk maps the ray into that space (o' = M^-1 o, d' = M^-1 d, not renormalised, so that t is the
+// same parameter along both rays and the closest hit so far culls in either), pushes BVH_EXIT and goes
+// on in the placement's tree; popping BVH_EXIT restores the world ray (pbrt-v4 §7.1.4's
+// TransformedPrimitive, with the recursion turned into the walk's own stack, as Embree's instancing does).
+//
 // requires: scene_data.wgsl, intersect.wgsl, opacity.wgsl
 const BVH_LEAF: u32 = 0x80000000u;
+// In a scene with instances (HAS_INSTANCES), a top-level leaf is one placement: BVH_LEAF | BVH_INSTANCE |
+// (i << BVH_LEAF_COUNT_BITS) for instances[i]. BVH_EXIT (never a placement's reference: the host keeps
+// their indices below 2^28) is what the walk pushes under a placement's tree, to take the ray back to
+// the world when the tree is done.
+const BVH_INSTANCE: u32 = 0x40000000u;
+const BVH_EXIT: u32 = 0xfffffffeu;
 const BVH_LEAF_COUNT_BITS: u32 = 2u;
 const BVH_LEAF_COUNT_MASK: u32 = 3u;
 const BVH_NONE: u32 = 0xffffffffu;
@@ -130,10 +143,14 @@ fn sphere_bvh_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool) -
 // The walk of either tree: `sphere_tree` (a constant at each call, which the drivers fold after
 // inlining) picks the node array and what a leaf holds.
 fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: bool) -> Hit {
-    var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
-    let inv_d = ray_inverse(d);
-    let parallel = ray_parallel_axes(inv_d);
-    let tr = triangle_ray(o, d);
+    var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0), NO_INSTANCE);
+    // The ray as the current tree sees it: in the world, or in a placement's space (instance).
+    var ro = o;
+    var rd = d;
+    var inv_d = ray_inverse(d);
+    var parallel = ray_parallel_axes(inv_d);
+    var tr = triangle_ray(o, d);
+    var instance = NO_INSTANCE;
     var sp = 0u;
     var node = 0u; // the next reference to visit (a node, or a leaf waiting for the current one), or BVH_NONE
     var first = 0u; // triangles [first, end) of the current leaf
@@ -146,6 +163,31 @@ fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: 
             if bvh_stack_t[sp] <= hit.t * BVH_CULL_SLACK {
                 node = bvh_stack_ref[sp];
             }
+        }
+        if HAS_INSTANCES && !sphere_tree && first == end && node != BVH_NONE
+           && (node & (BVH_LEAF | BVH_INSTANCE)) == (BVH_LEAF | BVH_INSTANCE) {
+            if node == BVH_EXIT {
+                // The placement's tree is done: back to the world ray.
+                ro = o;
+                rd = d;
+                instance = NO_INSTANCE;
+                node = BVH_NONE;
+            } else {
+                // Into placement i's space, and on with its tree's root (visited below, this iteration).
+                instance = (node & ~(BVH_LEAF | BVH_INSTANCE)) >> BVH_LEAF_COUNT_BITS;
+                let m = instances[instance];
+                ro = vec3<f32>(dot(m.to_object_x.xyz, o) + m.to_object_x.w, dot(m.to_object_y.xyz, o) + m.to_object_y.w,
+                               dot(m.to_object_z.xyz, o) + m.to_object_z.w);
+                rd = vec3<f32>(dot(m.to_object_x.xyz, d), dot(m.to_object_y.xyz, d), dot(m.to_object_z.xyz, d));
+                // (Never culled: its entry distance is 0.)
+                bvh_stack_ref[sp] = BVH_EXIT;
+                bvh_stack_t[sp] = 0.0;
+                sp += 1u;
+                node = m.root;
+            }
+            inv_d = ray_inverse(rd);
+            parallel = ray_parallel_axes(inv_d);
+            tr = triangle_ray(ro, rd);
         }
         if first == end && node != BVH_NONE && (node & BVH_LEAF) != 0u {
             first = (node & ~BVH_LEAF) >> BVH_LEAF_COUNT_BITS;
@@ -167,7 +209,7 @@ fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: 
             } else {
                 n = bvh_node_at(node);
             }
-            let boxes = intersect_boxes4(o, inv_d, parallel, decode_boxes(n), hit.t * BVH_CULL_SLACK);
+            let boxes = intersect_boxes4(ro, inv_d, parallel, decode_boxes(n), hit.t * BVH_CULL_SLACK);
             let t = select(boxes, vec4<f32>(T_MISS), n.child == vec4<u32>(BVH_NONE)); // unused slots
             // Sort the four (distance, child) pairs by distance, misses (T_MISS) last: a five-exchange
             // sorting network (Knuth, TAOCP 3, §5.3.4), strict comparisons so that equal distances keep
@@ -196,7 +238,7 @@ fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: 
             let sphere = spheres[first];
             let ts = intersect_sphere(o, d, sphere.center, sphere.radius, 0.0, hit.t);
             if ts < hit.t {
-                let candidate = Hit(ts, PRIM_SPHERE, first, vec3<f32>(0.0));
+                let candidate = Hit(ts, PRIM_SPHERE, first, vec3<f32>(0.0), NO_INSTANCE);
                 if !hit_is_transparent(o, d, candidate, sphere.material) {
                     hit = candidate;
                     if any_hit {
@@ -213,8 +255,8 @@ fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: 
             let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
             if th.t < hit.t {
                 // (A hit the surface's opacity lets through is no hit: scene.wgsl, hit_is_transparent.)
-                let candidate = Hit(th.t, PRIM_TRIANGLE, first, th.b);
-                if !hit_is_transparent(o, d, candidate, tri.material) {
+                let candidate = Hit(th.t, PRIM_TRIANGLE, first, th.b, instance);
+                if !hit_is_transparent(ro, rd, candidate, tri.material) {
                     hit = candidate;
                     if any_hit {
                         break;

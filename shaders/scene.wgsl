@@ -34,7 +34,7 @@ fn triangle_count() -> u32 {
 // The closest intersection along the ray in (0, t_max). The origin has already been offset off its
 // surface (offset_ray_origin), so t_min is 0.
 fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
-    var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0));
+    var hit = Hit(t_max, PRIM_NONE, 0u, vec3<f32>(0.0), NO_INSTANCE);
     if HAS_SPHERES {
         // Through the spheres' own BVH when the scene has one, else every sphere in turn.
         var tree = false;
@@ -49,7 +49,7 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
                 let s = spheres[i];
                 let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
                 if t < hit.t {
-                    let candidate = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0));
+                    let candidate = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0), NO_INSTANCE);
                     if !hit_is_transparent(o, d, candidate, s.material) {
                         hit = candidate;
                     }
@@ -73,7 +73,7 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
             let tri = triangle_at(i);
             let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
             if th.t < hit.t {
-                let candidate = Hit(th.t, PRIM_TRIANGLE, i, th.b);
+                let candidate = Hit(th.t, PRIM_TRIANGLE, i, th.b, NO_INSTANCE);
                 if !hit_is_transparent(o, d, candidate, tri.material) {
                     hit = candidate;
                 }
@@ -98,7 +98,7 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
                 let s = spheres[i];
                 let t = intersect_sphere(o, d, s.center, s.radius, 0.0, t_max);
                 if t < t_max {
-                    if !hit_is_transparent(o, d, Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0)), s.material) {
+                    if !hit_is_transparent(o, d, Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0), NO_INSTANCE), s.material) {
                         return true;
                     }
                 }
@@ -116,7 +116,7 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
             let tri = triangle_at(i);
             let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, t_max);
             if th.t < t_max {
-                if !hit_is_transparent(o, d, Hit(th.t, PRIM_TRIANGLE, i, th.b), tri.material) {
+                if !hit_is_transparent(o, d, Hit(th.t, PRIM_TRIANGLE, i, th.b, NO_INSTANCE), tri.material) {
                     return true;
                 }
             }
@@ -157,10 +157,70 @@ fn mesh_normal(v: MeshVertex) -> vec3<f32> {
     return vec3<f32>(v.nx, v.ny, v.nz);
 }
 
+// --- Instances ---------------------------------------------------------------------------------------
+// A hit on an instanced mesh (Hit::instance) holds the triangle in the mesh's own space; these map what
+// shading needs into the world: points and surface directions (edges, tangents) by the placement's
+// object-to-world map M, normals by its inverse transpose (pbrt-v4 §3.10), the transpose of the
+// world-to-object map's linear part.
+fn instance_point(m: Instance, p: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(m.to_world_x.xyz, p) + m.to_world_x.w, dot(m.to_world_y.xyz, p) + m.to_world_y.w,
+                     dot(m.to_world_z.xyz, p) + m.to_world_z.w);
+}
+
+fn instance_vector(m: Instance, v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(dot(m.to_world_x.xyz, v), dot(m.to_world_y.xyz, v), dot(m.to_world_z.xyz, v));
+}
+
+fn instance_normal(m: Instance, n: vec3<f32>) -> vec3<f32> {
+    return n.x * m.to_object_x.xyz + n.y * m.to_object_y.xyz + n.z * m.to_object_z.xyz;
+}
+
+// The triangle a hit is on, in world space: its vertices mapped by the placement when it is instanced.
+fn hit_triangle(hit: Hit) -> Triangle {
+    var tri = triangle_at(hit.prim_index);
+    if HAS_INSTANCES {
+        if hit.instance != NO_INSTANCE {
+            let m = instances[hit.instance];
+            tri.v0 = instance_point(m, tri.v0);
+            tri.v1 = instance_point(m, tri.v1);
+            tri.v2 = instance_point(m, tri.v2);
+        }
+    }
+    return tri;
+}
+
+// What the placement adds to the error bound of a hit point p on an instanced triangle `tri` (in the
+// mesh's space): the mapped vertices are each within gamma_3 (|M| |v| + |t|) of the exact images (per
+// component), so the point interpolated between them is too; and a ray spawned from p is mapped back
+// into the mesh's space by the walk, within gamma_3 (|M^-1| |p| + |t'|) there, |M| times that in the
+// world. Both, with a margin (gamma_8 for two gamma_3), so that the spawned ray starts on its side of
+// the triangle as the walk sees it.
+fn instance_error(m: Instance, tri: Triangle, p: vec3<f32>) -> vec3<f32> {
+    let v = max(max(abs(tri.v0), abs(tri.v1)), abs(tri.v2));
+    let forward = vec3<f32>(dot(abs(m.to_world_x.xyz), v) + abs(m.to_world_x.w),
+                            dot(abs(m.to_world_y.xyz), v) + abs(m.to_world_y.w),
+                            dot(abs(m.to_world_z.xyz), v) + abs(m.to_world_z.w));
+    let q = vec3<f32>(dot(abs(m.to_object_x.xyz), abs(p)) + abs(m.to_object_x.w),
+                      dot(abs(m.to_object_y.xyz), abs(p)) + abs(m.to_object_y.w),
+                      dot(abs(m.to_object_z.xyz), abs(p)) + abs(m.to_object_z.w));
+    let back = vec3<f32>(dot(abs(m.to_world_x.xyz), q), dot(abs(m.to_world_y.xyz), q), dot(abs(m.to_world_z.xyz), q));
+    return gamma_n(8.0) * (forward + back);
+}
+
 fn triangle_surface(hit: Hit) -> Surface {
-    let tri = triangle_at(hit.prim_index);
-    let sp = triangle_surface_point(tri.v0, tri.v1, tri.v2, hit.b);
-    let n = triangle_normal(tri.v0, tri.v1, tri.v2);
+    let tri = hit_triangle(hit);
+    var sp = triangle_surface_point(tri.v0, tri.v1, tri.v2, hit.b);
+    var n = triangle_normal(tri.v0, tri.v1, tri.v2);
+    var mirrors = false;
+    if HAS_INSTANCES {
+        if hit.instance != NO_INSTANCE {
+            let m = instances[hit.instance];
+            sp.err += instance_error(m, triangle_at(hit.prim_index), sp.p);
+            // A mirrored copy keeps its faces' fronts: the winding's normal flips (INSTANCE_MIRRORS).
+            mirrors = (m.flags & INSTANCE_MIRRORS) != 0u;
+            n = select(n, -n, mirrors);
+        }
+    }
     var s = Surface(sp.p, sp.err, n, tri.material, n, false, vec2<f32>(0.0));
     if HAS_SMOOTH_NORMALS {
         let face = triangle_face(hit.prim_index);
@@ -171,9 +231,14 @@ fn triangle_surface(hit: Hit) -> Surface {
                 // is continuous across edges. A mix that vanishes (opposed or missing normals) keeps
                 // the geometric normal.
                 let b = hit.b;
-                let ns = b.x * mesh_normal(mesh_vertex_at(face.vertices.x))
+                var ns = b.x * mesh_normal(mesh_vertex_at(face.vertices.x))
                        + b.y * mesh_normal(mesh_vertex_at(face.vertices.y))
                        + b.z * mesh_normal(mesh_vertex_at(face.vertices.z));
+                if HAS_INSTANCES {
+                    if hit.instance != NO_INSTANCE {
+                        ns = instance_normal(instances[hit.instance], ns);
+                    }
+                }
                 let len2 = dot(ns, ns);
                 if len2 > 1.0e-12 {
                     let unit = ns * inverseSqrt(len2);
@@ -221,7 +286,7 @@ fn surface_derivatives(hit: Hit, s: Surface) -> SurfaceDerivatives {
     }
     if HAS_TRIANGLES {
         if hit.prim_kind == PRIM_TRIANGLE {
-            out = triangle_derivatives(triangle_at(hit.prim_index), triangle_uv_deltas(hit.prim_index));
+            out = triangle_derivatives(hit_triangle(hit), triangle_uv_deltas(hit.prim_index));
         }
     }
     return out;
@@ -284,6 +349,16 @@ fn vertex_tangent(hit: Hit) -> vec4<f32> {
                     let b = hit.b;
                     let t = b.x * t0 + b.y * t1 + b.z * t2;
                     out = vec4<f32>(t.xyz, select(1.0, -1.0, t.w < 0.0));
+                    if HAS_INSTANCES {
+                        if hit.instance != NO_INSTANCE {
+                            // A tangent lies in the surface: mapped as edges are; a mirroring placement
+                            // reverses cross(N, T), so the bitangent's sign flips with it (as
+                            // scene::mesh::place maps a placed mesh's tangents).
+                            let m = instances[hit.instance];
+                            let flip = select(1.0, -1.0, (m.flags & INSTANCE_MIRRORS) != 0u);
+                            out = vec4<f32>(instance_vector(m, out.xyz), out.w * flip);
+                        }
+                    }
                 }
             }
         }
@@ -463,7 +538,7 @@ fn surface_tangent(hit: Hit, n: vec3<f32>) -> vec3<f32> {
     }
     if HAS_TRIANGLES {
         if hit.prim_kind == PRIM_TRIANGLE {
-            let tri = triangle_at(hit.prim_index);
+            let tri = hit_triangle(hit);
             t = tri.v1 - tri.v0;
             let uv = triangle_uv_deltas(hit.prim_index);
             if uv.from_vertices {
@@ -588,7 +663,7 @@ fn emitter_light_pdf(hit: Hit, p: vec3<f32>, p_sphere: u32, wi: vec3<f32>, strat
     }
     if HAS_TRIANGLE_LIGHTS {
         if hit.prim_kind == PRIM_TRIANGLE && params.triangle_light != NO_LIGHT {
-            let tri = triangle_at(hit.prim_index);
+            let tri = hit_triangle(hit);
             let mat = materials[tri.material];
             let total = lights[params.triangle_light].radius;
             let pick = triangle_light_power(tri.v0, tri.v1, tri.v2, mat.emission, mat.flags) / total;

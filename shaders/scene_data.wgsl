@@ -161,6 +161,28 @@ struct MaterialTextures {
     _pad0: u32,
 }
 
+// A placement of an instanced mesh (src/kernel/upload.rs, add_instanced), or, placed by the identity, the
+// scene's other triangles, in a scene with instances: the rows of its world-to-object and object-to-world
+// maps (x' = dot(row.xyz, x) + row.w), the node of `bvh_nodes` where its mesh's own tree starts, and
+// INSTANCE_* flags.
+struct Instance {
+    to_object_x: vec4<f32>,
+    to_object_y: vec4<f32>,
+    to_object_z: vec4<f32>,
+    to_world_x: vec4<f32>,
+    to_world_y: vec4<f32>,
+    to_world_z: vec4<f32>,
+    root: u32,
+    flags: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// The placement mirrors: the winding's normal is flipped (a mirrored copy keeps its faces' fronts).
+const INSTANCE_MIRRORS: u32 = 1u;
+// Hit::instance of a hit on a primitive in world space (any hit in a scene without instances).
+const NO_INSTANCE: u32 = 0xffffffffu;
+
 // A closest hit: which primitive, where along the ray, and for triangles the barycentrics.
 const PRIM_NONE: u32 = 0u;
 const PRIM_SPHERE: u32 = 1u;
@@ -171,6 +193,9 @@ struct Hit {
     prim_kind: u32,
     prim_index: u32,
     b: vec3<f32>, // triangle barycentrics
+    // The placement (`instances`) whose mesh holds the triangle, which is then in the mesh's own space;
+    // NO_INSTANCE otherwise.
+    instance: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -185,6 +210,7 @@ struct Hit {
 @group(0) @binding(8) var<storage, read> mesh_faces: array<MeshFace>;
 @group(0) @binding(9) var<storage, read> mesh_vertices: array<MeshVertex>;
 @group(0) @binding(10) var<storage, read> meshes: array<MeshInfo>;
+@group(0) @binding(39) var<storage, read> instances: array<Instance>;
 // Every texture's texels, RGBA8 (r in the low byte) or RGBA f16 (two words), rows from the top:
 // sRGB-encoded colour or linear data, as its TextureInfo says.
 @group(0) @binding(11) var<storage, read> texels: array<u32>;

@@ -633,9 +633,24 @@ fn path_state_size_matches_wgsl() {
 #[test]
 fn mesh_structs_match_wgsl() {
     use vkpath::kernel::abi::{
-        GpuBvhNode, GpuMaterialTextures, GpuMeshFace, GpuMeshInfo, GpuMeshVertex, GpuTextureInfo,
+        GpuBvhNode, GpuInstance, GpuMaterialTextures, GpuMeshFace, GpuMeshInfo, GpuMeshVertex,
+        GpuTextureInfo,
     };
     let module = kernel();
+    check_struct(
+        &module,
+        "Instance",
+        "GpuInstance",
+        size_of::<GpuInstance>(),
+        fields!(GpuInstance: to_object_x, to_object_y, to_object_z, to_world_x, to_world_y, to_world_z, root, flags, _pad),
+    );
+    check_storage_array(
+        &module,
+        "instances",
+        "Instance",
+        "GpuInstance",
+        size_of::<GpuInstance>(),
+    );
     check_struct(
         &module,
         "BvhNode",

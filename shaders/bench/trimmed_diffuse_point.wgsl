@@ -7,12 +7,12 @@
 // requires: scene.wgsl, camera.wgsl
 
 fn trimmed_closest_sphere(o: vec3<f32>, d: vec3<f32>) -> Hit {
-    var hit = Hit(T_MISS, PRIM_NONE, 0u, vec3<f32>(0.0));
+    var hit = Hit(T_MISS, PRIM_NONE, 0u, vec3<f32>(0.0), NO_INSTANCE);
     for (var i = 0u; i < params.num_spheres; i++) {
         let s = spheres[i];
         let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
         if t < hit.t {
-            hit = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0));
+            hit = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0), NO_INSTANCE);
         }
     }
     return hit;

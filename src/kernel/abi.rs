@@ -360,6 +360,33 @@ pub struct GpuMeshInfo {
     pub _pad: [u32; 3],
 }
 
+/// Mirrors `Instance` in scene_data.wgsl: one placement of an instanced mesh (`scene::mesh::InstancedMesh`)
+/// or, with the identity, the scene's other triangles, in a scene with instances. The rows of the
+/// world-to-object map (the walk takes rays into the mesh's space: x' = dot(row.xyz, x) + row.w) and of
+/// the object-to-world map (hit points, vertex tangents; its inverse transpose, the transpose of the
+/// first, maps normals); `root` is the node of `bvh_nodes` where the mesh's own tree starts.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuInstance {
+    pub to_object_x: [f32; 4],
+    pub to_object_y: [f32; 4],
+    pub to_object_z: [f32; 4],
+    pub to_world_x: [f32; 4],
+    pub to_world_y: [f32; 4],
+    pub to_world_z: [f32; 4],
+    pub root: u32,
+    /// `INSTANCE_*` flags.
+    pub flags: u32,
+    pub _pad: [u32; 2],
+}
+
+/// `GpuInstance::flags`: the placement mirrors (negative determinant): the triangles' winding normal
+/// is flipped, so that a face's front stays the side its counter-clockwise winding calls the front
+/// (as `scene::mesh::place` reverses the winding of a mirrored mesh).
+pub const INSTANCE_MIRRORS: u32 = 1;
+/// A hit on a triangle in world space (scene_data.wgsl, `Hit::instance`).
+pub const NO_INSTANCE: u32 = u32::MAX;
+
 /// Mirrors `TextureInfo` in scene_data.wgsl: one texture reference of the texture table: its image's
 /// texels in `texels` from `offset` on, row-major from the top-left, `width` x `height` (one word per
 /// texel, two with [`TEXTURE_HALF`]), read at uv' = M uv + `uv_offset` with M = [[m0, m1], [m2, m3]]
@@ -659,6 +686,9 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("MATERIAL_CUTOUT", MATERIAL_CUTOUT),
     ("ACCUM_LIMBS", ACCUM_LIMBS as u32),
     ("BVH_LEAF", crate::scene::bvh::LEAF),
+    ("BVH_INSTANCE", crate::scene::bvh::INSTANCE),
+    ("INSTANCE_MIRRORS", INSTANCE_MIRRORS),
+    ("NO_INSTANCE", NO_INSTANCE),
     ("BVH_LEAF_COUNT_BITS", crate::scene::bvh::LEAF_COUNT_BITS),
     ("BVH_LEAF_COUNT_MASK", crate::scene::bvh::LEAF_COUNT_MASK),
     ("BVH_STACK_SIZE", crate::scene::bvh::STACK_SIZE as u32),
@@ -672,6 +702,7 @@ const _: () = assert!(std::mem::size_of::<GpuBvhNode>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuMeshFace>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuMeshVertex>() == 24);
 const _: () = assert!(std::mem::size_of::<GpuMeshInfo>() == 16);
+const _: () = assert!(std::mem::size_of::<GpuInstance>() == 112);
 const _: () = assert!(std::mem::size_of::<GpuTextureInfo>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuMaterialTextures>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);

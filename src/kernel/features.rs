@@ -28,6 +28,7 @@ pub enum Feature {
     Bvh,
     SphereBvh,
     TriangleLoop,
+    Instances,
     SmoothNormals,
     Textures,
     EmissiveTextures,
@@ -158,6 +159,16 @@ const BEFORE_MATERIALS: &[FeatureRow] = &[
         group: Group::Other,
         needed: |g, _| !g.triangles.is_empty() && g.bvh_nodes.is_empty(),
         reported: false,
+    },
+    FeatureRow {
+        // Instanced meshes: the BVH is two-level, and a leaf of the top-level tree takes the walk into a
+        // placement's tree (bvh.wgsl); hits on them are mapped to the world (scene.wgsl, hit_triangle).
+        feature: Feature::Instances,
+        name: "instances",
+        constant: "HAS_INSTANCES",
+        group: Group::Other,
+        needed: |g, _| !g.instances.is_empty(),
+        reported: true,
     },
     FeatureRow {
         feature: Feature::SmoothNormals,

@@ -22,7 +22,7 @@ use crate::scene::{
     Bsdf, ConductorFresnel, Emission, Filter, Light, LightSampling, Material, MaterialTextures,
     Mesh, Projection, Roughness, Sampler, Scene, SpotFalloff, Texture, TextureRef,
 };
-use glam::Vec3;
+use glam::{DAffine3, Vec3};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use std::sync::Arc;
@@ -76,6 +76,19 @@ pub struct GpuScene {
     pub environment_light: u32,
     /// The emissive triangles' index in `lights`, or NO_LIGHT.
     pub triangle_light: u32,
+    /// In a scene with instanced meshes (`Scene::instanced`), every placement (the top-level tree's
+    /// leaves index it); empty otherwise.
+    pub instances: Vec<GpuInstance>,
+    /// With instances: the most traversal-stack entries a walk can hold (the top-level tree's, one for
+    /// the way out of a placement, and the deepest group tree's); the renderer checks it against
+    /// `bvh::STACK_SIZE`. 0 without.
+    pub stack_need: usize,
+    /// With instances: 4 x nodes + triangles + 2 over the top-level tree and every placement's tree, the
+    /// walk's bound as if the placements were copies (`render::worst_case_loop_iterations`). 0 without.
+    pub instanced_walk: u64,
+    /// The triangles in world space: `triangles[..world_triangles]` (all of them in a scene without
+    /// instances). Only they can be lights: an instanced mesh's material never emits (`InstancedMesh`).
+    pub world_triangles: usize,
     pub stats: SceneStats,
 }
 
@@ -112,6 +125,60 @@ impl GpuScene {
 }
 
 /// A wide tree's nodes as the kernel reads them: quantised (`bvh::quantise`), in parallel.
+/// A reference of a group's own tree where it lands in `bvh_nodes` (`add_instanced`): a node index moved
+/// by `base`, a leaf's first triangle by `first`; unused slots stay unused.
+fn shift_reference(r: u32, base: u32, first: u32) -> u32 {
+    if r == bvh::NO_CHILD {
+        r
+    } else if r & bvh::LEAF != 0 {
+        let start = ((r & !bvh::LEAF) >> bvh::LEAF_COUNT_BITS) + first;
+        bvh::LEAF | (start << bvh::LEAF_COUNT_BITS) | (r & bvh::LEAF_COUNT_MASK)
+    } else {
+        r + base
+    }
+}
+
+/// The placement `m` (object to world) of the tree at node `root`, for the shader: the rows of both maps.
+fn gpu_instance(m: &DAffine3, root: u32) -> GpuInstance {
+    let rows = |a: &DAffine3| -> [[f32; 4]; 3] {
+        std::array::from_fn(|r| {
+            let l = a.matrix3.row(r);
+            [l.x as f32, l.y as f32, l.z as f32, a.translation[r] as f32]
+        })
+    };
+    let [to_object_x, to_object_y, to_object_z] = rows(&m.inverse());
+    let [to_world_x, to_world_y, to_world_z] = rows(m);
+    GpuInstance {
+        to_object_x,
+        to_object_y,
+        to_object_z,
+        to_world_x,
+        to_world_y,
+        to_world_z,
+        root,
+        flags: if m.matrix3.determinant() < 0.0 {
+            INSTANCE_MIRRORS
+        } else {
+            0
+        },
+        _pad: [0; 2],
+    }
+}
+
+/// Triangles gathered for one BVH: their corners, materials and (when some have shading data) faces.
+#[derive(Default)]
+struct TriangleGroup {
+    corners: Vec<[Vec3; 3]>,
+    materials: Vec<u32>,
+    faces: Vec<GpuMeshFace>,
+}
+
+/// The face of a triangle without shading data.
+const NO_FACE: GpuMeshFace = GpuMeshFace {
+    vertices: [0; 3],
+    mesh: NO_MESH,
+};
+
 fn gpu_nodes(wide: &[bvh::WideNode]) -> Vec<GpuBvhNode> {
     wide.par_iter()
         .map(|n| {
@@ -422,6 +489,8 @@ pub struct SceneStats {
     pub bvh_build_ms: f64,
     /// Bytes of scene data uploaded to the device (all arrays above).
     pub scene_bytes: u64,
+    /// Placements of instanced meshes (0 in a scene without).
+    pub instances: usize,
 }
 
 impl GpuScene {
@@ -735,8 +804,7 @@ impl GpuScene {
 
     /// The emitting triangles as one light, with their alias table.
     fn add_triangle_lights(&mut self) {
-        let mut lit: Vec<GpuLightTriangle> = self
-            .triangles
+        let mut lit: Vec<GpuLightTriangle> = self.triangles[..self.world_triangles]
             .iter()
             .enumerate()
             .filter(|(_, t)| emits(&self.materials[t.material as usize]))
@@ -801,100 +869,34 @@ impl GpuScene {
         self.lights.push(light);
     }
 
-    /// All triangles in BVH order, with the BVH and the meshes' shading data.
+    /// All triangles in BVH order, with the BVH and the meshes' shading data. A scene with instances
+    /// gets a two-level BVH instead (`add_instanced`).
     fn add_triangles(&mut self, scene: &Scene, images: &mut ImageTable) {
-        let total = scene.triangles.len()
-            + scene
-                .meshes
-                .iter()
-                .map(|m| m.triangles.len())
-                .sum::<usize>();
-        let mut corners: Vec<[Vec3; 3]> = Vec::with_capacity(total);
-        let mut materials: Vec<u32> = Vec::with_capacity(total);
-        let mut faces: Vec<GpuMeshFace> = Vec::new();
-        let no_face = GpuMeshFace {
-            vertices: [0; 3],
-            mesh: NO_MESH,
-        };
+        let mut world = TriangleGroup::default();
         for t in &scene.triangles {
-            corners.push(t.vertices);
-            materials.push(t.material);
+            world.corners.push(t.vertices);
+            world.materials.push(t.material);
         }
         for m in &scene.meshes {
-            let material = self.mesh_material(images, scene, m);
-            let shaded = !m.normals.is_empty() || !m.uvs.is_empty();
-            if shaded && faces.is_empty() {
-                faces.resize(corners.len(), no_face);
-            }
-            let mesh_index = self.meshes.len() as u32;
-            let first_vertex = self.mesh_vertices.len() as u32;
-            for t in &m.triangles {
-                corners.push(t.map(|i| m.positions[i as usize]));
-                materials.push(material);
-                if shaded {
-                    faces.push(GpuMeshFace {
-                        vertices: t.map(|i| first_vertex + i),
-                        mesh: mesh_index,
-                    });
-                } else if !faces.is_empty() {
-                    faces.push(no_face);
-                }
-            }
-            if !shaded {
-                continue;
-            }
-            let mut flags = 0;
-            if !m.normals.is_empty() {
-                flags |= MESH_SMOOTH;
-            }
-            if !m.uvs.is_empty() {
-                flags |= MESH_UV;
-            }
-            self.meshes.push(GpuMeshInfo {
-                flags,
-                _pad: [0; 3],
-            });
-            for k in 0..m.positions.len() {
-                let n = m.normals.get(k).copied().unwrap_or(Vec3::ZERO);
-                let uv = m.uvs.get(k).copied().unwrap_or([0.0, 0.0]);
-                self.mesh_vertices.push(GpuMeshVertex {
-                    nx: n.x,
-                    ny: n.y,
-                    nz: n.z,
-                    u: uv[0],
-                    v: uv[1],
-                    tangent: m.tangents.get(k).map_or(0, |&t| encode_tangent(t)),
-                });
-            }
+            self.gather_mesh(scene, images, m, &mut world);
         }
-
-        let tree: Bvh = if corners.len() > BVH_MIN_TRIANGLES {
-            bvh::build(&corners)
+        if !scene.instanced.is_empty() {
+            self.add_instanced(scene, images, world);
+            return;
+        }
+        let total = world.corners.len();
+        let tree: Bvh = if total > BVH_MIN_TRIANGLES {
+            bvh::build(&world.corners)
         } else {
             // No BVH: the kernel loops over the triangles in file order (and, being generic, finds the
             // `bvh_nodes` buffer empty and does the same).
             Bvh {
-                order: (0..corners.len() as u32).collect(),
+                order: (0..total as u32).collect(),
                 ..Default::default()
             }
         };
-        self.triangles = tree
-            .order
-            .iter()
-            .map(|&i| {
-                let [v0, v1, v2] = corners[i as usize];
-                GpuTriangle {
-                    v0: v0.into(),
-                    v1: v1.into(),
-                    v2: v2.into(),
-                    material: materials[i as usize],
-                    ..Default::default()
-                }
-            })
-            .collect();
-        if !faces.is_empty() {
-            self.mesh_faces = tree.order.iter().map(|&i| faces[i as usize]).collect();
-        }
+        self.append_group(&world, &tree.order);
+        self.world_triangles = total;
         // The build time reported includes the collapse to the wide tree and the quantisation.
         let started = std::time::Instant::now();
         let wide = tree.wide();
@@ -905,7 +907,194 @@ impl GpuScene {
             bvh_leaves: tree.leaves,
             bvh_depth: tree.depth,
             bvh_build_ms: (tree.build_seconds + started.elapsed().as_secs_f64()) * 1e3,
-            scene_bytes: 0,
+            ..Default::default()
+        };
+    }
+
+    /// Adds mesh `m`'s triangles (corners as given: world space, or an instanced mesh's own) to `group`,
+    /// and its vertices' shading data to `mesh_vertices` and `meshes`.
+    fn gather_mesh(
+        &mut self,
+        scene: &Scene,
+        images: &mut ImageTable,
+        m: &Mesh,
+        group: &mut TriangleGroup,
+    ) {
+        let material = self.mesh_material(images, scene, m);
+        let shaded = !m.normals.is_empty() || !m.uvs.is_empty();
+        if shaded && group.faces.is_empty() {
+            group.faces.resize(group.corners.len(), NO_FACE);
+        }
+        let mesh_index = self.meshes.len() as u32;
+        let first_vertex = self.mesh_vertices.len() as u32;
+        for t in &m.triangles {
+            group.corners.push(t.map(|i| m.positions[i as usize]));
+            group.materials.push(material);
+            if shaded {
+                group.faces.push(GpuMeshFace {
+                    vertices: t.map(|i| first_vertex + i),
+                    mesh: mesh_index,
+                });
+            } else if !group.faces.is_empty() {
+                group.faces.push(NO_FACE);
+            }
+        }
+        if !shaded {
+            return;
+        }
+        let mut flags = 0;
+        if !m.normals.is_empty() {
+            flags |= MESH_SMOOTH;
+        }
+        if !m.uvs.is_empty() {
+            flags |= MESH_UV;
+        }
+        self.meshes.push(GpuMeshInfo {
+            flags,
+            _pad: [0; 3],
+        });
+        for k in 0..m.positions.len() {
+            let n = m.normals.get(k).copied().unwrap_or(Vec3::ZERO);
+            let uv = m.uvs.get(k).copied().unwrap_or([0.0, 0.0]);
+            self.mesh_vertices.push(GpuMeshVertex {
+                nx: n.x,
+                ny: n.y,
+                nz: n.z,
+                u: uv[0],
+                v: uv[1],
+                tangent: m.tangents.get(k).map_or(0, |&t| encode_tangent(t)),
+            });
+        }
+    }
+
+    /// Appends `group`'s triangles to `triangles` in `order` (a BVH's leaf order), with their faces
+    /// (`mesh_faces` stays empty while no triangle so far has shading data, and is filled in with
+    /// [`NO_FACE`] when a later one has).
+    fn append_group(&mut self, group: &TriangleGroup, order: &[u32]) {
+        let first = self.triangles.len();
+        self.triangles.extend(order.iter().map(|&i| {
+            let [v0, v1, v2] = group.corners[i as usize];
+            GpuTriangle {
+                v0: v0.into(),
+                v1: v1.into(),
+                v2: v2.into(),
+                material: group.materials[i as usize],
+                ..Default::default()
+            }
+        }));
+        if !group.faces.is_empty() {
+            self.mesh_faces.resize(first, NO_FACE);
+            self.mesh_faces
+                .extend(order.iter().map(|&i| group.faces[i as usize]));
+        } else if !self.mesh_faces.is_empty() {
+            self.mesh_faces.resize(self.triangles.len(), NO_FACE);
+        }
+    }
+
+    /// A scene with instances: a two-level BVH (the layout of Wald et al.'s and Embree's instancing,
+    /// pbrt-v4 §7.1.4's `TransformedPrimitive`). Each instanced mesh's triangles are uploaded once in
+    /// its own space, with a BVH of their own; the scene's other triangles (`world`) are one more such
+    /// group, placed by the identity. `instances` lists every placement (`GpuInstance`: its two maps and
+    /// the root of its mesh's tree), and the top-level tree over the placements' world boxes has one
+    /// placement in each leaf (`bvh::INSTANCE`). `bvh_nodes` holds the top-level tree first (node 0, where
+    /// every walk starts), then each group's tree, their references shifted to where they land; the
+    /// walk (bvh.wgsl) takes the ray into a placement's space when it reaches its leaf.
+    fn add_instanced(&mut self, scene: &Scene, images: &mut ImageTable, world: TriangleGroup) {
+        let started = std::time::Instant::now();
+        let mut groups: Vec<(TriangleGroup, Vec<DAffine3>)> = Vec::new();
+        self.world_triangles = world.corners.len();
+        if !world.corners.is_empty() {
+            groups.push((world, vec![DAffine3::IDENTITY]));
+        }
+        for inst in &scene.instanced {
+            let mut group = TriangleGroup::default();
+            for part in &inst.parts {
+                self.gather_mesh(scene, images, part, &mut group);
+            }
+            if !group.corners.is_empty() {
+                groups.push((group, inst.placements.clone()));
+            }
+        }
+        // Each group's own tree, over its triangles in its own space.
+        let trees: Vec<Bvh> = groups.iter().map(|(g, _)| bvh::build(&g.corners)).collect();
+        let mut bottom: Vec<Vec<GpuBvhNode>> = Vec::with_capacity(trees.len());
+        let mut first_triangle = Vec::with_capacity(trees.len());
+        let mut stack_need = 0;
+        for ((group, _), tree) in groups.iter().zip(&trees) {
+            first_triangle.push(self.triangles.len() as u32);
+            self.append_group(group, &tree.order);
+            let wide = tree.wide();
+            stack_need = stack_need.max(bvh::wide_stack_need(&wide, 0));
+            bottom.push(gpu_nodes(&wide));
+        }
+        // The placements and their world boxes: the 8 corners of the tree's box mapped in f64, widened
+        // by 2^-20 of their magnitude, so that the box holds every point of the mapped triangles the walk
+        // can find in f32 (it only culls: a wider box costs a box test, never a hit).
+        let mut placements: Vec<(usize, DAffine3, bvh::Aabb)> = Vec::new();
+        for (g, ((_, maps), tree)) in groups.iter().zip(&trees).enumerate() {
+            let root = tree.nodes[0].bounds[0].union(&tree.nodes[0].bounds[1]);
+            for m in maps {
+                let mut b = bvh::Aabb::EMPTY;
+                for k in 0..8 {
+                    let c = glam::DVec3::new(
+                        if k & 1 == 0 { root.lo.x } else { root.hi.x } as f64,
+                        if k & 2 == 0 { root.lo.y } else { root.hi.y } as f64,
+                        if k & 4 == 0 { root.lo.z } else { root.hi.z } as f64,
+                    );
+                    let p = m.transform_point3(c);
+                    let slack = (p.abs() + m.matrix3.abs() * c.abs()) * (1.0 / 1048576.0);
+                    b.grow((p - slack).as_vec3());
+                    b.grow((p + slack).as_vec3());
+                }
+                placements.push((g, *m, b));
+            }
+        }
+        let boxes: Vec<bvh::Aabb> = placements.iter().map(|p| p.2).collect();
+        let top = bvh::build_single_leaves(&boxes);
+        let top_wide = top.wide();
+        let mut nodes = gpu_nodes(&top_wide);
+        for n in &mut nodes {
+            for c in &mut n.child {
+                if *c != bvh::NO_CHILD && *c & bvh::LEAF != 0 {
+                    *c |= bvh::INSTANCE;
+                }
+            }
+        }
+        let mut root = Vec::with_capacity(bottom.len());
+        for (tree, &first) in bottom.iter().zip(&first_triangle) {
+            let base = nodes.len() as u32;
+            root.push(base);
+            nodes.extend(tree.iter().map(|n| {
+                let mut n = *n;
+                for c in &mut n.child {
+                    *c = shift_reference(*c, base, first);
+                }
+                n
+            }));
+        }
+        self.bvh_nodes = nodes;
+        self.instances = top
+            .order
+            .iter()
+            .map(|&i| {
+                let (g, m, _) = placements[i as usize];
+                gpu_instance(&m, root[g])
+            })
+            .collect();
+        self.stack_need = bvh::wide_stack_need(&top_wide, 0) + 1 + stack_need;
+        let mut expanded_walk = 4 * top_wide.len() as u64 + 1;
+        for (g, _, _) in &placements {
+            expanded_walk += 4 * bottom[*g].len() as u64 + groups[*g].0.corners.len() as u64 + 2;
+        }
+        self.instanced_walk = expanded_walk;
+        self.stats = SceneStats {
+            triangles: self.triangles.len(),
+            bvh_nodes: self.bvh_nodes.len(),
+            bvh_leaves: top.leaves + trees.iter().map(|t| t.leaves).sum::<usize>(),
+            bvh_depth: top.depth + trees.iter().map(|t| t.depth).max().unwrap_or(0),
+            bvh_build_ms: started.elapsed().as_secs_f64() * 1e3,
+            instances: self.instances.len(),
+            ..Default::default()
         };
     }
 
@@ -967,6 +1156,7 @@ impl GpuScene {
             + b(&self.light_triangles)
             + b(&self.env_texels)
             + b(&self.env_cdf)
+            + b(&self.instances)
     }
 }
 

@@ -68,6 +68,7 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
         spheres,
         triangles,
         meshes: _, // geometry, normals, uvs and texels: hashed as uploaded (mesh_* and texels below)
+        instanced: _, // hashed as uploaded (triangles, mesh_* and instances below)
         lights,
         environment,
         warnings: _, // what the reader said about the input, not what the image is
@@ -96,7 +97,11 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
         env_cdf: _,           // follows from env_texels
         environment_light: _, // in params
         triangle_light: _,    // in params
-        stats: _,             // build statistics (timings): not content
+        instances,
+        stack_need: _,      // follows from bvh_nodes
+        instanced_walk: _,  // follows from bvh_nodes and instances
+        world_triangles: _, // follows from instances (the identity placement's tree)
+        stats: _,           // build statistics (timings): not content
     } = gpu;
     let mut render = *render;
     render.samples = 0;
@@ -124,6 +129,10 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
     h.field("textures", bytemuck::cast_slice(textures));
     h.field("light_triangles", bytemuck::cast_slice(light_triangles));
     h.field("env_texels", bytemuck::cast_slice(env_texels));
+    // (Only when present, so that scenes without them keep the identity they had.)
+    if !instances.is_empty() {
+        h.field("instances", bytemuck::cast_slice(instances));
+    }
     // (Only when present, so that scenes without material textures keep the identity they had.)
     if !material_textures.is_empty() {
         h.field("material_textures", bytemuck::cast_slice(material_textures));

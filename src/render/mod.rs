@@ -72,8 +72,12 @@ pub fn worst_case_loop_iterations(gpu: &GpuScene, max_bounces: u32) -> u64 {
     let triangles = gpu.triangles.len() as u64;
     let walk = if triangles == 0 {
         0
-    } else {
+    } else if gpu.instances.is_empty() {
         walk_iterations(gpu.bvh_nodes.len(), gpu.triangles.len())
+    } else {
+        // Through every placement's tree, as if the placements were copies (add_instanced).
+        gpu.instanced_walk
+            .min(u64::from(crate::scene::bvh::MAX_STEPS))
     };
     // The spheres: every one in a loop, or a walk of their own tree, bounded the same way.
     let spheres = if gpu.sphere_nodes.is_empty() {
@@ -286,7 +290,31 @@ pub struct SampleFaults {
 /// allows one invocation (see [`LAVAPIPE_LOOP_BUDGET`]): with next-event estimation towards every light,
 /// thousands of lights over many spheres. Paths of any length are fine (trace.wgsl carries them across
 /// dispatches).
+///
+/// On any device, refuses a scene with instances whose trees together could need more traversal-stack
+/// entries than the walk has (`GpuScene::stack_need`; each tree alone always fits: `Bvh::wide`).
 fn check_loop_budget(ctx: &GpuContext, gpu: &GpuScene) -> Result<(), GpuError> {
+    use crate::scene::bvh::STACK_SIZE;
+    // (A top-level leaf holds a placement's index, and a leaf of its tree a triangle's, below bit 30:
+    // bvh::INSTANCE.)
+    let limit = 1usize << 28;
+    if !gpu.instances.is_empty() && (gpu.triangles.len() >= limit || gpu.instances.len() >= limit) {
+        return Err(GpuError::Limit(format!(
+            "this scene has {} triangles and {} placements of instanced meshes; with instances the \
+             BVH holds at most {limit} of each. Use fewer or smaller meshes.",
+            gpu.triangles.len(),
+            gpu.instances.len()
+        )));
+    }
+    if gpu.stack_need > STACK_SIZE {
+        return Err(GpuError::Limit(format!(
+            "this scene's instances make a BVH walk need {} stack entries, and the kernel's walk has \
+             {STACK_SIZE}: the tree over the {} placements and the deepest instanced mesh's tree are too \
+             deep together. Use fewer placements, or meshes of fewer triangles.",
+            gpu.stack_need,
+            gpu.instances.len(),
+        )));
+    }
     let device = &ctx.device_info().name;
     let iterations = worst_case_loop_iterations(gpu, 0) + 1;
     if device.contains("llvmpipe") && iterations > LAVAPIPE_LOOP_BUDGET {
@@ -380,6 +408,9 @@ pub fn upload_scene(
     }
     if kernel.uses("meshes") {
         bound.push(small("meshes", bytemuck::cast_slice(&gpu.meshes))?);
+    }
+    if kernel.uses("instances") {
+        bound.push(small("instances", bytemuck::cast_slice(&gpu.instances))?);
     }
     if kernel.uses("textures") {
         bound.push(small("textures", bytemuck::cast_slice(&gpu.textures))?);
@@ -1089,9 +1120,18 @@ fn check_device_memory(
         env_cdf,
         environment_light: _,
         triangle_light: _,
+        instances,
+        stack_need: _,
+        instanced_walk: _,
+        world_triangles: _,
         stats: _,
     } = gpu;
-    let arrays: [(&str, &str, u64); 15] = [
+    let arrays: [(&str, &str, u64); 16] = [
+        (
+            "instances",
+            "instances",
+            std::mem::size_of_val(instances.as_slice()) as u64,
+        ),
         (
             "sphere BVH nodes",
             "sphere_nodes",

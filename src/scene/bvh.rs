@@ -36,6 +36,10 @@ pub const MAX_LEAF: usize = 4;
 /// `first = (ref & !LEAF) >> LEAF_COUNT_BITS` and `count = (ref & LEAF_COUNT_MASK) + 1`; otherwise it is
 /// the index of an interior node. Mirrored in `shaders/bvh.wgsl`.
 pub const LEAF: u32 = 0x8000_0000;
+/// In a scene with instances, a leaf of the top-level tree is one placement: `LEAF | INSTANCE | (i <<
+/// LEAF_COUNT_BITS)` for `GpuInstance` i (a triangle leaf's first index stays below bit 30 there: the
+/// upload checks it).
+pub const INSTANCE: u32 = 0x4000_0000;
 pub const LEAF_COUNT_BITS: u32 = 2;
 pub const LEAF_COUNT_MASK: u32 = (1 << LEAF_COUNT_BITS) - 1;
 /// Entries of the shader's traversal stack (`BVH_STACK_SIZE` in bvh.wgsl).
@@ -142,6 +146,9 @@ struct TreeStats {
 /// What the builder reads: every triangle's box and centroid (never written, shared by the threads).
 struct Builder<'a> {
     prims: &'a [Prim],
+    /// The most primitives in a leaf: [`MAX_LEAF`], or 1 for the top-level tree of a scene with
+    /// instances (a leaf there is one placement: [`INSTANCE`]).
+    max_leaf: usize,
 }
 
 /// Builds the hierarchy over `triangles` (each three vertices).
@@ -166,16 +173,22 @@ pub fn build(triangles: &[[Vec3; 3]]) -> Bvh {
             b
         })
         .collect();
-    build_prims(&boxes, start)
+    build_prims(&boxes, MAX_LEAF, start)
 }
 
 /// Builds the hierarchy over primitives given by their boxes (spheres: `upload`'s sphere tree), as
 /// [`build`] does over triangles; the primitives must be uploaded in `order`.
 pub fn build_boxes(boxes: &[Aabb]) -> Bvh {
-    build_prims(boxes, Instant::now())
+    build_prims(boxes, MAX_LEAF, Instant::now())
 }
 
-fn build_prims(boxes: &[Aabb], start: Instant) -> Bvh {
+/// Builds the hierarchy over boxes with one primitive in each leaf: the top-level tree over the
+/// placements of a scene with instances (a leaf enters one placement's own tree).
+pub fn build_single_leaves(boxes: &[Aabb]) -> Bvh {
+    build_prims(boxes, 1, Instant::now())
+}
+
+fn build_prims(boxes: &[Aabb], max_leaf: usize, start: Instant) -> Bvh {
     use rayon::prelude::*;
     let n = boxes.len();
     if n == 0 {
@@ -189,7 +202,10 @@ fn build_prims(boxes: &[Aabb], start: Instant) -> Bvh {
             centroid: (b.lo + b.hi) * 0.5,
         })
         .collect();
-    let builder = Builder { prims: &prims };
+    let builder = Builder {
+        prims: &prims,
+        max_leaf,
+    };
     let mut order: Vec<u32> = (0..n as u32).collect();
     let mut nodes = Vec::with_capacity(n / 2 + 1);
     nodes.push(Node {
@@ -273,7 +289,7 @@ impl Builder<'_> {
         let n = order.len();
         let split = self.choose_split(order, &bounds, &centroids, depth);
         // SAH: a leaf costs n triangle tests; a split costs what best_sah_split computed.
-        if n <= MAX_LEAF && split.is_none_or(|(cost, _, _)| cost >= n as f64) {
+        if n <= self.max_leaf && split.is_none_or(|(cost, _, _)| cost >= n as f64) {
             stats.leaves += 1;
             return (Self::leaf(base, base + n), bounds);
         }

@@ -47,6 +47,22 @@ pub struct Mesh {
     pub maps: MeshMaps,
 }
 
+/// A mesh drawn several times: its parts (one per material) in the mesh's own space, and the affine
+/// transforms that place each copy in the world. The renderer uploads the parts once, with one BVH over
+/// them, and a top-level BVH over the copies' boxes (a two-level BVH: `kernel::upload`, bvh.wgsl).
+///
+/// A copy is the parts mapped by its transform as [`place`] would map them: positions and tangents by
+/// the transform, normals by its inverse transpose, and, where it mirrors, the faces' fronts kept (the
+/// shader flips the winding's normal; `INSTANCE_MIRRORS`). Smooth normals a file does not give are
+/// computed once, in the mesh's own space, and mapped: under a non-uniform scale they can differ
+/// slightly from the normals of the placed mesh (which [`place`] computes after placing).
+#[derive(Clone, Debug, PartialEq)]
+pub struct InstancedMesh {
+    pub parts: Vec<Mesh>,
+    /// Object to world, one per copy.
+    pub placements: Vec<DAffine3>,
+}
+
 /// A mesh's textures besides its base colour texture, and how that one combines with the material
 /// (docs/scene-format.md, "glTF meshes"). The default is a TOML or OBJ mesh's: the texture replaces the
 /// albedo and, on an emitting material, multiplies the emission.
@@ -304,6 +320,16 @@ impl Placement {
         match self {
             Placement::Srt { rotate_deg, .. } => srt_rotation(*rotate_deg),
             Placement::Matrix(m) => m.matrix3.inverse().transpose(),
+        }
+    }
+
+    /// The transform as an affine map (object to world).
+    pub fn affine(&self) -> DAffine3 {
+        match self {
+            Placement::Srt { translate, .. } => {
+                DAffine3::from_mat3_translation(self.linear(), translate.as_dvec3())
+            }
+            Placement::Matrix(m) => *m,
         }
     }
 

@@ -73,6 +73,10 @@ pub struct Scene {
     pub triangles: Vec<Triangle>,
     /// `[[mesh]]` tables, loaded and placed in world space.
     pub meshes: Vec<Mesh>,
+    /// Meshes drawn more than once (`[[instance]]`s, Mitsuba's `shapegroup`/`instance`): each stored once
+    /// in its own space and placed by each of its transforms. The renderer shares one copy of the
+    /// triangles and their BVH between the placements (a two-level BVH, `kernel::upload`).
+    pub instanced: Vec<mesh::InstancedMesh>,
     pub lights: Vec<Light>,
     /// Light from infinitely far (`[environment]`, or `render.background`): black when not given.
     pub environment: Environment,

@@ -696,7 +696,10 @@ impl Checker<'_> {
     }
 
     /// An `[[instance]]`: the named mesh's parts placed again by the instance's transform, in the
-    /// instance's material when it gives one.
+    /// instance's material when it gives one. Shared (one copy of the mesh, drawn through the two-level
+    /// BVH: [`mesh::InstancedMesh`]) unless the instance gives its own material or the mesh emits light; then
+    /// copies of the parts, placed as a `[[mesh]]` is (an emitting triangle must be in the light list in
+    /// world space, and the shared copy has one material per part).
     pub(super) fn instance(
         &self,
         i: usize,
@@ -704,11 +707,11 @@ impl Checker<'_> {
         sources: &[(String, MeshSource)],
         names: &[String],
         materials: &[Material],
-    ) -> Result<Vec<Mesh>, SceneError> {
+    ) -> Result<Placed, SceneError> {
         let r = raw.get_ref();
         let label = format!("instance[{i}]");
         let wanted = r.mesh.get_ref();
-        let Some((_, source)) = sources.iter().find(|(name, _)| name == wanted) else {
+        let Some(source_index) = sources.iter().position(|(name, _)| name == wanted) else {
             let known: Vec<&str> = sources.iter().map(|(n, _)| n.as_str()).collect();
             return Err(self.error(
                 r.mesh.span(),
@@ -721,6 +724,7 @@ impl Checker<'_> {
                 },
             ));
         };
+        let source = &sources[source_index].1;
         let material = match &r.material {
             Some(name) => Some(self.material_index(name, &format!("{label}.material"), names)?),
             None => None,
@@ -732,7 +736,37 @@ impl Checker<'_> {
             r.rotate.as_ref(),
             r.translate.as_ref(),
         )?;
-        source
+        let emits = source.parts.iter().any(|part| {
+            part.maps.emissive.is_some()
+                || materials
+                    .get(part.material as usize)
+                    .is_some_and(|m| m.emission.is_some())
+        });
+        if material.is_none() && !emits {
+            // The placement must map the mesh's own space to floats, as placing a copy would.
+            let corner = source
+                .parts
+                .iter()
+                .flat_map(|part| part.obj.positions.iter())
+                .map(|p| placement.affine().transform_point3(p.as_dvec3()))
+                .find(|p| !p.as_vec3().is_finite());
+            if let Some(p) = corner {
+                return Err(self.error(
+                    raw.span(),
+                    &label,
+                    format!(
+                        "placing {} overflows 32-bit floats (a vertex lands at {p})",
+                        source.obj_path.display()
+                    ),
+                    "Use a smaller scale or translation.",
+                ));
+            }
+            return Ok(Placed::Shared {
+                source: source_index,
+                placement: placement.affine(),
+            });
+        }
+        let copies = source
             .parts
             .iter()
             .map(|part| {
@@ -746,8 +780,43 @@ impl Checker<'_> {
                     &label,
                 )
             })
+            .collect::<Result<_, _>>()?;
+        Ok(Placed::Copies(copies))
+    }
+
+    /// The parts of a named mesh in its file's own space, for the placements that share it
+    /// ([`Placed::Shared`]).
+    pub(super) fn instanced_parts(
+        &self,
+        source: &MeshSource,
+        materials: &[Material],
+        span: std::ops::Range<usize>,
+        label: &str,
+    ) -> Result<Vec<Mesh>, SceneError> {
+        source
+            .parts
+            .iter()
+            .map(|part| {
+                self.place_part(
+                    source,
+                    part,
+                    None,
+                    &Placement::default(),
+                    materials,
+                    span.clone(),
+                    label,
+                )
+            })
             .collect()
     }
+}
+
+/// What an `[[instance]]` becomes.
+pub(super) enum Placed {
+    /// Copies of the named mesh's parts, placed in world space.
+    Copies(Vec<Mesh>),
+    /// One more placement (object to world) of the mesh `sources[source]`, shared with the others.
+    Shared { source: usize, placement: DAffine3 },
 }
 
 #[cfg(test)]

@@ -219,13 +219,45 @@ impl Checker<'_> {
                 sources.push((name.get_ref().clone(), table.source));
             }
         }
+        // Instances: shared placements of a named mesh, or copies (geometry::Checker::instance).
+        let mut instanced: Vec<mesh::InstancedMesh> = Vec::new();
+        let mut shared_of: Vec<Option<usize>> = vec![None; sources.len()];
         for (i, instance) in raw.instance.iter().enumerate() {
-            let placed = self.instance(i, instance, &sources, &material_names, &materials)?;
-            total += placed.iter().map(|m| m.triangles.len()).sum::<usize>();
-            if total > mesh::MAX_TRIANGLES {
-                return Err(too_many(instance.span(), &format!("instance[{i}]")));
+            let label = format!("instance[{i}]");
+            match self.instance(i, instance, &sources, &material_names, &materials)? {
+                geometry::Placed::Copies(placed) => {
+                    total += placed.iter().map(|m| m.triangles.len()).sum::<usize>();
+                    if total > mesh::MAX_TRIANGLES {
+                        return Err(too_many(instance.span(), &label));
+                    }
+                    meshes.extend(placed);
+                }
+                geometry::Placed::Shared { source, placement } => {
+                    let k = match shared_of[source] {
+                        Some(k) => k,
+                        None => {
+                            // The mesh's own copy, stored once (its triangles counted once).
+                            let parts = self.instanced_parts(
+                                &sources[source].1,
+                                &materials,
+                                instance.span(),
+                                &label,
+                            )?;
+                            total += parts.iter().map(|m| m.triangles.len()).sum::<usize>();
+                            if total > mesh::MAX_TRIANGLES {
+                                return Err(too_many(instance.span(), &label));
+                            }
+                            instanced.push(mesh::InstancedMesh {
+                                parts,
+                                placements: Vec::new(),
+                            });
+                            shared_of[source] = Some(instanced.len() - 1);
+                            instanced.len() - 1
+                        }
+                    };
+                    instanced[k].placements.push(placement);
+                }
             }
-            meshes.extend(placed);
         }
         let mut lights = Vec::with_capacity(raw.light.len());
         for (i, light) in raw.light.iter().enumerate() {
@@ -242,6 +274,7 @@ impl Checker<'_> {
             spheres,
             triangles,
             meshes,
+            instanced,
             lights,
             environment,
             warnings,
