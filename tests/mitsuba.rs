@@ -2343,7 +2343,8 @@ fn bumpmaps_and_normalmaps_become_bump_and_normal_map_modifiers() {
 
 /// Mitsuba's shapegroup and instance: each instance draws the group's shapes placed by its to_world
 /// after their own (a shapegroup alone draws nothing), the same geometry, bit for bit, as the shapes
-/// written out with the composed transforms (exact in binary here: translations, scales by 2, a
+/// written out with the composed transforms (the group's mesh shared by the instances after the first:
+/// its placements put its vertices where the written-out meshes have theirs) (exact in binary here: translations, scales by 2, a
 /// quarter turn as an integer matrix). A group with an emitter, a group in a group and an instance of a plain
 /// shape are refused, as Mitsuba refuses them.
 #[test]
@@ -2400,14 +2401,30 @@ fn instances_of_a_shapegroup_are_its_shapes_placed_again() {
     let a = load_in(dir.path(), &instanced);
     let b = load_in(dir.path(), &written_out);
     assert_eq!(a.spheres.len(), 3);
-    assert_eq!(a.meshes.len(), 3);
     assert_eq!(a.triangles.len(), 6);
     assert_eq!(a.spheres, b.spheres);
     assert_eq!(a.triangles, b.triangles);
-    for (ma, mb) in a.meshes.iter().zip(&b.meshes) {
+    // The group's mesh: written out at the first instance, one shared copy (in the file's own space)
+    // placed by the others.
+    assert_eq!(a.meshes.len(), 1);
+    let (ma, mb) = (&a.meshes[0], &b.meshes[0]);
+    assert_eq!(
+        (&ma.positions, &ma.normals, &ma.triangles, ma.material),
+        (&mb.positions, &mb.normals, &mb.triangles, mb.material)
+    );
+    assert_eq!(a.instanced.len(), 1);
+    let shared = &a.instanced[0];
+    assert_eq!((shared.parts.len(), shared.placements.len()), (1, 2));
+    let part = &shared.parts[0];
+    for (placement, mb) in shared.placements.iter().zip(&b.meshes[1..]) {
+        let placed: Vec<Vec3> = part
+            .positions
+            .iter()
+            .map(|p| placement.transform_point3(p.as_dvec3()).as_vec3())
+            .collect();
         assert_eq!(
-            (&ma.positions, &ma.normals, &ma.triangles, ma.material),
-            (&mb.positions, &mb.normals, &mb.triangles, mb.material)
+            (&placed, &part.triangles, part.material),
+            (&mb.positions, &mb.triangles, mb.material)
         );
     }
     // The second instance doubles the sphere: radius 1, centre (0, 2 x 2 - 1, 0).

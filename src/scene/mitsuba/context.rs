@@ -41,6 +41,9 @@ pub(super) struct Tr<'p> {
     /// shape used is translated once more at the end, so that what it says is checked as Mitsuba checks
     /// it (an unknown plugin or parameter is refused even where nothing refers to it).
     pub(super) translated: std::collections::HashSet<usize>,
+    /// The meshes of shapegroups written so far (their addresses), by the name of the `[[mesh]]` that
+    /// places them first: the group's later instances write `[[instance]]`s of it.
+    pub(super) shared_meshes: HashMap<usize, String>,
 }
 
 impl<'p> Tr<'p> {
@@ -68,6 +71,7 @@ impl<'p> Tr<'p> {
             environment: None,
             bsdf_stack: Vec::new(),
             translated: Default::default(),
+            shared_meshes: HashMap::new(),
         }
     }
 

@@ -15,9 +15,11 @@ pub const DISK_SEGMENTS: usize = 64;
 impl Tr<'_> {
     /// A top-level `<shape>`: a shape, a `shapegroup` (a definition, drawn only through instances: its
     /// shapes are checked here), or an `instance` of one, whose shapes are written again, each placed by
-    /// the instance's to_world after its own (Mitsuba's `instance`: expanded here, as vkpath's
-    /// `[[instance]]`s are, into copies of the tables). `index` numbers the shapes written so far (for
-    /// the materials' names); the count written is returned.
+    /// the instance's to_world after its own. A mesh of the group is written once, as a named `[[mesh]]`
+    /// at its first instance, and as an `[[instance]]` of that at every later one, so that the renderer
+    /// keeps one copy of it (`Scene::instanced`); the group's rectangles, cubes, disks and spheres are
+    /// written again at each instance. `index` numbers the shapes written so far (for the materials'
+    /// names); the count written is returned.
     pub(super) fn top_level_shape(&mut self, obj: &Obj, index: usize) -> Result<usize, SceneError> {
         match obj.kind.as_str() {
             "shapegroup" => {
@@ -44,12 +46,12 @@ impl Tr<'_> {
                 let parent = xf.map_or(DMat4::IDENTITY, |(x, _)| x.m);
                 let members = self.shapegroup_members(group)?;
                 for (i, member) in members.iter().enumerate() {
-                    self.shape(member, index + i, parent)?;
+                    self.shape(member, index + i, parent, true)?;
                 }
                 Ok(members.len())
             }
             _ => {
-                self.shape(obj, index, DMat4::IDENTITY)?;
+                self.shape(obj, index, DMat4::IDENTITY, false)?;
                 Ok(1)
             }
         }
@@ -80,8 +82,15 @@ impl Tr<'_> {
         Ok(out)
     }
 
-    /// A shape placed by `parent` x its own to_world (`parent` is an instance's, else the identity).
-    fn shape(&mut self, obj: &Obj, index: usize, parent: DMat4) -> Result<(), SceneError> {
+    /// A shape placed by `parent` x its own to_world (`parent` is an instance's, else the identity);
+    /// `in_group`: a shapegroup's member, whose mesh is written once and instanced after.
+    fn shape(
+        &mut self,
+        obj: &Obj,
+        index: usize,
+        parent: DMat4,
+        in_group: bool,
+    ) -> Result<(), SceneError> {
         let kind = obj.kind.as_str();
         if !matches!(
             kind,
@@ -303,35 +312,64 @@ impl Tr<'_> {
                         "Mitsuba turns a mirrored mesh's faces around and vkpath keeps their fronts: bake the mirror into the mesh file.",
                     ));
                 }
+                // A shapegroup's mesh at its second and later instances: one more placement of the
+                // mesh written at the first.
+                let key = obj as *const Obj as usize;
+                if let Some(mesh) = self.shared_meshes.get(&key).filter(|_| in_group) {
+                    let mesh = toml_string(mesh);
+                    let o = &mut self.out_shapes;
+                    o.line("", None);
+                    o.line("[[instance]]", loc);
+                    o.line(format!("mesh      = {mesh}"), loc);
+                    write_placement(o, srt, &m, &xf_loc);
+                    return Ok(());
+                }
                 let file_ref = self.refer(&file);
                 let o = &mut self.out_shapes;
                 o.line("", None);
                 o.line("[[mesh]]", loc);
+                if in_group {
+                    o.line(format!("name      = {}", toml_string(&shape_name)), loc);
+                    self.shared_meshes.insert(key, shape_name.clone());
+                }
+                let o = &mut self.out_shapes;
                 o.line(format!("obj       = {file_ref}"), Some(floc));
                 if let Some(i) = shape_index {
                     o.line(format!("shape_index = {i}"), loc);
                 }
                 o.line(format!("material  = {material}"), loc);
-                match srt {
-                    Some((scale, rotate, translate)) => {
-                        o.line(format!("scale     = {}", num(scale)), Some(&xf_loc));
-                        o.line(format!("rotate    = {}", vec3(rotate)), Some(&xf_loc));
-                        o.line(format!("translate = {}", vec3(translate)), Some(&xf_loc));
-                    }
-                    None => {
-                        let rows: Vec<String> = (0..4)
-                            .map(|i| {
-                                let r = m.row(i);
-                                format!("{}, {}, {}, {}", num(r.x), num(r.y), num(r.z), num(r.w))
-                            })
-                            .collect();
-                        o.line(format!("matrix    = [{}]", rows.join(",  ")), Some(&xf_loc));
-                    }
-                }
+                write_placement(o, srt, &m, &xf_loc);
                 o.line(format!("smooth    = {}", !face_normals), loc);
             }
         }
         Ok(())
+    }
+}
+
+/// A mesh's placement in a `[[mesh]]` or `[[instance]]`: `srt` (scale, rotate, translate) when the
+/// transform `m` is a similarity ([`placement`]), else `matrix`, its rows.
+fn write_placement(
+    o: &mut super::toml_out::TomlOut,
+    srt: Option<(f64, DVec3, DVec3)>,
+    m: &DMat4,
+    loc: &super::objects::Loc,
+) {
+    let loc = Some(loc);
+    match srt {
+        Some((scale, rotate, translate)) => {
+            o.line(format!("scale     = {}", num(scale)), loc);
+            o.line(format!("rotate    = {}", vec3(rotate)), loc);
+            o.line(format!("translate = {}", vec3(translate)), loc);
+        }
+        None => {
+            let rows: Vec<String> = (0..4)
+                .map(|i| {
+                    let r = m.row(i);
+                    format!("{}, {}, {}, {}", num(r.x), num(r.y), num(r.z), num(r.w))
+                })
+                .collect();
+            o.line(format!("matrix    = [{}]", rows.join(",  ")), loc);
+        }
     }
 }
 
