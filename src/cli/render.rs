@@ -406,6 +406,7 @@ fn report(
             outputs: shown_paths(session.outputs()),
             validation_errors: validation_errors.len(),
             triangles: stats.triangles,
+            instances: stats.instances,
             bvh_nodes: stats.bvh_nodes,
             bvh_build_ms: stats.bvh_build_ms,
             kernel: kernel_name(renderer.features()),

@@ -52,7 +52,10 @@ pub struct RenderReport<'a> {
     pub outputs: Vec<String>,
     /// How many errors the validation layer reported (VKPATH_VALIDATION).
     pub validation_errors: usize,
+    /// Triangles uploaded (an instanced mesh's once, however many placements it has).
     pub triangles: usize,
+    /// Placements of instanced meshes (0 in a scene without).
+    pub instances: usize,
     pub bvh_nodes: usize,
     pub bvh_build_ms: f64,
     /// [`kernel_name`].

@@ -478,7 +478,7 @@ fn triangle_power(t: &GpuLightTriangle) -> f64 {
 /// What building the GPU scene cost and made (reported by `--json`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct SceneStats {
-    /// Triangles in the scene: `[[triangle]]` tables plus every mesh's.
+    /// Triangles uploaded: `[[triangle]]` tables plus every mesh's (an instanced mesh's once).
     pub triangles: usize,
     /// Interior nodes of the BVH (each holds its two children's boxes: 64 bytes on the GPU).
     pub bvh_nodes: usize,
