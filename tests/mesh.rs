@@ -6,6 +6,8 @@
 //! - A finely tessellated sphere with smooth normals renders like the analytic sphere under a point light.
 //! - OBJ and texture errors name the scene file, line and key, and the OBJ's own line.
 //! - `scenes/mesh.toml`'s models are the ones this file generates.
+//! - Instances: placements of one shared mesh (a two-level BVH) render as the same meshes written as
+//!   copies, under any affine map (mirrors included) and where the placement's rounding matters.
 
 mod common;
 
@@ -840,6 +842,18 @@ fn a_matrix_stretches_and_mirrors_and_keeps_fronts_facing_out() {
     }
     let message = error("[[instance]]\nmesh = \"q\"\nmatrix = [1, 0, 0]\n");
     assert!(message.contains("16 numbers"), "{message}");
+    // A placement past the f32 range: of a copy (the lamp's instances are copies) and of a shared mesh.
+    for extra in [
+        "[[instance]]\nmesh = \"q\"\nmatrix = [2e38, 0, 0, 2e38,  0, 2e38, 0, 0,  0, 0, 2e38, 0,  0, 0, 0, 1]\n",
+        "[materials.grey]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n[[mesh]]\nobj = \"quad.obj\"\n\
+         material = \"grey\"\nname = \"g\"\n[[instance]]\nmesh = \"g\"\nmatrix = [2e38, 0, 0, 2e38,  0, 2e38, 0, 0,  0, 0, 2e38, 0,  0, 0, 0, 1]\n",
+    ] {
+        let message = error(extra);
+        assert!(
+            message.contains("instance[0]") && message.contains("overflows 32-bit floats"),
+            "{message}"
+        );
+    }
 }
 
 // ----- the example scene -----

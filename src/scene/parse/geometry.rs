@@ -602,15 +602,7 @@ impl Checker<'_> {
         // (Tangents exist only where the file gave or generated them for its normal map.)
         let placed = mesh::place(&part.obj, placement, source.smooth, textured, textured);
         if let Some(p) = placed.positions.iter().find(|p| !p.is_finite()) {
-            return Err(self.error(
-                span,
-                label,
-                format!(
-                    "placing {} overflows 32-bit floats (a vertex lands at {p})",
-                    source.obj_path.display()
-                ),
-                "Use a smaller scale or translation.",
-            ));
+            return Err(self.overflow(span, label, source, p));
         }
         Ok(Mesh {
             obj: source.obj_path.clone(),
@@ -751,15 +743,7 @@ impl Checker<'_> {
                 .map(|p| placement.affine().transform_point3(p.as_dvec3()))
                 .find(|p| !p.as_vec3().is_finite());
             if let Some(p) = corner {
-                return Err(self.error(
-                    raw.span(),
-                    &label,
-                    format!(
-                        "placing {} overflows 32-bit floats (a vertex lands at {p})",
-                        source.obj_path.display()
-                    ),
-                    "Use a smaller scale or translation.",
-                ));
+                return Err(self.overflow(raw.span(), &label, source, p));
             }
             return Ok(Placed::Shared {
                 source: source_index,
@@ -782,6 +766,25 @@ impl Checker<'_> {
             })
             .collect::<Result<_, _>>()?;
         Ok(Placed::Copies(copies))
+    }
+
+    /// A placement that takes a vertex of `source` (landing at `p`) out of the f32 range.
+    fn overflow(
+        &self,
+        span: std::ops::Range<usize>,
+        label: &str,
+        source: &MeshSource,
+        p: impl std::fmt::Display,
+    ) -> SceneError {
+        self.error(
+            span,
+            label,
+            format!(
+                "placing {} overflows 32-bit floats (a vertex lands at {p})",
+                source.obj_path.display()
+            ),
+            "Use a smaller scale or translation.",
+        )
     }
 
     /// The parts of a named mesh in its file's own space, for the placements that share it
