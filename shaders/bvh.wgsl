@@ -254,7 +254,9 @@ fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: 
             let tri = triangle_at(first);
             let th = intersect_triangle_ray(tr, tri.v0, tri.v1, tri.v2, 0.0, hit.t);
             if th.t < hit.t {
-                // (A hit the surface's opacity lets through is no hit: scene.wgsl, hit_is_transparent.)
+                // (A hit the surface's opacity lets through is no hit: scene.wgsl, hit_is_transparent.
+                // Its hash takes the ray in the tree's space, so that two placements of one mesh decide
+                // independently.)
                 let candidate = Hit(th.t, PRIM_TRIANGLE, first, th.b, instance);
                 if !hit_is_transparent(ro, rd, candidate, tri.material) {
                     hit = candidate;
