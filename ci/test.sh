@@ -4,6 +4,8 @@
 #   1. ci/setup.sh --test      a Vulkan loader, a driver (Mesa's lavapipe runs on the CPU) and the
 #                              Khronos validation layers; installs them with apt-get when missing
 #   2. cargo fmt --check       formatting
+#      cargo build             the debug binary, which compiles the generic kernel in the background
+#                              (Mesa's shader cache then has it for the tests: below)
 #   3. cargo clippy            lints, warnings are errors
 #   4. cargo check --no-default-features --bins
 #                              the headless binary still builds without the `preview` feature (the window)
@@ -34,9 +36,29 @@ step() {
 
 step setup ./ci/setup.sh --test
 step fmt cargo fmt --all -- --check
+
+# The generic kernel (every feature, `--generic`) takes minutes to compile on lavapipe with a cold Mesa
+# shader cache (docs/testing.md, "What the test suite's time is"), and the first tests that render with
+# it compile it on both test threads at once. So it is compiled once, in the background, while the lints
+# and the build run (one core of the two, where they leave it idle): the tests then find it in Mesa's
+# disk cache. (A warm-up that fails changes nothing: the tests compile the kernel themselves.) The
+# validation layers are on, as the tests have them.
+step build cargo build --bin vkpath
+warm_dir=$(mktemp -d)
+VKPATH_VALIDATION=1 target/debug/vkpath render scenes/course.toml --generic --width 8 --height 8 --spp 1 \
+    --output "$warm_dir/warm.png" >"$warm_dir/log" 2>&1 &
+warm_pid=$!
+trap 'kill "$warm_pid" 2>/dev/null || true; rm -rf "$warm_dir"' EXIT
+warm_start=$SECONDS
+
 step clippy cargo clippy --all-targets -- -D warnings
 step headless cargo check --no-default-features --bins
 step test cargo test
+if wait "$warm_pid"; then
+    echo "==> the generic kernel's warm-up (started $((SECONDS - warm_start)) s ago): $(tail -n 1 "$warm_dir/log")"
+else
+    echo "==> the generic kernel's warm-up failed (the tests compiled it themselves): $(tail -n 1 "$warm_dir/log")"
+fi
 step farm ./ci/farm-test.sh
 step k8s ./ci/k8s-check.sh
 echo "==> all checks passed in $SECONDS s"
