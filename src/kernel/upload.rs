@@ -124,7 +124,6 @@ impl GpuScene {
     }
 }
 
-/// A wide tree's nodes as the kernel reads them: quantised (`bvh::quantise`), in parallel.
 /// A reference of a group's own tree where it lands in `bvh_nodes` (`add_instanced`): a node index moved
 /// by `base`, a leaf's first triangle by `first`; unused slots stay unused.
 fn shift_reference(r: u32, base: u32, first: u32) -> u32 {
@@ -179,6 +178,7 @@ const NO_FACE: GpuMeshFace = GpuMeshFace {
     mesh: NO_MESH,
 };
 
+/// A wide tree's nodes as the kernel reads them: quantised (`bvh::quantise`), in parallel.
 fn gpu_nodes(wide: &[bvh::WideNode]) -> Vec<GpuBvhNode> {
     wide.par_iter()
         .map(|n| {
@@ -872,7 +872,17 @@ impl GpuScene {
     /// All triangles in BVH order, with the BVH and the meshes' shading data. A scene with instances
     /// gets a two-level BVH instead (`add_instanced`).
     fn add_triangles(&mut self, scene: &Scene, images: &mut ImageTable) {
-        let mut world = TriangleGroup::default();
+        let total = scene.triangles.len()
+            + scene
+                .meshes
+                .iter()
+                .map(|m| m.triangles.len())
+                .sum::<usize>();
+        let mut world = TriangleGroup {
+            corners: Vec::with_capacity(total),
+            materials: Vec::with_capacity(total),
+            faces: Vec::new(),
+        };
         for t in &scene.triangles {
             world.corners.push(t.vertices);
             world.materials.push(t.material);
@@ -884,7 +894,6 @@ impl GpuScene {
             self.add_instanced(scene, images, world);
             return;
         }
-        let total = world.corners.len();
         let tree: Bvh = if total > BVH_MIN_TRIANGLES {
             bvh::build(&world.corners)
         } else {
