@@ -750,7 +750,22 @@ impl Checker<'_> {
                 placement: placement.affine(),
             });
         }
-        let copies = source
+        let copies =
+            self.place_parts(source, material, &placement, materials, raw.span(), &label)?;
+        Ok(Placed::Copies(copies))
+    }
+
+    /// Every part of `source` placed by `placement`, in `material` when one is given.
+    fn place_parts(
+        &self,
+        source: &MeshSource,
+        material: Option<u32>,
+        placement: &Placement,
+        materials: &[Material],
+        span: std::ops::Range<usize>,
+        label: &str,
+    ) -> Result<Vec<Mesh>, SceneError> {
+        source
             .parts
             .iter()
             .map(|part| {
@@ -758,14 +773,13 @@ impl Checker<'_> {
                     source,
                     part,
                     material,
-                    &placement,
+                    placement,
                     materials,
-                    raw.span(),
-                    &label,
+                    span.clone(),
+                    label,
                 )
             })
-            .collect::<Result<_, _>>()?;
-        Ok(Placed::Copies(copies))
+            .collect()
     }
 
     /// A placement that takes a vertex of `source` (landing at `p`) out of the f32 range.
@@ -796,21 +810,7 @@ impl Checker<'_> {
         span: std::ops::Range<usize>,
         label: &str,
     ) -> Result<Vec<Mesh>, SceneError> {
-        source
-            .parts
-            .iter()
-            .map(|part| {
-                self.place_part(
-                    source,
-                    part,
-                    None,
-                    &Placement::default(),
-                    materials,
-                    span.clone(),
-                    label,
-                )
-            })
-            .collect()
+        self.place_parts(source, None, &Placement::default(), materials, span, label)
     }
 }
 
