@@ -736,18 +736,19 @@ impl Checker<'_> {
         });
         if material.is_none() && !emits {
             // The placement must map the mesh's own space to floats, as placing a copy would.
+            let affine = placement.affine();
             let corner = source
                 .parts
                 .iter()
                 .flat_map(|part| part.obj.positions.iter())
-                .map(|p| placement.affine().transform_point3(p.as_dvec3()))
+                .map(|p| affine.transform_point3(p.as_dvec3()))
                 .find(|p| !p.as_vec3().is_finite());
             if let Some(p) = corner {
                 return Err(self.overflow(raw.span(), &label, source, p));
             }
             return Ok(Placed::Shared {
                 source: source_index,
-                placement: placement.affine(),
+                placement: affine,
             });
         }
         let copies =
