@@ -426,26 +426,6 @@ power = 50000.0
 
 // ----- transforms and instances -----
 
-/// How far apart two renders of the same scene are: the sum of |a - b| over every channel, relative to
-/// the sum of b, and the fraction of pixels where some channel differs by more than 1 % of b's mean.
-fn render_distance(a: &vkpath::Film, b: &vkpath::Film) -> (f64, f64) {
-    let (mut diff, mut total) = (0.0f64, 0.0f64);
-    for (p, q) in a.mean.iter().zip(&b.mean) {
-        for c in 0..3 {
-            diff += (p[c] as f64 - q[c] as f64).abs();
-            total += q[c] as f64;
-        }
-    }
-    let mean = total / (3 * b.mean.len()) as f64;
-    let far = a
-        .mean
-        .iter()
-        .zip(&b.mean)
-        .filter(|(p, q)| (0..3).any(|c| (p[c] as f64 - q[c] as f64).abs() > 0.01 * mean))
-        .count();
-    (diff / total, far as f64 / b.mean.len() as f64)
-}
-
 /// An `[[instance]]` is its mesh placed once more: a named mesh and two instances of it (one by a
 /// matrix, in another material; one by a translation) render as three `[[mesh]]` tables placed there.
 /// The instance in its own material is a copy of the mesh (the same bits as the table); the other shares
@@ -494,7 +474,7 @@ power = 50000.0
         fb.mean.iter().any(|p| p[0] > 2.0 * p[1]),
         "the red ball shows"
     );
-    let (relative, far) = render_distance(&fa, &fb);
+    let (relative, far) = common::render_distance(&fa, &fb);
     assert!(
         relative < 1e-4 && far < 0.005,
         "instanced vs tables: relative difference {relative}, {far} of the pixels differ by > 1 %"
@@ -619,7 +599,7 @@ material = "floor"
     );
     assert_eq!(GpuScene::build(&copies).triangles.len(), 2 + 66 * faces);
     let (a, b) = (render(&shared, 4), render(&copies, 4));
-    let (relative, far) = render_distance(&a, &b);
+    let (relative, far) = common::render_distance(&a, &b);
     assert!(
         relative < 1e-4 && far < 0.005,
         "placements vs copies: relative difference {relative}, {far} of the pixels differ by > 1 %"

@@ -5,7 +5,10 @@
 //! (matrix or translation-rotation-scale, composed from the root: world = parent x local, glTF's
 //! column-vector convention), and every triangle primitive of every mesh a node instances: positions,
 //! normals (transformed by the inverse transpose), the texture coordinate set the material's textures read
-//! (`uv_set`), indices. Materials are glTF's
+//! (`uv_set`), indices. A node that mirrors re-winds its triangles (glTF 2.0 §3.7.2.1). A mesh that two
+//! or more nodes place is read once in its own space, with the nodes' transforms (`ObjMesh::shared`: the
+//! scene shares it through the two-level BVH); every other node's primitives are flattened into the
+//! file's space. Materials are glTF's
 //! metallic-roughness ones (Appendix B), which vkpath's `metallic_roughness` implements: baseColorFactor
 //! (its alpha the MASK/BLEND opacity), metallicFactor, roughnessFactor, emissiveFactor x KHR_materials_emissive_strength,
 //! and the textures each factor multiplies (glTF 2.0 §3.9): baseColorTexture and emissiveTexture (sRGB
@@ -27,8 +30,9 @@
 
 use super::GltfLayers;
 use super::image_texture::{Texture, load_texture, load_texture_bytes};
+use super::mesh::SharedMesh;
 use super::mesh::{FileMaterial, MAX_TRIANGLES, ObjError, ObjMesh};
-use glam::{Mat3, Mat4, Vec3};
+use glam::{DAffine3, DMat3, Mat3, Mat4, Vec3};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -174,14 +178,13 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     let buffers =
         load_buffers(&gltf.document, dir, gltf.blob.clone()).map_err(ObjError::whole_file)?;
     let doc = &gltf.document;
-    let mut mesh = ObjMesh::default();
     let mut notes = Notes::default();
     let mut images = Images {
         buffers: &buffers,
         dir,
         loaded: Vec::new(),
     };
-    mesh.materials = doc
+    let materials: Vec<FileMaterial> = doc
         .materials()
         .map(|m| material(m, &mut images, &mut notes))
         .collect();
@@ -202,17 +205,128 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
     let nodes = scene_nodes(doc, &scene, true).map_err(ObjError::whole_file)?;
     // KHR_mesh_quantization: attributes may be 8- and 16-bit integers (read_attribute dequantizes them).
     let quantized = doc.extensions_used().any(|e| e == "KHR_mesh_quantization");
-    let mut all_normals = true;
-    // Texture coordinates are per primitive: one without TEXCOORD_0 gets (0, 0) at its vertices (a valid
-    // file textures only primitives that have them), so that the others keep theirs.
-    let mut any_uvs = false;
-    let mut normals = Vec::new();
-    let mut uvs = Vec::new();
-    let mut tangents: Vec<[f32; 4]> = Vec::new();
+    let read = Read {
+        buffers: &buffers,
+        quantized,
+    };
+    // A mesh that two or more nodes place (each by an invertible transform: the renderer maps rays
+    // back through its inverse) is read once, in its own space, with the nodes' world transforms
+    // (`ObjMesh::shared`); every other node's primitives are flattened into the file's space.
+    let mut users = vec![0usize; doc.meshes().len()];
+    for (node, world) in &nodes {
+        if let Some(m) = node.mesh()
+            && invertible(world)
+        {
+            users[m.index()] += 1;
+        }
+    }
+    let mut flat = Gather::new();
+    let mut group_of: Vec<Option<usize>> = vec![None; users.len()];
+    let mut groups: Vec<(Gather, Vec<DAffine3>)> = Vec::new();
     for (node, world) in nodes {
         let Some(m) = node.mesh() else { continue };
+        if users[m.index()] < 2 || !invertible(&world) {
+            flat.add(&m, world, &read, &mut notes)?;
+            continue;
+        }
+        let g = match group_of[m.index()] {
+            Some(g) => g,
+            None => {
+                let mut own = Gather::new();
+                own.add(&m, Mat4::IDENTITY, &read, &mut notes)?;
+                groups.push((own, Vec::new()));
+                group_of[m.index()] = Some(groups.len() - 1);
+                groups.len() - 1
+            }
+        };
+        groups[g].1.push(DAffine3::from_mat4(world.as_dmat4()));
+    }
+    // A primitive without TEXCOORD_0 gets (0, 0) at its vertices when any primitive of the file has
+    // them (a valid file textures only primitives that have them), so that the others keep theirs.
+    let uvs = flat.any_uvs || groups.iter().any(|(g, _)| g.any_uvs);
+    let mut mesh = flat.finish(uvs, &mut notes);
+    mesh.materials = materials;
+    mesh.shared = groups
+        .into_iter()
+        .filter(|(g, _)| !g.mesh.triangles.is_empty())
+        .map(|(g, nodes)| SharedMesh {
+            mesh: g.finish(uvs, &mut notes),
+            nodes,
+        })
+        .collect();
+    if mesh.triangles.is_empty() && mesh.shared.is_empty() {
+        return Err(ObjError::whole_file(
+            "the glTF scene has no triangles (no mesh with a TRIANGLES primitive)",
+        ));
+    }
+    if mesh.materials.is_empty() {
+        mesh.face_materials.clear();
+        for s in &mut mesh.shared {
+            s.mesh.face_materials.clear();
+        }
+    }
+    if !mesh.is_finite() || mesh.shared.iter().any(|s| !s.mesh.is_finite()) {
+        return Err(ObjError::whole_file(
+            "a vertex position, normal or texture coordinate is not a finite number (after the node transforms)",
+        ));
+    }
+    mesh.notes = notes.0;
+    Ok(mesh)
+}
+
+/// Whether a node's world transform can be inverted (a node scaled by 0 cannot: its mesh is
+/// flattened, to a plane or a point, rather than shared).
+fn invertible(world: &Mat4) -> bool {
+    !super::mesh::singular(&DMat3::from_mat4(world.as_dmat4()))
+}
+
+/// What every primitive is read with: the file's buffers, and whether it may quantize attributes.
+struct Read<'a> {
+    buffers: &'a [Vec<u8>],
+    quantized: bool,
+}
+
+/// One mesh being read primitive by primitive: the file's flattened nodes (in the file's space), or one
+/// shared mesh (in its own).
+struct Gather {
+    mesh: ObjMesh,
+    /// Every primitive so far had NORMAL.
+    all_normals: bool,
+    /// Some primitive had the texture coordinates its material reads.
+    any_uvs: bool,
+    normals: Vec<Vec3>,
+    uvs: Vec<[f32; 2]>,
+    tangents: Vec<[f32; 4]>,
+}
+
+impl Gather {
+    fn new() -> Gather {
+        Gather {
+            mesh: ObjMesh::default(),
+            all_normals: true,
+            any_uvs: false,
+            normals: Vec::new(),
+            uvs: Vec::new(),
+            tangents: Vec::new(),
+        }
+    }
+
+    /// Appends the triangle primitives of `m`, placed by `world`.
+    fn add(
+        &mut self,
+        m: &gltf::Mesh,
+        world: Mat4,
+        read: &Read,
+        notes: &mut Notes,
+    ) -> Result<(), ObjError> {
+        let buffers = read.buffers;
+        let mesh = &mut self.mesh;
         // Normals go by the inverse transpose of the upper 3x3 (a non-uniform scale bends them).
         let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+        // glTF 2.0 §3.7.2.1: a node whose world transform has a negative determinant turns its
+        // triangles' winding clockwise; written out in world space, they are re-wound so that the
+        // front (counter-clockwise) side stays the side the file's normals face.
+        let mirrors = Mat3::from_mat4(world).determinant() < 0.0;
         for p in m.primitives() {
             let at = format!("meshes[{}].primitives[{}]", m.index(), p.index());
             if p.mode() != gltf::mesh::Mode::Triangles {
@@ -222,10 +336,10 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                 ));
                 continue;
             }
-            check_accessors(&p, &buffers, &at, quantized).map_err(ObjError::whole_file)?;
+            check_accessors(&p, buffers, &at, read.quantized).map_err(ObjError::whole_file)?;
             let reader = p.reader(|b| buffers.get(b.index()).map(|d| &d[..]));
             let attribute =
-                |s: gltf::Semantic| p.get(&s).and_then(|a| read_attribute::<3>(&a, &buffers));
+                |s: gltf::Semantic| p.get(&s).and_then(|a| read_attribute::<3>(&a, buffers));
             let Some(positions) = attribute(gltf::Semantic::Positions) else {
                 notes.add(format!("{at} has no POSITION: it is skipped"));
                 continue;
@@ -264,7 +378,7 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
             let set = uv_set(&p.material());
             let tex_coords = p
                 .get(&gltf::Semantic::TexCoords(set))
-                .and_then(|a| read_attribute::<2>(&a, &buffers));
+                .and_then(|a| read_attribute::<2>(&a, buffers));
             let normal_mapped = p.material().normal_texture().is_some();
             // Tangents where the material has a normal map: the file's TANGENT (its xyz mapped by the
             // node's linear part, like a direction on the surface; its w, the bitangent's sign,
@@ -281,7 +395,7 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
                 };
                 if let Some(t) = p
                     .get(&gltf::Semantic::Tangents)
-                    .and_then(|a| read_attribute::<4>(&a, &buffers))
+                    .and_then(|a| read_attribute::<4>(&a, buffers))
                 {
                     prim_tangents = Some(
                         t.into_iter()
@@ -333,25 +447,25 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
             }
             mesh.positions.extend(positions);
             match prim_normals {
-                Some(n) if all_normals => normals.extend(n),
-                _ => all_normals = false,
+                Some(n) if self.all_normals => self.normals.extend(n),
+                _ => self.all_normals = false,
             }
             match prim_tangents {
                 Some(t) => {
                     // Zero (no tangent: the shader's per-triangle frame) for the earlier vertices.
-                    tangents.resize(base, [0.0; 4]);
-                    tangents.extend(t);
+                    self.tangents.resize(base, [0.0; 4]);
+                    self.tangents.extend(t);
                 }
-                None if !tangents.is_empty() => tangents.resize(base + count, [0.0; 4]),
+                None if !self.tangents.is_empty() => self.tangents.resize(base + count, [0.0; 4]),
                 None => {}
             }
             match tex_coords {
                 Some(t) => {
-                    uvs.extend(t);
-                    any_uvs = true;
+                    self.uvs.extend(t);
+                    self.any_uvs = true;
                 }
                 None => {
-                    uvs.extend(std::iter::repeat_n([0.0, 0.0], count));
+                    self.uvs.extend(std::iter::repeat_n([0.0, 0.0], count));
                     let m = p.material();
                     let pbr = m.pbr_metallic_roughness();
                     if pbr.base_color_texture().is_some()
@@ -367,46 +481,39 @@ pub fn parse_gltf(bytes: &[u8], dir: &Path) -> Result<ObjMesh, ObjError> {
             }
             let material = p.material().index().map(|k| k as u32);
             let before = mesh.triangles.len();
-            mesh.triangles.extend(
-                indices
-                    .chunks_exact(3)
-                    .map(|t| [t[0] + base as u32, t[1] + base as u32, t[2] + base as u32]),
-            );
+            mesh.triangles.extend(indices.chunks_exact(3).map(|t| {
+                let [a, b, c] = [t[0], t[1], t[2]].map(|v| v + base as u32);
+                if mirrors { [a, c, b] } else { [a, b, c] }
+            }));
             mesh.face_materials
                 .extend(std::iter::repeat_n(material, mesh.triangles.len() - before));
         }
+        Ok(())
     }
-    if mesh.triangles.is_empty() {
-        return Err(ObjError::whole_file(
-            "the glTF scene has no triangles (no mesh with a TRIANGLES primitive)",
-        ));
+
+    /// The mesh gathered: its normals where every primitive had them, its texture coordinates where
+    /// `uvs` (some primitive of the file had them), its tangents where a primitive had them.
+    fn finish(mut self, uvs: bool, notes: &mut Notes) -> ObjMesh {
+        let mut mesh = std::mem::take(&mut self.mesh);
+        if !self.all_normals && !self.normals.is_empty() {
+            notes.add(
+                "some primitives have NORMAL and some do not: the file's normals are not used (vkpath \
+                 computes normals from the triangles instead)"
+                    .into(),
+            );
+        }
+        mesh.normals = (self.all_normals && self.normals.len() == mesh.positions.len())
+            .then_some(self.normals);
+        if !self.tangents.is_empty() {
+            self.tangents.resize(mesh.positions.len(), [0.0; 4]);
+            mesh.tangents = Some(self.tangents);
+        }
+        // glTF's texture v runs down from the top of the image; the OBJ convention (and vkpath's
+        // sampling) has v up from the bottom.
+        mesh.uvs = (uvs && self.uvs.len() == mesh.positions.len())
+            .then(|| self.uvs.into_iter().map(|[u, v]| [u, 1.0 - v]).collect());
+        mesh
     }
-    if !all_normals && !normals.is_empty() {
-        notes.add(
-            "some primitives have NORMAL and some do not: the file's normals are not used (vkpath \
-             computes normals from the triangles instead)"
-                .into(),
-        );
-    }
-    mesh.normals = (all_normals && normals.len() == mesh.positions.len()).then_some(normals);
-    // glTF's texture v runs down from the top of the image; the OBJ convention (and vkpath's sampling)
-    // has v up from the bottom.
-    if !tangents.is_empty() {
-        tangents.resize(mesh.positions.len(), [0.0; 4]);
-        mesh.tangents = Some(tangents);
-    }
-    mesh.uvs = (any_uvs && uvs.len() == mesh.positions.len())
-        .then(|| uvs.into_iter().map(|[u, v]| [u, 1.0 - v]).collect());
-    if mesh.materials.is_empty() {
-        mesh.face_materials.clear();
-    }
-    if !mesh.is_finite() {
-        return Err(ObjError::whole_file(
-            "a vertex position, normal or texture coordinate is not a finite number (after the node transforms)",
-        ));
-    }
-    mesh.notes = notes.0;
-    Ok(mesh)
 }
 
 /// The glTF file's buffers: the GLB's BIN chunk, data URIs (base64) and files beside the glTF. Instead of

@@ -157,6 +157,27 @@ pub struct ObjMesh {
     /// The file asks for face normals (a `.serialized` mesh's flag 0x0010): shaded flat whatever the
     /// `[[mesh]]`'s `smooth` says, as Mitsuba does.
     pub face_normals: bool,
+    /// Meshes the file places more than once (glTF nodes sharing a mesh), each kept once in its own
+    /// space with the transforms that place it into the file's; the fields above hold everything else.
+    /// Their `face_materials` index `materials` above; they have no materials, notes or shared meshes
+    /// of their own.
+    pub shared: Vec<SharedMesh>,
+}
+
+/// A mesh the file places several times: in its own space, and one affine map (its own space to the
+/// file's) per placement.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SharedMesh {
+    pub mesh: ObjMesh,
+    pub nodes: Vec<DAffine3>,
+}
+
+/// Whether a linear map flattens space (its determinant is zero relative to the size of its entries),
+/// so that it has no inverse for normals or for mapping rays back.
+pub fn singular(m: &DMat3) -> bool {
+    let det = m.determinant();
+    let size = m.to_cols_array().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    det.abs() <= 1e-12 * size.powi(3) || !det.is_finite()
 }
 
 impl ObjMesh {

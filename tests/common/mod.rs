@@ -120,3 +120,23 @@ material = "wall"
 "#
     )
 }
+
+/// How far apart two renders of the same scene are: the sum of |a - b| over every channel, relative to
+/// the sum of b, and the fraction of pixels where some channel differs by more than 1 % of b's mean.
+pub fn render_distance(a: &vkpath::Film, b: &vkpath::Film) -> (f64, f64) {
+    let (mut diff, mut total) = (0.0f64, 0.0f64);
+    for (p, q) in a.mean.iter().zip(&b.mean) {
+        for c in 0..3 {
+            diff += (p[c] as f64 - q[c] as f64).abs();
+            total += q[c] as f64;
+        }
+    }
+    let mean = total / (3 * b.mean.len()) as f64;
+    let far = a
+        .mean
+        .iter()
+        .zip(&b.mean)
+        .filter(|(p, q)| (0..3).any(|c| (p[c] as f64 - q[c] as f64).abs() > 0.01 * mean))
+        .count();
+    (diff / total, far as f64 / b.mean.len() as f64)
+}

@@ -9,7 +9,7 @@ use crate::scene::mesh::{self, Mesh, MeshMaps, ObjMesh, Placement};
 use crate::scene::mesh_file;
 use crate::scene::texture::MaterialTextures;
 use crate::scene::{Bsdf, ConductorFresnel, Emission, Material, Roughness, Sphere, Triangle};
-use glam::{DAffine3, DMat4, Vec3};
+use glam::{DAffine3, DMat4, DVec3, Vec3};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use toml::Spanned;
@@ -23,6 +23,9 @@ pub(super) struct MeshTable {
     pub(super) warnings: Vec<String>,
     /// What `[[instance]]`s of this mesh place again: the file, its parts and their materials.
     pub(super) source: MeshSource,
+    /// The file's shared meshes (`source.shared[g]`, by `g`) that this table placed as one copy each,
+    /// with the placements it gave them.
+    pub(super) instanced: Vec<(usize, mesh::InstancedMesh)>,
 }
 
 /// A `[[mesh]]` before placement: its file's parts (one per material) and how they are shaded, which an
@@ -31,7 +34,40 @@ pub(super) struct MeshTable {
 pub(super) struct MeshSource {
     pub(super) obj_path: PathBuf,
     pub(super) smooth: bool,
+    /// The parts in the file's own space.
     pub(super) parts: Vec<MeshPart>,
+    /// The meshes the file places several times (glTF nodes sharing a mesh: [`ObjMesh::shared`]).
+    pub(super) shared: Vec<SharedParts>,
+}
+
+/// The parts of one mesh a file places several times, in the mesh's own space, and the maps from it
+/// to the file's space.
+pub(super) struct SharedParts {
+    pub(super) parts: Vec<MeshPart>,
+    pub(super) nodes: Vec<DAffine3>,
+}
+
+impl MeshSource {
+    /// Whether any part emits light (a material with emission, or an emission texture): an emitting
+    /// triangle is a light, sampled in world space, so it is never shared.
+    fn emits(parts: &[MeshPart], materials: &[Material]) -> bool {
+        parts.iter().any(|part| {
+            part.maps.emissive.is_some()
+                || materials
+                    .get(part.material as usize)
+                    .is_some_and(|m| m.emission.is_some())
+        })
+    }
+
+    /// Every vertex of the source, placed by `affine` (each shared mesh's through its nodes as well):
+    /// the first that leaves the f32 range, if any.
+    fn overflows(&self, affine: &DAffine3) -> Option<DVec3> {
+        first_overflow(&self.parts, std::iter::once(*affine)).or_else(|| {
+            self.shared
+                .iter()
+                .find_map(|g| first_overflow(&g.parts, g.nodes.iter().map(|n| *affine * *n)))
+        })
+    }
 }
 
 /// One material's faces of a mesh file.
@@ -40,6 +76,20 @@ pub(super) struct MeshPart {
     material: u32,
     texture: Option<Arc<Texture>>,
     maps: MeshMaps,
+}
+
+/// The first vertex of `parts` that one of `placements` takes out of the f32 range, where it lands.
+fn first_overflow(
+    parts: &[MeshPart],
+    mut placements: impl Iterator<Item = DAffine3>,
+) -> Option<DVec3> {
+    placements.find_map(|a| {
+        parts
+            .iter()
+            .flat_map(|part| part.obj.positions.iter())
+            .map(|p| a.transform_point3(p.as_dvec3()))
+            .find(|p| !p.as_vec3().is_finite())
+    })
 }
 
 /// The scene material for an MTL material, and whether a value had to be clipped (colours to [0, 1],
@@ -398,6 +448,7 @@ impl Checker<'_> {
                 obj_path: obj_path.clone(),
                 smooth: smooth && !obj.face_normals,
                 parts: Vec::new(),
+                shared: Vec::new(),
             },
             ..MeshTable::default()
         };
@@ -415,12 +466,23 @@ impl Checker<'_> {
         );
         if let Some(material) = material {
             // The scene's material applies to every face, whatever the OBJ's MTL says.
-            table.source.parts.push(MeshPart {
+            let part = |obj: Arc<ObjMesh>| MeshPart {
                 obj,
                 material,
-                texture,
-                maps,
-            });
+                texture: texture.clone(),
+                maps: maps.clone(),
+            };
+            table.source.shared = obj
+                .shared
+                .iter()
+                .map(|g| SharedParts {
+                    parts: vec![part(Arc::new(g.mesh.clone()))],
+                    nodes: g.nodes.clone(),
+                })
+                .collect();
+            if !obj.triangles.is_empty() {
+                table.source.parts.push(part(obj));
+            }
             return self.place_table(
                 table,
                 &placement,
@@ -446,14 +508,19 @@ impl Checker<'_> {
             ));
         }
         // One mesh per MTL material, in the order the faces first use them (faces with none, or when no
-        // MTL file could be read, get MTL's default: diffuse, Kd 0.8).
+        // MTL file could be read, get MTL's default: diffuse, Kd 0.8); the file's own space first, then
+        // its shared meshes, whose parts use the same scene materials.
         let mut groups: Vec<Option<u32>> = Vec::new();
-        for t in 0..obj.triangles.len() {
-            let id = obj.face_materials.get(t).copied().flatten();
-            if !groups.contains(&id) {
-                groups.push(id);
+        for m in std::iter::once(&*obj).chain(obj.shared.iter().map(|g| &g.mesh)) {
+            for t in 0..m.triangles.len() {
+                let id = m.face_materials.get(t).copied().flatten();
+                if !groups.contains(&id) {
+                    groups.push(id);
+                }
             }
         }
+        // Per material of the file: its scene material, texture and maps.
+        let mut made = Vec::new();
         let obj_dir = obj_path.parent().unwrap_or(Path::new("."));
         for id in groups {
             let index = (names.len() + table.materials.len()) as u32;
@@ -540,21 +607,38 @@ impl Checker<'_> {
                 (Bsdf::Dielectric { .. }, Some(_)) if material.emission.is_none() => None,
                 (_, t) => t,
             };
-            table.source.parts.push(MeshPart {
-                obj: Arc::new(obj.subset(id)),
-                material: index,
-                texture,
-                maps,
-            });
+            made.push((id, index, texture, maps));
             table.materials.push((name, material));
         }
+        let parts_of = |m: &ObjMesh| -> Vec<MeshPart> {
+            made.iter()
+                .map(|(id, index, texture, maps)| MeshPart {
+                    obj: Arc::new(m.subset(*id)),
+                    material: *index,
+                    texture: texture.clone(),
+                    maps: maps.clone(),
+                })
+                .filter(|part| !part.obj.triangles.is_empty())
+                .collect()
+        };
+        table.source.parts = parts_of(&obj);
+        table.source.shared = obj
+            .shared
+            .iter()
+            .map(|g| SharedParts {
+                parts: parts_of(&g.mesh),
+                nodes: g.nodes.clone(),
+            })
+            .collect();
         // (The MTL materials are not in `materials` yet: the parts look theirs up in the table.)
         let mut all = materials.to_vec();
         all.extend(table.materials.iter().map(|(_, m)| m.clone()));
         self.place_table(table, &placement, &all, raw.span(), &format!("mesh[{i}]"))
     }
 
-    /// Places every part of `table.source` by `placement` into `table.meshes`.
+    /// Places every part of `table.source` by `placement` into `table.meshes`; each of the file's
+    /// shared meshes once, in its own space, into `table.instanced` with one placement per node
+    /// (copies into `table.meshes` when it emits).
     fn place_table(
         &self,
         mut table: MeshTable,
@@ -563,18 +647,50 @@ impl Checker<'_> {
         span: std::ops::Range<usize>,
         label: &str,
     ) -> Result<MeshTable, SceneError> {
-        for part in &table.source.parts {
-            let placed = self.place_part(
-                &table.source,
-                part,
+        let source = &table.source;
+        let mut meshes = self.place_each(
+            source,
+            &source.parts,
+            None,
+            placement,
+            materials,
+            span.clone(),
+            label,
+        )?;
+        let affine = placement.affine();
+        let mut instanced = Vec::new();
+        for (g, group) in source.shared.iter().enumerate() {
+            let placements: Vec<DAffine3> = group.nodes.iter().map(|n| affine * *n).collect();
+            if MeshSource::emits(&group.parts, materials) {
+                for a in &placements {
+                    meshes.extend(self.place_each(
+                        source,
+                        &group.parts,
+                        None,
+                        &Placement::Matrix(*a),
+                        materials,
+                        span.clone(),
+                        label,
+                    )?);
+                }
+                continue;
+            }
+            if let Some(p) = first_overflow(&group.parts, placements.iter().copied()) {
+                return Err(self.overflow(span, label, source, p));
+            }
+            let parts = self.place_each(
+                source,
+                &group.parts,
                 None,
-                placement,
+                &Placement::default(),
                 materials,
                 span.clone(),
                 label,
             )?;
-            table.meshes.push(placed);
+            instanced.push((g, mesh::InstancedMesh { parts, placements }));
         }
+        table.meshes = meshes;
+        table.instanced = instanced;
         Ok(table)
     }
 
@@ -656,15 +772,7 @@ impl Checker<'_> {
             }
             // glam's matrices are column-major: the file's rows are the transpose's columns.
             let affine = DAffine3::from_mat4(DMat4::from_cols_array(&rows).transpose());
-            let det = affine.matrix3.determinant();
-            // Relative to the size of the entries: a matrix that flattens the mesh has no inverse
-            // transpose for its normals.
-            let size = affine
-                .matrix3
-                .to_cols_array()
-                .iter()
-                .fold(0.0f64, |a, v| a.max(v.abs()));
-            if det.abs() <= 1e-12 * size.powi(3) || !det.is_finite() {
+            if mesh::singular(&affine.matrix3) {
                 return bad("the matrix is singular (it flattens the mesh)");
             }
             return Ok(Placement::Matrix(affine));
@@ -728,22 +836,15 @@ impl Checker<'_> {
             r.rotate.as_ref(),
             r.translate.as_ref(),
         )?;
-        let emits = source.parts.iter().any(|part| {
-            part.maps.emissive.is_some()
-                || materials
-                    .get(part.material as usize)
-                    .is_some_and(|m| m.emission.is_some())
-        });
+        let emits = MeshSource::emits(&source.parts, materials)
+            || source
+                .shared
+                .iter()
+                .any(|g| MeshSource::emits(&g.parts, materials));
         if material.is_none() && !emits {
             // The placement must map the mesh's own space to floats, as placing a copy would.
             let affine = placement.affine();
-            let corner = source
-                .parts
-                .iter()
-                .flat_map(|part| part.obj.positions.iter())
-                .map(|p| affine.transform_point3(p.as_dvec3()))
-                .find(|p| !p.as_vec3().is_finite());
-            if let Some(p) = corner {
+            if let Some(p) = source.overflows(&affine) {
                 return Err(self.overflow(raw.span(), &label, source, p));
             }
             return Ok(Placed::Shared {
@@ -756,7 +857,8 @@ impl Checker<'_> {
         Ok(Placed::Copies(copies))
     }
 
-    /// Every part of `source` placed by `placement`, in `material` when one is given.
+    /// Every part of `source` placed by `placement` (its shared meshes' through each of their nodes as
+    /// well), in `material` when one is given.
     fn place_parts(
         &self,
         source: &MeshSource,
@@ -766,8 +868,45 @@ impl Checker<'_> {
         span: std::ops::Range<usize>,
         label: &str,
     ) -> Result<Vec<Mesh>, SceneError> {
-        source
-            .parts
+        let mut out = self.place_each(
+            source,
+            &source.parts,
+            material,
+            placement,
+            materials,
+            span.clone(),
+            label,
+        )?;
+        let affine = placement.affine();
+        for group in &source.shared {
+            for n in &group.nodes {
+                out.extend(self.place_each(
+                    source,
+                    &group.parts,
+                    material,
+                    &Placement::Matrix(affine * *n),
+                    materials,
+                    span.clone(),
+                    label,
+                )?);
+            }
+        }
+        Ok(out)
+    }
+
+    /// `parts` (of `source`) placed by `placement`, in `material` when one is given.
+    #[allow(clippy::too_many_arguments)]
+    fn place_each(
+        &self,
+        source: &MeshSource,
+        parts: &[MeshPart],
+        material: Option<u32>,
+        placement: &Placement,
+        materials: &[Material],
+        span: std::ops::Range<usize>,
+        label: &str,
+    ) -> Result<Vec<Mesh>, SceneError> {
+        parts
             .iter()
             .map(|part| {
                 self.place_part(
@@ -811,7 +950,15 @@ impl Checker<'_> {
         span: std::ops::Range<usize>,
         label: &str,
     ) -> Result<Vec<Mesh>, SceneError> {
-        self.place_parts(source, None, &Placement::default(), materials, span, label)
+        self.place_each(
+            source,
+            &source.parts,
+            None,
+            &Placement::default(),
+            materials,
+            span,
+            label,
+        )
     }
 }
 

@@ -176,6 +176,10 @@ impl Checker<'_> {
         let mut warnings = Vec::new();
         // Named meshes, for [[instance]]s.
         let mut sources: Vec<(String, geometry::MeshSource)> = Vec::new();
+        // Meshes stored once and placed by the two-level BVH (`Scene::instanced`), and per named mesh
+        // which of them hold its file's shared meshes: (`source.shared` index, `instanced` index).
+        let mut instanced: Vec<mesh::InstancedMesh> = Vec::new();
+        let mut nested_of: Vec<Vec<(usize, usize)>> = Vec::new();
         let too_many = |span: Range<usize>, table: &str| {
             self.error(
                 span,
@@ -196,12 +200,18 @@ impl Checker<'_> {
             total += table
                 .meshes
                 .iter()
+                .chain(table.instanced.iter().flat_map(|(_, m)| m.parts.iter()))
                 .map(|m| m.triangles.len())
                 .sum::<usize>();
             if total > mesh::MAX_TRIANGLES {
                 return Err(too_many(mesh.span(), &format!("mesh[{i}]")));
             }
             meshes.extend(table.meshes);
+            let mut nested = Vec::new();
+            for (g, shared) in table.instanced {
+                nested.push((g, instanced.len()));
+                instanced.push(shared);
+            }
             for (name, material) in table.materials {
                 material_names.push(name);
                 materials.push(material);
@@ -217,10 +227,10 @@ impl Checker<'_> {
                     ));
                 }
                 sources.push((name.get_ref().clone(), table.source));
+                nested_of.push(nested);
             }
         }
         // Instances: shared placements of a named mesh, or copies (geometry::Checker::instance).
-        let mut instanced: Vec<mesh::InstancedMesh> = Vec::new();
         let mut shared_of: Vec<Option<usize>> = vec![None; sources.len()];
         for (i, instance) in raw.instance.iter().enumerate() {
             let label = format!("instance[{i}]");
@@ -233,6 +243,16 @@ impl Checker<'_> {
                     meshes.extend(placed);
                 }
                 geometry::Placed::Shared { source, placement } => {
+                    // The file's shared meshes: one more placement for each of their nodes.
+                    for &(g, k) in &nested_of[source] {
+                        let nodes = &sources[source].1.shared[g].nodes;
+                        instanced[k]
+                            .placements
+                            .extend(nodes.iter().map(|n| placement * *n));
+                    }
+                    if sources[source].1.parts.is_empty() {
+                        continue;
+                    }
                     let k = match shared_of[source] {
                         Some(k) => k,
                         None => {
