@@ -834,6 +834,19 @@ fn a_matrix_stretches_and_mirrors_and_keeps_fronts_facing_out() {
             "{message}"
         );
     }
+    // Within the range, past half of it (where the placement's box corners no longer vouch for the
+    // vertices and each vertex is mapped): a shared placement loads.
+    let near = write(
+        dir.path(),
+        "near.toml",
+        &format!(
+            "{head}[materials.grey]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n[[mesh]]\nobj = \"quad.obj\"\n\
+             material = \"grey\"\nname = \"g\"\n[[instance]]\nmesh = \"g\"\n\
+             matrix = [3e38, 0, 0, 0,  0, 3e38, 0, 0,  0, 0, 3e38, 0,  0, 0, 0, 1]\n"
+        ),
+    );
+    let scene = Scene::load(&near).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.instanced[0].placements.len(), 1);
 }
 
 // ----- the example scene -----

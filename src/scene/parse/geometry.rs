@@ -10,6 +10,7 @@ use crate::scene::mesh_file;
 use crate::scene::texture::MaterialTextures;
 use crate::scene::{Bsdf, ConductorFresnel, Emission, Material, Roughness, Sphere, Triangle};
 use glam::{DAffine3, DMat4, DVec3, Vec3};
+use std::cell::OnceCell;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use toml::Spanned;
@@ -38,6 +39,8 @@ pub(super) struct MeshSource {
     pub(super) parts: Vec<MeshPart>,
     /// The meshes the file places several times (glTF nodes sharing a mesh: [`ObjMesh::shared`]).
     pub(super) shared: Vec<SharedParts>,
+    /// The box around `parts`, found when first needed.
+    bounds: OnceCell<Bounds>,
 }
 
 /// The parts of one mesh a file places several times, in the mesh's own space, and the maps from it
@@ -45,6 +48,8 @@ pub(super) struct MeshSource {
 pub(super) struct SharedParts {
     pub(super) parts: Vec<MeshPart>,
     pub(super) nodes: Vec<DAffine3>,
+    /// The box around `parts`, found when first needed.
+    bounds: OnceCell<Bounds>,
 }
 
 impl MeshSource {
@@ -62,10 +67,10 @@ impl MeshSource {
     /// Every vertex of the source, placed by `affine` (each shared mesh's through its nodes as well):
     /// the first that leaves the f32 range, if any.
     fn overflows(&self, affine: &DAffine3) -> Option<DVec3> {
-        first_overflow(&self.parts, std::iter::once(*affine)).or_else(|| {
-            self.shared
-                .iter()
-                .find_map(|g| first_overflow(&g.parts, g.nodes.iter().map(|n| *affine * *n)))
+        first_overflow(&self.parts, &self.bounds, std::iter::once(*affine)).or_else(|| {
+            self.shared.iter().find_map(|g| {
+                first_overflow(&g.parts, &g.bounds, g.nodes.iter().map(|n| *affine * *n))
+            })
         })
     }
 }
@@ -78,15 +83,40 @@ pub(super) struct MeshPart {
     maps: MeshMaps,
 }
 
+/// An axis-aligned box, its least and greatest corners (empty: +inf and -inf).
+type Bounds = [DVec3; 2];
+
 /// The first vertex of `parts` that one of `placements` takes out of the f32 range, where it lands.
+/// `bounds` caches the box around the parts' vertices: a vertex is a convex combination of the box's
+/// eight corners and an affine map keeps the combination, so where every mapped corner lies within
+/// half the f32 range (a margin far above f64's rounding of the map, 2^-52 relative) no vertex can
+/// leave it, and only placements that fail this test map every vertex. Checking a shared mesh's
+/// placements costs O(1) each instead of O(vertices), with the same refusals.
 fn first_overflow(
     parts: &[MeshPart],
+    bounds: &OnceCell<Bounds>,
     mut placements: impl Iterator<Item = DAffine3>,
 ) -> Option<DVec3> {
+    let vertices = || parts.iter().flat_map(|part| part.obj.positions.iter());
+    let [lo, hi] = *bounds.get_or_init(|| {
+        vertices().fold([DVec3::INFINITY, DVec3::NEG_INFINITY], |[lo, hi], p| {
+            [lo.min(p.as_dvec3()), hi.max(p.as_dvec3())]
+        })
+    });
+    let safe = 0.5 * f64::from(f32::MAX);
     placements.find_map(|a| {
-        parts
-            .iter()
-            .flat_map(|part| part.obj.positions.iter())
+        let corners_safe = (0..8).all(|k| {
+            let corner = DVec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            a.transform_point3(corner).abs().max_element() <= safe
+        });
+        if corners_safe {
+            return None;
+        }
+        vertices()
             .map(|p| a.transform_point3(p.as_dvec3()))
             .find(|p| !p.as_vec3().is_finite())
     })
@@ -449,6 +479,7 @@ impl Checker<'_> {
                 smooth: smooth && !obj.face_normals,
                 parts: Vec::new(),
                 shared: Vec::new(),
+                bounds: OnceCell::new(),
             },
             ..MeshTable::default()
         };
@@ -478,6 +509,7 @@ impl Checker<'_> {
                 .map(|g| SharedParts {
                     parts: vec![part(Arc::new(g.mesh.clone()))],
                     nodes: g.nodes.clone(),
+                    bounds: OnceCell::new(),
                 })
                 .collect();
             if !obj.triangles.is_empty() {
@@ -628,6 +660,7 @@ impl Checker<'_> {
             .map(|g| SharedParts {
                 parts: parts_of(&g.mesh),
                 nodes: g.nodes.clone(),
+                bounds: OnceCell::new(),
             })
             .collect();
         // (The MTL materials are not in `materials` yet: the parts look theirs up in the table.)
@@ -675,7 +708,8 @@ impl Checker<'_> {
                 }
                 continue;
             }
-            if let Some(p) = first_overflow(&group.parts, placements.iter().copied()) {
+            if let Some(p) = first_overflow(&group.parts, &group.bounds, placements.iter().copied())
+            {
                 return Err(self.overflow(span, label, source, p));
             }
             let parts = self.place_each(
