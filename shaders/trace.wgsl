@@ -380,26 +380,47 @@ fn path_step(path: ptr<function, Path>) -> bool {
     }
     let hit_mat = hit_material(hit);
     var mat = materials[hit_mat];
+    // What the hit needs its surface (normal, uv, shading frame: surface_at) for: a glTF volume's
+    // boundary, emission, a path that goes on. A path that ends here with none of them (at the bounce
+    // limit, or on a black emitter) needs none; otherwise one surface_at serves all three (inlined once:
+    // the compiler inlines every call site, and the generic kernel's surface_at is large).
+    var volume = false;
+    if HAS_GLTF_PBR {
+        volume = mat.kind == MAT_GLTF_PBR && (mat.flags & MATERIAL_VOLUME) != 0u;
+    }
+    var emits = false;
+    if HAS_EMISSION {
+        emits = any(mat.emission > vec3<f32>(0.0));
+    }
+    var on_emitter = false;
+    if HAS_EMITTERS {
+        on_emitter = mat.kind == MAT_EMITTER;
+    }
+    let at_limit = (*path).bounces >= params.max_bounces;
+    if (at_limit || on_emitter) && !volume && !emits {
+        if !on_emitter {
+            count_bounce_cap();
+        }
+        return false;
+    }
+    let sp = surface_at(o, d, hit);
     // A path inside a glTF volume (KHR_materials_volume) meets its boundary from behind (the side its
     // geometric normal points away from, as `facing` decides below): the segment it travelled lay inside,
     // where the medium absorbs exp(-sigma_a t) (Beer-Lambert; d is a unit vector, so t is the distance).
     // Everything this path gathers from here on passes through that factor, the emission found at this
-    // boundary first (light that crossed the medium too). Only such materials pay for the surface here.
+    // boundary first (light that crossed the medium too).
     if HAS_GLTF_PBR {
-        if mat.kind == MAT_GLTF_PBR && (mat.flags & MATERIAL_VOLUME) != 0u {
-            if dot(d, surface_at(o, d, hit).n) >= 0.0 {
-                beta *= exp(-vec3<f32>(mat.coat[4], mat.coat[5], mat.coat[6]) * hit.t);
-            }
+        if volume && dot(d, sp.n) >= 0.0 {
+            beta *= exp(-vec3<f32>(mat.coat[4], mat.coat[5], mat.coat[6]) * hit.t);
         }
     }
     if HAS_EMISSION {
-        if any(mat.emission > vec3<f32>(0.0)) {
+        if emits {
             // Front or back: against the geometric normal (outward on spheres). A mesh's emissive
             // texture multiplies the emission.
-            let s = surface_at(o, d, hit);
-            var le = material_emission(mat, dot(d, s.n) < 0.0);
+            var le = material_emission(mat, dot(d, sp.n) < 0.0);
             if HAS_EMISSIVE_TEXTURES {
-                le *= surface_emission_scale(s);
+                le *= surface_emission_scale(sp);
             }
             var w = 1.0;
             if !(*path).last_delta {
@@ -411,16 +432,15 @@ fn path_step(path: ptr<function, Path>) -> bool {
         }
     }
     if HAS_EMITTERS {
-        if mat.kind == MAT_EMITTER {
+        if on_emitter {
             return false;
         }
     }
-    if (*path).bounces >= params.max_bounces {
+    if at_limit {
         count_bounce_cap();
         return false;
     }
     (*path).bounces += 1u;
-    let sp = surface_at(o, d, hit);
     let on_sphere = select(NO_LIGHT, hit.prim_index, hit.prim_kind == PRIM_SPHERE);
     let f = facing(sp, d, hit);
     let n = f.n;
