@@ -42,11 +42,13 @@ step fmt cargo fmt --all -- --check
 # it compile it on both test threads at once. So it is compiled once, in the background, while the lints
 # and the build run (one core of the two, where they leave it idle): the tests then find it in Mesa's
 # disk cache. (A warm-up that fails changes nothing: the tests compile the kernel themselves.) The
-# validation layers are on, as the tests have them.
+# validation layers are on, as the tests have them. The render's kernel first, then one per --aov layer
+# (the generic kernel fixes what it renders, as a specialised one does: tests/outputs.rs renders the
+# three layers with it).
 step build cargo build --bin vkpath
 warm_dir=$(mktemp -d)
 VKPATH_VALIDATION=1 target/debug/vkpath render scenes/course.toml --generic --width 8 --height 8 --spp 1 \
-    --output "$warm_dir/warm.png" >"$warm_dir/log" 2>&1 &
+    --aov albedo,normal,depth --output "$warm_dir/warm.exr" >"$warm_dir/log" 2>&1 &
 warm_pid=$!
 trap 'kill "$warm_pid" 2>/dev/null || true; rm -rf "$warm_dir"' EXIT
 warm_start=$SECONDS

@@ -557,8 +557,10 @@ fn path_load(s: PathState) -> Path {
 }
 
 // One ray cast of the path: radiance (path_step) or, when the kernel traces an `--aov` layer, aov_step.
-// Written with bare constant conditions, so that a specialised render kernel has no AOV code
-// (features.wgsl explains the pruning).
+// Written with bare constant conditions, so that a render's kernel has no AOV code and a layer's no
+// radiance code (features.wgsl explains the pruning). Every kernel the host builds, the generic one
+// included, fixes AOV_KIND (src/kernel/features.rs, FeatureSet::generic); reading it from the
+// parameters is what a kernel with the knob left open would do.
 fn step(path: ptr<function, Path>) -> bool {
     if AOV_FROM_PARAMS {
         if params.aov != AOV_NONE {

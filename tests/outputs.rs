@@ -251,7 +251,8 @@ material = "wall"
         ],
     );
     let (channels, _) = exr_channels(&d.join("m.exr"));
-    // The generic kernel (reading the layer from its parameters) traces the same layers, bit for bit.
+    // The generic kernel (compiled for each layer, as the specialised one is) traces the same layers,
+    // bit for bit.
     run_ok(
         d,
         &[

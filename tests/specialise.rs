@@ -184,9 +184,6 @@ fn absent_features_leave_no_code() {
         "rough_dielectric_sample",
         "coated_sample",
         "surface_tangent",
-        // The --aov layers: only in a layer's kernel, not in a render's.
-        "aov_step",
-        "bsdf_albedo",
     ] {
         assert!(
             generic.iter().any(|n| n == f),
@@ -195,6 +192,21 @@ fn absent_features_leave_no_code() {
         assert!(
             !trimmed.iter().any(|n| n == f),
             "the diffuse/point-light kernel still contains {f}"
+        );
+    }
+    // The --aov layers' path loop: only in a layer's kernel, generic or not, never in a render's.
+    let mut layer_params = params;
+    layer_params.aov = vkpath::kernel::abi::AOV_ALBEDO;
+    let generic_layer = function_names(&FeatureSet::generic_for(&gpu, &layer_params));
+    let layer = function_names(&FeatureSet::of(&gpu, &layer_params));
+    for f in ["aov_step", "bsdf_albedo"] {
+        assert!(
+            generic_layer.iter().any(|n| n == f) && layer.iter().any(|n| n == f),
+            "a layer's kernels should contain {f}"
+        );
+        assert!(
+            !generic.iter().any(|n| n == f) && !trimmed.iter().any(|n| n == f),
+            "a render's kernels should not contain {f}"
         );
     }
     let spirv_trimmed = kernel_for(&features).unwrap().spirv.len();

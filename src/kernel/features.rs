@@ -429,6 +429,9 @@ pub struct KnobRow {
 pub const KNOB_VALUE: u32 = u32::MAX;
 
 /// The knob table.
+/// The index of the `aov` knob in [`KNOBS`] (what the samples are), which every kernel fixes.
+const AOV_KNOB: usize = KNOBS.len() - 1;
+
 pub const KNOBS: &[KnobRow] = &[
     KnobRow {
         name: "filter",
@@ -498,7 +501,14 @@ pub struct FeatureSet {
 }
 
 impl FeatureSet {
-    /// Everything on, every knob read at run time: the one kernel that renders any scene.
+    /// Everything on, every knob read at run time but what the samples are: the one kernel that renders
+    /// any scene.
+    ///
+    /// What it renders is fixed, like a specialised kernel's: radiance here, an `--aov` layer in
+    /// [`FeatureSet::generic_for`] a layer's render. A kernel that read it at run time would hold the
+    /// layers' own path loop (`aov_step`, trace.wgsl: a second inlined copy of the scene walk, the
+    /// surface, the textures and the BSDF sampling) beside the radiance's, for nothing a scene needs; on
+    /// lavapipe it tripled the all-features kernel's compile (measured: 387 s with it, 124 s without).
     ///
     /// Every feature but one: [`Feature::SplitArrays`] is how the scene's arrays are laid out across
     /// bindings, not something the scene's light transport uses, and reading every array through its
@@ -512,22 +522,25 @@ impl FeatureSet {
             knobs: [None; KNOBS.len()],
         };
         set.set(Feature::SplitArrays, false);
+        set.knobs[AOV_KNOB] = Some(AOV_NONE);
         set
     }
 
-    /// Whether this is the generic kernel (for `scene`: whatever its arrays' layout).
+    /// Whether this is the generic kernel (for `scene`: whatever its arrays' layout and its output).
     pub fn is_generic(&self) -> bool {
         let mut set = *self;
         set.set(Feature::SplitArrays, false);
+        set.knobs[AOV_KNOB] = Some(AOV_NONE);
         set == FeatureSet::generic()
     }
 
     /// The generic kernel for `scene`: [`FeatureSet::generic`], with the split arrays where the scene's
-    /// arrays need them.
+    /// arrays need them, rendering what `params` asks (radiance or an `--aov` layer).
     pub fn generic_for(scene: &GpuScene, params: &GpuParams) -> FeatureSet {
         let mut set = FeatureSet::generic();
         let split = FeatureSet::of(scene, params).has(Feature::SplitArrays);
         set.set(Feature::SplitArrays, split);
+        set.knobs[AOV_KNOB] = Some(params.aov);
         set
     }
 
@@ -719,7 +732,8 @@ mod tests {
     }
 
     #[test]
-    fn generic_has_everything_and_reads_every_knob() {
+    fn generic_has_everything_and_reads_every_knob_but_the_output() {
+        assert_eq!(KNOBS[AOV_KNOB].name, "aov");
         let g = FeatureSet::generic();
         assert!(
             features()
@@ -731,6 +745,12 @@ mod tests {
         let consts = g.pipeline_constants();
         assert!(consts.contains(&("LIGHT_SAMPLING_FROM_PARAMS", 1.0)));
         assert!(consts.contains(&("SINGLE_MATERIAL_KIND", 0.0)));
+        assert!(consts.contains(&("AOV_FROM_PARAMS", 0.0)));
+        assert!(consts.contains(&("AOV_KIND", f64::from(AOV_NONE))));
+        // A layer's generic kernel is still the generic kernel.
+        let mut layer = g;
+        layer.knobs[AOV_KNOB] = Some(AOV_ALBEDO);
+        assert!(layer.is_generic() && layer != g);
     }
 
     /// A glossy material switches on its own row only, and anisotropy only when its roughness differs
