@@ -681,33 +681,23 @@ impl Checker<'_> {
         label: &str,
     ) -> Result<MeshTable, SceneError> {
         let source = &table.source;
-        let mut meshes = self.place_each(
+        let emits = |g: &SharedParts| MeshSource::emits(&g.parts, materials);
+        let meshes = self.place_parts(
             source,
-            &source.parts,
             None,
             placement,
             materials,
             span.clone(),
             label,
+            &emits,
         )?;
         let affine = placement.affine();
         let mut instanced = Vec::new();
         for (g, group) in source.shared.iter().enumerate() {
-            let placements: Vec<DAffine3> = group.nodes.iter().map(|n| affine * *n).collect();
-            if MeshSource::emits(&group.parts, materials) {
-                for a in &placements {
-                    meshes.extend(self.place_each(
-                        source,
-                        &group.parts,
-                        None,
-                        &Placement::Matrix(*a),
-                        materials,
-                        span.clone(),
-                        label,
-                    )?);
-                }
+            if emits(group) {
                 continue;
             }
+            let placements: Vec<DAffine3> = group.nodes.iter().map(|n| affine * *n).collect();
             if let Some(p) = first_overflow(&group.parts, &group.bounds, placements.iter().copied())
             {
                 return Err(self.overflow(span, label, source, p));
@@ -886,13 +876,21 @@ impl Checker<'_> {
                 placement: affine,
             });
         }
-        let copies =
-            self.place_parts(source, material, &placement, materials, raw.span(), &label)?;
+        let copies = self.place_parts(
+            source,
+            material,
+            &placement,
+            materials,
+            raw.span(),
+            &label,
+            &|_| true,
+        )?;
         Ok(Placed::Copies(copies))
     }
 
-    /// Every part of `source` placed by `placement` (its shared meshes' through each of their nodes as
-    /// well), in `material` when one is given.
+    /// Every part of `source` placed by `placement`, and copies of the shared meshes that `copy`
+    /// picks through each of their nodes, in `material` when one is given.
+    #[allow(clippy::too_many_arguments)]
     fn place_parts(
         &self,
         source: &MeshSource,
@@ -901,6 +899,7 @@ impl Checker<'_> {
         materials: &[Material],
         span: std::ops::Range<usize>,
         label: &str,
+        copy: &dyn Fn(&SharedParts) -> bool,
     ) -> Result<Vec<Mesh>, SceneError> {
         let mut out = self.place_each(
             source,
@@ -912,7 +911,7 @@ impl Checker<'_> {
             label,
         )?;
         let affine = placement.affine();
-        for group in &source.shared {
+        for group in source.shared.iter().filter(|g| copy(g)) {
             for n in &group.nodes {
                 out.extend(self.place_each(
                     source,
