@@ -5,12 +5,17 @@
 
 ball.obj: an icosphere subdivided 5 times (20,480 triangles). gridN-shared.toml: N x N balls on a floor
 under a sun, each an [[instance]] of one named [[mesh]] (which itself sits out of view); gridN-copies.toml:
-the same balls as N x N [[mesh]] tables; nofloor-*: grid 10 without the floor. Then, for example:
+the same balls as N x N [[mesh]] tables; nofloor-*: grid 10 without the floor. balls.gltf: the 10 x 10
+balls as glTF nodes that share one mesh, balls-flat.gltf: the same nodes each naming its own copy of the
+mesh (which the reader flattens), each placed by gltf10-shared.toml and gltf10-flat.toml. Then, for
+example:
 
     vkpath bench throughput OUT_DIR/grid10-copies.toml OUT_DIR/grid10-shared.toml --width 256 --height 256 --spp 8 --runs 3
 """
+import json
 import math
 import os
+import struct
 import sys
 
 
@@ -85,6 +90,38 @@ def grid(n, shared, floor):
     return s
 
 
+def gltf(v, f, n, shared):
+    """A glTF of n x n nodes placing the ball, as grid() places it: one mesh they share, or a copy each."""
+    positions = struct.pack("<%df" % (3 * len(v)), *[c for p in v for c in p])
+    indices = struct.pack("<%dI" % (3 * len(f)), *[i for t in f for i in t])
+    lo = [min(p[i] for p in v) for i in range(3)]
+    hi = [max(p[i] for p in v) for i in range(3)]
+    step = 100.0 / n
+    nodes = []
+    for i in range(n):
+        for j in range(n):
+            x, z, r = -50 + step * (i + 0.5), -50 + step * (j + 0.5), step * 0.4
+            nodes.append({"mesh": 0 if shared else len(nodes), "scale": [r, r, r],
+                          "translation": [x, r - 1, z]})
+    mesh = {"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 0}, "indices": 1}]}
+    doc = {
+        "asset": {"version": "2.0"},
+        "scenes": [{"nodes": list(range(len(nodes)))}],
+        "nodes": nodes,
+        "meshes": [mesh] * (1 if shared else len(nodes)),
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": len(v), "type": "VEC3", "min": lo, "max": hi},
+            {"bufferView": 1, "componentType": 5125, "count": 3 * len(f), "type": "SCALAR"},
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": len(positions)},
+            {"buffer": 0, "byteOffset": len(positions), "byteLength": len(indices)},
+        ],
+        "buffers": [{"uri": "ball.bin", "byteLength": len(positions) + len(indices)}],
+    }
+    return json.dumps(doc), positions + indices
+
+
 def main():
     out = sys.argv[1]
     os.makedirs(out, exist_ok=True)
@@ -99,6 +136,15 @@ def main():
         "nofloor-copies": grid(10, False, False),
         "grid100-shared": grid(100, True, True),
     }
+    # The unit ball's normals are its positions (NORMAL shares their accessor).
+    for name, shared in (("balls", True), ("balls-flat", False)):
+        text, data = gltf(v, f, 10, shared)
+        with open(os.path.join(out, name + ".gltf"), "w") as o:
+            o.write(text)
+        with open(os.path.join(out, "ball.bin"), "wb") as o:
+            o.write(data)
+        scenes["gltf10-" + ("shared" if shared else "flat")] = (
+            HEAD + FLOOR + f'[[mesh]]\nobj = "{name}.gltf"\nmaterial = "white"\n')
     for name, text in scenes.items():
         with open(os.path.join(out, name + ".toml"), "w") as o:
             o.write(text)
