@@ -669,8 +669,10 @@ power = 8000.0
 }
 
 /// The two-level tree as uploaded: from node 0, every top-level leaf is one placement
-/// (`bvh::INSTANCE`) and every placement is a leaf once; from each placement's root, its mesh's tree has
-/// triangle leaves only, all within one range of `triangles` that holds every triangle of the range.
+/// (`bvh::INSTANCE`) and every placement is a leaf once, but the scene's own triangles' (the identity),
+/// which the top-level tree refers to as its tree's root node (walked in world space, no placement
+/// entered); from each placement's root, its mesh's tree has triangle leaves only, all within one range
+/// of `triangles` that holds every triangle of the range.
 fn check_two_level_tree(gpu: &GpuScene) {
     use vkpath::scene::bvh::{INSTANCE, LEAF, LEAF_COUNT_BITS, LEAF_COUNT_MASK, NO_CHILD};
     let children = |n: u32| {
@@ -680,11 +682,30 @@ fn check_two_level_tree(gpu: &GpuScene) {
             .filter(|&c| c != NO_CHILD)
     };
     let mut placed = vec![0; gpu.instances.len()];
+    let mut by_root = 0;
+    let first_root = gpu.instances.iter().map(|i| i.root).min().unwrap();
     let mut stack = vec![0u32];
     let mut top = 0;
     while let Some(n) = stack.pop() {
         top += 1;
         for c in children(n) {
+            if c & LEAF == 0 && c >= first_root {
+                let world = gpu.instances.iter().position(|i| i.root == c).unwrap();
+                let identity = [
+                    [1.0, 0.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0, 0.0],
+                    [0.0, 0.0, 1.0, 0.0],
+                ];
+                let w = &gpu.instances[world];
+                assert_eq!(
+                    [w.to_world_x, w.to_world_y, w.to_world_z],
+                    identity,
+                    "only the identity placement is referred to by its root"
+                );
+                placed[world] += 1;
+                by_root += 1;
+                continue;
+            }
             if c & LEAF == 0 {
                 stack.push(c);
                 continue;
@@ -700,6 +721,7 @@ fn check_two_level_tree(gpu: &GpuScene) {
         placed.iter().all(|&k| k == 1),
         "each placement is one leaf: {placed:?}"
     );
+    assert_eq!(by_root, usize::from(gpu.world_triangles > 0));
     for inst in &gpu.instances {
         assert!(
             inst.root as usize >= top,

@@ -1005,7 +1005,8 @@ impl GpuScene {
     /// its own space, with a BVH of their own; the scene's other triangles (`world`) are one more such
     /// group, placed by the identity. `instances` lists every placement (`GpuInstance`: its two maps and
     /// the root of its mesh's tree), and the top-level tree over the placements' world boxes has one
-    /// placement in each leaf (`bvh::INSTANCE`). `bvh_nodes` holds the top-level tree first (node 0, where
+    /// placement in each leaf (`bvh::INSTANCE`), but for the identity's, which refers to the world
+    /// group's root node instead (its entry in `instances` stays, unused by the walk). `bvh_nodes` holds the top-level tree first (node 0, where
     /// every walk starts), then each group's tree, their references shifted to where they land; the
     /// walk (bvh.wgsl) takes the ray into a placement's space when it reaches its leaf.
     fn add_instanced(&mut self, scene: &Scene, images: &mut ImageTable, world: TriangleGroup) {
@@ -1069,6 +1070,7 @@ impl GpuScene {
                 }
             }
         }
+        let top_nodes = nodes.len();
         let mut root = Vec::with_capacity(bottom.len());
         for (tree, &first) in bottom.iter().zip(&first_triangle) {
             let base = nodes.len() as u32;
@@ -1080,6 +1082,20 @@ impl GpuScene {
                 }
                 n
             }));
+        }
+        // The scene's own triangles are placed by the identity: their top-level leaf becomes a plain
+        // reference to their tree's root, so that a ray walks it in world space, without entering a
+        // placement (no mapping of the ray, no exit marker) and its hits carry no placement.
+        if self.world_triangles > 0 {
+            let identity = top.order.iter().position(|&i| i == 0).expect("placement 0") as u32;
+            let leaf = bvh::LEAF | bvh::INSTANCE | (identity << bvh::LEAF_COUNT_BITS);
+            for n in &mut nodes[..top_nodes] {
+                for c in &mut n.child {
+                    if *c == leaf {
+                        *c = root[0];
+                    }
+                }
+            }
         }
         self.bvh_nodes = nodes;
         self.instances = top
