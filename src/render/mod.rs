@@ -294,6 +294,25 @@ pub struct SampleFaults {
 /// On any device, refuses a scene with instances whose trees together could need more traversal-stack
 /// entries than the walk has (`GpuScene::stack_need`; each tree alone always fits: `Bvh::wide`).
 fn check_loop_budget(ctx: &GpuContext, gpu: &GpuScene) -> Result<(), GpuError> {
+    check_instance_limits(gpu)?;
+    let device = &ctx.device_info().name;
+    let iterations = worst_case_loop_iterations(gpu, 0) + 1;
+    if device.contains("llvmpipe") && iterations > LAVAPIPE_LOOP_BUDGET {
+        return Err(GpuError::Limit(format!(
+            "this scene is too heavy for {device}: one ray cast over {} primitives and {} lights could run \
+             {iterations} shader loop iterations, and lavapipe stops every loop of an invocation after \
+             {LAVAPIPE_LOOP_BUDGET}, which would cut paths short silently. Use fewer lights or spheres, \
+             or render on a GPU (VKPATH_DEVICE).",
+            gpu.spheres.len() + gpu.triangles.len(),
+            gpu.lights.len(),
+        )));
+    }
+    Ok(())
+}
+
+/// The limits of the two-level BVH (any device): placement and triangle indices below bit 28 of a
+/// leaf reference, and the walk's stack for the trees together.
+fn check_instance_limits(gpu: &GpuScene) -> Result<(), GpuError> {
     use crate::scene::bvh::STACK_SIZE;
     // (A top-level leaf holds a placement's index, and a leaf of its tree a triangle's, below bit 30:
     // bvh::INSTANCE.)
@@ -313,18 +332,6 @@ fn check_loop_budget(ctx: &GpuContext, gpu: &GpuScene) -> Result<(), GpuError> {
              deep together. Use fewer placements, or meshes of fewer triangles.",
             gpu.stack_need,
             gpu.instances.len(),
-        )));
-    }
-    let device = &ctx.device_info().name;
-    let iterations = worst_case_loop_iterations(gpu, 0) + 1;
-    if device.contains("llvmpipe") && iterations > LAVAPIPE_LOOP_BUDGET {
-        return Err(GpuError::Limit(format!(
-            "this scene is too heavy for {device}: one ray cast over {} primitives and {} lights could run \
-             {iterations} shader loop iterations, and lavapipe stops every loop of an invocation after \
-             {LAVAPIPE_LOOP_BUDGET}, which would cut paths short silently. Use fewer lights or spheres, \
-             or render on a GPU (VKPATH_DEVICE).",
-            gpu.spheres.len() + gpu.triangles.len(),
-            gpu.lights.len(),
         )));
     }
     Ok(())
@@ -1292,4 +1299,60 @@ fn check_device_memory(
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scene with one instanced quad fits the walk; the same upload with a stack need past the walk's
+    /// stack (what a top-level tree over very many placements and a deep mesh tree would add up to:
+    /// no scene small enough for a test reaches it) is refused, naming the need and the stack.
+    #[test]
+    fn instances_past_the_walks_stack_are_refused() {
+        let mut scene = crate::Scene::from_toml_str(
+            "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[materials]\n\
+             w = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }\n",
+            None,
+        )
+        .expect("scene");
+        let quad = crate::scene::mesh::Mesh {
+            obj: "quad".into(),
+            positions: vec![
+                glam::Vec3::new(-1.0, -1.0, 0.0),
+                glam::Vec3::new(1.0, -1.0, 0.0),
+                glam::Vec3::new(1.0, 1.0, 0.0),
+                glam::Vec3::new(-1.0, 1.0, 0.0),
+            ],
+            normals: Vec::new(),
+            uvs: Vec::new(),
+            tangents: Vec::new(),
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            material: 0,
+            texture: None,
+            maps: Default::default(),
+        };
+        scene.instanced.push(crate::scene::mesh::InstancedMesh {
+            parts: vec![quad],
+            placements: vec![
+                glam::DAffine3::IDENTITY,
+                glam::DAffine3::from_scale(glam::DVec3::splat(2.0)),
+            ],
+        });
+        let mut gpu = GpuScene::build(&scene);
+        assert_eq!(gpu.instances.len(), 2);
+        assert!(gpu.stack_need <= crate::scene::bvh::STACK_SIZE);
+        assert!(check_instance_limits(&gpu).is_ok());
+        gpu.stack_need = crate::scene::bvh::STACK_SIZE + 1;
+        match check_instance_limits(&gpu) {
+            Err(GpuError::Limit(m)) => assert!(
+                m.contains(&format!(
+                    "need {} stack entries",
+                    crate::scene::bvh::STACK_SIZE + 1
+                )) && m.contains("2 placements"),
+                "{m}"
+            ),
+            other => panic!("expected a limit, got {other:?}"),
+        }
+    }
 }
