@@ -1006,9 +1006,10 @@ impl GpuScene {
     /// group, placed by the identity. `instances` lists every placement (`GpuInstance`: its two maps and
     /// the root of its mesh's tree), and the top-level tree over the placements' world boxes has one
     /// placement in each leaf (`bvh::INSTANCE`), but for the identity's, which refers to the world
-    /// group's root node instead (its entry in `instances` stays, unused by the walk). `bvh_nodes` holds the top-level tree first (node 0, where
-    /// every walk starts), then each group's tree, their references shifted to where they land; the
-    /// walk (bvh.wgsl) takes the ray into a placement's space when it reaches its leaf.
+    /// group's root node instead (its entry in `instances` stays, unused by the walk). `bvh_nodes`
+    /// holds the top-level tree first (node 0, where every walk starts), then each group's tree, their
+    /// references shifted to where they land; the walk (bvh.wgsl) takes the ray into a placement's
+    /// space when it reaches its leaf.
     fn add_instanced(&mut self, scene: &Scene, images: &mut ImageTable, world: TriangleGroup) {
         let started = std::time::Instant::now();
         let mut groups: Vec<(TriangleGroup, Vec<DAffine3>)> = Vec::new();
