@@ -2548,3 +2548,46 @@ fn gltf_mirrored_nodes_keep_their_fronts_and_emitting_shared_meshes_are_copies()
     assert_eq!(grey.instanced[0].placements.len(), 2);
     assert_eq!(grey.instanced[0].parts[0].triangles.len(), 2);
 }
+
+/// A glTF file without materials (its primitives name none: glTF 2.0 §3.9.6's default material) loads
+/// as a `[[mesh]]` without `material` and as a scene of its own, every primitive in vkpath's default for
+/// primitives without a material (diffuse, albedo 0.8); an OBJ without materials still needs one.
+#[test]
+fn a_gltf_without_materials_takes_the_default() {
+    let dir = tempfile::tempdir().unwrap();
+    write_emissive_quads(
+        dir.path(),
+        &[r#"{"mesh": 0}"#, r#"{"translation": [3, 0, 0], "mesh": 0}"#],
+    );
+    let path = dir.path().join("quads.gltf");
+    let json = std::fs::read_to_string(&path).unwrap();
+    let bare = json.replace(r#", "material": 0"#, "").replace(
+        r#""extensionsUsed": ["KHR_materials_emissive_strength"],"#,
+        "",
+    );
+    let bare = bare[..bare.find(r#"  "materials""#).unwrap()].to_string()
+        + &bare[bare.find(r#"  "accessors""#).unwrap()..];
+    assert!(!bare.contains("material"), "{bare}");
+    std::fs::write(&path, bare).unwrap();
+    let check = |scene: &Scene| {
+        assert!(!scene.meshes.is_empty() || !scene.instanced.is_empty());
+        let used: Vec<u32> = scene
+            .meshes
+            .iter()
+            .chain(scene.instanced.iter().flat_map(|m| m.parts.iter()))
+            .map(|m| m.material)
+            .collect();
+        for m in used {
+            assert!(scene.material_names[m as usize].ends_with("/default"));
+            match &scene.materials[m as usize].bsdf {
+                Bsdf::Diffuse { albedo } => assert_eq!(*albedo, Vec3::splat(0.8)),
+                other => panic!("{other:?}"),
+            }
+        }
+    };
+    check(&load(
+        dir.path(),
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[mesh]]\nobj = \"quads.gltf\"\n",
+    ));
+    check(&Scene::load(&path).unwrap_or_else(|e| panic!("{e}")));
+}

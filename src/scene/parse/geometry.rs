@@ -523,13 +523,16 @@ impl Checker<'_> {
                 &format!("mesh[{i}]"),
             );
         }
-        if obj.materials.is_empty() {
+        // A glTF primitive without a material has the file's default (glTF 2.0 §3.9.6), even when the
+        // file has no materials at all: vkpath's, diffuse Kd 0.8, as for the primitives that name none
+        // in a file that has some (docs/scene-format.md, "glTF meshes").
+        if obj.materials.is_empty() && !mesh_file::is_gltf(&obj_path) {
             let Some(problem) = &obj.mtl_problem else {
                 return Err(self.error(
                     raw.span(),
                     &format!("mesh[{i}]"),
                     format!(
-                        "mesh[{i}] needs a material: {} has no materials of its own (MTL or glTF)",
+                        "mesh[{i}] needs a material: {} has no materials of its own",
                         obj_path.display()
                     ),
                     "Give the mesh `material = \"name\"`, one of the names in [materials].",
