@@ -640,6 +640,12 @@ fn srgb_decode(byte: u8) -> f64 {
 /// uv u = (x + 1) / 2, v = (1 - y) / 2 (v = 0 at the top), with the one material `material` (JSON), whose
 /// texture k is image k, `images[k]` written as tex{k}.png.
 fn write_textured_quad(dir: &Path, material: &str, images: &[image::RgbImage]) {
+    write_quad(dir, Some(material), images, &[r#"{"mesh": 0}"#]);
+}
+
+/// `write_textured_quad`'s quad, placed by `nodes` (JSON node objects, each naming mesh 0, all roots of
+/// the scene), in `material` or, with none, in no material at all (the file then has none).
+fn write_quad(dir: &Path, material: Option<&str>, images: &[image::RgbImage], nodes: &[&str]) {
     let mut bin = f32s(&[
         -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
     ]);
@@ -654,17 +660,28 @@ fn write_textured_quad(dir: &Path, material: &str, images: &[image::RgbImage]) {
         textures.push(format!(r#"{{"source": {k}}}"#));
         uris.push(format!(r#"{{"uri": "tex{k}.png"}}"#));
     }
+    let roots: Vec<String> = (0..nodes.len()).map(|k| k.to_string()).collect();
+    let (named, materials) = match material {
+        Some(m) => (r#", "material": 0"#, format!("\n  \"materials\": [{m}],")),
+        None => ("", String::new()),
+    };
+    let textured = if images.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "\n  \"textures\": [{}],\n  \"images\": [{}],",
+            textures.join(", "),
+            uris.join(", ")
+        )
+    };
     let json = format!(
         r#"{{
   "asset": {{"version": "2.0"}},
-  "scenes": [{{"nodes": [0]}}],
-  "nodes": [{{"mesh": 0}}],
+  "scenes": [{{"nodes": [{}]}}],
+  "nodes": [{}],
   "meshes": [{{"primitives": [
-    {{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}, "indices": 3, "material": 0}}
-  ]}}],
-  "materials": [{material}],
-  "textures": [{}],
-  "images": [{}],
+    {{"attributes": {{"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}}, "indices": 3{named}}}
+  ]}}],{materials}{textured}
   "accessors": [
     {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]}},
     {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"}},
@@ -679,8 +696,8 @@ fn write_textured_quad(dir: &Path, material: &str, images: &[image::RgbImage]) {
   ],
   "buffers": [{{"uri": "quad.bin", "byteLength": {}}}]
 }}"#,
-        textures.join(", "),
-        uris.join(", "),
+        roots.join(", "),
+        nodes.join(", "),
         bin.len()
     );
     std::fs::write(dir.join("quad.gltf"), json).unwrap();
@@ -2452,43 +2469,12 @@ fn gltf_nodes_sharing_a_mesh_place_one_copy_and_render_as_copies() {
     );
 }
 
-/// Writes quads.gltf: the square [-1, 1]^2 at z = 0 facing +z (its normals +z), in one emissive
-/// material (black base, emission 1 x strength 2, one-sided as glTF's is), placed by `nodes` (JSON
-/// node objects, each naming mesh 0).
+/// The quad of `write_textured_quad` (quad.gltf) in one emissive material (black base, emission 1 x
+/// strength 2, KHR_materials_emissive_strength; one-sided as glTF's is), placed by `nodes`.
 fn write_emissive_quads(dir: &Path, nodes: &[&str]) {
-    let mut bin = f32s(&[
-        -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
-    ]);
-    bin.extend(f32s(&[0.0, 0.0, 1.0].repeat(4)));
-    bin.extend(u32s(&[0, 1, 2, 0, 2, 3]));
-    std::fs::write(dir.join("quads.bin"), &bin).unwrap();
-    let roots: Vec<String> = (0..nodes.len()).map(|k| k.to_string()).collect();
-    let json = format!(
-        r#"{{
-  "asset": {{"version": "2.0"}},
-  "extensionsUsed": ["KHR_materials_emissive_strength"],
-  "scenes": [{{"nodes": [{}]}}],
-  "nodes": [{}],
-  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "NORMAL": 1}}, "indices": 2, "material": 0}}]}}],
-  "materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": [0, 0, 0, 1]}}, "emissiveFactor": [1, 1, 1],
-    "extensions": {{"KHR_materials_emissive_strength": {{"emissiveStrength": 2}}}}}}],
-  "accessors": [
-    {{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [-1, -1, 0], "max": [1, 1, 0]}},
-    {{"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"}},
-    {{"bufferView": 2, "componentType": 5125, "count": 6, "type": "SCALAR"}}
-  ],
-  "bufferViews": [
-    {{"buffer": 0, "byteOffset": 0, "byteLength": 48}},
-    {{"buffer": 0, "byteOffset": 48, "byteLength": 48}},
-    {{"buffer": 0, "byteOffset": 96, "byteLength": 24}}
-  ],
-  "buffers": [{{"uri": "quads.bin", "byteLength": {}}}]
-}}"#,
-        roots.join(", "),
-        nodes.join(", "),
-        bin.len()
-    );
-    std::fs::write(dir.join("quads.gltf"), json).unwrap();
+    let lamp = r#"{"pbrMetallicRoughness": {"baseColorFactor": [0, 0, 0, 1]}, "emissiveFactor": [1, 1, 1],
+    "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2}}}"#;
+    write_quad(dir, Some(lamp), &[], nodes);
 }
 
 /// A node that mirrors keeps its triangles' front where the file's normals face (glTF 2.0 §3.7.2.1:
@@ -2504,7 +2490,7 @@ fn gltf_mirrored_nodes_keep_their_fronts_and_emitting_shared_meshes_are_copies()
             "[camera]\ntype = \"orthographic\"\nextent = 2.0\nposition = [0.0, 0.0, 5.0]\n\
              look_at = [0.0, 0.0, 0.0]\n[image]\nwidth = 32\nheight = 32\n[render]\nsamples = 4\n\
              max_bounces = 0\nfilter = \"box\"\n[materials]\ngrey = {{ type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }}\n\
-             [[mesh]]\nobj = \"quads.gltf\"\n{material}"
+             [[mesh]]\nobj = \"quad.gltf\"\n{material}"
         )
     };
     let lit = |film: &vkpath::Film, inside: &dyn Fn(usize, usize) -> bool| {
@@ -2555,20 +2541,14 @@ fn gltf_mirrored_nodes_keep_their_fronts_and_emitting_shared_meshes_are_copies()
 #[test]
 fn a_gltf_without_materials_takes_the_default() {
     let dir = tempfile::tempdir().unwrap();
-    write_emissive_quads(
+    write_quad(
         dir.path(),
+        None,
+        &[],
         &[r#"{"mesh": 0}"#, r#"{"translation": [3, 0, 0], "mesh": 0}"#],
     );
-    let path = dir.path().join("quads.gltf");
-    let json = std::fs::read_to_string(&path).unwrap();
-    let bare = json.replace(r#", "material": 0"#, "").replace(
-        r#""extensionsUsed": ["KHR_materials_emissive_strength"],"#,
-        "",
-    );
-    let bare = bare[..bare.find(r#"  "materials""#).unwrap()].to_string()
-        + &bare[bare.find(r#"  "accessors""#).unwrap()..];
-    assert!(!bare.contains("material"), "{bare}");
-    std::fs::write(&path, bare).unwrap();
+    let path = dir.path().join("quad.gltf");
+    assert!(!std::fs::read_to_string(&path).unwrap().contains("material"));
     let check = |scene: &Scene| {
         assert!(!scene.meshes.is_empty() || !scene.instanced.is_empty());
         let used: Vec<u32> = scene
@@ -2587,7 +2567,7 @@ fn a_gltf_without_materials_takes_the_default() {
     };
     check(&load(
         dir.path(),
-        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[mesh]]\nobj = \"quads.gltf\"\n",
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[mesh]]\nobj = \"quad.gltf\"\n",
     ));
     check(&Scene::load(&path).unwrap_or_else(|e| panic!("{e}")));
 }

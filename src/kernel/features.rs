@@ -428,10 +428,10 @@ pub struct KnobRow {
 /// `KnobRow::values` entry of a `u32` override that takes the knob's value itself.
 pub const KNOB_VALUE: u32 = u32::MAX;
 
-/// The knob table.
 /// The index of the `aov` knob in [`KNOBS`] (what the samples are), which every kernel fixes.
 const AOV_KNOB: usize = KNOBS.len() - 1;
 
+/// The knob table.
 pub const KNOBS: &[KnobRow] = &[
     KnobRow {
         name: "filter",
