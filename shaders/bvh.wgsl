@@ -258,7 +258,7 @@ fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: 
                 // Its hash takes the ray in the tree's space, so that two placements of one mesh decide
                 // independently.)
                 let candidate = Hit(th.t, PRIM_TRIANGLE, first, th.b, instance);
-                if !hit_is_transparent(ro, rd, candidate, tri.material) {
+                if !hit_is_transparent(ro, rd, candidate, placed_material(tri.material, instance)) {
                     hit = candidate;
                     if any_hit {
                         break;

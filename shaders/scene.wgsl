@@ -184,6 +184,7 @@ fn hit_triangle(hit: Hit) -> Triangle {
             tri.v0 = instance_point(m, tri.v0);
             tri.v1 = instance_point(m, tri.v1);
             tri.v2 = instance_point(m, tri.v2);
+            tri.material = select(tri.material, m.material, m.material != NO_MATERIAL);
         }
     }
     return tri;
@@ -560,7 +561,7 @@ fn hit_material(hit: Hit) -> u32 {
                 return spheres[hit.prim_index].material;
             }
         }
-        return triangle_at(hit.prim_index).material;
+        return placed_material(triangle_at(hit.prim_index).material, hit.instance);
     }
     return spheres[hit.prim_index].material;
 }

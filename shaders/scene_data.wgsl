@@ -174,12 +174,29 @@ struct Instance {
     to_world_z: vec4<f32>,
     root: u32,
     flags: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // The material the placement's faces take instead of their own, or NO_MATERIAL.
+    material: u32,
+    _pad: u32,
 }
 
 // The placement mirrors: the winding's normal is flipped (a mirrored copy keeps its faces' fronts).
 const INSTANCE_MIRRORS: u32 = 1u;
+// Instance::material: the placement's faces keep their own materials.
+const NO_MATERIAL: u32 = 0xffffffffu;
+
+// The material of a triangle whose own is `material`, hit through placement `instance` (NO_INSTANCE: in
+// world space): the placement's material where it gives one (an [[instance]] in a material of its own).
+fn placed_material(material: u32, instance: u32) -> u32 {
+    if HAS_INSTANCES {
+        if instance != NO_INSTANCE {
+            let m = instances[instance].material;
+            if m != NO_MATERIAL {
+                return m;
+            }
+        }
+    }
+    return material;
+}
 // Hit::instance of a hit on a primitive in world space (any hit in a scene without instances).
 const NO_INSTANCE: u32 = 0xffffffffu;
 

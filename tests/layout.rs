@@ -642,7 +642,7 @@ fn mesh_structs_match_wgsl() {
         "Instance",
         "GpuInstance",
         size_of::<GpuInstance>(),
-        fields!(GpuInstance: to_object_x, to_object_y, to_object_z, to_world_x, to_world_y, to_world_z, root, flags, _pad),
+        fields!(GpuInstance: to_object_x, to_object_y, to_object_z, to_world_x, to_world_y, to_world_z, root, flags, material, _pad),
     );
     check_storage_array(
         &module,

@@ -426,12 +426,16 @@ power = 50000.0
 
 // ----- transforms and instances -----
 
-/// An `[[instance]]` is its mesh placed once more: a named mesh and two instances of it (one by a
-/// matrix, in another material; one by a translation) render as three `[[mesh]]` tables placed there.
-/// The instance in its own material is a copy of the mesh (the same bits as the table); the other shares
-/// the named mesh's triangles (a placement of an instanced mesh, walked through the two-level BVH),
-/// whose vertices the kernel maps in f32 where the table's were mapped in f64: the same image up to
-/// that rounding.
+/// An `[[instance]]` is its mesh placed once more: a named mesh and three instances of it render as four
+/// `[[mesh]]` tables placed there. The named mesh is a cut-out that is all hole (opacity 0.3 under a
+/// cutoff of 0.5: invisible); one instance is in its own red diffuse, one in its own mirror (a material
+/// kind no triangle of the scene has), both sharing the named mesh's triangles (placements of an
+/// instanced mesh, walked through the two-level BVH, each placement's material replacing the
+/// triangles'); one is in a textured material (a checkerboard), which makes it a copy, placed as its
+/// table is. The shared balls' vertices are mapped in f32 by the kernel where the tables' were mapped
+/// in f64: the same image up to that rounding. Fails if the walk tests the opacity of the triangles' own
+/// material (the red and mirror balls vanish), or if the kernel is specialised without the placements'
+/// materials (the mirror's code is left out).
 #[test]
 fn instances_render_as_the_same_meshes_placed_by_mesh_tables() {
     let dir = tempfile::tempdir().unwrap();
@@ -447,33 +451,55 @@ height = 32
 [render]
 max_bounces = 2
 [materials]
-white = { type = "diffuse", albedo = [0.8, 0.8, 0.8] }
+ghost = { type = "diffuse", albedo = [0.8, 0.8, 0.8], opacity = 0.3, alpha_cutoff = 0.5 }
 red = { type = "diffuse", albedo = [0.8, 0.1, 0.1] }
+chrome = { type = "mirror" }
+checks = { type = "diffuse", albedo = { checkerboard = [[0.1, 0.7, 0.1], [0.7, 0.7, 0.1]] } }
+floor = { type = "diffuse", albedo = [0.5, 0.5, 0.5] }
+[[triangle]]
+vertices = [[-40, -12, -40], [40, -12, -40], [0, -12, 40]]
+material = "floor"
 [[light]]
 type = "point"
 position = [0, 10, 20]
 power = 50000.0
 "#;
     let instanced = format!(
-        "{head}[[mesh]]\nobj = \"ball.obj\"\nname = \"ball\"\nmaterial = \"white\"\nscale = 3\ntranslate = [-6, 0, 0]\n\
+        "{head}[[mesh]]\nobj = \"ball.obj\"\nname = \"ball\"\nmaterial = \"ghost\"\nscale = 3\ntranslate = [-6, 0, 0]\n\
          [[instance]]\nmesh = \"ball\"\nmaterial = \"red\"\nmatrix = [3, 0, 0, 6,  0, 3, 0, 0,  0, 0, 3, 0,  0, 0, 0, 1]\n\
-         [[instance]]\nmesh = \"ball\"\nscale = 3\ntranslate = [0, 6, 0]\n"
+         [[instance]]\nmesh = \"ball\"\nmaterial = \"chrome\"\nscale = 3\ntranslate = [0, 6, 0]\n\
+         [[instance]]\nmesh = \"ball\"\nmaterial = \"checks\"\nscale = 3\ntranslate = [0, -6, 0]\n"
     );
     let tables = format!(
-        "{head}[[mesh]]\nobj = \"ball.obj\"\nmaterial = \"white\"\nscale = 3\ntranslate = [-6, 0, 0]\n\
+        "{head}[[mesh]]\nobj = \"ball.obj\"\nmaterial = \"ghost\"\nscale = 3\ntranslate = [-6, 0, 0]\n\
          [[mesh]]\nobj = \"ball.obj\"\nmaterial = \"red\"\nscale = 3\ntranslate = [6, 0, 0]\n\
-         [[mesh]]\nobj = \"ball.obj\"\nmaterial = \"white\"\nscale = 3\ntranslate = [0, 6, 0]\n"
+         [[mesh]]\nobj = \"ball.obj\"\nmaterial = \"chrome\"\nscale = 3\ntranslate = [0, 6, 0]\n\
+         [[mesh]]\nobj = \"ball.obj\"\nmaterial = \"checks\"\nscale = 3\ntranslate = [0, -6, 0]\n"
     );
     let a = load(dir.path(), &instanced);
     let b = load(dir.path(), &tables);
-    assert_eq!(a.meshes.len(), 2, "the named mesh and the copy in red");
+    let index = |name: &str| a.material_names.iter().position(|n| n == name).unwrap() as u32;
+    assert_eq!(a.meshes.len(), 2, "the named mesh and the copy in checks");
+    assert_eq!(a.meshes[1].material, index("checks"));
     assert_eq!(a.instanced.len(), 1);
-    assert_eq!(a.instanced[0].placements.len(), 1);
-    let (fa, fb) = (render(&a, 4), render(&b, 4));
+    let materials: Vec<Option<u32>> = a.instanced[0]
+        .placements
+        .iter()
+        .map(|p| p.material)
+        .collect();
+    assert_eq!(materials, [Some(index("red")), Some(index("chrome"))]);
+    let gpu = GpuScene::build(&a);
+    let chrome = gpu.materials[index("chrome") as usize].kind;
     assert!(
-        fb.mean.iter().any(|p| p[0] > 2.0 * p[1]),
-        "the red ball shows"
+        gpu.triangles
+            .iter()
+            .all(|t| gpu.materials[t.material as usize].kind != chrome),
+        "only a placement is in the mirror"
     );
+    drop(gpu);
+    let (fa, fb) = (render(&a, 4), render(&b, 4));
+    let red = fb.mean.iter().filter(|p| p[0] > 2.0 * p[1]).count();
+    assert!(red > 20, "the red ball shows: {red} pixels");
     let (relative, far) = common::render_distance(&fa, &fb);
     assert!(
         relative < 1e-4 && far < 0.005,

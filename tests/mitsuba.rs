@@ -2420,7 +2420,7 @@ fn instances_of_a_shapegroup_are_its_shapes_placed_again() {
         let placed: Vec<Vec3> = part
             .positions
             .iter()
-            .map(|p| placement.transform_point3(p.as_dvec3()).as_vec3())
+            .map(|p| placement.to_world.transform_point3(p.as_dvec3()).as_vec3())
             .collect();
         assert_eq!(
             (&placed, &part.triangles, part.material),

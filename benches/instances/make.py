@@ -5,10 +5,11 @@
 
 ball.obj: an icosphere subdivided 5 times (20,480 triangles). gridN-shared.toml: N x N balls on a floor
 under a sun, each an [[instance]] of one named [[mesh]] (which itself sits out of view); gridN-copies.toml:
-the same balls as N x N [[mesh]] tables; nofloor-*: grid 10 without the floor. balls.gltf: the 10 x 10
-balls as glTF nodes that share one mesh, balls-flat.gltf: the same nodes each naming its own copy of the
-mesh (which the reader flattens), each placed by gltf10-shared.toml and gltf10-flat.toml. Then, for
-example:
+the same balls as N x N [[mesh]] tables; nofloor-*: grid 10 without the floor; painted10-*: grid 10 with
+each ball in one of four materials (an [[instance]] in a material of its own, or a [[mesh]] table).
+balls.gltf: the 10 x 10 balls as glTF nodes that share one mesh, balls-flat.gltf: the same nodes each
+naming its own copy of the mesh (which the reader flattens), each placed by gltf10-shared.toml and
+gltf10-flat.toml. Then, for example:
 
     vkpath bench throughput OUT_DIR/grid10-copies.toml OUT_DIR/grid10-shared.toml --width 256 --height 256 --spp 8 --runs 3
 """
@@ -58,6 +59,10 @@ height = 512
 max_bounces = 3
 [materials]
 white = { type = "diffuse", albedo = [0.7, 0.7, 0.7] }
+red = { type = "diffuse", albedo = [0.7, 0.1, 0.1] }
+green = { type = "diffuse", albedo = [0.1, 0.7, 0.1] }
+blue = { type = "diffuse", albedo = [0.1, 0.1, 0.7] }
+gold = { type = "conductor", preset = "gold", roughness = 0.3 }
 floor = { type = "diffuse", albedo = [0.5, 0.5, 0.5] }
 [[light]]
 type = "directional"
@@ -74,7 +79,7 @@ material = "floor"
 '''
 
 
-def grid(n, shared, floor):
+def grid(n, shared, floor, painted=False):
     s = HEAD + (FLOOR if floor else "")
     # The named mesh the instances place (drawn itself, out of view).
     s += '[[mesh]]\nobj = "ball.obj"\nname = "ball"\nmaterial = "white"\ntranslate = [0, 0, -5000]\n'
@@ -83,10 +88,12 @@ def grid(n, shared, floor):
         for j in range(n):
             x, z, r = -50 + step * (i + 0.5), -50 + step * (j + 0.5), step * 0.4
             place = f'scale = {r}\ntranslate = [{x}, {r - 1}, {z}]\n'
+            colour = ("red", "green", "blue", "gold")[(i + j) % 4] if painted else "white"
+            own = f'material = "{colour}"\n' if painted else ""
             if shared:
-                s += f'[[instance]]\nmesh = "ball"\n{place}'
+                s += f'[[instance]]\nmesh = "ball"\n{own}{place}'
             else:
-                s += f'[[mesh]]\nobj = "ball.obj"\nmaterial = "white"\n{place}'
+                s += f'[[mesh]]\nobj = "ball.obj"\nmaterial = "{colour}"\n{place}'
     return s
 
 
@@ -135,6 +142,8 @@ def main():
         "nofloor-shared": grid(10, True, False),
         "nofloor-copies": grid(10, False, False),
         "grid100-shared": grid(100, True, True),
+        "painted10-shared": grid(10, True, True, True),
+        "painted10-copies": grid(10, False, True, True),
     }
     # The unit ball's normals are its positions (NORMAL shares their accessor).
     for name, shared in (("balls", True), ("balls-flat", False)):

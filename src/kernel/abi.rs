@@ -377,7 +377,10 @@ pub struct GpuInstance {
     pub root: u32,
     /// `INSTANCE_*` flags.
     pub flags: u32,
-    pub _pad: [u32; 2],
+    /// The material every face of this placement takes instead of its own (an `[[instance]]` in a
+    /// material of its own: `scene::mesh::MeshPlacement::material`), or [`NO_MATERIAL`].
+    pub material: u32,
+    pub _pad: u32,
 }
 
 /// `GpuInstance::flags`: the placement mirrors (negative determinant): the triangles' winding normal
@@ -386,6 +389,8 @@ pub struct GpuInstance {
 pub const INSTANCE_MIRRORS: u32 = 1;
 /// A hit on a triangle in world space (scene_data.wgsl, `Hit::instance`).
 pub const NO_INSTANCE: u32 = u32::MAX;
+/// `GpuInstance::material`: the placement's faces keep their own materials.
+pub const NO_MATERIAL: u32 = u32::MAX;
 
 /// Mirrors `TextureInfo` in scene_data.wgsl: one texture reference of the texture table: its image's
 /// texels in `texels` from `offset` on, row-major from the top-left, `width` x `height` (one word per
@@ -689,6 +694,7 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("BVH_INSTANCE", crate::scene::bvh::INSTANCE),
     ("INSTANCE_MIRRORS", INSTANCE_MIRRORS),
     ("NO_INSTANCE", NO_INSTANCE),
+    ("NO_MATERIAL", NO_MATERIAL),
     ("BVH_LEAF_COUNT_BITS", crate::scene::bvh::LEAF_COUNT_BITS),
     ("BVH_LEAF_COUNT_MASK", crate::scene::bvh::LEAF_COUNT_MASK),
     ("BVH_STACK_SIZE", crate::scene::bvh::STACK_SIZE as u32),

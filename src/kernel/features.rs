@@ -98,11 +98,18 @@ fn used_materials(g: &GpuScene) -> impl Iterator<Item = &GpuMaterial> {
     used_material_indices(g).filter_map(|m| g.materials.get(m as usize))
 }
 
-/// The indices of the materials some sphere or triangle uses, and of the materials their back faces
-/// show (`GpuMaterial::back`), which are used as much.
+/// The indices of the materials some sphere or triangle uses (its own, or a placement's instead:
+/// `GpuInstance::material`), and of the materials their back faces show (`GpuMaterial::back`), which
+/// are used as much.
 fn used_material_indices(g: &GpuScene) -> impl Iterator<Item = u32> + '_ {
     let used = g.spheres.iter().map(|s| s.material);
     let used = used.chain(g.triangles.iter().map(|t| t.material));
+    let used = used.chain(
+        g.instances
+            .iter()
+            .map(|i| i.material)
+            .filter(|&m| m != NO_MATERIAL),
+    );
     // A back material's blend, or a blend's back, is not read (neither chains: the parser refuses it).
     used.flat_map(|m| {
         let back = g.materials.get(m as usize).map_or(0, |mat| mat.back);

@@ -17,6 +17,7 @@ use super::coat::{GL4, coat_table};
 use super::sheen::{SHEEN_MIN_ALPHA, sheen_albedo_table};
 use crate::scene::bvh::{self, Bvh};
 use crate::scene::environment::channel_mean;
+use crate::scene::mesh::MeshPlacement;
 use crate::scene::texture::{Channel, TextureFilter, Wrap};
 use crate::scene::{
     Bsdf, ConductorFresnel, Emission, Filter, Light, LightSampling, Material, MaterialTextures,
@@ -137,8 +138,10 @@ fn shift_reference(r: u32, base: u32, first: u32) -> u32 {
     }
 }
 
-/// The placement `m` (object to world) of the tree at node `root`, for the shader: the rows of both maps.
-fn gpu_instance(m: &DAffine3, root: u32) -> GpuInstance {
+/// The placement `p` of the tree at node `root`, for the shader: the rows of both maps (object to world
+/// and back) and the material its faces take instead of their own, if any.
+fn gpu_instance(p: &MeshPlacement, root: u32) -> GpuInstance {
+    let m = &p.to_world;
     let rows = |a: &DAffine3| -> [[f32; 4]; 3] {
         std::array::from_fn(|r| {
             let l = a.matrix3.row(r);
@@ -160,7 +163,9 @@ fn gpu_instance(m: &DAffine3, root: u32) -> GpuInstance {
         } else {
             0
         },
-        _pad: [0; 2],
+        // (Scene materials are uploaded at their own indices: `materials` starts with them.)
+        material: p.material.unwrap_or(NO_MATERIAL),
+        _pad: 0,
     }
 }
 
@@ -732,12 +737,7 @@ impl GpuScene {
     /// normal map.
     fn mesh_material(&mut self, images: &mut ImageTable, scene: &Scene, m: &Mesh) -> u32 {
         let maps = &m.maps;
-        if m.texture.is_none()
-            && maps.emissive.is_none()
-            && maps.metallic_roughness.is_none()
-            && maps.normal.is_none()
-            && maps.alpha.is_none()
-        {
+        if m.texture.is_none() && maps.change_nothing() {
             return m.material;
         }
         let base = m.material as usize;
@@ -1012,10 +1012,10 @@ impl GpuScene {
     /// space when it reaches its leaf.
     fn add_instanced(&mut self, scene: &Scene, images: &mut ImageTable, world: TriangleGroup) {
         let started = std::time::Instant::now();
-        let mut groups: Vec<(TriangleGroup, Vec<DAffine3>)> = Vec::new();
+        let mut groups: Vec<(TriangleGroup, Vec<MeshPlacement>)> = Vec::new();
         self.world_triangles = world.corners.len();
         if !world.corners.is_empty() {
-            groups.push((world, vec![DAffine3::IDENTITY]));
+            groups.push((world, vec![MeshPlacement::at(DAffine3::IDENTITY)]));
         }
         for inst in &scene.instanced {
             let mut group = TriangleGroup::default();
@@ -1041,10 +1041,11 @@ impl GpuScene {
         // The placements and their world boxes: the 8 corners of the tree's box mapped in f64, widened
         // by 2^-20 of their magnitude, so that the box holds every point of the mapped triangles the walk
         // can find in f32 (it only culls: a wider box costs a box test, never a hit).
-        let mut placements: Vec<(usize, DAffine3, bvh::Aabb)> = Vec::new();
+        let mut placements: Vec<(usize, MeshPlacement, bvh::Aabb)> = Vec::new();
         for (g, ((_, maps), tree)) in groups.iter().zip(&trees).enumerate() {
             let root = tree.nodes[0].bounds[0].union(&tree.nodes[0].bounds[1]);
-            for m in maps {
+            for placement in maps {
+                let m = &placement.to_world;
                 let mut b = bvh::Aabb::EMPTY;
                 for k in 0..8 {
                     let c = glam::DVec3::new(
@@ -1057,7 +1058,7 @@ impl GpuScene {
                     b.grow((p - slack).as_vec3());
                     b.grow((p + slack).as_vec3());
                 }
-                placements.push((g, *m, b));
+                placements.push((g, *placement, b));
             }
         }
         let boxes: Vec<bvh::Aabb> = placements.iter().map(|p| p.2).collect();

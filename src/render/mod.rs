@@ -1335,8 +1335,10 @@ mod tests {
         scene.instanced.push(crate::scene::mesh::InstancedMesh {
             parts: vec![quad],
             placements: vec![
-                glam::DAffine3::IDENTITY,
-                glam::DAffine3::from_scale(glam::DVec3::splat(2.0)),
+                crate::scene::mesh::MeshPlacement::at(glam::DAffine3::IDENTITY),
+                crate::scene::mesh::MeshPlacement::at(glam::DAffine3::from_scale(
+                    glam::DVec3::splat(2.0),
+                )),
             ],
         });
         let mut gpu = GpuScene::build(&scene);

@@ -59,8 +59,31 @@ pub struct Mesh {
 #[derive(Clone, Debug, PartialEq)]
 pub struct InstancedMesh {
     pub parts: Vec<Mesh>,
-    /// Object to world, one per copy.
-    pub placements: Vec<DAffine3>,
+    /// One per copy.
+    pub placements: Vec<MeshPlacement>,
+}
+
+/// Where one copy of an [`InstancedMesh`] lies, and in what material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeshPlacement {
+    /// Object to world.
+    pub to_world: DAffine3,
+    /// The material every face of this copy takes instead of its part's (an `[[instance]]`'s own
+    /// `material`), an index into `Scene::materials`; `None` keeps the parts' own. Only a material that
+    /// needs nothing from the parts is given here: neither the material nor the parts have textures
+    /// or maps, and neither emits (`parse::geometry`, `Checker::instance`), so that the copy's
+    /// material is one index whatever part a ray hits.
+    pub material: Option<u32>,
+}
+
+impl MeshPlacement {
+    /// A copy in the parts' own materials.
+    pub fn at(to_world: DAffine3) -> Self {
+        Self {
+            to_world,
+            material: None,
+        }
+    }
 }
 
 /// A mesh's textures besides its base colour texture, and how that one combines with the material
@@ -91,6 +114,18 @@ pub struct MeshMaps {
     pub emissive_read: TextureRead,
     pub metallic_roughness_read: TextureRead,
     pub normal_read: TextureRead,
+}
+
+impl MeshMaps {
+    /// Whether these maps change nothing of the material they go with (no emissive, metallic-roughness
+    /// or normal texture, no alpha coverage): with no base colour texture either, a mesh part is drawn
+    /// in its material as it is (`kernel::upload`, `mesh_material`).
+    pub fn change_nothing(&self) -> bool {
+        self.emissive.is_none()
+            && self.metallic_roughness.is_none()
+            && self.normal.is_none()
+            && self.alpha.is_none()
+    }
 }
 
 /// How a mesh's texture is read besides its image: the filter, the wrap mode and the uv transform of a

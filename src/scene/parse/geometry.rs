@@ -714,6 +714,10 @@ impl Checker<'_> {
                 span.clone(),
                 label,
             )?;
+            let placements = placements
+                .into_iter()
+                .map(mesh::MeshPlacement::at)
+                .collect();
             instanced.push((g, mesh::InstancedMesh { parts, placements }));
         }
         table.meshes = meshes;
@@ -824,9 +828,11 @@ impl Checker<'_> {
 
     /// An `[[instance]]`: the named mesh's parts placed again by the instance's transform, in the
     /// instance's material when it gives one. Shared (one copy of the mesh, drawn through the two-level
-    /// BVH: [`mesh::InstancedMesh`]) unless the instance gives its own material or the mesh emits light; then
-    /// copies of the parts, placed as a `[[mesh]]` is (an emitting triangle must be in the light list in
-    /// world space, and the shared copy has one material per part).
+    /// BVH: [`mesh::InstancedMesh`]), in the instance's material where it gives one that one index can
+    /// stand for ([`shares_material`]); otherwise (the mesh or the material emits light, or one of them
+    /// has textures) copies of the parts, placed as a `[[mesh]]` is: an emitting triangle must be in the
+    /// light list in world space, and a part's textures and maps combine with its material into a
+    /// material of its own (`kernel::upload`, `mesh_material`), so such a copy is a material per part.
     pub(super) fn instance(
         &self,
         i: usize,
@@ -868,7 +874,7 @@ impl Checker<'_> {
                 .shared
                 .iter()
                 .any(|g| MeshSource::emits(&g.parts, materials));
-        if material.is_none() && !emits {
+        if !emits && material.is_none_or(|m| shares_material(source, &materials[m as usize])) {
             // The placement must map the mesh's own space to floats, as placing a copy would.
             let affine = placement.affine();
             if let Some(p) = source.overflows(&affine) {
@@ -876,7 +882,10 @@ impl Checker<'_> {
             }
             return Ok(Placed::Shared {
                 source: source_index,
-                placement: affine,
+                placement: mesh::MeshPlacement {
+                    to_world: affine,
+                    material,
+                },
             });
         }
         let copies = self.place_parts(
@@ -1002,8 +1011,28 @@ impl Checker<'_> {
 pub(super) enum Placed {
     /// Copies of the named mesh's parts, placed in world space.
     Copies(Vec<Mesh>),
-    /// One more placement (object to world) of the mesh `sources[source]`, shared with the others.
-    Shared { source: usize, placement: DAffine3 },
+    /// One more placement of the mesh `sources[source]`, shared with the others.
+    Shared {
+        source: usize,
+        placement: mesh::MeshPlacement,
+    },
+}
+
+/// Whether an `[[instance]]` of `source` in `material` can share the mesh's one copy, each face drawn in
+/// `material` through the placement ([`mesh::MeshPlacement::material`]): when one material index stands
+/// for every face. That holds when no part of the mesh (nor of the file's shared meshes) has a texture
+/// or maps of its own, which would combine with the material into one material per part; when the
+/// material has no textures or modifiers, which could read texture coordinates or tangents the shared
+/// copy need not have kept; and when it does not emit (an emitting triangle is a light, sampled in world
+/// space).
+fn shares_material(source: &MeshSource, material: &Material) -> bool {
+    material.emission.is_none()
+        && material.textures.is_plain()
+        && source
+            .parts
+            .iter()
+            .chain(source.shared.iter().flat_map(|g| g.parts.iter()))
+            .all(|p| p.texture.is_none() && p.maps.change_nothing())
 }
 
 #[cfg(test)]

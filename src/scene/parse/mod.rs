@@ -248,7 +248,10 @@ impl Checker<'_> {
                         let nodes = &sources[source].1.shared[g].nodes;
                         instanced[k]
                             .placements
-                            .extend(nodes.iter().map(|n| placement * *n));
+                            .extend(nodes.iter().map(|n| mesh::MeshPlacement {
+                                to_world: placement.to_world * *n,
+                                material: placement.material,
+                            }));
                     }
                     if sources[source].1.parts.is_empty() {
                         continue;
