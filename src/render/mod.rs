@@ -313,25 +313,28 @@ fn check_loop_budget(ctx: &GpuContext, gpu: &GpuScene) -> Result<(), GpuError> {
 /// The limits of the two-level BVH (any device): placement and triangle indices below bit 28 of a
 /// leaf reference, and the walk's stack for the trees together.
 fn check_instance_limits(gpu: &GpuScene) -> Result<(), GpuError> {
+    instance_limits(gpu.triangles.len(), gpu.instances.len(), gpu.stack_need)
+}
+
+/// [`check_instance_limits`] on the counts: `instances` placements (0: a scene without instances),
+/// `triangles` triangles uploaded, a walk needing `stack_need` stack entries.
+fn instance_limits(triangles: usize, instances: usize, stack_need: usize) -> Result<(), GpuError> {
     use crate::scene::bvh::STACK_SIZE;
-    // (A top-level leaf holds a placement's index, and a leaf of its tree a triangle's, below bit 30:
-    // bvh::INSTANCE.)
-    let limit = 1usize << 28;
-    if !gpu.instances.is_empty() && (gpu.triangles.len() >= limit || gpu.instances.len() >= limit) {
+    // (With instances, a leaf reference holds a placement's or a triangle's index shifted by
+    // bvh::LEAF_COUNT_BITS below bit 30, bvh::INSTANCE: indices below 2^28. Without, bit 30 is free.)
+    let limit = 1usize << (30 - crate::scene::bvh::LEAF_COUNT_BITS);
+    if instances > 0 && (triangles >= limit || instances >= limit) {
         return Err(GpuError::Limit(format!(
-            "this scene has {} triangles and {} placements of instanced meshes; with instances the \
-             BVH holds at most {limit} of each. Use fewer or smaller meshes.",
-            gpu.triangles.len(),
-            gpu.instances.len()
+            "this scene has {triangles} triangles and {instances} placements of instanced meshes; with \
+             instances the BVH holds at most {} of each. Use fewer or smaller meshes.",
+            limit - 1
         )));
     }
-    if gpu.stack_need > STACK_SIZE {
+    if stack_need > STACK_SIZE {
         return Err(GpuError::Limit(format!(
-            "this scene's instances make a BVH walk need {} stack entries, and the kernel's walk has \
-             {STACK_SIZE}: the tree over the {} placements and the deepest instanced mesh's tree are too \
-             deep together. Use fewer placements, or meshes of fewer triangles.",
-            gpu.stack_need,
-            gpu.instances.len(),
+            "this scene's instances make a BVH walk need {stack_need} stack entries, and the kernel's walk \
+             has {STACK_SIZE}: the tree over the {instances} placements and the deepest instanced mesh's \
+             tree are too deep together. Use fewer placements, or meshes of fewer triangles."
         )));
     }
     Ok(())
@@ -1355,6 +1358,27 @@ mod tests {
                 "{m}"
             ),
             other => panic!("expected a limit, got {other:?}"),
+        }
+    }
+
+    /// With instances, a BVH leaf holds a placement's or a triangle's index in 28 bits: 2^28 - 1 of each
+    /// is accepted, 2^28 refused with both counts named (no scene small enough for a test has so many:
+    /// the counts are checked as the upload gives them). Without instances the bit is free and the
+    /// triangles are bounded elsewhere (`mesh::MAX_TRIANGLES`).
+    #[test]
+    fn instances_past_the_leaf_index_bits_are_refused() {
+        let most = (1usize << 28) - 1;
+        assert!(instance_limits(most, most, 1).is_ok());
+        assert!(instance_limits(most + 1, 0, 1).is_ok());
+        for (triangles, instances) in [(most + 1, 2), (10, most + 1)] {
+            match instance_limits(triangles, instances, 1) {
+                Err(GpuError::Limit(m)) => assert!(
+                    m.contains(&format!("{triangles} triangles and {instances} placements"))
+                        && m.contains(&format!("at most {most} of each")),
+                    "{m}"
+                ),
+                other => panic!("expected a limit, got {other:?}"),
+            }
         }
     }
 }
