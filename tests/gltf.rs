@@ -2413,7 +2413,9 @@ fn write_balls_gltf(dir: &Path, name: &str, shared: bool) {
 /// determinant turns the winding; with the reader's re-winding of mirrored nodes removed, 0.038). Shaded
 /// flat: a shared mesh's smooth normals are interpolated in its own space and then mapped (as pbrt-v4's
 /// TransformedPrimitive and Mitsuba's instances do), a flattened node's are mapped per vertex and then
-/// interpolated, which under a non-uniform map differ (measured 8e-4 relative here, smooth).
+/// interpolated, which under a non-uniform map differ (measured 8e-4 relative here, smooth). The same
+/// `[[instance]]` in a plain material of its own shares the copies too (its placements carry the
+/// material) and renders as the flattened file placed in that material.
 #[test]
 fn gltf_nodes_sharing_a_mesh_place_one_copy_and_render_as_copies() {
     let dir = tempfile::tempdir().unwrap();
@@ -2466,6 +2468,56 @@ fn gltf_nodes_sharing_a_mesh_place_one_copy_and_render_as_copies() {
     assert!(
         relative < 1e-4 && far < 0.005,
         "shared vs flattened nodes: relative difference {relative}, {far} of the pixels differ by > 1 %"
+    );
+
+    // The [[instance]] in a material of its own (plain red, and the file's parts have no textures):
+    // its placements of the ball and of the floor share the copies too, each in red, and render as the
+    // flattened file placed by a [[mesh]] in red.
+    let red = "[materials]\nred = { type = \"diffuse\", albedo = [0.8, 0.1, 0.1] }\n";
+    let c = load(
+        dir.path(),
+        &format!(
+            "{head}{red}[[mesh]]\nobj = \"shared.gltf\"\nname = \"balls\"\nsmooth = false\ntranslate = [0, 4, 0]\n\
+             [[instance]]\nmesh = \"balls\"\nmaterial = \"red\"\n{mirror_down}"
+        ),
+    );
+    let d = load(
+        dir.path(),
+        &format!(
+            "{head}{red}[[mesh]]\nobj = \"flat.gltf\"\nsmooth = false\ntranslate = [0, 4, 0]\n\
+             [[mesh]]\nobj = \"flat.gltf\"\nsmooth = false\nmaterial = \"red\"\n{mirror_down}"
+        ),
+    );
+    let red_index = c.material_names.iter().position(|n| n == "red").unwrap() as u32;
+    assert_eq!(c.meshes.len(), 1, "only the [[mesh]]'s floor is a copy");
+    assert_eq!(c.instanced.len(), 2);
+    // The ball's ten placements (five nodes of the [[mesh]] in the file's materials, five of the
+    // [[instance]] in red) and the floor's one (the [[instance]]'s, in red): (placements, in their own
+    // materials, in red).
+    let mut got: Vec<(usize, usize, usize)> = c
+        .instanced
+        .iter()
+        .map(|m| {
+            let count = |material: Option<u32>| {
+                m.placements
+                    .iter()
+                    .filter(|p| p.material == material)
+                    .count()
+            };
+            (m.placements.len(), count(None), count(Some(red_index)))
+        })
+        .collect();
+    got.sort();
+    assert_eq!(got, [(1, 0, 1), (10, 5, 5)]);
+    let (fc, fd) = (render(&c), render(&d));
+    let (relative, far) = common::render_distance(&fc, &fd);
+    assert!(
+        relative < 1e-4 && far < 0.005,
+        "shared in red vs flattened in red: relative difference {relative}, {far} of the pixels differ by > 1 %"
+    );
+    assert!(
+        common::render_distance(&fa, &fc).0 > 0.01,
+        "the red instance shows"
     );
 }
 
