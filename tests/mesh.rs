@@ -426,68 +426,127 @@ power = 50000.0
 
 // ----- transforms and instances -----
 
-/// An `[[instance]]` is its mesh placed once more: a named mesh and three instances of it render as four
-/// `[[mesh]]` tables placed there. The named mesh is a cut-out that is all hole (opacity 0.3 under a
-/// cutoff of 0.5: invisible); one instance is in its own red diffuse, one in its own mirror (a material
-/// kind no triangle of the scene has), both sharing the named mesh's triangles (placements of an
+/// An `[[instance]]` is its mesh placed once more: two named meshes and four instances of them render as
+/// six `[[mesh]]` tables placed there. The ball is a cut-out that is all hole (opacity 0.3 under a
+/// cutoff of 0.5: invisible); one instance of it is in its own red diffuse, one in its own mirror (a
+/// material kind no triangle of the scene has), both sharing the ball's triangles (placements of an
 /// instanced mesh, walked through the two-level BVH, each placement's material replacing the
-/// triangles'); one is in a textured material (a checkerboard), which makes it a copy, placed as its
-/// table is. The shared balls' vertices are mapped in f32 by the kernel where the tables' were mapped
-/// in f64: the same image up to that rounding. Fails if the walk tests the opacity of the triangles' own
-/// material (the red and mirror balls vanish), or if the kernel is specialised without the placements'
-/// materials (the mirror's code is left out).
+/// triangles'). The globe (a uv sphere, in plain white) has an instance in a checkerboard material of its
+/// own, which shares the globe's copy, which then keeps its texture coordinates. A white triangle has an
+/// instance in an emitting material, which makes it a copy (an emitting triangle is a light, sampled in
+/// world space), placed as its table is (one triangle, so that both scenes' light tables agree: with
+/// more, the order in which the world's BVH leaves the emitting triangles would pick different ones for
+/// the same random numbers, an unbiased but different image). The shared meshes' vertices are mapped in f32 by the kernel where the tables' were
+/// mapped in f64: the same image up to that rounding. Fails if the walk tests the opacity of the
+/// triangles' own material (the red and mirror balls vanish), if the kernel is specialised without the
+/// placements' materials (the mirror's code is left out), or if the globe's copy drops its texture
+/// coordinates (the checkerboard is read at every triangle's default uvs).
 #[test]
 fn instances_render_as_the_same_meshes_placed_by_mesh_tables() {
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "ball.obj", &shapes::icosphere(2).to_obj());
+    write(dir.path(), "globe.obj", &shapes::uv_sphere(24, 12).to_obj());
+    write(
+        dir.path(),
+        "tri.obj",
+        "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nf 1 2 3\n",
+    );
     let head = r#"
 [camera]
-position = [0, 0, 30]
+position = [0, 0, 36]
 look_at = [0, 0, 0]
 fov = 60
 [image]
-width = 48
-height = 32
+width = 64
+height = 48
 [render]
 max_bounces = 2
 [materials]
 ghost = { type = "diffuse", albedo = [0.8, 0.8, 0.8], opacity = 0.3, alpha_cutoff = 0.5 }
 red = { type = "diffuse", albedo = [0.8, 0.1, 0.1] }
 chrome = { type = "mirror" }
-checks = { type = "diffuse", albedo = { checkerboard = [[0.1, 0.7, 0.1], [0.7, 0.7, 0.1]] } }
+white = { type = "diffuse", albedo = [0.8, 0.8, 0.8] }
+checks = { type = "diffuse", albedo = { checkerboard = [[0.1, 0.7, 0.1], [0.7, 0.7, 0.1]], scale = [4, 4] } }
+lamp = { type = "emitter", radiance = [2.0, 1.5, 1.0] }
 floor = { type = "diffuse", albedo = [0.5, 0.5, 0.5] }
 [[triangle]]
-vertices = [[-40, -12, -40], [40, -12, -40], [0, -12, 40]]
+vertices = [[-40, -14, -40], [40, -14, -40], [0, -14, 40]]
 material = "floor"
 [[light]]
 type = "point"
 position = [0, 10, 20]
 power = 50000.0
 "#;
+    let place = |at: [i32; 2]| format!("scale = 3\ntranslate = [{}, {}, 0]\n", at[0], at[1]);
+    let named = |name: &str, obj: &str, material: &str, at: [i32; 2]| {
+        format!(
+            "[[mesh]]\nobj = \"{obj}\"\nname = \"{name}\"\nmaterial = \"{material}\"\n{}",
+            place(at)
+        )
+    };
+    let instance = |name: &str, material: &str, at: [i32; 2]| {
+        format!(
+            "[[instance]]\nmesh = \"{name}\"\nmaterial = \"{material}\"\n{}",
+            place(at)
+        )
+    };
+    let table = |obj: &str, material: &str, at: [i32; 2]| {
+        format!(
+            "[[mesh]]\nobj = \"{obj}\"\nmaterial = \"{material}\"\n{}",
+            place(at)
+        )
+    };
+    // (The red ball by a matrix: the same placement as the others' scale and translation.)
     let instanced = format!(
-        "{head}[[mesh]]\nobj = \"ball.obj\"\nname = \"ball\"\nmaterial = \"ghost\"\nscale = 3\ntranslate = [-6, 0, 0]\n\
-         [[instance]]\nmesh = \"ball\"\nmaterial = \"red\"\nmatrix = [3, 0, 0, 6,  0, 3, 0, 0,  0, 0, 3, 0,  0, 0, 0, 1]\n\
-         [[instance]]\nmesh = \"ball\"\nmaterial = \"chrome\"\nscale = 3\ntranslate = [0, 6, 0]\n\
-         [[instance]]\nmesh = \"ball\"\nmaterial = \"checks\"\nscale = 3\ntranslate = [0, -6, 0]\n"
+        "{head}{}[[instance]]\nmesh = \"ball\"\nmaterial = \"red\"\n\
+         matrix = [3, 0, 0, 8,  0, 3, 0, 0,  0, 0, 3, 0,  0, 0, 0, 1]\n{}{}{}{}{}",
+        named("ball", "ball.obj", "ghost", [-8, 0]),
+        instance("ball", "chrome", [0, 8]),
+        named("globe", "globe.obj", "white", [0, -8]),
+        instance("globe", "checks", [-8, -8]),
+        named("tri", "tri.obj", "white", [8, 8]),
+        instance("tri", "lamp", [8, -8]),
     );
     let tables = format!(
-        "{head}[[mesh]]\nobj = \"ball.obj\"\nmaterial = \"ghost\"\nscale = 3\ntranslate = [-6, 0, 0]\n\
-         [[mesh]]\nobj = \"ball.obj\"\nmaterial = \"red\"\nscale = 3\ntranslate = [6, 0, 0]\n\
-         [[mesh]]\nobj = \"ball.obj\"\nmaterial = \"chrome\"\nscale = 3\ntranslate = [0, 6, 0]\n\
-         [[mesh]]\nobj = \"ball.obj\"\nmaterial = \"checks\"\nscale = 3\ntranslate = [0, -6, 0]\n"
+        "{head}{}{}{}{}{}{}{}",
+        table("ball.obj", "ghost", [-8, 0]),
+        table("ball.obj", "red", [8, 0]),
+        table("ball.obj", "chrome", [0, 8]),
+        table("globe.obj", "white", [0, -8]),
+        table("globe.obj", "checks", [-8, -8]),
+        table("tri.obj", "white", [8, 8]),
+        table("tri.obj", "lamp", [8, -8]),
     );
     let a = load(dir.path(), &instanced);
     let b = load(dir.path(), &tables);
     let index = |name: &str| a.material_names.iter().position(|n| n == name).unwrap() as u32;
-    assert_eq!(a.meshes.len(), 2, "the named mesh and the copy in checks");
-    assert_eq!(a.meshes[1].material, index("checks"));
-    assert_eq!(a.instanced.len(), 1);
-    let materials: Vec<Option<u32>> = a.instanced[0]
-        .placements
+    let materials: Vec<u32> = a.meshes.iter().map(|m| m.material).collect();
+    assert_eq!(
+        materials,
+        [
+            index("ghost"),
+            index("white"),
+            index("white"),
+            index("lamp")
+        ],
+        "the three named meshes and the copy in lamp"
+    );
+    let shared: Vec<Vec<Option<u32>>> = a
+        .instanced
         .iter()
-        .map(|p| p.material)
+        .map(|m| m.placements.iter().map(|p| p.material).collect())
         .collect();
-    assert_eq!(materials, [Some(index("red")), Some(index("chrome"))]);
+    assert_eq!(
+        shared,
+        [
+            vec![Some(index("red")), Some(index("chrome"))],
+            vec![Some(index("checks"))]
+        ]
+    );
+    assert!(
+        !a.instanced[1].parts[0].uvs.is_empty(),
+        "the globe's shared copy keeps its texture coordinates"
+    );
     let gpu = GpuScene::build(&a);
     let chrome = gpu.materials[index("chrome") as usize].kind;
     assert!(

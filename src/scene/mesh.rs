@@ -70,9 +70,9 @@ pub struct MeshPlacement {
     pub to_world: DAffine3,
     /// The material every face of this copy takes instead of its part's (an `[[instance]]`'s own
     /// `material`), an index into `Scene::materials`; `None` keeps the parts' own. Only a material that
-    /// needs nothing from the parts is given here: neither the material nor the parts have textures
-    /// or maps, and neither emits (`parse::geometry`, `Checker::instance`), so that the copy's
-    /// material is one index whatever part a ray hits.
+    /// one index can stand for is given here: the parts have no textures or maps of their own, and
+    /// neither they nor it emit (`parse::geometry`, `shares_material`); the copy keeps its texture
+    /// coordinates where such a material reads them.
     pub material: Option<u32>,
 }
 

@@ -725,7 +725,9 @@ impl Checker<'_> {
         Ok(table)
     }
 
-    /// One part of a mesh placed by `placement`, in its own material or in `material` instead.
+    /// One part of a mesh placed by `placement`, in its own material or in `material` instead; with
+    /// `keep_uvs`, its texture coordinates kept even where neither the part nor its material reads them
+    /// (a shared copy that placements draw in textured materials of their own).
     #[allow(clippy::too_many_arguments)]
     fn place_part(
         &self,
@@ -736,10 +738,12 @@ impl Checker<'_> {
         materials: &[Material],
         span: std::ops::Range<usize>,
         label: &str,
+        keep_uvs: bool,
     ) -> Result<Mesh, SceneError> {
         let material = material.unwrap_or(part.material);
         // (Texture coordinates are kept for the material's own textures too.)
-        let textured = part.texture.is_some()
+        let textured = keep_uvs
+            || part.texture.is_some()
             || !materials
                 .get(material as usize)
                 .is_none_or(|m| m.textures.is_plain())
@@ -829,10 +833,11 @@ impl Checker<'_> {
     /// An `[[instance]]`: the named mesh's parts placed again by the instance's transform, in the
     /// instance's material when it gives one. Shared (one copy of the mesh, drawn through the two-level
     /// BVH: [`mesh::InstancedMesh`]), in the instance's material where it gives one that one index can
-    /// stand for ([`shares_material`]); otherwise (the mesh or the material emits light, or one of them
-    /// has textures) copies of the parts, placed as a `[[mesh]]` is: an emitting triangle must be in the
-    /// light list in world space, and a part's textures and maps combine with its material into a
-    /// material of its own (`kernel::upload`, `mesh_material`), so such a copy is a material per part.
+    /// stand for ([`shares_material`]); otherwise (the mesh or the material emits light, or the mesh's
+    /// parts have textures or maps) copies of the parts, placed as a `[[mesh]]` is: an emitting
+    /// triangle must be in the light list in world space, and a part's textures and maps combine with
+    /// its material into a material of its own (`kernel::upload`, `mesh_material`), so such a copy is a
+    /// material per part.
     pub(super) fn instance(
         &self,
         i: usize,
@@ -962,6 +967,7 @@ impl Checker<'_> {
                     materials,
                     span.clone(),
                     label,
+                    false,
                 )
             })
             .collect()
@@ -987,23 +993,31 @@ impl Checker<'_> {
     }
 
     /// The parts of a named mesh in its file's own space, for the placements that share it
-    /// ([`Placed::Shared`]).
+    /// ([`Placed::Shared`]); `keep_uvs` when some of them draw it in a textured material of their own.
     pub(super) fn instanced_parts(
         &self,
         source: &MeshSource,
         materials: &[Material],
         span: std::ops::Range<usize>,
         label: &str,
+        keep_uvs: bool,
     ) -> Result<Vec<Mesh>, SceneError> {
-        self.place_each(
-            source,
-            &source.parts,
-            None,
-            &Placement::default(),
-            materials,
-            span,
-            label,
-        )
+        source
+            .parts
+            .iter()
+            .map(|part| {
+                self.place_part(
+                    source,
+                    part,
+                    None,
+                    &Placement::default(),
+                    materials,
+                    span.clone(),
+                    label,
+                    keep_uvs,
+                )
+            })
+            .collect()
     }
 }
 
@@ -1021,13 +1035,14 @@ pub(super) enum Placed {
 /// Whether an `[[instance]]` of `source` in `material` can share the mesh's one copy, each face drawn in
 /// `material` through the placement ([`mesh::MeshPlacement::material`]): when one material index stands
 /// for every face. That holds when no part of the mesh (nor of the file's shared meshes) has a texture
-/// or maps of its own, which would combine with the material into one material per part; when the
-/// material has no textures or modifiers, which could read texture coordinates or tangents the shared
-/// copy need not have kept; and when it does not emit (an emitting triangle is a light, sampled in world
-/// space).
+/// or maps of its own, which would combine with the material into one material per part, and when the
+/// material does not emit (an emitting triangle is a light, sampled in world space). A material with
+/// textures or modifiers reads the texture coordinates, which the named mesh's shared copy then keeps
+/// (`instanced_parts`); a glTF file's shared meshes are read before any instance of the file, with only
+/// what their own materials read, so such a material shares a file without them only.
 fn shares_material(source: &MeshSource, material: &Material) -> bool {
     material.emission.is_none()
-        && material.textures.is_plain()
+        && (material.textures.is_plain() || source.shared.is_empty())
         && source
             .parts
             .iter()

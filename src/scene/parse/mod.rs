@@ -231,7 +231,11 @@ impl Checker<'_> {
             }
         }
         // Instances: shared placements of a named mesh, or copies (geometry::Checker::instance).
+        // The placements of each named mesh by the [[instance]]s that share it, gathered first (by mesh,
+        // in the order of the first such instance, which names the errors of making the copy): the
+        // mesh's shared copy keeps its texture coordinates when some placement's own material reads them.
         let mut shared_of: Vec<Option<usize>> = vec![None; sources.len()];
+        let mut pending: Vec<(usize, Range<usize>, String, Vec<mesh::MeshPlacement>)> = Vec::new();
         for (i, instance) in raw.instance.iter().enumerate() {
             let label = format!("instance[{i}]");
             match self.instance(i, instance, &sources, &material_names, &materials)? {
@@ -256,31 +260,32 @@ impl Checker<'_> {
                     if sources[source].1.parts.is_empty() {
                         continue;
                     }
-                    let k = match shared_of[source] {
-                        Some(k) => k,
-                        None => {
-                            // The mesh's own copy, stored once (its triangles counted once).
-                            let parts = self.instanced_parts(
-                                &sources[source].1,
-                                &materials,
-                                instance.span(),
-                                &label,
-                            )?;
-                            total += parts.iter().map(|m| m.triangles.len()).sum::<usize>();
-                            if total > mesh::MAX_TRIANGLES {
-                                return Err(too_many(instance.span(), &label));
-                            }
-                            instanced.push(mesh::InstancedMesh {
-                                parts,
-                                placements: Vec::new(),
-                            });
-                            shared_of[source] = Some(instanced.len() - 1);
-                            instanced.len() - 1
-                        }
-                    };
-                    instanced[k].placements.push(placement);
+                    let k = *shared_of[source].get_or_insert_with(|| {
+                        pending.push((source, instance.span(), label, Vec::new()));
+                        pending.len() - 1
+                    });
+                    pending[k].3.push(placement);
                 }
             }
+        }
+        for (source, span, label, placements) in pending {
+            // The mesh's own copy, stored once (its triangles counted once).
+            let keep_uvs = placements.iter().any(|p| {
+                p.material
+                    .is_some_and(|m| !materials[m as usize].textures.is_plain())
+            });
+            let parts = self.instanced_parts(
+                &sources[source].1,
+                &materials,
+                span.clone(),
+                &label,
+                keep_uvs,
+            )?;
+            total += parts.iter().map(|m| m.triangles.len()).sum::<usize>();
+            if total > mesh::MAX_TRIANGLES {
+                return Err(too_many(span, &label));
+            }
+            instanced.push(mesh::InstancedMesh { parts, placements });
         }
         let mut lights = Vec::with_capacity(raw.light.len());
         for (i, light) in raw.light.iter().enumerate() {
