@@ -713,6 +713,7 @@ impl Checker<'_> {
                 materials,
                 span.clone(),
                 label,
+                false,
             )?;
             let placements = placements
                 .into_iter()
@@ -926,6 +927,7 @@ impl Checker<'_> {
             materials,
             span.clone(),
             label,
+            false,
         )?;
         let affine = placement.affine();
         for group in source.shared.iter().filter(|g| copy(g)) {
@@ -938,13 +940,15 @@ impl Checker<'_> {
                     materials,
                     span.clone(),
                     label,
+                    false,
                 )?);
             }
         }
         Ok(out)
     }
 
-    /// `parts` (of `source`) placed by `placement`, in `material` when one is given.
+    /// `parts` (of `source`) placed by `placement`, in `material` when one is given, each keeping its
+    /// texture coordinates with `keep_uvs` ([`Self::place_part`]).
     #[allow(clippy::too_many_arguments)]
     fn place_each(
         &self,
@@ -955,6 +959,7 @@ impl Checker<'_> {
         materials: &[Material],
         span: std::ops::Range<usize>,
         label: &str,
+        keep_uvs: bool,
     ) -> Result<Vec<Mesh>, SceneError> {
         parts
             .iter()
@@ -967,7 +972,7 @@ impl Checker<'_> {
                     materials,
                     span.clone(),
                     label,
-                    false,
+                    keep_uvs,
                 )
             })
             .collect()
@@ -1002,22 +1007,16 @@ impl Checker<'_> {
         label: &str,
         keep_uvs: bool,
     ) -> Result<Vec<Mesh>, SceneError> {
-        source
-            .parts
-            .iter()
-            .map(|part| {
-                self.place_part(
-                    source,
-                    part,
-                    None,
-                    &Placement::default(),
-                    materials,
-                    span.clone(),
-                    label,
-                    keep_uvs,
-                )
-            })
-            .collect()
+        self.place_each(
+            source,
+            &source.parts,
+            None,
+            &Placement::default(),
+            materials,
+            span,
+            label,
+            keep_uvs,
+        )
     }
 }
 
