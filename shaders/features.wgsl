@@ -17,8 +17,10 @@ override HAS_TRIANGLES: bool = true;
 // loop over every triangle, which is also the reference the BVH is tested and benchmarked against.
 override HAS_BVH: bool = true;
 override HAS_TRIANGLE_LOOP: bool = true;
-// Instanced meshes: the BVH is two-level (bvh.wgsl; scene_data.wgsl, Instance).
+// Instanced meshes: the BVH is two-level (bvh.wgsl; scene_data.wgsl, Instance); and some placement is
+// in a material of its own (scene_data.wgsl, placed_material).
 override HAS_INSTANCES: bool = true;
+override HAS_INSTANCE_MATERIALS: bool = true;
 // Spheres likewise, through their own BVH (`sphere_nodes`) when the scene has at least 16
 // (upload::SPHERE_BVH_MIN; the generic kernel finds `sphere_nodes` empty below), else by a loop.
 override HAS_SPHERE_BVH: bool = true;

@@ -184,7 +184,9 @@ fn hit_triangle(hit: Hit) -> Triangle {
             tri.v0 = instance_point(m, tri.v0);
             tri.v1 = instance_point(m, tri.v1);
             tri.v2 = instance_point(m, tri.v2);
-            tri.material = select(tri.material, m.material, m.material != NO_MATERIAL);
+            if HAS_INSTANCE_MATERIALS {
+                tri.material = select(tri.material, m.material, m.material != NO_MATERIAL);
+            }
         }
     }
     return tri;

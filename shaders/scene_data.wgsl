@@ -187,7 +187,7 @@ const NO_MATERIAL: u32 = 0xffffffffu;
 // The material of a triangle whose own is `material`, hit through placement `instance` (NO_INSTANCE: in
 // world space): the placement's material where it gives one (an [[instance]] in a material of its own).
 fn placed_material(material: u32, instance: u32) -> u32 {
-    if HAS_INSTANCES {
+    if HAS_INSTANCE_MATERIALS {
         if instance != NO_INSTANCE {
             let m = instances[instance].material;
             if m != NO_MATERIAL {

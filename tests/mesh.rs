@@ -548,6 +548,10 @@ power = 50000.0
         "the globe's shared copy keeps its texture coordinates"
     );
     let gpu = GpuScene::build(&a);
+    assert!(
+        FeatureSet::of(&gpu, &params_for(&a, 1))
+            .has(vkpath::kernel::features::Feature::InstanceMaterials)
+    );
     let chrome = gpu.materials[index("chrome") as usize].kind;
     assert!(
         gpu.triangles
@@ -678,9 +682,11 @@ material = "floor"
         "64 placements and the world's triangles"
     );
     check_two_level_tree(&gpu);
+    let features = FeatureSet::of(&gpu, &params_for(&shared, 1));
+    assert!(features.has(vkpath::kernel::features::Feature::Instances));
     assert!(
-        FeatureSet::of(&gpu, &params_for(&shared, 1))
-            .has(vkpath::kernel::features::Feature::Instances)
+        !features.has(vkpath::kernel::features::Feature::InstanceMaterials),
+        "no placement is in a material of its own"
     );
     assert_eq!(GpuScene::build(&copies).triangles.len(), 2 + 66 * faces);
     let (a, b) = (render(&shared, 4), render(&copies, 4));

@@ -29,6 +29,7 @@ pub enum Feature {
     SphereBvh,
     TriangleLoop,
     Instances,
+    InstanceMaterials,
     SmoothNormals,
     Textures,
     EmissiveTextures,
@@ -175,6 +176,17 @@ const BEFORE_MATERIALS: &[FeatureRow] = &[
         constant: "HAS_INSTANCES",
         group: Group::Other,
         needed: |g, _| !g.instances.is_empty(),
+        reported: true,
+    },
+    FeatureRow {
+        // Some placement draws its faces in a material of its own (`GpuInstance::material`:
+        // scene_data.wgsl, placed_material); without one, a hit on an instance reads no more than its
+        // triangle's material.
+        feature: Feature::InstanceMaterials,
+        name: "instance_materials",
+        constant: "HAS_INSTANCE_MATERIALS",
+        group: Group::Other,
+        needed: |g, _| g.instances.iter().any(|i| i.material != NO_MATERIAL),
         reported: true,
     },
     FeatureRow {
