@@ -83,13 +83,15 @@ def main():
     ap.add_argument("--wait", type=float, default=15.0, help="seconds to let the kernel compile")
     ap.add_argument("--seconds", type=float, default=8.0, help="seconds to sample")
     ap.add_argument("--top", type=int, default=12, help="hottest 512-byte blocks to print")
+    ap.add_argument("--wrapper", default="", help="a command the render runs under (e.g. a script that "
+                    "points the Vulkan loader at another driver); it must exec the binary in its process")
     ap.add_argument("--show", metavar="KIND", help="print the hottest instructions of this kind")
     ap.add_argument("extra", nargs="*", help="more `vkpath render` arguments")
     args = ap.parse_args()
 
     work = tempfile.mkdtemp(prefix="jit-profile-")
     render = subprocess.Popen(
-        [args.binary, "render", args.scene, "--width", "512", "--height", "512", "--spp", "4096",
+        [*args.wrapper.split(), args.binary, "render", args.scene, "--width", "512", "--height", "512", "--spp", "4096",
          "--output", os.path.join(work, "out.exr"), *args.extra],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
@@ -122,6 +124,8 @@ def main():
         listing = subprocess.run(["objdump", "-D", "-b", "binary", "-m", "i386:x86-64",
                                   f"--adjust-vma={lo:#x}", path], check=True, capture_output=True,
                                  text=True).stdout
+        with open(path + ".s", "w") as out:
+            out.write(listing)
         for line in listing.splitlines():
             m = re.match(r"\s*([0-9a-f]+):\t[0-9a-f ]+\t(.*)", line)
             if m:
@@ -152,7 +156,7 @@ def main():
     blocks = collections.Counter()
     for a, n in per_instruction.items():
         blocks[a & ~511] += n
-    print(f"\nhottest 512-byte blocks (of {len(blocks)}):")
+    print(f"\nhottest 512-byte blocks (of {len(blocks)}; the disassembly is in {work}):")
     for a, n in blocks.most_common(args.top):
         print(f"  {a:#x}  {100 * n / max(jit, 1):5.1f} %")
 
