@@ -4,8 +4,9 @@
 #   1. ci/setup.sh --test      a Vulkan loader, a driver (Mesa's lavapipe runs on the CPU) and the
 #                              Khronos validation layers; installs them with apt-get when missing
 #   2. cargo fmt --check       formatting
-#      cargo build             the debug binary, which compiles the generic kernel in the background
-#                              (Mesa's shader cache then has it for the tests: below)
+#      cargo test --no-run     the debug binary, which compiles the generic kernel in the background
+#                              (Mesa's shader cache then has it for the tests: below), and the test
+#                              binaries
 #   3. cargo clippy            lints, warnings are errors
 #   4. cargo check --no-default-features --bins
 #                              the headless binary still builds without the `preview` feature (the window)
@@ -46,7 +47,10 @@ step fmt cargo fmt --all -- --check
 # validation layers are on, as the tests have them. The render's kernel first, then one per --aov layer
 # (the generic kernel fixes what it renders, as a specialised one does: tests/outputs.rs renders the
 # three layers with it).
-step build cargo build --bin vkpath
+# The binary is built with the test binaries, by `cargo test --no-run`: the dev-dependencies turn on
+# features of dependencies the binary shares (serde, rustix, rayon's either, ...), so a plain `cargo
+# build` first would have the test step compile those crates, the library and the binary a second time.
+step build cargo test --no-run
 # The tests' renders are small, so on a cold Mesa cache most of their time is lavapipe compiling
 # kernels, and about half of a compile is LLVM's optimisation passes. Without them (GALLIVM_PERF=nopt)
 # the kernels render the same bits, only slower, and the suite takes far less time (docs/testing.md has
