@@ -19,13 +19,14 @@ The kinds are recognised from the shapes of code llvmpipe (Mesa 25) writes, so t
   and masked stores as a load, a cmov and a store, addressed off %rsp with an index register.
 - "spill and reload": vector and mask registers moved to and from fixed %rsp offsets.
 - "branch": jumps and mask tests that decide them.
-- "vector arithmetic and the rest": everything else (the box and triangle tests, the shading).
+- "vector arithmetic and the rest": everything else (the box and triangle tests, the shading). Mesa 26's
+  llvmpipe reads such words with one gather instruction (vpgatherdd), which lands here.
 
 Needs perf, gdb and objdump (`apt-get install linux-perf gdb binutils`) and permission to attach
 (root, or kernel.yama.ptrace_scope = 0 and kernel.perf_event_paranoid <= 1).
 
     benches/jit_profile.py --binary target/release/vkpath --scene scenes/course.toml \
-        [--wait 15] [--seconds 8] [-- extra render arguments]
+        [--wait 15] [--seconds 8] [--spp 4096] [--wrapper CMD] [--show KIND] [-- render arguments]
 """
 
 import argparse
@@ -82,6 +83,8 @@ def main():
     ap.add_argument("--scene", required=True)
     ap.add_argument("--wait", type=float, default=15.0, help="seconds to let the kernel compile")
     ap.add_argument("--seconds", type=float, default=8.0, help="seconds to sample")
+    ap.add_argument("--spp", type=int, default=4096, help="samples per pixel of the 512x512 render "
+                    "(enough to outlast --wait and --seconds)")
     ap.add_argument("--top", type=int, default=12, help="hottest 512-byte blocks to print")
     ap.add_argument("--wrapper", default="", help="a command the render runs under (e.g. a script that "
                     "points the Vulkan loader at another driver); it must exec the binary in its process")
@@ -91,13 +94,13 @@ def main():
 
     work = tempfile.mkdtemp(prefix="jit-profile-")
     render = subprocess.Popen(
-        [*args.wrapper.split(), args.binary, "render", args.scene, "--width", "512", "--height", "512", "--spp", "4096",
-         "--output", os.path.join(work, "out.exr"), *args.extra],
+        [*args.wrapper.split(), args.binary, "render", args.scene, "--width", "512", "--height", "512",
+         "--spp", str(args.spp), "--output", os.path.join(work, "out.exr"), *args.extra],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         time.sleep(args.wait)
         if render.poll() is not None:
-            sys.exit("the render ended before the profile: raise --spp with the extra arguments")
+            sys.exit("the render ended before the profile: raise --spp")
         data = os.path.join(work, "perf.data")
         subprocess.run(["perf", "record", "-q", "-p", str(render.pid), "-o", data, "--", "sleep",
                         str(args.seconds)], check=True, stderr=subprocess.DEVNULL)

@@ -60,8 +60,8 @@ step build cargo test --no-run
 # An explicitly empty GALLIVM_PERF keeps the optimisation passes.
 tests_gallivm_perf=${GALLIVM_PERF-nopt}
 warm_dir=$(mktemp -d)
-GALLIVM_PERF=$tests_gallivm_perf VKPATH_VALIDATION=1 target/debug/vkpath render scenes/course.toml --generic --width 8 --height 8 --spp 1 \
-    --aov albedo,normal,depth --output "$warm_dir/warm.exr" >"$warm_dir/log" 2>&1 &
+GALLIVM_PERF=$tests_gallivm_perf VKPATH_VALIDATION=1 target/debug/vkpath render scenes/course.toml --generic \
+    --width 8 --height 8 --spp 1 --aov albedo,normal,depth --output "$warm_dir/warm.exr" >"$warm_dir/log" 2>&1 &
 warm_pid=$!
 trap 'kill "$warm_pid" 2>/dev/null || true; rm -rf "$warm_dir"' EXIT
 warm_start=$SECONDS
