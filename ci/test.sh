@@ -10,8 +10,7 @@
 #   3. cargo clippy            lints, warnings are errors
 #   4. cargo check --no-default-features --bins
 #                              the headless binary still builds without the `preview` feature (the window)
-#   5. cargo test              unit and integration tests (dev profile), with lavapipe's LLVM optimisation
-#                              passes off (GALLIVM_PERF=nopt: below); the tests that use the GPU
+#   5. cargo test              unit and integration tests (dev profile); the tests that use the GPU
 #                              turn the validation layers on themselves, and any validation error fails them;
 #                              tests/preview.rs opens the preview window under Xvfb (xvfb-run)
 #   6. ci/farm-test.sh         the Slurm render farm: a private one-node cluster (ci/slurm.sh: munged,
@@ -51,16 +50,8 @@ step fmt cargo fmt --all -- --check
 # features of dependencies the binary shares (serde, rustix, rayon's either, ...), so a plain `cargo
 # build` first would have the test step compile those crates, the library and the binary a second time.
 step build cargo test --no-run
-# The tests' renders are small, so on a cold Mesa cache most of their time is lavapipe compiling
-# kernels, and about half of a compile is LLVM's optimisation passes. Without them (GALLIVM_PERF=nopt)
-# the kernels render the same bits, only slower, and the suite takes far less time (docs/testing.md has
-# the measurements). So the warm-up and the tests run without them (Mesa keys its disk cache by these
-# flags, so the warm-up must match the tests), while the farm and Kubernetes steps below render with
-# the optimising compile users get, as does tests/cli_process.rs, which holds the two to the same bits.
-# An explicitly empty GALLIVM_PERF keeps the optimisation passes.
-tests_gallivm_perf=${GALLIVM_PERF-nopt}
 warm_dir=$(mktemp -d)
-GALLIVM_PERF=$tests_gallivm_perf VKPATH_VALIDATION=1 target/debug/vkpath render scenes/course.toml --generic \
+VKPATH_VALIDATION=1 target/debug/vkpath render scenes/course.toml --generic \
     --width 8 --height 8 --spp 1 --aov albedo,normal,depth --output "$warm_dir/warm.exr" >"$warm_dir/log" 2>&1 &
 warm_pid=$!
 trap 'kill "$warm_pid" 2>/dev/null || true; rm -rf "$warm_dir"' EXIT
@@ -68,7 +59,7 @@ warm_start=$SECONDS
 
 step clippy cargo clippy --all-targets -- -D warnings
 step headless cargo check --no-default-features --bins
-step test env GALLIVM_PERF="$tests_gallivm_perf" cargo test
+step test cargo test
 if wait "$warm_pid"; then
     echo "==> the generic kernel's warm-up (started $((SECONDS - warm_start)) s ago): $(tail -n 1 "$warm_dir/log")"
 else
