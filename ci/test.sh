@@ -4,9 +4,8 @@
 #   1. ci/setup.sh --test      a Vulkan loader, a driver (Mesa's lavapipe runs on the CPU) and the
 #                              Khronos validation layers; installs them with apt-get when missing
 #   2. cargo fmt --check       formatting
-#      cargo test --no-run     the debug binary, which compiles the generic kernel in the background
-#                              (Mesa's shader cache then has it for the tests: below), and the test
-#                              binaries
+#      cargo build             the debug binary, which compiles the generic kernel in the background
+#                              (Mesa's shader cache then has it for the tests: below)
 #   3. cargo clippy            lints, warnings are errors
 #   4. cargo check --no-default-features --bins
 #                              the headless binary still builds without the `preview` feature (the window)
@@ -46,13 +45,10 @@ step fmt cargo fmt --all -- --check
 # validation layers are on, as the tests have them. The render's kernel first, then one per --aov layer
 # (the generic kernel fixes what it renders, as a specialised one does: tests/outputs.rs renders the
 # three layers with it).
-# The binary is built with the test binaries, by `cargo test --no-run`: the dev-dependencies turn on
-# features of dependencies the binary shares (serde, rustix, rayon's either, ...), so a plain `cargo
-# build` first would have the test step compile those crates, the library and the binary a second time.
-step build cargo test --no-run
+step build cargo build --bin vkpath
 warm_dir=$(mktemp -d)
-VKPATH_VALIDATION=1 target/debug/vkpath render scenes/course.toml --generic \
-    --width 8 --height 8 --spp 1 --aov albedo,normal,depth --output "$warm_dir/warm.exr" >"$warm_dir/log" 2>&1 &
+VKPATH_VALIDATION=1 target/debug/vkpath render scenes/course.toml --generic --width 8 --height 8 --spp 1 \
+    --aov albedo,normal,depth --output "$warm_dir/warm.exr" >"$warm_dir/log" 2>&1 &
 warm_pid=$!
 trap 'kill "$warm_pid" 2>/dev/null || true; rm -rf "$warm_dir"' EXIT
 warm_start=$SECONDS
