@@ -175,7 +175,7 @@ fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: 
             } else {
                 // Into placement i's space, and on with its tree's root (visited below, this iteration).
                 instance = (node & ~(BVH_LEAF | BVH_INSTANCE)) >> BVH_LEAF_COUNT_BITS;
-                let m = instances[instance];
+                let m = instance_at(instance);
                 ro = vec3<f32>(dot(m.to_object_x.xyz, o) + m.to_object_x.w, dot(m.to_object_y.xyz, o) + m.to_object_y.w,
                                dot(m.to_object_z.xyz, o) + m.to_object_z.w);
                 rd = vec3<f32>(dot(m.to_object_x.xyz, d), dot(m.to_object_y.xyz, d), dot(m.to_object_z.xyz, d));
@@ -205,7 +205,7 @@ fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: 
         if visit {
             var n: BvhNode;
             if sphere_tree {
-                n = sphere_nodes[node];
+                n = sphere_node_at(node);
             } else {
                 n = bvh_node_at(node);
             }
@@ -235,7 +235,7 @@ fn bvh_walk(o: vec3<f32>, d: vec3<f32>, t_max: f32, any_hit: bool, sphere_tree: 
         }
         if test && sphere_tree {
             // One sphere of the current leaf, tested as the loop over spheres tests it (scene.wgsl).
-            let sphere = spheres[first];
+            let sphere = sphere_at(first);
             let ts = intersect_sphere(o, d, sphere.center, sphere.radius, 0.0, hit.t);
             if ts < hit.t {
                 let candidate = Hit(ts, PRIM_SPHERE, first, vec3<f32>(0.0), NO_INSTANCE);

@@ -59,6 +59,16 @@ override HAS_ROULETTE: bool = true;
 // reads every array from one binding unless the scene needs more (src/kernel/features.rs,
 // FeatureSet::generic explains why).
 override HAS_SPLIT_ARRAYS: bool = false;
+// A small scene's array read from its uniform twin rather than its storage binding (scene_data.wgsl,
+// triangle_at and its siblings; src/kernel/abi.rs, UNIFORM_ARRAYS, says why and when). The arrays'
+// layout again: off in the generic kernel.
+override UNIFORM_TRIANGLES: bool = false;
+override UNIFORM_BVH_NODES: bool = false;
+override UNIFORM_SPHERES: bool = false;
+override UNIFORM_SPHERE_NODES: bool = false;
+override UNIFORM_LIGHTS: bool = false;
+override UNIFORM_LIGHT_TRIANGLES: bool = false;
+override UNIFORM_INSTANCES: bool = false;
 // Exactly one material kind (counting emitters) / one light kind in the scene: the kind tests go.
 override SINGLE_MATERIAL_KIND: bool = false;
 override SINGLE_LIGHT_KIND: bool = false;

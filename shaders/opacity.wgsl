@@ -63,7 +63,7 @@ fn hit_uv(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> vec2<f32> {
     var uv = vec2<f32>(0.0);
     if HAS_SPHERES {
         if hit.prim_kind == PRIM_SPHERE {
-            let s = spheres[hit.prim_index];
+            let s = sphere_at(hit.prim_index);
             uv = sphere_uv(o + hit.t * d - s.center, s.radius);
         }
     }

@@ -39,14 +39,14 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
         // Through the spheres' own BVH when the scene has one, else every sphere in turn.
         var tree = false;
         if HAS_SPHERE_BVH {
-            tree = arrayLength(&sphere_nodes) > 0u;
+            tree = has_sphere_nodes();
             if tree {
                 hit = sphere_bvh_intersect(o, d, t_max, false);
             }
         }
         if !tree {
             for (var i = 0u; i < sphere_count(); i++) {
-                let s = spheres[i];
+                let s = sphere_at(i);
                 let t = intersect_sphere(o, d, s.center, s.radius, 0.0, hit.t);
                 if t < hit.t {
                     let candidate = Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0), NO_INSTANCE);
@@ -59,7 +59,7 @@ fn scene_intersect(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> Hit {
     }
     // Spheres first: a hit on one (a wall of the course's box, say) shortens the ray the BVH then walks.
     if HAS_BVH {
-        if arrayLength(&bvh_nodes) > 0u {
+        if has_bvh_nodes() {
             let th = bvh_intersect(o, d, hit.t, false);
             if th.prim_kind != PRIM_NONE {
                 hit = th;
@@ -88,14 +88,14 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
     if HAS_SPHERES {
         var tree = false;
         if HAS_SPHERE_BVH {
-            tree = arrayLength(&sphere_nodes) > 0u;
+            tree = has_sphere_nodes();
             if tree && sphere_bvh_intersect(o, d, t_max, true).prim_kind != PRIM_NONE {
                 return true;
             }
         }
         if !tree {
             for (var i = 0u; i < sphere_count(); i++) {
-                let s = spheres[i];
+                let s = sphere_at(i);
                 let t = intersect_sphere(o, d, s.center, s.radius, 0.0, t_max);
                 if t < t_max {
                     if !hit_is_transparent(o, d, Hit(t, PRIM_SPHERE, i, vec3<f32>(0.0), NO_INSTANCE), s.material) {
@@ -106,7 +106,7 @@ fn scene_occluded(o: vec3<f32>, d: vec3<f32>, t_max: f32) -> bool {
         }
     }
     if HAS_BVH {
-        if arrayLength(&bvh_nodes) > 0u {
+        if has_bvh_nodes() {
             return bvh_intersect(o, d, t_max, true).prim_kind != PRIM_NONE;
         }
     }
@@ -143,7 +143,7 @@ struct Surface {
 }
 
 fn sphere_surface(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
-    let s = spheres[hit.prim_index];
+    let s = sphere_at(hit.prim_index);
     let sp = sphere_surface_point(o, d, hit.t, s.center, s.radius);
     let n = normalize(sp.p - s.center);
     var uv = vec2<f32>(0.0);
@@ -180,7 +180,7 @@ fn hit_triangle(hit: Hit) -> Triangle {
     var tri = triangle_at(hit.prim_index);
     if HAS_INSTANCES {
         if hit.instance != NO_INSTANCE {
-            let m = instances[hit.instance];
+            let m = instance_at(hit.instance);
             tri.v0 = instance_point(m, tri.v0);
             tri.v1 = instance_point(m, tri.v1);
             tri.v2 = instance_point(m, tri.v2);
@@ -217,7 +217,7 @@ fn triangle_surface(hit: Hit) -> Surface {
     var mirrors = false;
     if HAS_INSTANCES {
         if hit.instance != NO_INSTANCE {
-            let m = instances[hit.instance];
+            let m = instance_at(hit.instance);
             sp.err += instance_error(m, triangle_at(hit.prim_index), sp.p);
             // A mirrored copy keeps its faces' fronts: the winding's normal flips (INSTANCE_MIRRORS).
             mirrors = (m.flags & INSTANCE_MIRRORS) != 0u;
@@ -239,7 +239,7 @@ fn triangle_surface(hit: Hit) -> Surface {
                        + b.z * mesh_normal(mesh_vertex_at(face.vertices.z));
                 if HAS_INSTANCES {
                     if hit.instance != NO_INSTANCE {
-                        ns = instance_normal(instances[hit.instance], ns);
+                        ns = instance_normal(instance_at(hit.instance), ns);
                     }
                 }
                 let len2 = dot(ns, ns);
@@ -275,7 +275,7 @@ fn surface_derivatives(hit: Hit, s: Surface) -> SurfaceDerivatives {
     var out = SurfaceDerivatives(vec3<f32>(0.0), vec3<f32>(0.0));
     if HAS_SPHERES {
         if hit.prim_kind == PRIM_SPHERE {
-            let sphere = spheres[hit.prim_index];
+            let sphere = sphere_at(hit.prim_index);
             let q = s.p - sphere.center;
             let rho2 = q.x * q.x + q.z * q.z; // (r sin theta)^2
             if rho2 > 1e-12 * sphere.radius * sphere.radius {
@@ -357,7 +357,7 @@ fn vertex_tangent(hit: Hit) -> vec4<f32> {
                             // A tangent lies in the surface: mapped as edges are; a mirroring placement
                             // reverses cross(N, T), so the bitangent's sign flips with it (as
                             // scene::mesh::place maps a placed mesh's tangents).
-                            let m = instances[hit.instance];
+                            let m = instance_at(hit.instance);
                             let flip = select(1.0, -1.0, (m.flags & INSTANCE_MIRRORS) != 0u);
                             out = vec4<f32>(instance_vector(m, out.xyz), out.w * flip);
                         }
@@ -560,12 +560,12 @@ fn hit_material(hit: Hit) -> u32 {
     if HAS_TRIANGLES {
         if HAS_SPHERES {
             if hit.prim_kind == PRIM_SPHERE {
-                return spheres[hit.prim_index].material;
+                return sphere_at(hit.prim_index).material;
             }
         }
         return placed_material(triangle_at(hit.prim_index).material, hit.instance);
     }
-    return spheres[hit.prim_index].material;
+    return sphere_at(hit.prim_index).material;
 }
 
 fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
@@ -636,15 +636,15 @@ fn light_selection_count() -> u32 {
 }
 
 fn light_select(k: u32) -> SelectedLight {
-    return SelectedLight(lights[k], 1.0);
+    return SelectedLight(light_at(k), 1.0);
 }
 
 // The light whose emitter sphere is spheres[i], as light_select would give it (with its selection
 // probability), for weighing a BSDF-sampled ray that hit it against the light's own sampling.
 fn light_of_sphere(i: u32) -> SelectedLight {
-    var chosen = SelectedLight(lights[0], 0.0);
+    var chosen = SelectedLight(light_at(0), 0.0);
     for (var k = 0u; k < light_selection_count(); k++) {
-        let light = lights[k];
+        let light = light_at(k);
         if light.kind == LIGHT_SPHERE && light.index == i {
             chosen = SelectedLight(light, 1.0);
         }
@@ -668,7 +668,7 @@ fn emitter_light_pdf(hit: Hit, p: vec3<f32>, p_sphere: u32, wi: vec3<f32>, strat
         if hit.prim_kind == PRIM_TRIANGLE && params.triangle_light != NO_LIGHT {
             let tri = hit_triangle(hit);
             let mat = materials[tri.material];
-            let total = lights[params.triangle_light].radius;
+            let total = light_at(params.triangle_light).radius;
             let pick = triangle_light_power(tri.v0, tri.v1, tri.v2, mat.emission, mat.flags) / total;
             pdf = pick * triangle_light_pdf(tri.v0, tri.v1, tri.v2, mat.flags, p, wi, strategy);
         }

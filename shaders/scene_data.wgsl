@@ -189,7 +189,7 @@ const NO_MATERIAL: u32 = 0xffffffffu;
 fn placed_material(material: u32, instance: u32) -> u32 {
     if HAS_INSTANCE_MATERIALS {
         if instance != NO_INSTANCE {
-            let m = instances[instance].material;
+            let m = instance_at(instance).material;
             if m != NO_MATERIAL {
                 return m;
             }
@@ -234,6 +234,17 @@ struct Hit {
 @group(0) @binding(16) var<storage, read> textures: array<TextureInfo>;
 @group(0) @binding(17) var<storage, read> material_textures: array<MaterialTextures>;
 
+// Uniform twins: a small scene's arrays, read from uniform buffers of UNIFORM_ARRAY_BYTES = 65536 bytes
+// (src/kernel/abi.rs, UNIFORM_ARRAYS) where the kernel has UNIFORM_<ARRAY> (features.wgsl): on a CPU
+// driver a uniform read whose index differs between lanes is branchless, a storage read is not (abi.rs
+// says why). Each holds 65536 / (its element's bytes) elements; the host pads the buffer to that.
+@group(0) @binding(40) var<uniform> triangles_uniform: array<Triangle, 1365>;
+@group(0) @binding(41) var<uniform> bvh_nodes_uniform: array<BvhNode, 1024>;
+@group(0) @binding(42) var<uniform> spheres_uniform: array<Sphere, 2048>;
+@group(0) @binding(43) var<uniform> sphere_nodes_uniform: array<BvhNode, 1024>;
+@group(0) @binding(44) var<uniform> lights_uniform: array<Light, 819>;
+@group(0) @binding(46) var<uniform> instances_uniform: array<Instance, 585>;
+
 // Arrays larger than one storage binding may hold (Vulkan guarantees 2^27 bytes) are read through
 // several: part k of an array holds its elements [k 2^BITS, (k + 1) 2^BITS), part 0 under the array's
 // own name above (src/kernel/abi.rs, SPLIT_ARRAYS, fixes the names, sizes and counts). The kernel reads
@@ -267,33 +278,92 @@ fn part_mask(bits: u32) -> u32 {
 }
 
 fn triangle_at(i: u32) -> Triangle {
-    if HAS_SPLIT_ARRAYS {
-        let j = i & part_mask(TRIANGLE_PART_BITS);
-        switch i >> TRIANGLE_PART_BITS {
-            case 0u: { return triangles[j]; }
-            case 1u: { return triangles_1[j]; }
-            case 2u: { return triangles_2[j]; }
-            case 3u: { return triangles_3[j]; }
-            case 4u: { return triangles_4[j]; }
-            case 5u: { return triangles_5[j]; }
-            case 6u: { return triangles_6[j]; }
-            default: { return triangles_7[j]; }
+    if UNIFORM_TRIANGLES {
+        return triangles_uniform[i];
+    } else {
+        if HAS_SPLIT_ARRAYS {
+            let j = i & part_mask(TRIANGLE_PART_BITS);
+            switch i >> TRIANGLE_PART_BITS {
+                case 0u: { return triangles[j]; }
+                case 1u: { return triangles_1[j]; }
+                case 2u: { return triangles_2[j]; }
+                case 3u: { return triangles_3[j]; }
+                case 4u: { return triangles_4[j]; }
+                case 5u: { return triangles_5[j]; }
+                case 6u: { return triangles_6[j]; }
+                default: { return triangles_7[j]; }
+            }
         }
+        return triangles[i];
     }
-    return triangles[i];
 }
 
 fn bvh_node_at(i: u32) -> BvhNode {
-    if HAS_SPLIT_ARRAYS {
-        let j = i & part_mask(BVH_NODE_PART_BITS);
-        switch i >> BVH_NODE_PART_BITS {
-            case 0u: { return bvh_nodes[j]; }
-            case 1u: { return bvh_nodes_1[j]; }
-            case 2u: { return bvh_nodes_2[j]; }
-            default: { return bvh_nodes_3[j]; }
+    if UNIFORM_BVH_NODES {
+        return bvh_nodes_uniform[i];
+    } else {
+        if HAS_SPLIT_ARRAYS {
+            let j = i & part_mask(BVH_NODE_PART_BITS);
+            switch i >> BVH_NODE_PART_BITS {
+                case 0u: { return bvh_nodes[j]; }
+                case 1u: { return bvh_nodes_1[j]; }
+                case 2u: { return bvh_nodes_2[j]; }
+                default: { return bvh_nodes_3[j]; }
+            }
         }
+        return bvh_nodes[i];
     }
-    return bvh_nodes[i];
+}
+
+// Whether the scene's triangles have a BVH (the generic kernel finds `bvh_nodes` empty otherwise; a
+// uniform twin is used only for a tree that has nodes).
+fn has_bvh_nodes() -> bool {
+    if UNIFORM_BVH_NODES {
+        return true;
+    } else {
+        return arrayLength(&bvh_nodes) > 0u;
+    }
+}
+
+// The same for the spheres' tree.
+fn has_sphere_nodes() -> bool {
+    if UNIFORM_SPHERE_NODES {
+        return true;
+    } else {
+        return arrayLength(&sphere_nodes) > 0u;
+    }
+}
+
+fn sphere_at(i: u32) -> Sphere {
+    if UNIFORM_SPHERES {
+        return spheres_uniform[i];
+    } else {
+        return spheres[i];
+    }
+}
+
+fn sphere_node_at(i: u32) -> BvhNode {
+    if UNIFORM_SPHERE_NODES {
+        return sphere_nodes_uniform[i];
+    } else {
+        return sphere_nodes[i];
+    }
+}
+
+fn light_at(i: u32) -> Light {
+    if UNIFORM_LIGHTS {
+        return lights_uniform[i];
+    } else {
+        return lights[i];
+    }
+}
+
+fn instance_at(i: u32) -> Instance {
+    if UNIFORM_INSTANCES {
+        return instances_uniform[i];
+    } else {
+        return instances[i];
+    }
 }
 
 fn mesh_face_at(i: u32) -> MeshFace {

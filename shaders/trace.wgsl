@@ -360,7 +360,7 @@ fn path_step(path: ptr<function, Path>) -> bool {
     if hit.prim_kind == PRIM_NONE {
         if HAS_ENVIRONMENT {
             if params.environment_light != NO_LIGHT {
-                let env = lights[params.environment_light];
+                let env = light_at(params.environment_light);
                 var w = 1.0;
                 if !(*path).last_delta {
                     w = emission_weight((*path).prev_pdf, light_pdf_li(env, (*path).prev_p, d, strategy),

@@ -802,3 +802,67 @@ fn split_arrays_match_wgsl() {
         }
     }
 }
+
+/// Every uniform twin (abi::UNIFORM_ARRAYS) is a uniform binding of the production kernel holding
+/// exactly UNIFORM_ARRAY_BYTES: an array of the storage array's element type (the same struct, so the
+/// same layout, which the uniform address space accepts only if its stride is a multiple of 16) and
+/// the host's element size; its override exists; and the kernel declares no twin the table lacks.
+#[test]
+fn uniform_arrays_match_wgsl() {
+    use vkpath::kernel::abi::{UNIFORM_ARRAY_BYTES, UNIFORM_ARRAYS};
+    let module = parsed_kernel();
+    let var_of = |name: &str| {
+        module
+            .global_variables
+            .iter()
+            .find(|(_, v)| v.name.as_deref() == Some(name))
+            .map(|(_, v)| v)
+            .unwrap_or_else(|| panic!("the production kernel has no global `{name}`"))
+    };
+    for a in &UNIFORM_ARRAYS {
+        let twin = var_of(a.uniform);
+        assert_eq!(twin.space, naga::AddressSpace::Uniform, "{}", a.uniform);
+        let TypeInner::Array {
+            base,
+            size: naga::ArraySize::Constant(n),
+            stride,
+        } = module.types[twin.ty].inner
+        else {
+            panic!("`{}` is not an array of fixed length", a.uniform)
+        };
+        assert_eq!(n.get() as usize, a.max_elements(), "{}", a.uniform);
+        assert_eq!(stride as usize, a.element_bytes, "{}", a.uniform);
+        assert_eq!(stride % 16, 0, "{}", a.uniform);
+        assert!(a.max_elements() * a.element_bytes <= UNIFORM_ARRAY_BYTES);
+        let storage = var_of(a.name);
+        assert!(matches!(storage.space, naga::AddressSpace::Storage { .. }));
+        let TypeInner::Array {
+            base: storage_base, ..
+        } = module.types[storage.ty].inner
+        else {
+            panic!("`{}` is not an array", a.name)
+        };
+        assert_eq!(
+            base, storage_base,
+            "`{}` and `{}` differ",
+            a.uniform, a.name
+        );
+        assert!(
+            module
+                .overrides
+                .iter()
+                .any(|(_, o)| o.name.as_deref() == Some(a.constant)),
+            "no override {}",
+            a.constant
+        );
+    }
+    for (_, v) in module.global_variables.iter() {
+        let name = v.name.as_deref().unwrap_or("");
+        if v.space == naga::AddressSpace::Uniform && name.ends_with("_uniform") {
+            assert!(
+                UNIFORM_ARRAYS.iter().any(|a| a.uniform == name),
+                "the kernel declares `{name}`, which abi::UNIFORM_ARRAYS does not list"
+            );
+        }
+    }
+}

@@ -376,3 +376,82 @@ fn texture_features_follow_the_scene_and_prune() {
         );
     }
 }
+
+/// A small scene's arrays are read from their uniform twins (abi::UNIFORM_ARRAYS), array by array: 20
+/// spheres under a sphere light put the spheres, their tree and the lights in twins; 2100 spheres are
+/// more than the spheres' twin holds (2048), so the kernel reads them from storage while their tree
+/// and the lights stay in twins. The generic kernel has none. On a CPU device (lavapipe) the renderer
+/// uses them; the bits against the generic kernel's storage reads are
+/// `specialised_equals_generic_for_every_scene`'s to check (scenes/spheres.toml has 39 spheres).
+#[test]
+fn small_arrays_are_read_from_uniform_twins() {
+    use vkpath::kernel::abi::UNIFORM_ARRAYS;
+    use vkpath::kernel::specialise::BufferKind;
+    let scene_of = |n: usize| {
+        let mut text = String::from(
+            "[camera]\nposition = [0, 0, 60]\nlook_at = [0, 0, 0]\nfov = 60\n[image]\nwidth = 16\n\
+             height = 16\n[materials]\nw = { type = \"diffuse\", albedo = [0.5, 0.5, 0.5] }\n\
+             [[light]]\ntype = \"sphere\"\ncenter = [0, 30, 30]\nradius = 2\npower = 1000\n",
+        );
+        for i in 0..n {
+            let (x, y) = ((i % 50) as f64 - 25.0, (i / 50) as f64 - 20.0);
+            text +=
+                &format!("[[sphere]]\ncenter = [{x}, {y}, 0]\nradius = 0.4\nmaterial = \"w\"\n");
+        }
+        vkpath::Scene::from_toml_str(&text, None).unwrap()
+    };
+    let twins = |s: &vkpath::Scene| -> Vec<(&str, bool, bool)> {
+        let gpu = vkpath::kernel::upload::GpuScene::build(s);
+        let features = FeatureSet::of(&gpu, &vkpath::kernel::upload::params_for(s, 3));
+        let kernel = kernel_for(&features).unwrap();
+        let bound = |name: &str, kind: BufferKind| {
+            kernel
+                .bindings
+                .iter()
+                .any(|b| b.name == name && b.kind == kind)
+        };
+        UNIFORM_ARRAYS
+            .iter()
+            .filter(|a| ["spheres", "sphere_nodes", "lights"].contains(&a.name))
+            .map(|a| {
+                (
+                    a.name,
+                    bound(a.uniform, BufferKind::Uniform),
+                    bound(a.name, BufferKind::Storage),
+                )
+            })
+            .collect()
+    };
+    let small = scene_of(20);
+    assert_eq!(
+        twins(&small),
+        [
+            ("spheres", true, false),
+            ("sphere_nodes", true, false),
+            ("lights", true, false)
+        ]
+    );
+    assert_eq!(
+        twins(&scene_of(2100)),
+        [
+            ("spheres", false, true),
+            ("sphere_nodes", true, false),
+            ("lights", true, false)
+        ]
+    );
+    let generic = kernel_for(&FeatureSet::generic()).unwrap();
+    assert!(
+        generic
+            .bindings
+            .iter()
+            .all(|b| b.kind != BufferKind::Uniform || !b.name.ends_with("_uniform"))
+    );
+    let renderer = vkpath::Renderer::new(
+        &vkpath::gpu::testing::context(),
+        &small,
+        &RenderOptions::default(),
+    )
+    .unwrap();
+    let cpu = vkpath::gpu::testing::context().device_info().device_type == "CPU";
+    assert_eq!(renderer.features().has_uniform_arrays(), cpu);
+}

@@ -18,6 +18,16 @@ struct LightTriangle {
 }
 
 @group(0) @binding(13) var<storage, read> light_triangles: array<LightTriangle>;
+// Its uniform twin (scene_data.wgsl, "Uniform twins"): 65536 / 64 bytes.
+@group(0) @binding(45) var<uniform> light_triangles_uniform: array<LightTriangle, 1024>;
+
+fn light_triangle_at(i: u32) -> LightTriangle {
+    if UNIFORM_LIGHT_TRIANGLES {
+        return light_triangles_uniform[i];
+    } else {
+        return light_triangles[i];
+    }
+}
 
 // Below this solid angle (sr) a triangle is sampled by area: Arvo's construction loses its f32 precision
 // on tiny spherical triangles, while area sampling is then nearly uniform in solid angle anyway (the
@@ -38,7 +48,7 @@ fn triangle_light_power(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, emission: v
 // The alias table's pick among `count` triangles: column floor(u.x count), kept if u.y < keep.
 fn triangle_light_pick(count: u32, u: vec2<f32>) -> u32 {
     let j = min(u32(u.x * f32(count)), count - 1u);
-    let column = light_triangles[j];
+    let column = light_triangle_at(j);
     return select(column.alias_triangle, j, u.y < column.keep);
 }
 
@@ -125,7 +135,7 @@ fn triangle_lights_sample(light: Light, p: vec3<f32>, strategy: u32,
     let u = rng_next2(rng);
     var ls = no_light_sample();
     if lights_sampled(strategy) {
-        let t = light_triangles[triangle_light_pick(light.index, u_pick)];
+        let t = light_triangle_at(triangle_light_pick(light.index, u_pick));
         let n = cross(t.v1 - t.v0, t.v2 - t.v0);
         if triangle_light_faces(t.v0, n, t.flags, p) {
             ls = triangle_light_sample(t, p, strategy, u);

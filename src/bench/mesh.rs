@@ -143,6 +143,9 @@ pub fn mesh_scaling(
             let mut features = FeatureSet::of(&gpu, &params_for(&scene, options.roulette_depth));
             features.set(crate::kernel::features::Feature::Bvh, false);
             features.set(crate::kernel::features::Feature::TriangleLoop, true);
+            if !crate::render::uniform_arrays_help(ctx.device_info()) {
+                features.without_uniform_arrays();
+            }
             let kernel = kernel_for(&features)?;
             let mut brute = Renderer::with_kernel(ctx, &scene, &options, kernel)?;
             // Hundreds of times slower: one timed pass is plenty.

@@ -56,6 +56,15 @@ pub fn run_info(json: bool) -> Result<i32, Error> {
         d.max_storage_buffer_range
     );
     println!(
+        "  max uniform buffer range:          {} bytes{}",
+        d.max_uniform_buffer_range,
+        if vkpath::render::uniform_arrays_help(d) {
+            " (a small scene's arrays are read from uniform buffers)"
+        } else {
+            ""
+        }
+    );
+    println!(
         "  max memory allocation size:        {} bytes",
         d.max_memory_allocation_size
     );

@@ -235,6 +235,38 @@ pub fn upload_device_local<T: bytemuck::Pod>(
     Ok(buffer)
 }
 
+/// A device-local uniform buffer of exactly `bytes` holding `data` at its start and zeros after it (a
+/// small scene array's uniform twin, `kernel::abi::UNIFORM_ARRAYS`: the WGSL declares it with a fixed
+/// length, and the buffer covers all of it), filled like [`upload_device_local`].
+pub fn upload_uniform_padded(
+    ctx: &Arc<GpuContext>,
+    kernel: &mut super::Kernel,
+    name: &str,
+    data: &[u8],
+    bytes: usize,
+) -> Result<Buffer, GpuError> {
+    let range = ctx.device_info().max_uniform_buffer_range as usize;
+    if data.len() > bytes || bytes > range {
+        return Err(GpuError::Usage(format!(
+            "the uniform buffer `{name}` would hold {} bytes in {bytes}, and {} allows {range}",
+            data.len(),
+            ctx.device_info().name
+        )));
+    }
+    let mut padded = data.to_vec();
+    padded.resize(bytes, 0);
+    let staging = Buffer::storage_from(ctx, name, &padded)?;
+    let buffer = Buffer::new(
+        ctx,
+        name,
+        bytes as u64,
+        vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuOnly,
+    )?;
+    kernel.submit(&[super::Command::Copy(&staging, &buffer)])?;
+    Ok(buffer)
+}
+
 impl Drop for Buffer {
     fn drop(&mut self) {
         // SAFETY: the owner waits for GPU work using this buffer before dropping it.

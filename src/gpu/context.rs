@@ -27,6 +27,7 @@ pub struct DeviceInfo {
     pub max_compute_workgroup_count: [u32; 3],
     pub max_compute_workgroup_invocations: u32,
     pub max_storage_buffer_range: u32,
+    pub max_uniform_buffer_range: u32,
     pub max_memory_allocation_size: u64,
     pub device_local_memory_bytes: u64,
     /// The device's UUID (VkPhysicalDeviceIDProperties::deviceUUID, core in Vulkan 1.1): the same
@@ -250,6 +251,7 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
         max_compute_workgroup_count: props.limits.max_compute_work_group_count,
         max_compute_workgroup_invocations: props.limits.max_compute_work_group_invocations,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
+        max_uniform_buffer_range: props.limits.max_uniform_buffer_range,
         max_memory_allocation_size: maint3.max_memory_allocation_size,
         device_local_memory_bytes: device_local,
         uuid: ids.device_uuid,
@@ -669,6 +671,7 @@ mod tests {
             max_compute_workgroup_count: [1; 3],
             max_compute_workgroup_invocations: 1,
             max_storage_buffer_range: 1,
+            max_uniform_buffer_range: 1,
             max_memory_allocation_size: 1,
             device_local_memory_bytes: 1,
             uuid: [0; 16],

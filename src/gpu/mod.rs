@@ -14,7 +14,7 @@ pub mod kernel;
 pub mod present;
 pub mod testing;
 
-pub use buffer::{Buffer, upload_device_local};
+pub use buffer::{Buffer, upload_device_local, upload_uniform_padded};
 pub use context::{ContextOptions, DeviceInfo, GpuContext};
 pub use kernel::{Command, Kernel};
 

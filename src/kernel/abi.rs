@@ -628,6 +628,94 @@ pub fn split_array(name: &str) -> Option<&'static SplitArray> {
     SPLIT_ARRAYS.iter().find(|a| a.name == name)
 }
 
+/// The bytes one uniform twin (`UNIFORM_ARRAYS`) holds: lavapipe's `maxUniformBufferRange`, and the
+/// size of each WGSL twin's fixed-length array. A device with a smaller range reads every array from its
+/// storage binding (`render::uniform_arrays_help`).
+pub const UNIFORM_ARRAY_BYTES: usize = 65536;
+
+/// A scene array that a small scene's kernel reads from a uniform buffer (its "uniform twin") instead of
+/// its storage binding, on a CPU device. Why: Mesa 25's llvmpipe reads a storage-buffer word whose index
+/// differs between the lanes of a SIMD vector one lane at a time, each behind a branch on the lane's
+/// execution mask and another on the buffer's bounds (`emit_load_mem`, gallivm/lp_bld_nir_soa.c: about a
+/// dozen instructions and two branches per lane and word), while a uniform-buffer read with such an
+/// index is a branchless loop of scalar loads (`emit_load_ubo` and `build_gather`, the out-of-range lanes
+/// redirected to element 0). The BVH walk and the light sampling index their arrays per lane, so a scene
+/// whose arrays fit the twins traces 1.2-1.4x more samples per CPU second on lavapipe
+/// (docs/performance.md, "Small scenes through uniform buffers"). A GPU's constant caches serialise
+/// reads whose addresses differ between the threads of a warp, so GPUs keep the storage bindings.
+/// `tests/layout.rs` holds the table against the WGSL: each twin a uniform binding of
+/// `UNIFORM_ARRAY_BYTES / element_bytes` elements of the array's element type.
+pub struct UniformArray {
+    /// The array's name (`GpuScene::array_bytes`, and its storage binding's WGSL name).
+    pub name: &'static str,
+    /// The uniform twin's WGSL name.
+    pub uniform: &'static str,
+    /// The WGSL `override` that makes the kernel read the twin (features.wgsl).
+    pub constant: &'static str,
+    pub element_bytes: usize,
+}
+
+impl UniformArray {
+    /// The most elements the twin holds.
+    pub const fn max_elements(&self) -> usize {
+        UNIFORM_ARRAY_BYTES / self.element_bytes
+    }
+
+    /// Whether an array of `elements` is read through the twin: not empty (the kernel tests an empty
+    /// tree's storage binding for its length), and not longer than the twin.
+    pub const fn fits(&self, elements: usize) -> bool {
+        elements > 0 && elements <= self.max_elements()
+    }
+}
+
+/// The arrays the BVH walk and the light sampling read at indices that differ between lanes (the
+/// materials are not among them: their struct's `coat` array has a stride of 4 bytes, which the uniform
+/// address space does not allow).
+pub const UNIFORM_ARRAYS: [UniformArray; 7] = [
+    UniformArray {
+        name: "triangles",
+        uniform: "triangles_uniform",
+        constant: "UNIFORM_TRIANGLES",
+        element_bytes: std::mem::size_of::<GpuTriangle>(),
+    },
+    UniformArray {
+        name: "bvh_nodes",
+        uniform: "bvh_nodes_uniform",
+        constant: "UNIFORM_BVH_NODES",
+        element_bytes: std::mem::size_of::<GpuBvhNode>(),
+    },
+    UniformArray {
+        name: "spheres",
+        uniform: "spheres_uniform",
+        constant: "UNIFORM_SPHERES",
+        element_bytes: std::mem::size_of::<GpuSphere>(),
+    },
+    UniformArray {
+        name: "sphere_nodes",
+        uniform: "sphere_nodes_uniform",
+        constant: "UNIFORM_SPHERE_NODES",
+        element_bytes: std::mem::size_of::<GpuBvhNode>(),
+    },
+    UniformArray {
+        name: "lights",
+        uniform: "lights_uniform",
+        constant: "UNIFORM_LIGHTS",
+        element_bytes: std::mem::size_of::<GpuLight>(),
+    },
+    UniformArray {
+        name: "light_triangles",
+        uniform: "light_triangles_uniform",
+        constant: "UNIFORM_LIGHT_TRIANGLES",
+        element_bytes: std::mem::size_of::<GpuLightTriangle>(),
+    },
+    UniformArray {
+        name: "instances",
+        uniform: "instances_uniform",
+        constant: "UNIFORM_INSTANCES",
+        element_bytes: std::mem::size_of::<GpuInstance>(),
+    },
+];
+
 /// Every integer constant the host and the WGSL share, by its name in both: `tests/layout.rs` checks each
 /// against the value naga parses from the production kernel. (The `MAT_*` kinds are generated into the
 /// WGSL from the registry, `scene::bsdfs`, and checked against it there.)

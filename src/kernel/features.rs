@@ -52,6 +52,9 @@ pub enum Feature {
     Material(u32),
     /// A light kind (`LIGHT_*`), a row of the light registry (`kernel::light_kinds`).
     Light(u32),
+    /// `abi::UNIFORM_ARRAYS[i]` is read from its uniform twin: like [`Feature::SplitArrays`], how an
+    /// array is laid out across bindings, not something the scene's light transport uses.
+    UniformArray(u32),
 }
 
 /// What decides whether a scene needs a feature.
@@ -63,6 +66,8 @@ pub enum Group {
     Material(u32),
     /// A light kind (`LIGHT_*`): counted by `SINGLE_LIGHT_KIND`.
     Light(u32),
+    /// `abi::UNIFORM_ARRAYS[i]`: on when the scene's array fits the twin (`UniformArray::fits`).
+    UniformArray(u32),
 }
 
 /// One row of the feature table.
@@ -397,6 +402,14 @@ pub fn features() -> &'static [FeatureRow] {
                 needed: by_group,
                 reported: true,
             });
+        let uniform = UNIFORM_ARRAYS.iter().enumerate().map(|(i, a)| FeatureRow {
+            feature: Feature::UniformArray(i as u32),
+            name: a.uniform,
+            constant: a.constant,
+            group: Group::UniformArray(i as u32),
+            needed: by_group,
+            reported: false,
+        });
         let rows: Vec<FeatureRow> = BEFORE_MATERIALS
             .iter()
             .map(FeatureRow::copy)
@@ -404,6 +417,7 @@ pub fn features() -> &'static [FeatureRow] {
             .chain(AFTER_MATERIALS.iter().map(FeatureRow::copy))
             .chain(lights)
             .chain(AFTER_LIGHTS.iter().map(FeatureRow::copy))
+            .chain(uniform)
             .collect();
         assert!(rows.len() <= 64, "a FeatureSet holds 64 features");
         rows
@@ -529,18 +543,20 @@ impl FeatureSet {
     /// surface, the textures and the BSDF sampling) beside the radiance's, for nothing a scene needs; on
     /// lavapipe it tripled the all-features kernel's compile (measured: 387 s with it, 124 s without).
     ///
-    /// Every feature but one: [`Feature::SplitArrays`] is how the scene's arrays are laid out across
-    /// bindings, not something the scene's light transport uses, and reading every array through its
-    /// part switch multiplies the driver's compile time of the all-features kernel (on lavapipe, from
-    /// seconds to over ten minutes: every inlined texel and vertex fetch becomes a switch over bindings).
-    /// So the generic kernel reads each array from one binding, like the WGSL default, and
-    /// [`FeatureSet::generic_for`] adds the split for a scene that needs it.
+    /// Every feature but the arrays' layout: [`Feature::SplitArrays`] and the
+    /// [`Feature::UniformArray`]s are how the scene's arrays are laid out across bindings, not something
+    /// the scene's light transport uses. Reading every array through its part switch multiplies the
+    /// driver's compile time of the all-features kernel (on lavapipe, from seconds to over ten minutes:
+    /// every inlined texel and vertex fetch becomes a switch over bindings), and the uniform twins hold
+    /// only small scenes' arrays. So the generic kernel reads each array from its one storage binding,
+    /// like the WGSL default, and [`FeatureSet::generic_for`] adds the split for a scene that needs it.
     pub fn generic() -> FeatureSet {
         let mut set = FeatureSet {
             on: u64::MAX >> (64 - features().len()),
             knobs: [None; KNOBS.len()],
         };
         set.set(Feature::SplitArrays, false);
+        set.without_uniform_arrays();
         set.knobs[AOV_KNOB] = Some(AOV_NONE);
         set
     }
@@ -549,8 +565,22 @@ impl FeatureSet {
     pub fn is_generic(&self) -> bool {
         let mut set = *self;
         set.set(Feature::SplitArrays, false);
+        set.without_uniform_arrays();
         set.knobs[AOV_KNOB] = Some(AOV_NONE);
         set == FeatureSet::generic()
+    }
+
+    /// Reads every array from its storage binding (the generic kernel's way; a GPU's, see
+    /// `abi::UniformArray`).
+    pub fn without_uniform_arrays(&mut self) {
+        for i in 0..UNIFORM_ARRAYS.len() {
+            self.set(Feature::UniformArray(i as u32), false);
+        }
+    }
+
+    /// Whether some array is read from its uniform twin.
+    pub fn has_uniform_arrays(&self) -> bool {
+        (0..UNIFORM_ARRAYS.len()).any(|i| self.has(Feature::UniformArray(i as u32)))
     }
 
     /// The generic kernel for `scene`: [`FeatureSet::generic`], with the split arrays where the scene's
@@ -576,6 +606,10 @@ impl FeatureSet {
                 Group::Other => (row.needed)(scene, params),
                 Group::Material(kind) => used_kinds.contains(&kind),
                 Group::Light(kind) => scene.lights.iter().any(|l| l.kind == kind),
+                Group::UniformArray(i) => {
+                    let a = &UNIFORM_ARRAYS[i as usize];
+                    a.fits(scene.uniform_array_bytes(a.name).len() / a.element_bytes)
+                }
             };
             set.set(row.feature, needed);
         }
@@ -611,7 +645,7 @@ impl FeatureSet {
             .filter(|r| match r.group {
                 Group::Material(_) => material,
                 Group::Light(_) => !material,
-                Group::Other => false,
+                Group::Other | Group::UniformArray(_) => false,
             })
             .filter(|r| self.has(r.feature))
             .count()
@@ -754,11 +788,8 @@ mod tests {
     fn generic_has_everything_and_reads_every_knob_but_the_output() {
         assert_eq!(KNOBS[AOV_KNOB].name, "aov");
         let g = FeatureSet::generic();
-        assert!(
-            features()
-                .iter()
-                .all(|r| g.has(r.feature) == (r.feature != Feature::SplitArrays))
-        );
+        assert!(features().iter().all(|r| g.has(r.feature)
+            == !matches!(r.feature, Feature::SplitArrays | Feature::UniformArray(_))));
         assert!(g.absent().is_empty());
         assert_eq!(g.kernel_name(), "generic");
         let consts = g.pipeline_constants();

@@ -112,6 +112,20 @@ impl GpuScene {
         ]
     }
 
+    /// The bytes of the array `name` that `abi::UNIFORM_ARRAYS` lists (empty for any other name).
+    pub fn uniform_array_bytes(&self, name: &str) -> &[u8] {
+        match name {
+            "triangles" => bytemuck::cast_slice(&self.triangles),
+            "bvh_nodes" => bytemuck::cast_slice(&self.bvh_nodes),
+            "spheres" => bytemuck::cast_slice(&self.spheres),
+            "sphere_nodes" => bytemuck::cast_slice(&self.sphere_nodes),
+            "lights" => bytemuck::cast_slice(&self.lights),
+            "light_triangles" => bytemuck::cast_slice(&self.light_triangles),
+            "instances" => bytemuck::cast_slice(&self.instances),
+            _ => &[],
+        }
+    }
+
     /// The elements of the split array `name` (0 for any other name).
     pub fn array_len(&self, name: &str) -> usize {
         match name {

@@ -13,10 +13,12 @@ pub mod identity;
 pub mod tiles;
 
 use crate::film::Film;
-use crate::gpu::{Buffer, Command, GpuContext, GpuError, Kernel, upload_device_local};
+use crate::gpu::{
+    Buffer, Command, GpuContext, GpuError, Kernel, upload_device_local, upload_uniform_padded,
+};
 use crate::kernel::abi::{
     GpuAccum, GpuParams, GpuPassConstants, PATH_STATE_BYTES, SAMPLE_FAULT_COUNTERS, SPLIT_ARRAYS,
-    split_array,
+    UNIFORM_ARRAY_BYTES, UNIFORM_ARRAYS, split_array,
 };
 use crate::kernel::features::FeatureSet;
 use crate::kernel::specialise::CompiledShader;
@@ -369,6 +371,12 @@ fn compile_kernel(
     kernel_for(features)
 }
 
+/// Whether the kernel reads a small scene's arrays from their uniform twins on this device
+/// (`kernel::abi::UniformArray` says why): on a CPU driver whose uniform buffers hold a twin.
+pub fn uniform_arrays_help(info: &crate::gpu::DeviceInfo) -> bool {
+    info.device_type == "CPU" && info.max_uniform_buffer_range as usize >= UNIFORM_ARRAY_BYTES
+}
+
 /// One device-local accumulator buffer per strip of rows of `layout`.
 fn allocate_strips(
     ctx: &Arc<GpuContext>,
@@ -430,6 +438,14 @@ pub fn upload_scene(
             "material_textures",
             bytemuck::cast_slice(&gpu.material_textures),
         )?);
+    }
+    // A small scene's arrays that the kernel reads from their uniform twins.
+    for a in &UNIFORM_ARRAYS {
+        if kernel.uses(a.uniform) {
+            let data = gpu.uniform_array_bytes(a.name);
+            let buffer = upload_uniform_padded(ctx, kernel, a.uniform, data, UNIFORM_ARRAY_BYTES)?;
+            bound.push((a.uniform, buffer));
+        }
     }
     for (name, bytes) in gpu.large_arrays() {
         match split_array(name) {
@@ -498,11 +514,14 @@ impl Renderer {
         let gpu = GpuScene::build(scene);
         check_loop_budget(ctx, &gpu)?;
         let params = render_params(scene, &gpu, options);
-        let features = if options.generic {
+        let mut features = if options.generic {
             FeatureSet::generic_for(&gpu, &params)
         } else {
             FeatureSet::of(&gpu, &params)
         };
+        if !uniform_arrays_help(ctx.device_info()) {
+            features.without_uniform_arrays();
+        }
         let content_hash = identity::content_hash(scene, &gpu, &params);
         // A caller's kernel (benchmarks) traces one sample per invocation and never saves a path.
         let samples_per_dispatch = if custom_kernel.is_some() { 1 } else { u32::MAX };
