@@ -15,9 +15,9 @@ struct TestRay {
     d: vec4<f32>,
 }
 
-@group(0) @binding(40) var<storage, read> rays: array<TestRay>;
-@group(0) @binding(41) var<storage, read_write> out: array<vec4<f32>>;
-@group(0) @binding(42) var<uniform> query: vec4<u32>;
+@group(0) @binding(60) var<storage, read> rays: array<TestRay>;
+@group(0) @binding(61) var<storage, read_write> out: array<vec4<f32>>;
+@group(0) @binding(62) var<uniform> query: vec4<u32>;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {

@@ -41,12 +41,16 @@ fn trimmed_features() -> [Feature; 4] {
 /// Whether the hand-trimmed kernel renders this feature set exactly: it needs its three essentials and
 /// nothing outside what it has code for. The test runs over every row of the feature table (material
 /// kinds included, from their registry), so a feature added later is excluded without a list to keep.
+/// The uniform twins are how the specialised kernel reads the arrays, not what it renders: the trimmed
+/// kernel reads the same values from the storage bindings.
 fn trimmed_applies(f: &FeatureSet) -> bool {
     let has = trimmed_features();
     has[..3].iter().all(|&x| f.has(x))
-        && features()
-            .iter()
-            .all(|row| !f.has(row.feature) || has.contains(&row.feature))
+        && features().iter().all(|row| {
+            !f.has(row.feature)
+                || has.contains(&row.feature)
+                || matches!(row.feature, Feature::UniformArray(_))
+        })
         && f.knob("filter") == Some(FILTER_NONE)
 }
 
