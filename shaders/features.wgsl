@@ -69,6 +69,7 @@ override UNIFORM_SPHERE_NODES: bool = false;
 override UNIFORM_LIGHTS: bool = false;
 override UNIFORM_LIGHT_TRIANGLES: bool = false;
 override UNIFORM_INSTANCES: bool = false;
+override UNIFORM_MATERIALS: bool = false;
 // Exactly one material kind (counting emitters) / one light kind in the scene: the kind tests go.
 override SINGLE_MATERIAL_KIND: bool = false;
 override SINGLE_LIGHT_KIND: bool = false;

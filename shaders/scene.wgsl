@@ -586,7 +586,7 @@ fn surface_at(o: vec3<f32>, d: vec3<f32>, hit: Hit) -> Surface {
     // A material with a back material (Mitsuba's twosided with two BSDFs) shows it on its back face,
     // the side the geometric normal points away from: its textures, maps and BSDF from here on.
     if HAS_BACK_MATERIALS {
-        let back = materials[s.material].back;
+        let back = material_at(s.material).back;
         if back != 0u && dot(d, s.n) >= 0.0 {
             s.material = back - 1u;
         }
@@ -667,7 +667,7 @@ fn emitter_light_pdf(hit: Hit, p: vec3<f32>, p_sphere: u32, wi: vec3<f32>, strat
     if HAS_TRIANGLE_LIGHTS {
         if hit.prim_kind == PRIM_TRIANGLE && params.triangle_light != NO_LIGHT {
             let tri = hit_triangle(hit);
-            let mat = materials[tri.material];
+            let mat = material_at(tri.material);
             let total = light_at(params.triangle_light).radius;
             let pick = triangle_light_power(tri.v0, tri.v1, tri.v2, mat.emission, mat.flags) / total;
             pdf = pick * triangle_light_pdf(tri.v0, tri.v1, tri.v2, mat.flags, p, wi, strategy);

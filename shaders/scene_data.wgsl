@@ -244,6 +244,7 @@ struct Hit {
 @group(0) @binding(43) var<uniform> sphere_nodes_uniform: array<BvhNode, 1024>;
 @group(0) @binding(44) var<uniform> lights_uniform: array<Light, 819>;
 @group(0) @binding(46) var<uniform> instances_uniform: array<Instance, 585>;
+@group(0) @binding(47) var<uniform> materials_uniform: array<Material, 455>;
 
 // Arrays larger than one storage binding may hold (Vulkan guarantees 2^27 bytes) are read through
 // several: part k of an array holds its elements [k 2^BITS, (k + 1) 2^BITS), part 0 under the array's
@@ -355,6 +356,14 @@ fn light_at(i: u32) -> Light {
         return lights_uniform[i];
     } else {
         return lights[i];
+    }
+}
+
+fn material_at(i: u32) -> Material {
+    if UNIFORM_MATERIALS {
+        return materials_uniform[i];
+    } else {
+        return materials[i];
     }
 }
 

@@ -63,7 +63,7 @@ fn aov_step(kind: u32, path: ptr<function, Path>) -> bool {
         (*path).radiance = vec3<f32>(distance((*path).prev_p, sp.p), 1.0, 0.0);
         return false;
     }
-    let mat = textured_material(materials[hit_material(hit)], sp);
+    let mat = textured_material(material_at(hit_material(hit)), sp);
     if !bsdf_is_delta(mat) || (*path).bounces >= params.max_bounces {
         if kind == AOV_NORMAL {
             (*path).radiance = 0.5 * sp.ns + vec3<f32>(0.5);
@@ -379,7 +379,7 @@ fn path_step(path: ptr<function, Path>) -> bool {
         return false;
     }
     let hit_mat = hit_material(hit);
-    var mat = materials[hit_mat];
+    var mat = material_at(hit_mat);
     // What the hit needs its surface (normal, uv, shading frame: surface_at) for: a glTF volume's
     // boundary, emission, a path that goes on. A path that ends here with none of them (at the bounce
     // limit, or on a black emitter) needs none; otherwise one surface_at serves all three (inlined once:
@@ -411,7 +411,7 @@ fn path_step(path: ptr<function, Path>) -> bool {
     // boundary first (light that crossed the medium too).
     if HAS_GLTF_PBR {
         if volume && dot(d, sp.n) >= 0.0 {
-            beta *= exp(-vec3<f32>(mat.coat[4], mat.coat[5], mat.coat[6]) * hit.t);
+            beta *= exp(-vec3<f32>(material_coat(mat, 4), material_coat(mat, 5), material_coat(mat, 6)) * hit.t);
         }
     }
     if HAS_EMISSION {
@@ -453,7 +453,7 @@ fn path_step(path: ptr<function, Path>) -> bool {
         return false;
     }
     if (HAS_BACK_MATERIALS || HAS_BLEND_MATERIALS) && sp.material != hit_mat {
-        mat = materials[sp.material];
+        mat = material_at(sp.material);
     }
     // The material's textured parameters at the hit (textured_material, scene.wgsl).
     mat = textured_material(mat, sp);

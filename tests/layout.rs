@@ -117,6 +117,19 @@ fn wgsl_shape(module: &Module, inner: &TypeInner) -> Option<Shape> {
             TypeInner::Scalar(s) => scalar(*s).map(|name| Shape::Array(n.get(), name)),
             _ => None,
         },
+        // An array of vec4s packed without padding (stride 16) is the same memory as a flat array of
+        // four times as many scalars (Material::coat: uniform buffers need a stride of 16 bytes).
+        TypeInner::Array {
+            base,
+            size: naga::ArraySize::Constant(n),
+            stride: 16,
+        } => match &module.types[*base].inner {
+            TypeInner::Vector {
+                size: naga::VectorSize::Quad,
+                scalar: s,
+            } => scalar(*s).map(|name| Shape::Array(4 * n.get(), name)),
+            _ => None,
+        },
         _ => None,
     }
 }

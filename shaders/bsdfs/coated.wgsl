@@ -60,11 +60,10 @@ fn coat_transmittance(mat: Material, c: f32) -> f32 {
     let x = sqrt(clamp(c, 0.0, 1.0)) * f32(COAT_NODES - 1u);
     let j = min(u32(x), COAT_NODES - 2u);
     let u = x - f32(j);
-    let table = mat.coat;
-    let p0 = table[max(j, 1u) - 1u];
-    let p1 = table[j];
-    let p2 = table[j + 1u];
-    let p3 = table[min(j + 2u, COAT_NODES - 1u)];
+    let p0 = material_coat(mat, max(j, 1u) - 1u);
+    let p1 = material_coat(mat, j);
+    let p2 = material_coat(mat, j + 1u);
+    let p3 = material_coat(mat, min(j + 2u, COAT_NODES - 1u));
     return p1 + 0.5 * u * (p2 - p0 + u * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + u * (3.0 * (p1 - p2) + p3 - p0)));
 }
 

@@ -74,8 +74,15 @@ struct Material {
     metallic: f32, // metallic_roughness: the metal's weight in [0, 1]
     fdr_int: f32, // plastic: the coat's internal diffuse reflectance (bsdfs/coated.wgsl)
     back: u32, // 1 + the material the back face shows (surface_at, scene.wgsl); 0: this one
-    // plastic with MATERIAL_ROUGH_COAT: the rough coat's transmittance at mu_j = (j / 15)^2
-    coat: array<f32, COAT_NODES>,
+    // plastic with MATERIAL_ROUGH_COAT: the rough coat's transmittance at mu_j = (j / 15)^2; read entry
+    // j with material_coat. Four floats to an element, so that the struct may also live in a uniform
+    // buffer (scene_data.wgsl, "Uniform twins"), whose arrays need a stride of 16 bytes.
+    coat: array<vec4<f32>, 4>,
+}
+
+// Entry j of Material::coat.
+fn material_coat(mat: Material, j: u32) -> f32 {
+    return mat.coat[j / 4u][j % 4u];
 }
 
 // The GGX alpha on both axes, at least 1e-4 each: an anisotropic lobe may be smooth along one axis only

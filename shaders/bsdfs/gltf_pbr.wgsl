@@ -81,7 +81,7 @@ fn gltf_fr(mat: Material, c: f32, entering: bool) -> vec3<f32> {
 
 // The clearcoat's Fresnel weight w_c Fc(NdotV) (0 seen from inside a volume).
 fn gltf_coat_weight(mat: Material, cos_o: f32, outside: bool) -> f32 {
-    return select(0.0, mat.coat[1] * (0.04 + 0.96 * gltf_pow5(cos_o)), outside);
+    return select(0.0, material_coat(mat, 1) * (0.04 + 0.96 * gltf_pow5(cos_o)), outside);
 }
 
 // The Charlie sheen lobe's directional albedo E(mu) from its table (nodes at mu_j = (j / 7)^3),
@@ -90,7 +90,7 @@ fn gltf_sheen_albedo(mat: Material, mu: f32) -> f32 {
     let x = pow(clamp(mu, 1e-6, 1.0), 1.0 / 3.0) * f32(SHEEN_NODES - 1u); // pow(0, y): undefined in WGSL
     let j = min(u32(x), SHEEN_NODES - 2u);
     let u = x - f32(j);
-    return mix(mat.coat[8u + j], mat.coat[9u + j], u);
+    return mix(material_coat(mat, 8u + j), material_coat(mat, 9u + j), u);
 }
 
 // The Charlie visibility's Lambda (Conty & Kulla 2017, its fitted l(x); KHR_materials_sheen).
@@ -113,7 +113,7 @@ fn gltf_sheen_lambda(c: f32, a: f32) -> f32 {
 
 // The sheen lobe without its colour: D_charlie(h) / ((1 + Lambda(cos_o) + Lambda(cos_i)) 4 cos_o cos_i).
 fn gltf_sheen_lobe(mat: Material, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
-    let a = mat.coat[3];
+    let a = material_coat(mat, 3);
     let h = normalize(wo + wi);
     let sin2 = max(1e-12, 1.0 - h.z * h.z); // pow(0, y) is undefined in WGSL
     let d = (2.0 + 1.0 / a) * pow(sin2, 0.5 / a) * (0.5 * INV_PI);
@@ -132,11 +132,11 @@ fn gltf_microfacet(mat: Material) -> Microfacet {
 }
 
 fn gltf_coat_microfacet(mat: Material) -> Microfacet {
-    return Microfacet(vec2<f32>(max(mat.coat[2], 1e-4)), false);
+    return Microfacet(vec2<f32>(max(material_coat(mat, 2), 1e-4)), false);
 }
 
 fn gltf_coat_smooth(mat: Material) -> bool {
-    return microfacet_smooth(vec2<f32>(mat.coat[2]));
+    return microfacet_smooth(vec2<f32>(material_coat(mat, 2)));
 }
 
 // The probabilities of the five lobes seen from wo (cos_o > 0): clearcoat, sheen, specular reflection,
@@ -157,7 +157,7 @@ fn gltf_lobes(mat: Material, cos_o: f32, outside: bool) -> GltfLobes {
     let fr = gltf_fr(mat, cos_o, outside);
     let s = mat.fdr_int;
     let m = mat.metallic;
-    let t = mat.coat[0];
+    let t = material_coat(mat, 0);
     let spec = base * mix(s * gltf_mean3(fr), gltf_mean3(fresnel_schlick(cos_o, mat.albedo)), m);
     let rest = base * (1.0 - m) * (1.0 - s * gltf_max3(fr)) * gltf_mean3(mat.albedo);
     var l = GltfLobes(wc, under * e_sheen, spec, rest * (1.0 - t), rest * t);
@@ -190,7 +190,7 @@ fn gltf_pbr_at(mat: Material, wo: vec3<f32>, wi: vec3<f32>, entering: bool) -> G
     let wc = gltf_coat_weight(mat, wo.z, outside);
     let m = mat.metallic;
     let s = mat.fdr_int;
-    let t = mat.coat[0];
+    let t = material_coat(mat, 0);
     let mf = gltf_microfacet(mat);
     let is_smooth = microfacet_smooth(material_alpha(mat));
     if wi.z > 0.0 {
@@ -280,7 +280,7 @@ fn gltf_pbr_sample(mat: Material, wo_w: vec3<f32>, sh: Shading, rng: ptr<functio
     } else if p.trans > 0.0 {
         reflected = false;
         if is_smooth {
-            let weight = base * (1.0 - m) * mat.coat[0] * mat.albedo * (1.0 - s * gltf_max3(f_o)) / p.trans;
+            let weight = base * (1.0 - m) * material_coat(mat, 0) * mat.albedo * (1.0 - s * gltf_max3(f_o)) / p.trans;
             var wt = -wo_w; // thin: straight through
             if gltf_volume(mat) {
                 if gltf_tir(mat, wo.z, sh.entering) {
@@ -331,10 +331,10 @@ fn gltf_pbr_albedo(mat: Material) -> vec3<f32> {
 // Every lobe a delta: smooth, no diffuse lobe (metal or fully transmissive), no sheen, a smooth or
 // absent clearcoat.
 fn gltf_pbr_is_delta(mat: Material) -> bool {
-    return microfacet_smooth(material_alpha(mat)) && (1.0 - mat.metallic) * (1.0 - mat.coat[0]) == 0.0
-        && gltf_max3(mat.k) == 0.0 && (mat.coat[1] == 0.0 || gltf_coat_smooth(mat));
+    return microfacet_smooth(material_alpha(mat)) && (1.0 - mat.metallic) * (1.0 - material_coat(mat, 0)) == 0.0
+        && gltf_max3(mat.k) == 0.0 && (material_coat(mat, 1) == 0.0 || gltf_coat_smooth(mat));
 }
 
 fn gltf_pbr_transmits(mat: Material) -> bool {
-    return mat.coat[0] > 0.0 && mat.metallic < 1.0;
+    return material_coat(mat, 0) > 0.0 && mat.metallic < 1.0;
 }

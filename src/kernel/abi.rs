@@ -668,10 +668,9 @@ impl UniformArray {
     }
 }
 
-/// The arrays the BVH walk and the light sampling read at indices that differ between lanes (the
-/// materials are not among them: their struct's `coat` array has a stride of 4 bytes, which the uniform
-/// address space does not allow).
-pub const UNIFORM_ARRAYS: [UniformArray; 7] = [
+/// The arrays the BVH walk, the shading and the light sampling read at indices that differ between
+/// lanes.
+pub const UNIFORM_ARRAYS: [UniformArray; 8] = [
     UniformArray {
         name: "triangles",
         uniform: "triangles_uniform",
@@ -707,6 +706,12 @@ pub const UNIFORM_ARRAYS: [UniformArray; 7] = [
         uniform: "light_triangles_uniform",
         constant: "UNIFORM_LIGHT_TRIANGLES",
         element_bytes: std::mem::size_of::<GpuLightTriangle>(),
+    },
+    UniformArray {
+        name: "materials",
+        uniform: "materials_uniform",
+        constant: "UNIFORM_MATERIALS",
+        element_bytes: std::mem::size_of::<GpuMaterial>(),
     },
     UniformArray {
         name: "instances",

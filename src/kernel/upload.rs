@@ -122,6 +122,7 @@ impl GpuScene {
             "lights" => bytemuck::cast_slice(&self.lights),
             "light_triangles" => bytemuck::cast_slice(&self.light_triangles),
             "instances" => bytemuck::cast_slice(&self.instances),
+            "materials" => bytemuck::cast_slice(&self.materials),
             _ => &[],
         }
     }
