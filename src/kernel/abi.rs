@@ -639,9 +639,10 @@ pub const UNIFORM_ARRAY_BYTES: usize = 65536;
 /// execution mask and another on the buffer's bounds (`emit_load_mem`, gallivm/lp_bld_nir_soa.c: about a
 /// dozen instructions and two branches per lane and word), while a uniform-buffer read with such an
 /// index is a branchless loop of scalar loads (`emit_load_ubo` and `build_gather`, the out-of-range lanes
-/// redirected to element 0). The BVH walk and the light sampling index their arrays per lane, so a scene
-/// whose arrays fit the twins traces 1.2-1.4x more samples per CPU second on lavapipe
-/// (docs/performance.md, "Small scenes through uniform buffers"). A GPU's constant caches serialise
+/// redirected to element 0). The BVH walk, the shading and the light sampling index their arrays per
+/// lane, so a scene whose arrays fit the twins traces up to 1.4x more samples per CPU second on Mesa
+/// 25's lavapipe (docs/performance.md, "Small scenes through uniform buffers"; Mesa 26 gathers both
+/// kinds of read alike and gains nothing, loses nothing). A GPU's constant caches serialise
 /// reads whose addresses differ between the threads of a warp, so GPUs keep the storage bindings.
 /// `tests/layout.rs` holds the table against the WGSL: each twin a uniform binding of
 /// `UNIFORM_ARRAY_BYTES / element_bytes` elements of the array's element type.
