@@ -657,31 +657,55 @@ mod tests {
         assert_eq!(mesa_version("Mesa x"), None);
     }
 
-    #[test]
-    fn only_an_old_lavapipe_is_warned_about() {
-        let mut d = DeviceInfo {
+    fn lavapipe(mesa: [u32; 2]) -> DeviceInfo {
+        DeviceInfo {
             index: 0,
             name: "llvmpipe".into(),
             device_type: "CPU".into(),
             api_version: "1.3.0".into(),
             driver_version: 0,
             driver: String::new(),
-            lavapipe_mesa: Some([22, 3]),
+            lavapipe_mesa: Some(mesa),
             has_compute_queue: true,
             max_compute_workgroup_count: [1; 3],
             max_compute_workgroup_invocations: 1,
             max_storage_buffer_range: 1,
-            max_uniform_buffer_range: 1,
+            max_uniform_buffer_range: 65536,
             max_memory_allocation_size: 1,
             device_local_memory_bytes: 1,
             uuid: [0; 16],
             robust_buffer_access: true,
-        };
+        }
+    }
+
+    #[test]
+    fn only_an_old_lavapipe_is_warned_about() {
+        let mut d = lavapipe([22, 3]);
         let w = d.old_lavapipe_warning().expect("Mesa 22.3 is old");
         assert!(w.contains("Mesa 22.3") && w.contains("ci/setup.sh"), "{w}");
         d.lavapipe_mesa = Some([24, 0]);
         assert_eq!(d.old_lavapipe_warning(), None);
         d.lavapipe_mesa = None;
         assert_eq!(d.old_lavapipe_warning(), None);
+    }
+
+    /// The uniform twins: on CPU devices whose uniform buffers hold one, but not on Mesa 26's lavapipe
+    /// (whose storage reads are gathers already) nor on GPUs.
+    #[test]
+    fn uniform_twins_are_for_cpu_drivers_before_mesa_26() {
+        use crate::render::uniform_arrays_help;
+        assert!(uniform_arrays_help(&lavapipe([25, 0])));
+        assert!(uniform_arrays_help(&lavapipe([24, 2])));
+        assert!(!uniform_arrays_help(&lavapipe([26, 1])));
+        let mut other_cpu = lavapipe([25, 0]);
+        other_cpu.lavapipe_mesa = None;
+        assert!(uniform_arrays_help(&other_cpu));
+        let mut small = lavapipe([25, 0]);
+        small.max_uniform_buffer_range = 16384;
+        assert!(!uniform_arrays_help(&small));
+        let mut gpu = lavapipe([25, 0]);
+        gpu.device_type = "discrete GPU".into();
+        gpu.lavapipe_mesa = None;
+        assert!(!uniform_arrays_help(&gpu));
     }
 }
