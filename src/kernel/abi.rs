@@ -642,12 +642,13 @@ pub const UNIFORM_ARRAY_BYTES: usize = 65536;
 /// redirected to element 0). The BVH walk, the shading and the light sampling index their arrays per
 /// lane, so a scene whose arrays fit the twins traces up to 1.4x more samples per CPU second on Mesa
 /// 25's lavapipe (docs/performance.md, "Small scenes through uniform buffers"; Mesa 26 gathers both
-/// kinds of read alike and gains nothing, so `render::uniform_arrays_help` leaves it out). A GPU's constant caches serialise
-/// reads whose addresses differ between the threads of a warp, so GPUs keep the storage bindings.
+/// kinds of read alike and gains nothing, so `render::uniform_arrays_help` leaves it out). A GPU's
+/// constant caches serialise reads whose addresses differ between the threads of a warp, so GPUs keep
+/// the storage bindings.
 /// `tests/layout.rs` holds the table against the WGSL: each twin a uniform binding of
 /// `UNIFORM_ARRAY_BYTES / element_bytes` elements of the array's element type.
 pub struct UniformArray {
-    /// The array's name (`GpuScene::array_bytes`, and its storage binding's WGSL name).
+    /// The array's name (`GpuScene::uniform_array_bytes`, and its storage binding's WGSL name).
     pub name: &'static str,
     /// The uniform twin's WGSL name.
     pub uniform: &'static str,
