@@ -374,7 +374,7 @@ fn compile_kernel(
 /// Whether the kernel reads a small scene's arrays from their uniform twins on this device
 /// (`kernel::abi::UniformArray` says why): on a CPU driver whose uniform buffers hold a twin, but not
 /// on lavapipe from Mesa 26 on, whose llvmpipe reads a storage word at a lane-varying index with one
-/// gather instruction: there the twins measured 0.93-1.02x (docs/performance.md).
+/// gather instruction: there the twins measured 0.98-1.02x (docs/performance.md).
 pub fn uniform_arrays_help(info: &crate::gpu::DeviceInfo) -> bool {
     info.device_type == "CPU"
         && info.max_uniform_buffer_range as usize >= UNIFORM_ARRAY_BYTES
