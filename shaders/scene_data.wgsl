@@ -238,6 +238,10 @@ struct Hit {
 // (src/kernel/abi.rs, UNIFORM_ARRAYS) where the kernel has UNIFORM_<ARRAY> (features.wgsl): on a CPU
 // driver a uniform read whose index differs between lanes is branchless, a storage read is not (abi.rs
 // says why). Each holds 65536 / (its element's bytes) elements; the host pads the buffer to that.
+// (Binding 45, the emitting triangles' twin, is in lights/triangles.wgsl.) Each accessor below reads
+// its twin as `if UNIFORM_X { twin } else { storage }`: with the `else`, specialisation drops the
+// branch not taken and the binding with it (an `if` that returns, followed by the storage read, would
+// keep both bound).
 @group(0) @binding(40) var<uniform> triangles_uniform: array<Triangle, 1365>;
 @group(0) @binding(41) var<uniform> bvh_nodes_uniform: array<BvhNode, 1024>;
 @group(0) @binding(42) var<uniform> spheres_uniform: array<Sphere, 2048>;
