@@ -221,15 +221,34 @@ pub fn upload_device_local<T: bytemuck::Pod>(
             ctx.device_info().name
         )));
     }
+    let data: &[u8] = bytemuck::cast_slice(data);
+    device_local_copy(
+        ctx,
+        kernel,
+        name,
+        data,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+    )
+}
+
+/// A new device-local buffer for `usage` holding `data`, copied from a host-visible staging buffer by a
+/// copy recorded on `kernel`.
+fn device_local_copy(
+    ctx: &Arc<GpuContext>,
+    kernel: &mut super::Kernel,
+    name: &str,
+    data: &[u8],
+    usage: vk::BufferUsageFlags,
+) -> Result<Buffer, GpuError> {
     let staging = Buffer::storage_from(ctx, name, data)?;
     let buffer = Buffer::new(
         ctx,
         name,
-        bytes,
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+        data.len() as u64,
+        usage | vk::BufferUsageFlags::TRANSFER_DST,
         MemoryLocation::GpuOnly,
     )?;
-    if bytes > 0 {
+    if !data.is_empty() {
         kernel.submit(&[super::Command::Copy(&staging, &buffer)])?;
     }
     Ok(buffer)
@@ -255,16 +274,13 @@ pub fn upload_uniform_padded(
     }
     let mut padded = data.to_vec();
     padded.resize(bytes, 0);
-    let staging = Buffer::storage_from(ctx, name, &padded)?;
-    let buffer = Buffer::new(
+    device_local_copy(
         ctx,
+        kernel,
         name,
-        bytes as u64,
-        vk::BufferUsageFlags::UNIFORM_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-        MemoryLocation::GpuOnly,
-    )?;
-    kernel.submit(&[super::Command::Copy(&staging, &buffer)])?;
-    Ok(buffer)
+        &padded,
+        vk::BufferUsageFlags::UNIFORM_BUFFER,
+    )
 }
 
 impl Drop for Buffer {

@@ -648,7 +648,7 @@ pub const UNIFORM_ARRAY_BYTES: usize = 65536;
 /// `tests/layout.rs` holds the table against the WGSL: each twin a uniform binding of
 /// `UNIFORM_ARRAY_BYTES / element_bytes` elements of the array's element type.
 pub struct UniformArray {
-    /// The array's name (`GpuScene::uniform_array_bytes`, and its storage binding's WGSL name).
+    /// The array's name (`GpuScene::array_bytes`, and its storage binding's WGSL name).
     pub name: &'static str,
     /// The uniform twin's WGSL name.
     pub uniform: &'static str,

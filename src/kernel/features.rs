@@ -608,7 +608,7 @@ impl FeatureSet {
                 Group::Light(kind) => scene.lights.iter().any(|l| l.kind == kind),
                 Group::UniformArray(i) => {
                     let a = &UNIFORM_ARRAYS[i as usize];
-                    a.fits(scene.uniform_array_bytes(a.name).len() / a.element_bytes)
+                    a.fits(scene.array_bytes(a.name).len() / a.element_bytes)
                 }
             };
             set.set(row.feature, needed);

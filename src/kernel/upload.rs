@@ -98,29 +98,33 @@ impl GpuScene {
     /// `abi::SPLIT_ARRAYS`), as the bytes the renderer uploads to device-local memory.
     pub fn large_arrays(&self) -> [(&'static str, &[u8]); 8] {
         [
-            ("triangles", bytemuck::cast_slice(&self.triangles)),
-            ("bvh_nodes", bytemuck::cast_slice(&self.bvh_nodes)),
-            ("mesh_faces", bytemuck::cast_slice(&self.mesh_faces)),
-            ("mesh_vertices", bytemuck::cast_slice(&self.mesh_vertices)),
-            ("texels", bytemuck::cast_slice(&self.texels)),
-            (
-                "light_triangles",
-                bytemuck::cast_slice(&self.light_triangles),
-            ),
-            ("env_texels", bytemuck::cast_slice(&self.env_texels)),
-            ("env_cdf", bytemuck::cast_slice(&self.env_cdf)),
+            "triangles",
+            "bvh_nodes",
+            "mesh_faces",
+            "mesh_vertices",
+            "texels",
+            "light_triangles",
+            "env_texels",
+            "env_cdf",
         ]
+        .map(|name| (name, self.array_bytes(name)))
     }
 
-    /// The bytes of the array `name` that `abi::UNIFORM_ARRAYS` lists (empty for any other name).
-    pub fn uniform_array_bytes(&self, name: &str) -> &[u8] {
+    /// The bytes of the array named `name` (its WGSL storage binding's name; empty for any other
+    /// name): the large arrays and those `abi::UNIFORM_ARRAYS` lists.
+    pub fn array_bytes(&self, name: &str) -> &[u8] {
         match name {
             "triangles" => bytemuck::cast_slice(&self.triangles),
             "bvh_nodes" => bytemuck::cast_slice(&self.bvh_nodes),
+            "mesh_faces" => bytemuck::cast_slice(&self.mesh_faces),
+            "mesh_vertices" => bytemuck::cast_slice(&self.mesh_vertices),
+            "texels" => bytemuck::cast_slice(&self.texels),
+            "light_triangles" => bytemuck::cast_slice(&self.light_triangles),
+            "env_texels" => bytemuck::cast_slice(&self.env_texels),
+            "env_cdf" => bytemuck::cast_slice(&self.env_cdf),
             "spheres" => bytemuck::cast_slice(&self.spheres),
             "sphere_nodes" => bytemuck::cast_slice(&self.sphere_nodes),
             "lights" => bytemuck::cast_slice(&self.lights),
-            "light_triangles" => bytemuck::cast_slice(&self.light_triangles),
             "instances" => bytemuck::cast_slice(&self.instances),
             "materials" => bytemuck::cast_slice(&self.materials),
             _ => &[],
@@ -129,14 +133,7 @@ impl GpuScene {
 
     /// The elements of the split array `name` (0 for any other name).
     pub fn array_len(&self, name: &str) -> usize {
-        match name {
-            "triangles" => self.triangles.len(),
-            "bvh_nodes" => self.bvh_nodes.len(),
-            "mesh_faces" => self.mesh_faces.len(),
-            "mesh_vertices" => self.mesh_vertices.len(),
-            "texels" => self.texels.len(),
-            _ => 0,
-        }
+        split_array(name).map_or(0, |a| self.array_bytes(name).len() / a.element_bytes)
     }
 }
 

@@ -446,7 +446,7 @@ pub fn upload_scene(
     // A small scene's arrays that the kernel reads from their uniform twins.
     for a in &UNIFORM_ARRAYS {
         if kernel.uses(a.uniform) {
-            let data = gpu.uniform_array_bytes(a.name);
+            let data = gpu.array_bytes(a.name);
             let buffer = upload_uniform_padded(ctx, kernel, a.uniform, data, UNIFORM_ARRAY_BYTES)?;
             bound.push((a.uniform, buffer));
         }
