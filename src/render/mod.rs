@@ -627,8 +627,27 @@ impl Renderer {
             features,
             content_hash,
         };
+        r.warm_up()?;
         r.reset()?;
         Ok(r)
+    }
+
+    /// Has the driver make the kernel's machine code now, with one dispatch over an empty tile (every
+    /// invocation returns at once: trace.wgsl, `main`, and the benchmark kernels test the tile first
+    /// too). A driver may compile a pipeline at its first dispatch rather than in
+    /// vkCreateComputePipelines: lavapipe's llvmpipe makes its JIT variant at launch (Mesa's
+    /// lp_state_cs.c, `llvmpipe_update_cs`), seconds for a large scene's kernel when the shader cache is
+    /// cold. Without this, that compile lands in the first pass: in the render's timed seconds and
+    /// samples per second, and in the first dispatches' durations, from which the next pass's tiles are
+    /// sized (`dispatch_samples`).
+    fn warm_up(&mut self) -> Result<(), GpuError> {
+        let empty = GpuPassConstants::default();
+        self.kernel.submit(&[
+            Command::Update(&self.pass_constants, bytemuck::bytes_of(&empty)),
+            Command::Dispatch {
+                invocations: [1, 1, 1],
+            },
+        ])
     }
 
     /// What uploading the scene made and cost: triangles, BVH nodes, BVH build time, bytes.
@@ -1330,6 +1349,37 @@ fn check_device_memory(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The warm-up dispatch (`Renderer::warm_up`, run by every build) is a dispatch over an empty tile,
+    /// which must trace nothing: after a pass, another warm-up leaves every pixel's sums, the fault
+    /// counters and the next pass's bits as they were.
+    #[test]
+    fn the_warm_up_dispatch_traces_nothing() {
+        let ctx = crate::gpu::testing::context();
+        let mut scene = crate::Scene::default_scene();
+        scene.image.width = 24;
+        scene.image.height = 16;
+        let mut r = Renderer::new(&ctx, &scene, &RenderOptions::default()).unwrap();
+        r.run_pass(2).unwrap();
+        let before = r.accum_state().unwrap();
+        assert!(
+            before.iter().any(|a| a.sum.iter().any(|&w| w != 0)),
+            "the pass added nothing"
+        );
+        let faults = r.sample_faults().unwrap();
+        r.warm_up().unwrap();
+        assert!(
+            r.accum_state().unwrap() == before,
+            "the warm-up dispatch changed the sums"
+        );
+        assert_eq!(r.sample_faults().unwrap(), faults);
+        // And the next pass adds what it adds without the extra dispatch.
+        r.run_pass(1).unwrap();
+        let mut fresh = Renderer::new(&ctx, &scene, &RenderOptions::default()).unwrap();
+        fresh.run_pass(2).unwrap();
+        fresh.run_pass(1).unwrap();
+        assert!(r.accum_state().unwrap() == fresh.accum_state().unwrap());
+    }
 
     /// A scene with one instanced quad fits the walk; the same upload with a stack need past the walk's
     /// stack (what a top-level tree over very many placements and a deep mesh tree would add up to:
