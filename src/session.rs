@@ -150,6 +150,8 @@ impl<'a> Session<'a> {
             ..request.options.clone()
         };
         let mut renderer = Renderer::new(ctx, request.scene, &options)?;
+        // The driver's own compile (at the first dispatch, on lavapipe) before the clock starts.
+        renderer.warm_up()?;
         let resumed_from = request.resume.as_ref().map(|(p, _)| p.clone());
         let plan = plan_samples(
             &mut renderer,

@@ -235,6 +235,8 @@ pub struct Renderer {
     /// Set when a pass failed part-way: the accumulator then holds an unknown part of it, and reading
     /// it (a film, a checkpoint) or adding to it is refused.
     poisoned: Option<String>,
+    /// Whether the kernel has been dispatched once ([`Renderer::warm_up`]).
+    warmed_up: bool,
     fault: Option<Fault>,
     /// Passes run (for [`Fault::DeviceLostAtPass`]).
     passes: u32,
@@ -618,6 +620,7 @@ impl Renderer {
             bound,
             sample_faults,
             poisoned: None,
+            warmed_up: false,
             fault: options.fault,
             passes: 0,
             scene_stats: gpu.stats,
@@ -627,27 +630,32 @@ impl Renderer {
             features,
             content_hash,
         };
-        r.warm_up()?;
         r.reset()?;
         Ok(r)
     }
 
     /// Has the driver make the kernel's machine code now, with one dispatch over an empty tile (every
     /// invocation returns at once: trace.wgsl, `main`, and the benchmark kernels test the tile first
-    /// too). A driver may compile a pipeline at its first dispatch rather than in
-    /// vkCreateComputePipelines: lavapipe's llvmpipe makes its JIT variant at launch (Mesa's
-    /// lp_state_cs.c, `llvmpipe_update_cs`), seconds for a large scene's kernel when the shader cache is
-    /// cold. Without this, that compile lands in the first pass: in the render's timed seconds and
-    /// samples per second, and in the first dispatches' durations, from which the next pass's tiles are
-    /// sized (`dispatch_samples`).
-    fn warm_up(&mut self) -> Result<(), GpuError> {
+    /// too); once per renderer, and by the first [`Renderer::run_pass`] if not called before. A driver
+    /// may compile a pipeline at its first dispatch rather than in vkCreateComputePipelines: lavapipe's
+    /// llvmpipe makes its JIT variant at launch (Mesa's lp_state_cs.c, `llvmpipe_update_cs`), seconds for
+    /// a large scene's kernel when the shader cache is cold. Without this, that compile would land in the
+    /// first pass's dispatches, whose durations size the next pass's tiles (`dispatch_samples`); a caller
+    /// that times its passes (the render session) calls it before starting its clock. Not done in
+    /// `build`, so that a renderer built and never run (tests that look at its kernel) compiles nothing.
+    pub fn warm_up(&mut self) -> Result<(), GpuError> {
+        if self.warmed_up {
+            return Ok(());
+        }
         let empty = GpuPassConstants::default();
         self.kernel.submit(&[
             Command::Update(&self.pass_constants, bytemuck::bytes_of(&empty)),
             Command::Dispatch {
                 invocations: [1, 1, 1],
             },
-        ])
+        ])?;
+        self.warmed_up = true;
+        Ok(())
     }
 
     /// What uploading the scene made and cost: triangles, BVH nodes, BVH build time, bytes.
@@ -724,6 +732,7 @@ impl Renderer {
     /// an unknown part of the pass: the renderer then refuses to read or extend it.
     pub fn run_pass(&mut self, spp: u32) -> Result<(), GpuError> {
         self.check_usable()?;
+        self.warm_up()?;
         if self.next_sample.checked_add(spp).is_none() {
             return Err(GpuError::Usage(format!(
                 "sample indices past 2^32 - 1: this render is at sample {} and {spp} more were asked for",
@@ -1350,7 +1359,7 @@ fn check_device_memory(
 mod tests {
     use super::*;
 
-    /// The warm-up dispatch (`Renderer::warm_up`, run by every build) is a dispatch over an empty tile,
+    /// The warm-up dispatch (`Renderer::warm_up`, before a renderer's first pass) is over an empty tile,
     /// which must trace nothing: after a pass, another warm-up leaves every pixel's sums, the fault
     /// counters and the next pass's bits as they were.
     #[test]
@@ -1367,6 +1376,7 @@ mod tests {
             "the pass added nothing"
         );
         let faults = r.sample_faults().unwrap();
+        r.warmed_up = false;
         r.warm_up().unwrap();
         assert!(
             r.accum_state().unwrap() == before,
