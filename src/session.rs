@@ -150,8 +150,6 @@ impl<'a> Session<'a> {
             ..request.options.clone()
         };
         let mut renderer = Renderer::new(ctx, request.scene, &options)?;
-        // The driver's own compile (at the first dispatch, on lavapipe) before the clock starts.
-        renderer.warm_up()?;
         let resumed_from = request.resume.as_ref().map(|(p, _)| p.clone());
         let plan = plan_samples(
             &mut renderer,
@@ -169,6 +167,9 @@ impl<'a> Session<'a> {
         {
             saved.checkpoint = Some((c.to_path_buf(), plan.resumed_samples));
         }
+        // The driver's own compile (at the first dispatch, on lavapipe) before the clock starts, and
+        // after everything that can refuse the request (a checkpoint that does not match).
+        renderer.warm_up()?;
         Ok(Session {
             options: request.options,
             aovs: request.aovs,
