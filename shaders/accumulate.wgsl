@@ -29,7 +29,7 @@
 // Radiance is never negative (every factor of the estimator is >= 0); a negative channel, which only a
 // bug could produce, is counted as 0 like a non-finite one, keeping the accumulator unsigned.
 //
-// Neither change is silent: accumulate_sample returns SAMPLE_CLAMPED when some channel was at or above
+// Neither change is silent: accumulate_into returns SAMPLE_CLAMPED when some channel was at or above
 // 2^64 (clamped to just below it: a point light of intensity 1e36 next to a wall gives such samples) and
 // SAMPLE_NOT_FINITE when the sample was dropped, and the render kernel counts both for the host to
 // report. Counting was chosen over a window wide enough for every finite f32 (277 bits, 9 limbs: 132
@@ -37,8 +37,9 @@
 // sample) because such radiance is a scene error to be told about, not a value to be kept: its cost is
 // one comparison per sample (docs/robustness.md).
 //
-// The including kernel declares `accum: array<Accum>` (read_write storage); accumulate_sample updates
-// one entry of it in place, accumulate_into an entry the caller holds in registers.
+// accumulate_into updates an entry the caller holds in registers (the render kernel reads a pixel's entry
+// once per dispatch and writes it once); add_exact adds to the exact sums alone (the splat gather,
+// splat.wgsl, which keeps its weighted sums in a SplatAccum).
 //
 // requires: (nothing)
 
@@ -46,7 +47,7 @@ const ACCUM_LIMBS: u32 = 6u;
 // The largest f32 below 2^64, (2^24 - 1) 2^40, as bits: larger samples are clamped to it. For positive
 // floats the order of the bit patterns is the order of the values, so min() on the bits clamps.
 const ACCUM_MAX_BITS: u32 = 0x5f7fffffu;
-// accumulate_sample's result: bit flags, 0 when the sample went in exactly as it was.
+// accumulate_into's result: bit flags, 0 when the sample went in exactly as it was.
 const SAMPLE_CLAMPED: u32 = 1u;
 const SAMPLE_NOT_FINITE: u32 = 2u;
 
@@ -57,6 +58,15 @@ struct Accum {
     sum: array<u32, 18>,
     sum_sq: array<f32, 3>,
     sum_sq_c: array<f32, 3>, // Kahan compensation of sum_sq
+}
+
+// A pixel's splatted sums (render.splat; splat.wgsl): per channel the exact sum of w L over the samples
+// whose filter covers the pixel, laid out as Accum.sum, and the exact sum of their weights w as a 64-bit
+// integer in units of 2^-SPLAT_WEIGHT_BITS (weight[0] the low word). Mirrored by GpuSplatAccum.
+const SPLAT_WEIGHT_BITS: u32 = 24u;
+struct SplatAccum {
+    sum: array<u32, 18>,
+    weight: array<u32, 2>,
 }
 
 fn is_finite_f32(x: f32) -> bool {
@@ -132,19 +142,23 @@ fn add_limb(acc: ptr<function, Accum>, j: u32, t: GridTerm, carry_in: vec3<u32>)
     return select(zero, vec3<u32>(1u), (s1 < a) | (s2 < s1));
 }
 
-// Adds one sample (linear RGB radiance) to accum[slot]; returns SAMPLE_* flags saying what was changed.
-// The entry is read and written whole, once, and updated in registers in between.
-fn accumulate_sample(slot: u32, radiance: vec3<f32>, guard: f32) -> u32 {
-    var acc = accum[slot];
-    let fault = accumulate_into(&acc, radiance, guard);
-    accum[slot] = acc;
-    return fault;
+// The exact sums += l (finite, >= 0 per channel; larger than 2^64 clamped): a 192-bit add with carry,
+// limb by limb, unrolled (lavapipe counts every loop iteration against its per-invocation budget,
+// trace.wgsl). The squares are left alone.
+fn add_exact(acc: ptr<function, Accum>, l: vec3<f32>) {
+    let t = grid_term(l);
+    var carry = add_limb(acc, 0u, t, vec3<u32>(0u));
+    carry = add_limb(acc, 1u, t, carry);
+    carry = add_limb(acc, 2u, t, carry);
+    carry = add_limb(acc, 3u, t, carry);
+    carry = add_limb(acc, 4u, t, carry);
+    carry = add_limb(acc, 5u, t, carry);
 }
 
-// Adds one sample to an accumulator held in registers: the render kernel reads a pixel's entry once,
-// adds the samples of its dispatch to it in index order, and writes it once (trace.wgsl). The same
-// operations in the same order as accumulate_sample, so the bits do not depend on how many samples one
-// dispatch adds.
+// Adds one sample (linear RGB radiance) to an accumulator held in registers; returns SAMPLE_* flags
+// saying what was changed. The render kernel reads a pixel's entry once, adds the samples of its dispatch
+// to it in index order, and writes it once (trace.wgsl); the sums are exact, so the bits do not depend on
+// how many samples one dispatch adds.
 fn accumulate_into(acc: ptr<function, Accum>, radiance: vec3<f32>, guard: f32) -> u32 {
     var l = max(radiance, vec3<f32>(0.0));
     var fault = 0u;
@@ -157,15 +171,7 @@ fn accumulate_into(acc: ptr<function, Accum>, radiance: vec3<f32>, guard: f32) -
     if any((l_bits > vec3<u32>(ACCUM_MAX_BITS)) & (l_bits < vec3<u32>(0x7f800000u))) {
         fault |= SAMPLE_CLAMPED;
     }
-    // The exact sums: a 192-bit add with carry, limb by limb, unrolled (lavapipe counts every loop
-    // iteration against its per-invocation budget, trace.wgsl).
-    let t = grid_term(l);
-    var carry = add_limb(acc, 0u, t, vec3<u32>(0u));
-    carry = add_limb(acc, 1u, t, carry);
-    carry = add_limb(acc, 2u, t, carry);
-    carry = add_limb(acc, 3u, t, carry);
-    carry = add_limb(acc, 4u, t, carry);
-    carry = add_limb(acc, 5u, t, carry);
+    add_exact(acc, l);
 
     // Kahan step on the squares: y = x - c; t = sum + y; c' = (t - sum) - y.
     let sq = vec3<f32>((*acc).sum_sq[0], (*acc).sum_sq[1], (*acc).sum_sq[2]);

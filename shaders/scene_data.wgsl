@@ -35,7 +35,7 @@ struct Params {
     camera_kind: u32, // CAMERA_PERSPECTIVE or CAMERA_ORTHOGRAPHIC (camera.wgsl)
     aov: u32, // AOV_NONE (radiance) or the --aov layer the samples are (trace.wgsl)
     filter_in_image: u32, // 1: the pixel filter is cut off at the image's edges (film_position, trace.wgsl)
-    _pad0: u32,
+    splat: u32, // 1: samples are splatted (render.splat; trace.wgsl, splat.wgsl)
     _pad1: u32,
 }
 
@@ -438,7 +438,8 @@ struct PassConstants {
     queue_in: u32,
     queue_out: u32,
     casts: u32,
-    _pad0: u32,
+    // The pass's first sample index: sample s of a pixel is its splat record s - pass_start (trace.wgsl).
+    pass_start: u32,
 }
 
 @group(0) @binding(5) var<storage, read_write> accum: array<Accum>;

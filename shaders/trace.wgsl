@@ -24,6 +24,13 @@ override FILTER_KIND: u32 = 0u;
 // Whether the filter is cut off at the image's edges (params.filter_in_image, film_position): likewise.
 override FILTER_IN_IMAGE_FROM_PARAMS: bool = true;
 override FILTER_IN_IMAGE: bool = false;
+// Whether the radiance samples are splatted (params.splat, render.splat): likewise.
+override SPLAT_FROM_PARAMS: bool = true;
+override SPLAT: bool = false;
+
+fn splatting() -> bool {
+    return select(SPLAT, params.splat != 0u, SPLAT_FROM_PARAMS);
+}
 
 // What a sample is (params.aov): radiance, or a layer of `--aov` (aov_step). Read from `params` by the
 // generic kernel; a constant when specialised, so that a render's kernel has no AOV code at all.
@@ -96,6 +103,9 @@ fn aov_step(kind: u32, path: ptr<function, Path>) -> bool {
 // so each axis is sampled from its cut-off 1-D filter: the tent's, and the Gaussian's over Mitsuba's radius
 // 4 sigma (Mitsuba's Gaussian also subtracts its value there, exp(-8) = 3.4e-4 of the peak, which is not
 // modelled: it moves 0.1 % of each axis's mass towards the radius).
+//
+// A splatted render (splatting()) draws every sample uniformly over its pixel instead, as Mitsuba's
+// film does: the filter is applied when the sample is splatted (splat.wgsl), as a weight.
 fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
     let center = vec2<f32>(px) + vec2<f32>(0.5);
     let u = rng_next2(rng);
@@ -105,7 +115,8 @@ fn film_position(px: vec2<u32>, rng: ptr<function, Rng>) -> vec2<f32> {
     let lo = -center;
     let hi = vec2<f32>(f32(params.width), f32(params.height)) - center;
     var x = center;
-    switch select(FILTER_KIND, params.filter_kind, FILTER_FROM_PARAMS) {
+    let kind = select(FILTER_KIND, params.filter_kind, FILTER_FROM_PARAMS);
+    switch select(kind, FILTER_BOX, splatting()) {
         case FILTER_BOX: {
             x = vec2<f32>(px) + u;
         }
@@ -510,16 +521,42 @@ fn path_step(path: ptr<function, Path>) -> bool {
 // The sample as the accumulator takes it. The firefly clamp (render.clamp, off by default): biased by
 // design, so a scene opts in. The sample is scaled, not clipped per channel, so that a clamped sample
 // keeps its hue. (A NaN passes through to the accumulator, which counts it.)
-fn add_sample(acc: ptr<function, Accum>, sample_radiance: vec3<f32>) {
+fn clamped_sample(sample_radiance: vec3<f32>) -> vec3<f32> {
     var radiance = sample_radiance;
     let peak = max(radiance.x, max(radiance.y, radiance.z));
     if params.sample_clamp > 0.0 && peak > params.sample_clamp {
         radiance *= params.sample_clamp / peak;
     }
-    let fault = accumulate_into(acc, radiance, params.guard_one);
+    return radiance;
+}
+
+fn add_sample(acc: ptr<function, Accum>, sample_radiance: vec3<f32>) {
+    let fault = accumulate_into(acc, clamped_sample(sample_radiance), params.guard_one);
     if fault != 0u {
         count_sample_fault(fault);
     }
+}
+
+// A splatted render's samples of the current pass, for the film-side gather that follows the pass
+// (splat.wgsl): record (s - pass_start) * pixels + pixel holds sample s of the pixel, its radiance as the
+// accumulator takes it (clamped by render.clamp; a non-finite or negative channel as 0, which the
+// accumulator has counted) and, in w, its position in the pixel as two 16-bit fixed-point fractions
+// (pack2x16unorm: within 2^-17 of a pixel of where the ray went; the gather weighs the sample by that
+// rounded position, the same for every split of the render).
+@group(0) @binding(48) var<storage, read_write> splat_samples: array<vec4<f32>>;
+
+fn splat_record(px: vec2<u32>, sample: u32, sample_radiance: vec3<f32>) {
+    var l = max(clamped_sample(sample_radiance), vec3<f32>(0.0));
+    if !is_finite_vec3(l) {
+        l = vec3<f32>(0.0);
+    }
+    // The film position's numbers again (film_position: the first pair of the sample's sequence, a pure
+    // function of pixel, sample and seed), so that the path need not carry them.
+    var rng = rng_new_sampler(px.y * params.width + px.x, sample, params.seed, params.sampler);
+    let u = rng_next2(&rng);
+    let pixels = params.width * params.height;
+    let i = (sample - pass_constants.pass_start) * pixels + px.y * params.width + px.x;
+    splat_samples[i] = vec4<f32>(l, bitcast<f32>(pack2x16unorm(u)));
 }
 
 // A path between two dispatches: Path packed into 16-byte rows (the booleans and counters bitcast into
@@ -635,6 +672,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         casts += 1u;
         if !step(&path) {
             add_sample(&acc, path.radiance);
+            if splatting() {
+                splat_record(px, sample, path.radiance);
+            }
             added = true;
             sample += 1u;
             if sample >= end {

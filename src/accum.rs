@@ -9,7 +9,7 @@
 //! exact and associative: whatever way the samples were split (passes, tiles, checkpoints, sample
 //! ranges), the total has the same bits, and so does the image computed from it.
 
-use crate::kernel::abi::{ACCUM_LIMBS, GpuAccum};
+use crate::kernel::abi::{ACCUM_LIMBS, GpuAccum, GpuSplatAccum};
 
 /// The accumulator's unit, as a power of two: one unit of limb 0 is 2^-96.
 pub const UNIT_EXP: i32 = -96;
@@ -40,6 +40,21 @@ pub fn set_channel(accum: &mut GpuAccum, c: usize, limbs: &[u32; ACCUM_LIMBS]) {
     for (k, &l) in limbs.iter().enumerate() {
         accum.sum[3 * k + c] = l;
     }
+}
+
+/// `acc += other` for splatted sums (`GpuSplatAccum`): each channel's exact sum and the weights' 64-bit
+/// integer, with carry: exact. Returns false on an overflow (more than 2^32 samples of the largest value).
+pub fn add_splat(acc: &mut GpuSplatAccum, other: &GpuSplatAccum) -> bool {
+    let mut ok = true;
+    for c in 0..3 {
+        let mut a: [u32; ACCUM_LIMBS] = std::array::from_fn(|k| acc.sum[3 * k + c]);
+        let b: [u32; ACCUM_LIMBS] = std::array::from_fn(|k| other.sum[3 * k + c]);
+        ok &= add(&mut a, &b);
+        for (k, l) in a.iter().enumerate() {
+            acc.sum[3 * k + c] = *l;
+        }
+    }
+    ok & add(&mut acc.weight, &other.weight)
 }
 
 /// The f64 nearest to the exact sum held in `limbs` (round to nearest, ties to even): the only rounding

@@ -1,7 +1,7 @@
 //! The film: per-pixel means and variances read back from the GPU, and the display transform. Image
 //! files are written by `crate::output` (`Film::write` included).
 
-use crate::kernel::abi::GpuAccum;
+use crate::kernel::abi::{GpuAccum, GpuSplatAccum, SPLAT_WEIGHT_BITS};
 use crate::scene::{Gamma, ImageSettings};
 use std::path::Path;
 
@@ -93,6 +93,28 @@ impl Film {
             }
             self.mean.push(m);
             self.variance.push(v);
+        }
+    }
+
+    /// Replaces the means of the pixels from index `at` on by a splatted render's (`render.splat`): per
+    /// channel the exact sum of w L over the exact sum of the weights w, each rounded once to f64 (the
+    /// filter-weighted average of the samples around the pixel, Mitsuba 3's film). A pixel that no sample
+    /// weighed (possible only under a filter narrower than its pixel) keeps its own samples' mean. The
+    /// variances stay those of the pixel's own samples: the error estimate is that of the per-pixel
+    /// estimator, an upper bound for the splatted one (docs/speed-vs-accuracy.md, "Splatting").
+    pub fn push_splatted(&mut self, at: usize, splat: &[GpuSplatAccum]) {
+        for (m, s) in self.mean[at..].iter_mut().zip(splat) {
+            let w = (u64::from(s.weight[1]) << 32 | u64::from(s.weight[0])) as f64
+                / f64::from(1u32 << SPLAT_WEIGHT_BITS);
+            if w <= 0.0 {
+                continue;
+            }
+            for (c, v) in m.iter_mut().enumerate() {
+                let limbs: Vec<u32> = (0..crate::kernel::abi::ACCUM_LIMBS)
+                    .map(|k| s.sum[3 * k + c])
+                    .collect();
+                *v = (crate::accum::to_f64(&limbs) / w) as f32;
+            }
         }
     }
 

@@ -489,6 +489,25 @@ fn plan_samples(
                 });
             }
             renderer.restore(&c.header.ranges, &c.accum)?;
+            match (&c.splat, renderer.splats()) {
+                (Some(sums), true) => renderer.restore_splat(sums)?,
+                (None, false) => {}
+                (held, _) => {
+                    return Err(Error::Checkpoint {
+                        path: path.clone(),
+                        message: format!(
+                            "this checkpoint {} splatted sums and this render {} (render.splat): resume \
+                             it with the scene file and flags it was made with.",
+                            if held.is_some() { "holds" } else { "has no" },
+                            if renderer.splats() {
+                                "splats"
+                            } else {
+                                "does not splat"
+                            }
+                        ),
+                    });
+                }
+            }
             let device = &renderer.context().device_info().name;
             if &c.header.device != device {
                 warnings.push(format!(

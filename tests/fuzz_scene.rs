@@ -606,12 +606,20 @@ fn checkpoint_bytes() -> Vec<u8> {
             },
             part: None,
             aux_samples: Some(4),
+            splat: true,
         },
         accum: vec![vkpath::kernel::abi::GpuAccum::default(); 6],
         aux: Some(Aux {
             albedo: vec![[0.5, 0.25, 1.0]; 6],
             normal: vec![[0.0, 0.0, 1.0]; 6],
         }),
+        splat: Some(vec![
+            vkpath::kernel::abi::GpuSplatAccum {
+                sum: [7; 18],
+                weight: [3, 1],
+            };
+            6
+        ]),
     };
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("c.ckpt");

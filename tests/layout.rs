@@ -9,7 +9,7 @@ use naga::{Module, TypeInner};
 use std::mem::{offset_of, size_of};
 use vkpath::kernel::abi::{
     GpuAccum, GpuLight, GpuLightTriangle, GpuMaterial, GpuParams, GpuPassConstants, GpuSphere,
-    GpuTriangle,
+    GpuSplatAccum, GpuSplatConstants, GpuTriangle,
 };
 
 /// The production kernel, parsed (and validated, so the layouts are the ones the SPIR-V gets).
@@ -312,7 +312,7 @@ fn params_matches_wgsl() {
             cam_position, lens_radius, cam_right, view_half_width, cam_up, focus_distance, cam_forward,
             filter_width, environment_light, triangle_light, sample_clamp, filter_kind, width, height, max_bounces, seed, sampler,
             light_sampling, num_spheres, num_triangles, num_lights, roulette_depth, guard_one, camera_kind,
-            aov, filter_in_image, _pad),
+            aov, filter_in_image, splat, _pad),
     );
     // The uniform buffer holds one Params.
     let (_, params) = module
@@ -438,6 +438,50 @@ fn accum_matches_wgsl() {
         fields!(GpuAccum: sum, sum_sq, sum_sq_c),
     );
     check_storage_array(&module, "accum", "Accum", "GpuAccum", size_of::<GpuAccum>());
+}
+
+/// The splat gather's structs (shaders/splat.wgsl, accumulate.wgsl) against their Rust mirrors, and its
+/// buffers' element types.
+#[test]
+fn splat_gather_matches_wgsl() {
+    let module = vkpath::kernel::specialise::compile(&vkpath::kernel::library::splat_source())
+        .unwrap_or_else(|e| panic!("the splat gather does not compile: {e}"))
+        .module;
+    check_struct(
+        &module,
+        "SplatAccum",
+        "GpuSplatAccum",
+        size_of::<GpuSplatAccum>(),
+        fields!(GpuSplatAccum: sum, weight),
+    );
+    check_storage_array(
+        &module,
+        "splat_accum",
+        "SplatAccum",
+        "GpuSplatAccum",
+        size_of::<GpuSplatAccum>(),
+    );
+    check_struct(
+        &module,
+        "SplatConstants",
+        "GpuSplatConstants",
+        size_of::<GpuSplatConstants>(),
+        fields!(GpuSplatConstants: width, height, accum_base, row0, row1, first, count, filter_kind,
+            filter_width, reach, _pad),
+    );
+    // The records the render kernel writes and the gather reads: one vec4 each.
+    for m in [&module, &kernel()] {
+        let (_, var) = m
+            .global_variables
+            .iter()
+            .find(|(_, v)| v.name.as_deref() == Some("splat_samples"))
+            .expect("both kernels declare `splat_samples`");
+        let TypeInner::Array { base, stride, .. } = m.types[var.ty].inner else {
+            panic!("splat_samples is not an array");
+        };
+        assert_eq!(u64::from(stride), vkpath::kernel::abi::SPLAT_RECORD_BYTES);
+        assert!(matches!(m.types[base].inner, TypeInner::Vector { .. }));
+    }
 }
 
 /// The production kernel as parsed, before specialisation or compaction: every declared constant and
@@ -606,7 +650,7 @@ fn pass_constants_match_wgsl() {
             queue_in,
             queue_out,
             casts,
-            _pad
+            pass_start
         ),
     );
     let (_, var) = module

@@ -1,6 +1,6 @@
 //! The accumulator (shaders/accumulate.wgsl) over millions of samples, read back from the GPU.
 //!
-//! Each test streams samples through `accumulate_sample`, the function the render kernel uses. The sums
+//! Each test streams samples through `accumulate_into`, the function the render kernel uses. The sums
 //! of samples are exact (a long accumulator): they are compared for EQUALITY with sums known exactly on
 //! the host (in f64 or u128 where every partial sum is representable), and with the CPU mirror
 //! `vkpath::accum::add_f32` limb for limb. The sums of squares are Kahan-compensated f32 and are held to

@@ -93,5 +93,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let slot = px.y * params.width + px.x - pc.accum_base;
     let radiance = trimmed_path(px, pass_constants.sample_index);
-    accumulate_sample(slot, radiance, params.guard_one);
+    var acc = accum[slot];
+    accumulate_into(&acc, radiance, params.guard_one);
+    accum[slot] = acc;
 }

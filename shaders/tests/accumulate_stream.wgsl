@@ -1,4 +1,4 @@
-// Test kernel: feeds a stream of samples through accumulate_sample, exactly as trace.wgsl adds the samples
+// Test kernel: feeds a stream of samples through accumulate_into, exactly as trace.wgsl adds the samples
 // of a pixel, continuing from the Accum state it is given (the host chains runs: lavapipe ends an
 // invocation's loops after 65535 iterations in total, so a stream of millions is cut into chunks).
 //
@@ -22,8 +22,15 @@ struct Stream {
 }
 
 @group(0) @binding(0) var<storage, read> input: array<Stream>;
-// Named `accum`, as in the render kernel: accumulate_sample updates it in place.
+// Named `accum`, as in the render kernel.
 @group(0) @binding(1) var<storage, read_write> accum: array<Accum>;
+
+// Adds one sample to accum[slot] in place, through the render kernel's accumulate_into.
+fn accumulate_sample(slot: u32, radiance: vec3<f32>, guard: f32) {
+    var acc = accum[slot];
+    accumulate_into(&acc, radiance, guard);
+    accum[slot] = acc;
+}
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {

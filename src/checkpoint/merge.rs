@@ -3,7 +3,7 @@
 
 use super::{Aux, Checkpoint, Header, Part, count_samples, show_ranges};
 use crate::Error;
-use crate::kernel::abi::GpuAccum;
+use crate::kernel::abi::{GpuAccum, GpuSplatAccum};
 use std::path::{Path, PathBuf};
 
 /// Adds partial renders of disjoint sample ranges of the same render into the state of their union.
@@ -22,6 +22,7 @@ pub fn merge(parts: &[(PathBuf, Checkpoint)]) -> Result<Checkpoint, Error> {
     let mut sum = Sum::new(plan.pixels);
     for &i in &plan.order {
         sum.add(&parts[i].1.accum);
+        sum.add_splat(&parts[i].1);
         sum.keep_aux(&parts[i].1);
     }
     Ok(sum.finish(plan))
@@ -59,6 +60,7 @@ pub fn merge_files(
             });
         }
         sum.add(&part.accum);
+        sum.add_splat(&part);
         sum.keep_aux(&part);
     }
     Ok(sum.finish(plan))
@@ -150,6 +152,9 @@ fn check_headers(parts: &[(PathBuf, &Header)]) -> Result<Plan, Error> {
             part: None,
             // Set by the merge from the parts' aux images (see `merge_files`).
             aux_samples: None,
+            // Every part's identity is the render's, whose scene says whether it splats; set by the
+            // merge from the parts' sums.
+            splat: false,
         },
         pixels,
         order,
@@ -164,6 +169,8 @@ struct Sum {
     /// count. Every part of a render renders the same ones (`Aux`), so any would do; the first in sample
     /// order makes the merge independent of the order the parts are given in.
     aux: Option<(Aux, u32)>,
+    /// The splatted sums of a splatted render's parts, added exactly (`None` until a part has them).
+    splat: Option<Vec<GpuSplatAccum>>,
 }
 
 impl Sum {
@@ -172,6 +179,7 @@ impl Sum {
             accum: vec![GpuAccum::default(); pixels],
             squares: vec![[0.0; 3]; pixels],
             aux: None,
+            splat: None,
         }
     }
 
@@ -183,6 +191,20 @@ impl Sum {
             for (total, (s, c)) in sq.iter_mut().zip(a.sum_sq.iter().zip(&a.sum_sq_c)) {
                 *total += f64::from(*s) - f64::from(*c);
             }
+        }
+    }
+
+    /// Adds a part's splatted sums, exactly (a part without them adds nothing: the parts of one render
+    /// all have them or none does, their scenes being one).
+    fn add_splat(&mut self, part: &Checkpoint) {
+        let Some(sums) = &part.splat else {
+            return;
+        };
+        let out = self
+            .splat
+            .get_or_insert_with(|| vec![GpuSplatAccum::default(); sums.len()]);
+        for (o, s) in out.iter_mut().zip(sums) {
+            crate::accum::add_splat(o, s);
         }
     }
 
@@ -202,10 +224,12 @@ impl Sum {
             }
         }
         plan.header.aux_samples = self.aux.as_ref().map(|(_, n)| *n);
+        plan.header.splat = self.splat.is_some();
         Checkpoint {
             header: plan.header,
             accum: self.accum,
             aux: self.aux.map(|(a, _)| a),
+            splat: self.splat,
         }
     }
 }

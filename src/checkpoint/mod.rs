@@ -49,7 +49,7 @@ pub mod merge;
 use crate::Error;
 use crate::film::Film;
 use crate::fs_atomic::write_atomically_with;
-use crate::kernel::abi::GpuAccum;
+use crate::kernel::abi::{GpuAccum, GpuSplatAccum};
 use crate::scene::{Gamma, ImageSettings, Scene};
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
@@ -150,6 +150,10 @@ pub struct Header {
     /// the frame. Absent otherwise (and in files from before aux images were kept).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub aux_samples: Option<u32>,
+    /// The file carries a splatted render's splatted sums ([`Checkpoint::splat`], `render.splat`) after
+    /// the aux images. Absent (false) otherwise.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub splat: bool,
 }
 
 /// The albedo and normal images a denoiser reads beside the image (`session::aov_layers`), one entry
@@ -271,12 +275,20 @@ pub struct Checkpoint {
     pub accum: Vec<GpuAccum>,
     /// The denoiser's aux images, when `header.aux_samples` says the file has them.
     pub aux: Option<Aux>,
+    /// A splatted render's splatted sums, one entry per pixel (exactly as the GPU holds them), when
+    /// `header.splat` says the file has them.
+    pub splat: Option<Vec<GpuSplatAccum>>,
 }
 
 impl Checkpoint {
     /// The renderer's current state (read back from the device) as a checkpoint of a render of `scene`.
     pub fn of(renderer: &mut crate::Renderer, scene: &Scene) -> Result<Checkpoint, Error> {
         let accum = renderer.accum_state()?;
+        let splat = if renderer.splats() {
+            Some(renderer.splat_state()?)
+        } else {
+            None
+        };
         Ok(Checkpoint {
             header: Header {
                 identity: renderer.identity(),
@@ -286,9 +298,11 @@ impl Checkpoint {
                 display: Display::of(&scene.image),
                 part: None,
                 aux_samples: None,
+                splat: splat.is_some(),
             },
             accum,
             aux: None,
+            splat,
         })
     }
 
@@ -304,12 +318,16 @@ impl Checkpoint {
 
     /// Means and variances, exactly as the renderer's `film()` would give them for this state.
     pub fn film(&self) -> Film {
-        Film::from_sums(
+        let mut film = Film::from_sums(
             self.header.identity.width,
             self.header.identity.height,
             self.samples(),
             &self.accum,
-        )
+        );
+        if let Some(splat) = &self.splat {
+            film.push_splatted(0, splat);
+        }
+        film
     }
 
     /// Image settings with the stored display transform.
@@ -344,6 +362,21 @@ impl Checkpoint {
                 });
             }
         };
+        // The splatted sums, likewise.
+        let splat = match (&self.splat, self.header.splat) {
+            (Some(splat), true) => {
+                let bytes = compress_splat(splat).map_err(encoding)?;
+                [&(bytes.len() as u64).to_le_bytes()[..], &bytes].concat()
+            }
+            (None, false) => Vec::new(),
+            _ => {
+                return Err(Error::Io {
+                    path: path.to_path_buf(),
+                    message: "the checkpoint's splatted sums and its header disagree (a bug)"
+                        .into(),
+                });
+            }
+        };
         let header_len = u32::try_from(json.len()).unwrap_or(u32::MAX);
         let head = [
             &MAGIC[..],
@@ -353,7 +386,7 @@ impl Checkpoint {
         .concat();
         let payload_len = (payload.len() as u64).to_le_bytes();
         let mut crc = crc32fast::Hasher::new();
-        for part in [&head[..], &json, &payload_len, &payload, &aux] {
+        for part in [&head[..], &json, &payload_len, &payload, &aux, &splat] {
             crc.update(part);
         }
         let crc = crc.finalize();
@@ -363,6 +396,7 @@ impl Checkpoint {
             f.write_all(&payload_len)?;
             f.write_all(&payload)?;
             f.write_all(&aux)?;
+            f.write_all(&splat)?;
             f.write_all(&crc.to_le_bytes())
         })
     }
@@ -470,7 +504,7 @@ impl Checkpoint {
             AUX_BYTES as u64
         } else {
             0
-        };
+        } + if header.splat { SPLAT_BYTES as u64 } else { 0 };
         crate::memory::check_available(
             pixels * (crate::memory::CHECKPOINT_BYTES_PER_PIXEL + aux_bytes),
             &format!("decoding its {}x{} pixels", id.width, id.height),
@@ -498,10 +532,12 @@ impl Checkpoint {
             r.read_exact(&mut l).map_err(Decode::Io)?;
             crc.update(&l);
             let payload_len = u64::from_le_bytes(l);
-            // With aux images, their length and bytes follow the payload (their size checked below).
-            let fits = |payload_len: u64| match header.aux_samples {
-                Some(_) => held >= 8 + payload_len + 8 + 4,
-                None => held == 8 + payload_len + 4,
+            // With aux images or splatted sums, their lengths and bytes follow the payload (their sizes
+            // checked below).
+            let sections = u64::from(header.aux_samples.is_some()) + u64::from(header.splat);
+            let fits = |payload_len: u64| match sections {
+                0 => held == 8 + payload_len + 4,
+                n => held >= 8 + payload_len + 8 * n + 4,
             };
             if payload_len > max_compressed_len(expected) || !fits(payload_len) {
                 return Err(truncated(format!(
@@ -534,7 +570,8 @@ impl Checkpoint {
             crc.update(&l);
             let aux_len = u64::from_le_bytes(l);
             let max = max_compressed_len(pixels * AUX_BYTES as u64);
-            if aux_len > max || held != 8 + payload_len + 8 + aux_len + 4 {
+            let rest = if header.splat { 8 } else { 0 };
+            if aux_len > max || held < 8 + payload_len + 8 + aux_len + rest + 4 {
                 return Err(truncated(format!(
                     "8 bytes of length, {payload_len} of compressed pixels, 8 of aux length, {aux_len} of \
                      aux images (at most {max}) and 4 of checksum"
@@ -543,6 +580,40 @@ impl Checkpoint {
             aux_payload = vec![0u8; aux_len as usize];
             r.read_exact(&mut aux_payload).map_err(Decode::Io)?;
             crc.update(&aux_payload);
+        }
+        let mut splat_payload = Vec::new();
+        if header.splat {
+            if !compressed {
+                return Err(invalid(
+                    "its header announces splatted sums, which only compressed files hold".into(),
+                ));
+            }
+            let before = 8
+                + payload_len
+                + aux_payload.len() as u64
+                + if header.aux_samples.is_some() { 8 } else { 0 };
+            let mut l = [0u8; 8];
+            r.read_exact(&mut l).map_err(Decode::Io)?;
+            crc.update(&l);
+            let splat_len = u64::from_le_bytes(l);
+            let max = max_compressed_len(pixels * SPLAT_BYTES as u64);
+            if splat_len > max || held != before + 8 + splat_len + 4 {
+                return Err(truncated(format!(
+                    "{before} bytes of pixels and aux images, 8 of splat length, {splat_len} of \
+                     splatted sums (at most {max}) and 4 of checksum"
+                )));
+            }
+            splat_payload = vec![0u8; splat_len as usize];
+            r.read_exact(&mut splat_payload).map_err(Decode::Io)?;
+            crc.update(&splat_payload);
+        } else if header.aux_samples.is_some()
+            && held != 8 + payload_len + 8 + aux_payload.len() as u64 + 4
+        {
+            return Err(truncated(format!(
+                "8 bytes of length, {payload_len} of compressed pixels, 8 of aux length, {} of aux \
+                 images and 4 of checksum",
+                aux_payload.len()
+            )));
         }
         let mut stored = [0u8; 4];
         r.read_exact(&mut stored).map_err(Decode::Io)?;
@@ -578,7 +649,24 @@ impl Checkpoint {
         } else {
             None
         };
-        Ok(Checkpoint { header, accum, aux })
+        let splat = if header.splat {
+            Some(
+                decompress_splat(&splat_payload, pixels as usize).map_err(|e| {
+                    invalid(format!(
+                        "its splatted sums do not decompress to {}x{} pixels ({e})",
+                        id.width, id.height
+                    ))
+                })?,
+            )
+        } else {
+            None
+        };
+        Ok(Checkpoint {
+            header,
+            accum,
+            aux,
+            splat,
+        })
     }
 
     /// Refuses, with a message that says what differs and what to do, a state that does not belong to
@@ -745,6 +833,44 @@ fn decompress_aux(payload: &[u8], pixels: usize) -> std::io::Result<Aux> {
     Ok(Aux { albedo, normal })
 }
 
+/// Bytes per pixel of the splatted sums decoded.
+const SPLAT_BYTES: usize = std::mem::size_of::<GpuSplatAccum>();
+
+/// The splatted sums as their little-endian bytes, compressed by Zstandard (deterministic).
+fn compress_splat(splat: &[GpuSplatAccum]) -> std::io::Result<Vec<u8>> {
+    let mut encoder = zstd::stream::write::Encoder::new(Vec::new(), ZSTD_LEVEL)?;
+    encoder.include_checksum(false)?;
+    encoder.include_contentsize(false)?;
+    for px in splat {
+        for w in px.sum.iter().chain(&px.weight) {
+            encoder.write_all(&w.to_le_bytes())?;
+        }
+    }
+    encoder.finish()
+}
+
+/// The splatted sums of `pixels` pixels from their compressed bytes (exactly that many, nothing after).
+fn decompress_splat(payload: &[u8], pixels: usize) -> std::io::Result<Vec<GpuSplatAccum>> {
+    let mut decoder = zstd::stream::read::Decoder::new(payload)?;
+    let mut out = Vec::new();
+    let mut px = [0u8; SPLAT_BYTES];
+    for _ in 0..pixels {
+        decoder.read_exact(&mut px)?;
+        let mut words = px
+            .chunks_exact(4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+        let mut entry = GpuSplatAccum::default();
+        for v in entry.sum.iter_mut().chain(entry.weight.iter_mut()) {
+            *v = words.next().expect("SPLAT_BYTES words");
+        }
+        out.push(entry);
+    }
+    if decoder.read(&mut [0u8; 1])? != 0 {
+        return Err(std::io::Error::other("more data than the pixels"));
+    }
+    Ok(out)
+}
+
 /// The pixels, byte-planar by blocks (see the module's documentation), compressed by Zstandard.
 fn compress(accum: &[GpuAccum]) -> std::io::Result<Vec<u8>> {
     let mut encoder = zstd::stream::write::Encoder::new(Vec::new(), ZSTD_LEVEL)?;
@@ -817,6 +943,7 @@ mod tests {
                 device: "dev".into(),
                 ranges,
                 aux_samples: None,
+                splat: false,
                 display: Display {
                     exposure: 1.0,
                     gamma: Some(2.2),
@@ -840,6 +967,7 @@ mod tests {
                 2
             ],
             aux: None,
+            splat: None,
         }
     }
 

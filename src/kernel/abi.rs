@@ -55,7 +55,11 @@ pub struct GpuParams {
     pub aov: u32,
     /// 1: a pixel's filter is cut off at the image's edges (`render.sample_border = false`); 0: not.
     pub filter_in_image: u32,
-    pub _pad: [u32; 2],
+    /// 1: the radiance samples are splatted (`render.splat`): each is drawn uniformly in its pixel and
+    /// also written to `splat_samples` for the film-side gather (shaders/splat.wgsl); 0: each sample
+    /// counts for its own pixel only, its position drawn from the pixel filter.
+    pub splat: u32,
+    pub _pad: u32,
 }
 
 /// Mirrors `PassConstants` in scene_data.wgsl: which samples the next dispatch traces (`sample_count`
@@ -83,7 +87,9 @@ pub struct GpuPassConstants {
     pub queue_out: u32,
     /// The most ray casts one invocation makes in this dispatch ([`crate::render::casts_per_dispatch`]).
     pub casts: u32,
-    pub _pad: u32,
+    /// The first sample index of the pass: sample s of a pixel is splat record s - pass_start
+    /// (`splat_samples`, trace.wgsl).
+    pub pass_start: u32,
 }
 
 /// Mirrors `Sphere` in scene_data.wgsl.
@@ -250,6 +256,49 @@ pub struct GpuAccum {
     pub sum: [u32; 3 * ACCUM_LIMBS],
     pub sum_sq: [f32; 3],
     pub sum_sq_c: [f32; 3],
+}
+
+/// Mirrors `SplatAccum` in accumulate.wgsl: a pixel's splatted sums (`render.splat`, shaders/splat.wgsl).
+/// `sum` is, per channel, the exact sum of w L over the samples whose filter footprint covers the pixel
+/// (laid out as [`GpuAccum::sum`]); `weight` the exact sum of their weights w, a 64-bit integer in units
+/// of 2^-[`SPLAT_WEIGHT_BITS`] (`weight[0]` the low word). The pixel's value is sum / weight (Mitsuba 3's
+/// film: the filter-weighted average of the samples).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSplatAccum {
+    pub sum: [u32; 3 * ACCUM_LIMBS],
+    pub weight: [u32; 2],
+}
+
+/// A splat weight w in [0, 1] is rounded to a multiple of 2^-SPLAT_WEIGHT_BITS before use, so that its
+/// sum over any number of samples is an exact integer (and w L is computed from the rounded w).
+pub const SPLAT_WEIGHT_BITS: u32 = 24;
+
+/// Bytes of one splat record (`splat_samples`, trace.wgsl): the sample's radiance and its position in
+/// its pixel, packed as two 16-bit fixed-point fractions.
+pub const SPLAT_RECORD_BYTES: u64 = 16;
+
+/// Mirrors `SplatConstants` in splat.wgsl: one gather dispatch adds records `first..first + count` of
+/// every pixel to the splatted sums of the rows `row0..row1` (the bound strip, whose entry 0 is pixel
+/// `accum_base`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSplatConstants {
+    pub width: u32,
+    pub height: u32,
+    pub accum_base: u32,
+    pub row0: u32,
+    pub row1: u32,
+    pub first: u32,
+    pub count: u32,
+    /// [`FILTER_TENT`] or [`FILTER_GAUSSIAN`].
+    pub filter_kind: u32,
+    /// The tent's radius or the Gaussian's standard deviation, in pixels.
+    pub filter_width: f32,
+    /// K: the pixels within K of a pixel on each axis are those whose samples can reach its centre
+    /// (`render::splat::reach`).
+    pub reach: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Mirrors `BvhNode` in scene_data.wgsl: an interior node of the 4-wide triangle BVH with its children's
@@ -812,3 +861,5 @@ const _: () = assert!(std::mem::size_of::<GpuMaterial>() == 144);
 const _: () = assert!(std::mem::size_of::<GpuLightTriangle>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuLight>() == 80);
 const _: () = assert!(std::mem::size_of::<GpuAccum>() == 96);
+const _: () = assert!(std::mem::size_of::<GpuSplatAccum>() == 80);
+const _: () = assert!(std::mem::size_of::<GpuSplatConstants>() == 48);

@@ -517,6 +517,14 @@ pub const KNOBS: &[KnobRow] = &[
         read: |g, _| g.lights.len() as u32,
     },
     KnobRow {
+        // render.splat (trace.wgsl, splat_record): samples drawn over the pixel and recorded for the
+        // gather (splat.wgsl).
+        name: "splat",
+        from_params: "SPLAT_FROM_PARAMS",
+        values: &[("SPLAT", 1)],
+        read: |_, p| p.splat,
+    },
+    KnobRow {
         // Radiance, or an `--aov` layer (trace.wgsl, trace_aov): a render's kernel has no AOV code.
         name: "aov",
         from_params: "AOV_FROM_PARAMS",

@@ -40,6 +40,7 @@ pub const MODULES: &[(&str, &str)] = &[
     ("opacity.wgsl", include_str!("../../shaders/opacity.wgsl")),
     ("scene.wgsl", include_str!("../../shaders/scene.wgsl")),
     ("trace.wgsl", include_str!("../../shaders/trace.wgsl")),
+    ("splat.wgsl", include_str!("../../shaders/splat.wgsl")),
     (
         "bench/trimmed_diffuse_point.wgsl",
         include_str!("../../shaders/bench/trimmed_diffuse_point.wgsl"),
@@ -368,6 +369,14 @@ pub fn assemble(name: &str) -> Result<String, UnknownModule> {
 /// The full source of the production kernel.
 pub fn trace_source() -> String {
     assemble(TRACE).expect("the library's own requires lines name library files")
+}
+
+/// The splat gather's root file (a kernel of its own, run after each pass of a splatted render).
+pub const SPLAT: &str = "splat.wgsl";
+
+/// The full source of the splat gather kernel.
+pub fn splat_source() -> String {
+    assemble(SPLAT).expect("the library's own requires lines name library files")
 }
 
 /// The full source of the hand-trimmed benchmark kernel.

@@ -1256,7 +1256,8 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
         },
         aov: AOV_NONE,
         filter_in_image: u32::from(!scene.render.sample_border),
-        _pad: [0; 2],
+        splat: u32::from(scene.render.splats()),
+        _pad: 0,
     }
 }
 

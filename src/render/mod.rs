@@ -10,6 +10,7 @@
 //! and progress reports.
 
 pub mod identity;
+pub mod splat;
 pub mod tiles;
 
 use crate::film::Film;
@@ -17,8 +18,8 @@ use crate::gpu::{
     Buffer, Command, GpuContext, GpuError, Kernel, upload_device_local, upload_uniform_padded,
 };
 use crate::kernel::abi::{
-    GpuAccum, GpuParams, GpuPassConstants, PATH_STATE_BYTES, SAMPLE_FAULT_COUNTERS, SPLIT_ARRAYS,
-    UNIFORM_ARRAY_BYTES, UNIFORM_ARRAYS, split_array,
+    GpuAccum, GpuParams, GpuPassConstants, GpuSplatAccum, PATH_STATE_BYTES, SAMPLE_FAULT_COUNTERS,
+    SPLIT_ARRAYS, UNIFORM_ARRAY_BYTES, UNIFORM_ARRAYS, split_array,
 };
 use crate::kernel::features::FeatureSet;
 use crate::kernel::specialise::CompiledShader;
@@ -251,6 +252,8 @@ pub struct Renderer {
     features: FeatureSet,
     /// [`identity::content_hash`] of the scene as uploaded.
     content_hash: u64,
+    /// A splatted render's gather and sums (`render.splat`); `None` for per-pixel sums alone.
+    splat: Option<splat::Splat>,
 }
 
 /// The compiled kernel for a feature set, compiled once per process (naga's work; the driver's pipeline
@@ -354,8 +357,10 @@ fn render_params(scene: &Scene, gpu: &GpuScene, options: &RenderOptions) -> GpuP
     params.triangle_light = gpu.triangle_light;
     params.aov = options.aov;
     if options.aov != crate::kernel::abi::AOV_NONE {
-        // The firefly clamp is for radiance: it would scale normals and distances.
+        // The firefly clamp is for radiance: it would scale normals and distances. A layer is each
+        // pixel's own (the denoiser's guides), never splatted.
         params.sample_clamp = 0.0;
+        params.splat = 0;
     }
     params
 }
@@ -481,8 +486,12 @@ fn bind_all(
     accum: &Buffer,
     pass_constants: &Buffer,
     [sample_faults, path_count]: [&Buffer; 2],
+    splat: Option<&splat::Splat>,
 ) -> Result<(), GpuError> {
     let mut bindings: Vec<(&str, &Buffer)> = scene.iter().map(|(n, b)| (*n, b)).collect();
+    if let Some(s) = splat {
+        bindings.push(("splat_samples", &s.samples));
+    }
     bindings.push(("accum", accum));
     bindings.push(("pass_constants", pass_constants));
     bindings.push(("sample_faults", sample_faults));
@@ -519,7 +528,11 @@ impl Renderer {
     ) -> Result<Renderer, GpuError> {
         let gpu = GpuScene::build(scene);
         check_loop_budget(ctx, &gpu)?;
-        let params = render_params(scene, &gpu, options);
+        let mut params = render_params(scene, &gpu, options);
+        if custom_kernel.is_some() {
+            // A caller's kernel writes no splat records.
+            params.splat = 0;
+        }
         let mut features = if options.generic {
             FeatureSet::generic_for(&gpu, &params)
         } else {
@@ -594,12 +607,25 @@ impl Renderer {
             let queue = Buffer::device_storage(ctx, "path queue", path_slots * 2 * 4)?;
             bound.push(("path_queue", queue));
         }
+        let splat = if params.splat != 0 {
+            Some(splat::Splat::new(ctx, &params, &layout)?)
+        } else {
+            if kernel.uses("splat_samples") {
+                // The generic kernel, not splatting: it never writes a record, but binds the buffer.
+                bound.push((
+                    "splat_samples",
+                    Buffer::device_storage(ctx, "splat records", 16)?,
+                ));
+            }
+            None
+        };
         bind_all(
             &mut kernel,
             &bound,
             &strips[0].buffer,
             &pass_constants,
             [&sample_faults, &path_count],
+            splat.as_ref(),
         )?;
         let mut r = Renderer {
             ctx: ctx.clone(),
@@ -629,6 +655,7 @@ impl Renderer {
             ranges: Vec::new(),
             features,
             content_hash,
+            splat,
         };
         r.reset()?;
         Ok(r)
@@ -654,6 +681,9 @@ impl Renderer {
                 invocations: [1, 1, 1],
             },
         ])?;
+        if let Some(s) = &mut self.splat {
+            s.warm_up()?;
+        }
         self.warmed_up = true;
         Ok(())
     }
@@ -677,6 +707,9 @@ impl Renderer {
             .map(|s| Command::Zero(&s.buffer))
             .collect();
         self.kernel.submit(&zero)?;
+        if let Some(s) = &mut self.splat {
+            s.zero()?;
+        }
         self.sample_faults
             .write(&[0u8; 4 * SAMPLE_FAULT_COUNTERS])?;
         self.next_sample = first_sample;
@@ -707,6 +740,7 @@ impl Renderer {
             &self.strips[i].buffer,
             &self.pass_constants,
             [&self.sample_faults, &self.path_count],
+            self.splat.as_ref(),
         )?;
         self.bound_strip = i;
         Ok(())
@@ -741,7 +775,7 @@ impl Renderer {
         }
         let start = self.next_sample;
         self.passes += 1;
-        if let Err(e) = self.dispatch_samples(start, spp) {
+        if let Err(e) = self.trace_pass(start, spp) {
             self.poisoned = Some(e.to_string());
             return Err(e);
         }
@@ -755,7 +789,28 @@ impl Renderer {
         Ok(())
     }
 
-    /// Traces samples `start..start + spp` of every pixel: for each strip, for each tile (and, with a
+    /// Traces samples `start..start + spp` of every pixel ([`Renderer::dispatch_samples`]); a splatted
+    /// render in pieces of at most the records' capacity, each followed by its gather.
+    fn trace_pass(&mut self, start: u32, spp: u32) -> Result<(), GpuError> {
+        let Some(capacity) = self.splat.as_ref().map(|s| s.capacity) else {
+            return self.dispatch_samples(start, spp);
+        };
+        let mut done = 0;
+        while done < spp {
+            let n = capacity.min(spp - done);
+            self.dispatch_samples(start + done, n)?;
+            let layout = &self.layout;
+            self.splat
+                .as_mut()
+                .expect("a splatted render")
+                .gather(layout, n)?;
+            done += n;
+        }
+        Ok(())
+    }
+
+    /// Traces samples `start..start + spp` of every pixel (the records of a splatted render's pass start
+    /// at `start`): for each strip, for each tile (and, with a
     /// caller's kernel, each sample in order), [`Renderer::trace_tile`]. The tiles then adapt so that
     /// the slowest dispatch per pixel of this pass, at the next pass's tile size, takes about
     /// `target_dispatch_seconds`.
@@ -773,7 +828,7 @@ impl Renderer {
             while offset < spp {
                 let count = chunk.min(spp - offset);
                 for t in &tiles {
-                    let seconds = self.trace_tile(t, accum_base, start + offset, count)?;
+                    let seconds = self.trace_tile(t, accum_base, [start, start + offset], count)?;
                     let pixels =
                         f64::from(t.end[0] - t.origin[0]) * f64::from(t.end[1] - t.origin[1]);
                     slowest_per_pixel = slowest_per_pixel.max(seconds / pixels.max(1.0));
@@ -797,7 +852,7 @@ impl Renderer {
         &mut self,
         t: &tiles::Tile,
         accum_base: u32,
-        sample_index: u32,
+        [pass_start, sample_index]: [u32; 2],
         count: u32,
     ) -> Result<f64, GpuError> {
         let width = t.end[0] - t.origin[0];
@@ -814,7 +869,7 @@ impl Renderer {
             queue_in: 0,
             queue_out: 0,
             casts: self.casts_per_dispatch,
-            _pad: 0,
+            pass_start,
         };
         let half = self.path_slots as u32;
         let mut longest = 0.0f64;
@@ -983,7 +1038,77 @@ impl Renderer {
     pub fn film(&mut self) -> Result<Film, GpuError> {
         let mut film = Film::for_sums(self.params.width, self.params.height, self.samples_done);
         self.each_strip(|strip| film.push_sums(strip))?;
+        let mut at = 0;
+        self.each_splat_strip(|chunk| {
+            film.push_splatted(at, chunk);
+            at += chunk.len();
+        })?;
         Ok(film)
+    }
+
+    /// Whether the render splats its samples (`render.splat`).
+    pub fn splats(&self) -> bool {
+        self.splat.is_some()
+    }
+
+    /// A splatted render's splatted sums, exactly as the GPU holds them (empty for a render that does
+    /// not splat).
+    pub fn splat_state(&mut self) -> Result<Vec<GpuSplatAccum>, GpuError> {
+        let mut out = Vec::new();
+        self.each_splat_strip(|chunk| out.extend_from_slice(chunk))?;
+        Ok(out)
+    }
+
+    /// Calls `f` on the splatted sums, as [`Renderer::each_strip`] does on the per-pixel ones; nothing
+    /// for a render that does not splat.
+    fn each_splat_strip(&mut self, mut f: impl FnMut(&[GpuSplatAccum])) -> Result<(), GpuError> {
+        const CHUNK: usize = 4096;
+        self.check_usable()?;
+        let Some(splat) = &self.splat else {
+            return Ok(());
+        };
+        let size = std::mem::size_of::<GpuSplatAccum>();
+        for (buffer, rows) in splat.strips.iter().zip(&self.layout.strips) {
+            self.kernel
+                .submit(&[Command::Copy(buffer, &self.staging)])?;
+            let n = (rows[1] - rows[0]) as usize * self.params.width as usize;
+            let bytes = self
+                .staging
+                .read_bytes()?
+                .get(..n * size)
+                .ok_or_else(|| GpuError::Usage("accumulator staging is too small".into()))?;
+            for chunk in bytes.chunks(CHUNK * size) {
+                f(&bytemuck::pod_collect_to_vec::<u8, GpuSplatAccum>(chunk));
+            }
+        }
+        Ok(())
+    }
+
+    /// Puts a splatted render's splatted sums back on the device (after [`Renderer::restore`], from the
+    /// same state). Refused for a render that does not splat, or with the wrong number of pixels.
+    pub fn restore_splat(&mut self, sums: &[GpuSplatAccum]) -> Result<(), GpuError> {
+        let pixels = self.params.width as usize * self.params.height as usize;
+        let Some(splat) = &self.splat else {
+            return Err(GpuError::Usage(
+                "restore of splatted sums into a render that does not splat".into(),
+            ));
+        };
+        if sums.len() != pixels {
+            return Err(GpuError::Usage(format!(
+                "restore of {} splatted pixels into a {}x{} image",
+                sums.len(),
+                self.params.width,
+                self.params.height
+            )));
+        }
+        let width = self.params.width as usize;
+        for (buffer, rows) in splat.strips.iter().zip(&self.layout.strips) {
+            let (a, b) = (rows[0] as usize * width, rows[1] as usize * width);
+            self.staging.write(bytemuck::cast_slice(&sums[a..b]))?;
+            self.kernel
+                .submit(&[Command::Copy(&self.staging, buffer)])?;
+        }
+        Ok(())
     }
 }
 

@@ -243,6 +243,29 @@ pub fn bounces_as_written(max_bounces: u32) -> i64 {
     }
 }
 
+impl RenderSettings {
+    /// Whether the render splats its samples (`render.splat`). Splatting needs a filter wider than
+    /// its pixel (tent, Gaussian) and samples that stay on the image (`sample_border = false`: the
+    /// film has no pixels beyond the edges to trace). Not set, it splats wherever it can: at equal
+    /// samples the weighted average has less variance than one pixel's own filter-importance-sampled
+    /// samples (docs/speed-vs-accuracy.md, "Splatting").
+    pub fn splats(&self) -> bool {
+        self.can_splat() && self.splat.unwrap_or(true)
+    }
+
+    /// Whether this filter and border can be splatted (see [`RenderSettings::splats`]).
+    /// The gather reaches K = ceil(R - 1/2) pixels each way for a filter of radius R
+    /// (`render::splat::reach`), and sums a sample's (2K + 1)^2 weights in 32 bits: K <= 7, R <= 7.5.
+    pub fn can_splat(&self) -> bool {
+        let radius = match self.filter {
+            Filter::Tent => self.filter_radius,
+            Filter::Gaussian => 4.0 * self.filter_sigma,
+            Filter::Box | Filter::None => return false,
+        };
+        radius <= 7.5 && !self.sample_border
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
     pub samples: u32,
@@ -258,6 +281,11 @@ pub struct RenderSettings {
     /// does inside. False: samples stay on the image, an edge pixel's filter is cut off there and
     /// renormalised (Mitsuba 3's hdrfilm with its default `sample_border = false`).
     pub sample_border: bool,
+    /// `render.splat`: each radiance sample is splatted into every pixel its filter covers, with the
+    /// filter's weight, and a pixel is the weighted average of what it received (Mitsuba 3's film);
+    /// else each sample counts for its own pixel only, its position drawn from that pixel's filter.
+    /// `None` (not in the file): [`RenderSettings::splats`] decides.
+    pub splat: Option<bool>,
     pub sampler: Sampler,
     pub light_sampling: LightSampling,
     /// `render.clamp`: each sample's radiance is scaled down so that its largest channel is at most this

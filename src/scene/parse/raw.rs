@@ -74,6 +74,7 @@ pub(super) struct RawRender {
     pub(super) filter_sigma: Option<Spanned<f32>>,
     pub(super) filter_radius: Option<Spanned<f32>>,
     pub(super) sample_border: Option<Spanned<bool>>,
+    pub(super) splat: Option<Spanned<bool>>,
     pub(super) background: Option<Spanned<RawVec3>>,
     pub(super) sampler: Option<Spanned<String>>,
     pub(super) light_sampling: Option<Spanned<String>>,

@@ -405,10 +405,24 @@ impl Checker<'_> {
             filter_sigma,
             filter_radius,
             sample_border: raw.sample_border.as_ref().is_none_or(|b| *b.get_ref()),
+            splat: raw.splat.as_ref().map(|b| *b.get_ref()),
             sampler,
             light_sampling,
             clamp,
         };
+        if let Some(splat) = &raw.splat
+            && *splat.get_ref()
+            && !settings.can_splat()
+        {
+            return Err(self.error(
+                splat.span(),
+                "render.splat",
+                "splatting needs a tent or Gaussian filter of radius at most 7.5 pixels and samples                  that stay on the image"
+                    .to_string(),
+                "Set filter = \"tent\" or \"gaussian\" and sample_border = false, or leave splat out \
+                 (each pixel then keeps its own samples).",
+            ));
+        }
         Ok((settings, background))
     }
 }
