@@ -463,6 +463,13 @@ enum SamplerArg {
     Sobol,
 }
 
+/// `--splat` (render.splat in the scene file).
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum OnOff {
+    On,
+    Off,
+}
+
 #[derive(Args)]
 pub struct RenderArgs {
     /// Scene file: TOML, glTF 2.0 (.gltf, .glb) or Mitsuba 3 XML (.xml). Default: the embedded course scene.
@@ -519,6 +526,12 @@ pub struct RenderArgs {
     /// Where random numbers come from (overrides the scene's render.sampler).
     #[arg(long, value_enum)]
     sampler: Option<SamplerArg>,
+    /// Splat each sample into every pixel its filter covers, a pixel the weighted average of what it
+    /// received (overrides the scene's render.splat). Default: on where the filter is a tent or a
+    /// Gaussian and samples stay on the image (sample_border = false, Mitsuba's files), off with
+    /// --denoise (the denoiser wants each pixel's own samples).
+    #[arg(long, value_enum)]
+    splat: Option<OnOff>,
     /// How sphere lights are sampled (overrides the scene's render.light_sampling).
     #[arg(long = "light-sampling", value_parser = light_sampling_names())]
     light_sampling: Option<String>,
@@ -612,6 +625,20 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
     }
     if let Some(s) = a.seed {
         scene.render.seed = s;
+    }
+    match a.splat {
+        Some(OnOff::On) if !scene.render.can_splat() => {
+            return Err(usage(
+                "--splat on needs a tent or Gaussian filter of radius at most 7.5 pixels and samples \
+                 that stay on the image (render.filter, render.sample_border = false in the scene).",
+            ));
+        }
+        Some(on) => scene.render.splat = Some(matches!(on, OnOff::On)),
+        // The denoiser reads each pixel's own estimate, whose noise is independent of its neighbours'.
+        None if (a.denoise || scene.image.denoise) && scene.render.splat.is_none() => {
+            scene.render.splat = Some(false);
+        }
+        None => {}
     }
     if let Some(path) = &a.environment {
         // The same reader and checks as the scene file's [environment] map; radiance 1, no rotation.

@@ -580,7 +580,19 @@ impl Renderer {
             .min(MAX_PATHS_IN_FLIGHT)
             .max(fixed_tile)
             .max(64);
-        check_device_memory(ctx, &gpu, &layout, path_slots, options.host_bytes_per_pixel)?;
+        let splat_bytes = if params.splat != 0 {
+            splat::device_bytes(ctx, &params)
+        } else {
+            0
+        };
+        check_device_memory(
+            ctx,
+            &gpu,
+            &layout,
+            path_slots,
+            options.host_bytes_per_pixel,
+            splat_bytes,
+        )?;
         let mut kernel = Kernel::new(ctx, &compiled)?;
         let bound = upload_scene(ctx, &mut kernel, &gpu, &params)?;
         // Device-local: every sample reads and writes its pixel's sums, one buffer per strip of rows. The
@@ -1284,6 +1296,7 @@ fn check_device_memory(
     layout: &tiles::TileLayout,
     path_slots: u64,
     host_bytes_per_pixel: u64,
+    splat_bytes: u64,
 ) -> Result<(), GpuError> {
     let info = ctx.device_info();
     let range = u64::from(info.max_storage_buffer_range);
@@ -1431,13 +1444,14 @@ fn check_device_memory(
     // The staging buffer is host-visible; on a discrete GPU it is not device memory, but counting it
     // keeps the check simple and errs on the side of refusing.
     let paths = path_slots * (PATH_STATE_BYTES + 8);
-    let total = scene_bytes + accum + layout.max_strip_bytes() + paths;
+    let total = scene_bytes + accum + layout.max_strip_bytes() + paths + splat_bytes;
     let available = info.device_local_memory_bytes;
     if available > 0 && total > available {
         return Err(GpuError::Limit(format!(
             "this render needs {:.0} MiB of device memory ({:.0} MiB of accumulator for {}x{} pixels at \
-             {} bytes each, {:.0} MiB of staging, {:.0} MiB of paths in flight, {:.0} MiB of scene), and \
-             {} has {:.0} MiB. Render a smaller image, or use a device with more memory (VKPATH_DEVICE).",
+             {} bytes each, {:.0} MiB of staging, {:.0} MiB of paths in flight, {:.0} MiB of splatting \
+             (render.splat), {:.0} MiB of scene), and {} has {:.0} MiB. Render a smaller image, or use a \
+             device with more memory (VKPATH_DEVICE).",
             mib(total),
             mib(accum),
             layout.width,
@@ -1445,6 +1459,7 @@ fn check_device_memory(
             tiles::ACCUM_BYTES_PER_PIXEL,
             mib(layout.max_strip_bytes()),
             mib(paths),
+            mib(splat_bytes),
             mib(scene_bytes),
             info.name,
             mib(available)

@@ -55,6 +55,20 @@ pub fn gather_chunk(reach: u32) -> u32 {
     ((LAVAPIPE_LOOP_BUDGET - 64) / per_sample).max(1) as u32
 }
 
+/// The most records' bytes one pass may take on this device.
+fn record_budget(ctx: &GpuContext) -> u64 {
+    MAX_RECORD_BYTES.min(u64::from(ctx.limits.max_storage_buffer_range))
+}
+
+/// Device bytes of a splatted render of `params`' image: the records of the longest pass and the
+/// splatted sums.
+pub fn device_bytes(ctx: &GpuContext, params: &GpuParams) -> u64 {
+    let pixels = u64::from(params.width) * u64::from(params.height);
+    let per_sample = pixels * SPLAT_RECORD_BYTES;
+    let records = (record_budget(ctx) / per_sample.max(1)).max(1) * per_sample;
+    records + pixels * SPLAT_ACCUM_BYTES_PER_PIXEL
+}
+
 /// The gather kernel, compiled once per process (it does not depend on the scene).
 fn gather_shader() -> Result<Arc<CompiledShader>, GpuError> {
     static SHADER: OnceLock<Result<Arc<CompiledShader>, String>> = OnceLock::new();
@@ -92,7 +106,7 @@ impl Splat {
     ) -> Result<Splat, GpuError> {
         let pixels = u64::from(params.width) * u64::from(params.height);
         let per_sample = pixels * SPLAT_RECORD_BYTES;
-        let most = MAX_RECORD_BYTES.min(u64::from(ctx.limits.max_storage_buffer_range));
+        let most = record_budget(ctx);
         if per_sample > most {
             return Err(GpuError::Limit(format!(
                 "a splatted render of {}x{} needs {per_sample} bytes for one sample of every pixel, more \
