@@ -18,43 +18,54 @@ pub const UNIT_EXP: i32 = -96;
 /// larger samples are clamped to it.
 pub const MAX_SAMPLE: f32 = f32::from_bits(0x5f7f_ffff);
 
-/// One channel's limbs, least significant first: `sum[3 k + c]` for k = 0..ACCUM_LIMBS (the GPU keeps
-/// the limbs limb-major, so that one vec3 operation adds a limb of all three channels).
-pub fn channel(accum: &GpuAccum, c: usize) -> [u32; ACCUM_LIMBS] {
-    std::array::from_fn(|k| accum.sum[3 * k + c])
+/// The three channels' exact sums as the GPU keeps them, limb-major: `sum[3 k + c]` is limb k of channel
+/// c (`GpuAccum::sum`, and `GpuSplatAccum::sum` for the splatted sums of w L).
+pub type Sums = [u32; 3 * ACCUM_LIMBS];
+
+/// One channel's limbs of `sum`, least significant first: `sum[3 k + c]` for k = 0..ACCUM_LIMBS (the
+/// GPU keeps the limbs limb-major, so that one vec3 operation adds a limb of all three channels).
+pub fn sums_channel(sum: &Sums, c: usize) -> [u32; ACCUM_LIMBS] {
+    std::array::from_fn(|k| sum[3 * k + c])
 }
 
-/// Adds `other`'s sums into `acc`'s, channel by channel, exactly. Returns false on overflow (see [`add`]).
-pub fn add_sums(acc: &mut GpuAccum, other: &GpuAccum) -> bool {
+/// One channel's limbs of a pixel's sums of samples ([`sums_channel`]).
+pub fn channel(accum: &GpuAccum, c: usize) -> [u32; ACCUM_LIMBS] {
+    sums_channel(&accum.sum, c)
+}
+
+/// `acc += other`, channel by channel, exactly. Returns false on overflow (see [`add`]).
+pub fn add_channels(acc: &mut Sums, other: &Sums) -> bool {
     let mut ok = true;
     for c in 0..3 {
-        let mut limbs = channel(acc, c);
-        ok &= add(&mut limbs, &channel(other, c));
-        set_channel(acc, c, &limbs);
+        let mut limbs = sums_channel(acc, c);
+        ok &= add(&mut limbs, &sums_channel(other, c));
+        set_sums_channel(acc, c, &limbs);
     }
     ok
 }
 
-/// Writes channel c's limbs (least significant first) into `accum`.
-pub fn set_channel(accum: &mut GpuAccum, c: usize, limbs: &[u32; ACCUM_LIMBS]) {
+/// Adds `other`'s sums into `acc`'s, channel by channel, exactly. Returns false on overflow (see [`add`]).
+pub fn add_sums(acc: &mut GpuAccum, other: &GpuAccum) -> bool {
+    add_channels(&mut acc.sum, &other.sum)
+}
+
+/// Writes channel c's limbs (least significant first) into `sum`.
+pub fn set_sums_channel(sum: &mut Sums, c: usize, limbs: &[u32; ACCUM_LIMBS]) {
     for (k, &l) in limbs.iter().enumerate() {
-        accum.sum[3 * k + c] = l;
+        sum[3 * k + c] = l;
     }
 }
 
-/// `acc += other` for splatted sums (`GpuSplatAccum`): each channel's exact sum and the weights' 64-bit
-/// integer, with carry: exact. Returns false on an overflow (more than 2^32 samples of the largest value).
+/// Writes channel c's limbs (least significant first) into a pixel's sums of samples.
+pub fn set_channel(accum: &mut GpuAccum, c: usize, limbs: &[u32; ACCUM_LIMBS]) {
+    set_sums_channel(&mut accum.sum, c, limbs);
+}
+
+/// `acc += other` for splatted sums (`GpuSplatAccum`): each channel's exact sum of w L and the weights'
+/// 64-bit integer, with carry: exact. Returns false on an overflow (more than 2^32 samples of the
+/// largest value).
 pub fn add_splat(acc: &mut GpuSplatAccum, other: &GpuSplatAccum) -> bool {
-    let mut ok = true;
-    for c in 0..3 {
-        let mut a: [u32; ACCUM_LIMBS] = std::array::from_fn(|k| acc.sum[3 * k + c]);
-        let b: [u32; ACCUM_LIMBS] = std::array::from_fn(|k| other.sum[3 * k + c]);
-        ok &= add(&mut a, &b);
-        for (k, l) in a.iter().enumerate() {
-            acc.sum[3 * k + c] = *l;
-        }
-    }
-    ok & add(&mut acc.weight, &other.weight)
+    add_channels(&mut acc.sum, &other.sum) & add(&mut acc.weight, &other.weight)
 }
 
 /// The f64 nearest to the exact sum held in `limbs` (round to nearest, ties to even): the only rounding

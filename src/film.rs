@@ -110,10 +110,8 @@ impl Film {
                 continue;
             }
             for (c, v) in m.iter_mut().enumerate() {
-                let limbs: Vec<u32> = (0..crate::kernel::abi::ACCUM_LIMBS)
-                    .map(|k| s.sum[3 * k + c])
-                    .collect();
-                *v = (crate::accum::to_f64(&limbs) / w) as f32;
+                let sum = crate::accum::to_f64(&crate::accum::sums_channel(&s.sum, c));
+                *v = (sum / w) as f32;
             }
         }
     }

@@ -24,6 +24,8 @@
 //! | P | the pixels' `GpuAccum`s, byte-planar in blocks, compressed by Zstandard (below) |
 //! | 8 | only when the header has `aux_samples`: aux length Q (u64) |
 //! | Q | only then: the denoiser's aux images ([`Aux`]: albedo RGB then normal XYZ, f32, compressed) |
+//! | 8 | only when the header has `splat`: splat length S (u64) |
+//! | S | only then: a splatted render's `GpuSplatAccum`s, byte-planar and compressed as the pixels are |
 //! | 4 | CRC-32 (IEEE) of every byte before it: magic, version, header, lengths and payloads |
 //!
 //! The pixels are row-major from the top-left; each is 96 bytes: 18 u32 limbs (3 channels × 6,
@@ -348,35 +350,31 @@ impl Checkpoint {
             message: format!("cannot encode the checkpoint header: {e}"),
         })?;
         let payload = compress(&self.accum).map_err(encoding)?;
-        // The aux section, when the header announces it (and only then: the two must agree).
-        let aux = match (&self.aux, self.header.aux_samples) {
-            (Some(aux), Some(_)) => {
-                let bytes = compress_aux(aux).map_err(encoding)?;
-                [&(bytes.len() as u64).to_le_bytes()[..], &bytes].concat()
+        // The optional sections, each when the header announces it (and only then: the two must
+        // agree): its length, then its compressed bytes.
+        let section = |bytes: Option<std::io::Result<Vec<u8>>>, announced: bool, what: &str| match (
+            bytes, announced,
+        ) {
+            (Some(bytes), true) => {
+                let bytes = bytes.map_err(encoding)?;
+                Ok([&(bytes.len() as u64).to_le_bytes()[..], &bytes].concat())
             }
-            (None, None) => Vec::new(),
-            _ => {
-                return Err(Error::Io {
-                    path: path.to_path_buf(),
-                    message: "the checkpoint's aux images and its header disagree (a bug)".into(),
-                });
-            }
+            (None, false) => Ok(Vec::new()),
+            _ => Err(Error::Io {
+                path: path.to_path_buf(),
+                message: format!("the checkpoint's {what} and its header disagree (a bug)"),
+            }),
         };
-        // The splatted sums, likewise.
-        let splat = match (&self.splat, self.header.splat) {
-            (Some(splat), true) => {
-                let bytes = compress_splat(splat).map_err(encoding)?;
-                [&(bytes.len() as u64).to_le_bytes()[..], &bytes].concat()
-            }
-            (None, false) => Vec::new(),
-            _ => {
-                return Err(Error::Io {
-                    path: path.to_path_buf(),
-                    message: "the checkpoint's splatted sums and its header disagree (a bug)"
-                        .into(),
-                });
-            }
-        };
+        let aux = section(
+            self.aux.as_ref().map(compress_aux),
+            self.header.aux_samples.is_some(),
+            "aux images",
+        )?;
+        let splat = section(
+            self.splat.as_deref().map(compress),
+            self.header.splat,
+            "splatted sums",
+        )?;
         let header_len = u32::try_from(json.len()).unwrap_or(u32::MAX);
         let head = [
             &MAGIC[..],
@@ -558,61 +556,49 @@ impl Checkpoint {
         let mut payload = vec![0u8; payload_len as usize];
         r.read_exact(&mut payload).map_err(Decode::Io)?;
         crc.update(&payload);
-        let mut aux_payload = Vec::new();
-        if header.aux_samples.is_some() {
+        // The optional sections, aux images then splatted sums: each its length and its compressed
+        // bytes, present when the header announces it (only compressed files hold them). After the last,
+        // exactly the checksum remains.
+        let mut consumed = if compressed {
+            8 + payload_len
+        } else {
+            payload_len
+        };
+        let mut section = |announced: bool, what: &str, decoded: u64| -> Result<Vec<u8>, Decode> {
+            if !announced {
+                return Ok(Vec::new());
+            }
             if !compressed {
-                return Err(invalid(
-                    "its header announces aux images, which only compressed files hold".into(),
-                ));
+                return Err(invalid(format!(
+                    "its header announces {what}, which only compressed files hold"
+                )));
             }
             let mut l = [0u8; 8];
             r.read_exact(&mut l).map_err(Decode::Io)?;
             crc.update(&l);
-            let aux_len = u64::from_le_bytes(l);
-            let max = max_compressed_len(pixels * AUX_BYTES as u64);
-            let rest = if header.splat { 8 } else { 0 };
-            if aux_len > max || held < 8 + payload_len + 8 + aux_len + rest + 4 {
+            let len = u64::from_le_bytes(l);
+            let max = max_compressed_len(decoded);
+            if len > max || held < consumed + 8 + len + 4 {
                 return Err(truncated(format!(
-                    "8 bytes of length, {payload_len} of compressed pixels, 8 of aux length, {aux_len} of \
-                     aux images (at most {max}) and 4 of checksum"
+                    "{consumed} bytes of lengths and compressed data, 8 of the {what}' length, {len} of \
+                     {what} (at most {max}) and 4 of checksum"
                 )));
             }
-            aux_payload = vec![0u8; aux_len as usize];
-            r.read_exact(&mut aux_payload).map_err(Decode::Io)?;
-            crc.update(&aux_payload);
-        }
-        let mut splat_payload = Vec::new();
-        if header.splat {
-            if !compressed {
-                return Err(invalid(
-                    "its header announces splatted sums, which only compressed files hold".into(),
-                ));
-            }
-            let before = 8
-                + payload_len
-                + aux_payload.len() as u64
-                + if header.aux_samples.is_some() { 8 } else { 0 };
-            let mut l = [0u8; 8];
-            r.read_exact(&mut l).map_err(Decode::Io)?;
-            crc.update(&l);
-            let splat_len = u64::from_le_bytes(l);
-            let max = max_compressed_len(pixels * SPLAT_BYTES as u64);
-            if splat_len > max || held != before + 8 + splat_len + 4 {
-                return Err(truncated(format!(
-                    "{before} bytes of pixels and aux images, 8 of splat length, {splat_len} of \
-                     splatted sums (at most {max}) and 4 of checksum"
-                )));
-            }
-            splat_payload = vec![0u8; splat_len as usize];
-            r.read_exact(&mut splat_payload).map_err(Decode::Io)?;
-            crc.update(&splat_payload);
-        } else if header.aux_samples.is_some()
-            && held != 8 + payload_len + 8 + aux_payload.len() as u64 + 4
-        {
+            let mut bytes = vec![0u8; len as usize];
+            r.read_exact(&mut bytes).map_err(Decode::Io)?;
+            crc.update(&bytes);
+            consumed += 8 + len;
+            Ok(bytes)
+        };
+        let aux_payload = section(
+            header.aux_samples.is_some(),
+            "aux images",
+            pixels * AUX_BYTES as u64,
+        )?;
+        let splat_payload = section(header.splat, "splatted sums", pixels * SPLAT_BYTES as u64)?;
+        if held != consumed + 4 {
             return Err(truncated(format!(
-                "8 bytes of length, {payload_len} of compressed pixels, 8 of aux length, {} of aux \
-                 images and 4 of checksum",
-                aux_payload.len()
+                "{consumed} bytes of lengths and compressed data and 4 of checksum"
             )));
         }
         let mut stored = [0u8; 4];
@@ -650,14 +636,12 @@ impl Checkpoint {
             None
         };
         let splat = if header.splat {
-            Some(
-                decompress_splat(&splat_payload, pixels as usize).map_err(|e| {
-                    invalid(format!(
-                        "its splatted sums do not decompress to {}x{} pixels ({e})",
-                        id.width, id.height
-                    ))
-                })?,
-            )
+            Some(decompress(&splat_payload, pixels as usize).map_err(|e| {
+                invalid(format!(
+                    "its splatted sums do not decompress to {}x{} pixels ({e})",
+                    id.width, id.height
+                ))
+            })?)
         } else {
             None
         };
@@ -755,8 +739,8 @@ struct Head {
     pixels: u64,
 }
 
-/// The pixels as little-endian bytes.
-fn accum_bytes(accum: &[GpuAccum]) -> std::borrow::Cow<'_, [u8]> {
+/// The pixels (4-byte words only) as little-endian bytes.
+fn accum_bytes<T: bytemuck::Pod>(accum: &[T]) -> std::borrow::Cow<'_, [u8]> {
     if cfg!(target_endian = "little") {
         std::borrow::Cow::Borrowed(bytemuck::cast_slice(accum))
     } else {
@@ -774,9 +758,9 @@ fn accum_from_bytes(bytes: &[u8]) -> Vec<GpuAccum> {
         .collect()
 }
 
-/// One pixel from its 96 little-endian bytes.
-fn pixel_from_bytes(px: &[u8]) -> GpuAccum {
-    let mut a = GpuAccum::default();
+/// One pixel (a `GpuAccum` or a `GpuSplatAccum`: 4-byte words only) from its little-endian bytes.
+fn pixel_from_bytes<T: bytemuck::Pod>(px: &[u8]) -> T {
+    let mut a = T::zeroed();
     let words: &mut [u32] = bytemuck::cast_slice_mut(std::slice::from_mut(&mut a));
     for (w, b) in words.iter_mut().zip(px.chunks_exact(4)) {
         *w = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
@@ -836,72 +820,40 @@ fn decompress_aux(payload: &[u8], pixels: usize) -> std::io::Result<Aux> {
 /// Bytes per pixel of the splatted sums decoded.
 const SPLAT_BYTES: usize = std::mem::size_of::<GpuSplatAccum>();
 
-/// The splatted sums as their little-endian bytes, compressed by Zstandard (deterministic).
-fn compress_splat(splat: &[GpuSplatAccum]) -> std::io::Result<Vec<u8>> {
-    let mut encoder = zstd::stream::write::Encoder::new(Vec::new(), ZSTD_LEVEL)?;
-    encoder.include_checksum(false)?;
-    encoder.include_contentsize(false)?;
-    for px in splat {
-        for w in px.sum.iter().chain(&px.weight) {
-            encoder.write_all(&w.to_le_bytes())?;
-        }
-    }
-    encoder.finish()
-}
-
-/// The splatted sums of `pixels` pixels from their compressed bytes (exactly that many, nothing after).
-fn decompress_splat(payload: &[u8], pixels: usize) -> std::io::Result<Vec<GpuSplatAccum>> {
-    let mut decoder = zstd::stream::read::Decoder::new(payload)?;
-    let mut out = Vec::new();
-    let mut px = [0u8; SPLAT_BYTES];
-    for _ in 0..pixels {
-        decoder.read_exact(&mut px)?;
-        let mut words = px
-            .chunks_exact(4)
-            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
-        let mut entry = GpuSplatAccum::default();
-        for v in entry.sum.iter_mut().chain(entry.weight.iter_mut()) {
-            *v = words.next().expect("SPLAT_BYTES words");
-        }
-        out.push(entry);
-    }
-    if decoder.read(&mut [0u8; 1])? != 0 {
-        return Err(std::io::Error::other("more data than the pixels"));
-    }
-    Ok(out)
-}
-
-/// The pixels, byte-planar by blocks (see the module's documentation), compressed by Zstandard.
-fn compress(accum: &[GpuAccum]) -> std::io::Result<Vec<u8>> {
+/// The pixels (`GpuAccum`s, or a splatted render's `GpuSplatAccum`s), byte-planar by blocks (see the
+/// module's documentation), compressed by Zstandard.
+fn compress<T: bytemuck::Pod>(accum: &[T]) -> std::io::Result<Vec<u8>> {
+    let size = std::mem::size_of::<T>();
     let mut encoder = zstd::stream::write::Encoder::new(Vec::new(), ZSTD_LEVEL)?;
     // The file's CRC-32 covers the payload; Zstandard's own frame checksum would only repeat it.
     encoder.include_checksum(false)?;
     encoder.include_contentsize(false)?;
-    let mut planes = vec![0u8; PLANAR_BLOCK * ACCUM_BYTES];
+    let mut planes = vec![0u8; PLANAR_BLOCK * size];
     for block in accum.chunks(PLANAR_BLOCK) {
         let n = block.len();
-        for (p, px) in accum_bytes(block).chunks_exact(ACCUM_BYTES).enumerate() {
+        for (p, px) in accum_bytes(block).chunks_exact(size).enumerate() {
             for (b, &v) in px.iter().enumerate() {
                 planes[b * n + p] = v;
             }
         }
-        encoder.write_all(&planes[..n * ACCUM_BYTES])?;
+        encoder.write_all(&planes[..std::mem::size_of_val(block)])?;
     }
     encoder.finish()
 }
 
 /// `pixels` pixels from a compressed payload: exactly that many, or an error (a payload that
 /// decompresses to more or fewer bytes is refused, and never allocates more than the pixels need).
-fn decompress(payload: &[u8], pixels: usize) -> std::io::Result<Vec<GpuAccum>> {
+fn decompress<T: bytemuck::Pod>(payload: &[u8], pixels: usize) -> std::io::Result<Vec<T>> {
+    let size = std::mem::size_of::<T>();
     let mut decoder = zstd::stream::read::Decoder::new(payload)?;
     // Grown block by block as the payload decodes, not reserved whole: a short payload that claims many
     // pixels fails after allocating what it held.
     let mut accum = Vec::new();
-    let mut planes = vec![0u8; PLANAR_BLOCK.min(pixels) * ACCUM_BYTES];
-    let mut px = [0u8; ACCUM_BYTES];
+    let mut planes = vec![0u8; PLANAR_BLOCK.min(pixels) * size];
+    let mut px = vec![0u8; size];
     while accum.len() < pixels {
         let n = PLANAR_BLOCK.min(pixels - accum.len());
-        decoder.read_exact(&mut planes[..n * ACCUM_BYTES])?;
+        decoder.read_exact(&mut planes[..n * size])?;
         accum.reserve(n);
         for p in 0..n {
             for (b, v) in px.iter_mut().enumerate() {

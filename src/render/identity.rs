@@ -105,6 +105,9 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
     } = gpu;
     let mut render = *render;
     render.samples = 0;
+    // Whether the render splats is hashed as decided (`params.splat`), not as written: `splat = true`
+    // written and left to its default are one render, and scenes from before the key keep their hash.
+    render.splat = None;
     let mut h = Fnv64::new();
     h.bytes(b"vkpath scene v1");
     // Debug prints every field, floats in their shortest round-trip form: a faithful serialisation.

@@ -388,23 +388,79 @@ pub fn uniform_arrays_help(info: &crate::gpu::DeviceInfo) -> bool {
         && info.lavapipe_mesa.is_none_or(|[major, _]| major < 26)
 }
 
+/// Pixels converted per copy out of the mapped staging buffer (which need not be aligned for the
+/// entries): 4096, 384 KiB of `GpuAccum`s.
+const STRIP_CHUNK: usize = 4096;
+
+/// One device-local buffer of `bytes_per_pixel` per pixel for each strip of rows of `layout`: the
+/// accumulator's, and a splatted render's splatted sums.
+fn strip_buffers(
+    ctx: &Arc<GpuContext>,
+    layout: &tiles::TileLayout,
+    name: &str,
+    bytes_per_pixel: u64,
+) -> Result<Vec<Buffer>, GpuError> {
+    (0..layout.strips.len())
+        .map(|i| Buffer::device_storage(ctx, name, layout.strip_pixels(i) * bytes_per_pixel))
+        .collect()
+}
+
 /// One device-local accumulator buffer per strip of rows of `layout`.
 fn allocate_strips(
     ctx: &Arc<GpuContext>,
     layout: &tiles::TileLayout,
 ) -> Result<Vec<Strip>, GpuError> {
-    layout
-        .strips
-        .iter()
-        .enumerate()
-        .map(|(i, rows)| {
-            let bytes = layout.strip_pixels(i) * tiles::ACCUM_BYTES_PER_PIXEL;
-            Ok(Strip {
-                rows: *rows,
-                buffer: Buffer::device_storage(ctx, "accumulator", bytes)?,
-            })
+    let buffers = strip_buffers(ctx, layout, "accumulator", tiles::ACCUM_BYTES_PER_PIXEL)?;
+    Ok(buffers
+        .into_iter()
+        .zip(&layout.strips)
+        .map(|(buffer, rows)| Strip {
+            rows: *rows,
+            buffer,
         })
-        .collect()
+        .collect())
+}
+
+/// Calls `f` on the entries of `buffers` (one buffer per strip of `layout`, one `T` per pixel, row-major
+/// from the top), each strip copied to `staging` and read back [`STRIP_CHUNK`] pixels at a time.
+fn read_strips<'a, T: bytemuck::Pod>(
+    kernel: &mut Kernel,
+    staging: &Buffer,
+    layout: &tiles::TileLayout,
+    buffers: impl Iterator<Item = &'a Buffer>,
+    mut f: impl FnMut(&[T]),
+) -> Result<(), GpuError> {
+    let size = std::mem::size_of::<T>();
+    for (buffer, rows) in buffers.zip(&layout.strips) {
+        kernel.submit(&[Command::Copy(buffer, staging)])?;
+        let n = (rows[1] - rows[0]) as usize * layout.width as usize;
+        let bytes = staging
+            .read_bytes()?
+            .get(..n * size)
+            .ok_or_else(|| GpuError::Usage("accumulator staging is too small".into()))?;
+        for chunk in bytes.chunks(STRIP_CHUNK * size) {
+            f(&bytemuck::pod_collect_to_vec::<u8, T>(chunk));
+        }
+    }
+    Ok(())
+}
+
+/// Puts `data` (one `T` per pixel, row-major from the top) into `buffers` (one per strip of `layout`)
+/// through `staging`.
+fn write_strips<'a, T: bytemuck::Pod>(
+    kernel: &mut Kernel,
+    staging: &mut Buffer,
+    layout: &tiles::TileLayout,
+    buffers: impl Iterator<Item = &'a Buffer>,
+    data: &[T],
+) -> Result<(), GpuError> {
+    let width = layout.width as usize;
+    for (buffer, rows) in buffers.zip(&layout.strips) {
+        let (a, b) = (rows[0] as usize * width, rows[1] as usize * width);
+        staging.write(bytemuck::cast_slice(&data[a..b]))?;
+        kernel.submit(&[Command::Copy(staging, buffer)])?;
+    }
+    Ok(())
 }
 
 /// Uploads the arrays the (specialised) kernel still reads, each under its WGSL name: a scene without
@@ -973,27 +1029,12 @@ impl Renderer {
     }
 
     /// Calls `f` on each strip's pixels in turn (row-major from the top), read back through the staging
-    /// buffer `STRIP_CHUNK` pixels at a time: the host holds no more than a chunk of the accumulator
+    /// buffer [`STRIP_CHUNK`] pixels at a time: the host holds no more than a chunk of the accumulator
     /// beyond what `f` keeps.
-    fn each_strip(&mut self, mut f: impl FnMut(&[GpuAccum])) -> Result<(), GpuError> {
-        /// Pixels converted per copy out of the mapped staging buffer (which need not be aligned for
-        /// `GpuAccum`): 384 KiB.
-        const STRIP_CHUNK: usize = 4096;
+    fn each_strip(&mut self, f: impl FnMut(&[GpuAccum])) -> Result<(), GpuError> {
         self.check_usable()?;
-        for s in &self.strips {
-            self.kernel
-                .submit(&[Command::Copy(&s.buffer, &self.staging)])?;
-            let n = (s.rows[1] - s.rows[0]) as usize * self.params.width as usize;
-            let bytes = self
-                .staging
-                .read_bytes()?
-                .get(..n * std::mem::size_of::<GpuAccum>())
-                .ok_or_else(|| GpuError::Usage("accumulator staging is too small".into()))?;
-            for chunk in bytes.chunks(STRIP_CHUNK * std::mem::size_of::<GpuAccum>()) {
-                f(&bytemuck::pod_collect_to_vec::<u8, GpuAccum>(chunk));
-            }
-        }
-        Ok(())
+        let buffers = self.strips.iter().map(|s| &s.buffer);
+        read_strips(&mut self.kernel, &self.staging, &self.layout, buffers, f)
     }
 
     /// Puts an accumulation state (from [`Renderer::accum_state`], a checkpoint or a merge) back on the
@@ -1015,13 +1056,14 @@ impl Renderer {
             .sum();
         let samples = u32::try_from(samples)
             .map_err(|_| GpuError::Usage("restore of more than 2^32 - 1 samples".into()))?;
-        let width = self.params.width as usize;
-        for s in &self.strips {
-            let (a, b) = (s.rows[0] as usize * width, s.rows[1] as usize * width);
-            self.staging.write(bytemuck::cast_slice(&accum[a..b]))?;
-            self.kernel
-                .submit(&[Command::Copy(&self.staging, &s.buffer)])?;
-        }
+        let buffers = self.strips.iter().map(|s| &s.buffer);
+        write_strips(
+            &mut self.kernel,
+            &mut self.staging,
+            &self.layout,
+            buffers,
+            accum,
+        )?;
         self.poisoned = None;
         self.ranges = ranges.to_vec();
         self.samples_done = samples;
@@ -1073,27 +1115,18 @@ impl Renderer {
 
     /// Calls `f` on the splatted sums, as [`Renderer::each_strip`] does on the per-pixel ones; nothing
     /// for a render that does not splat.
-    fn each_splat_strip(&mut self, mut f: impl FnMut(&[GpuSplatAccum])) -> Result<(), GpuError> {
-        const CHUNK: usize = 4096;
+    fn each_splat_strip(&mut self, f: impl FnMut(&[GpuSplatAccum])) -> Result<(), GpuError> {
         self.check_usable()?;
         let Some(splat) = &self.splat else {
             return Ok(());
         };
-        let size = std::mem::size_of::<GpuSplatAccum>();
-        for (buffer, rows) in splat.strips.iter().zip(&self.layout.strips) {
-            self.kernel
-                .submit(&[Command::Copy(buffer, &self.staging)])?;
-            let n = (rows[1] - rows[0]) as usize * self.params.width as usize;
-            let bytes = self
-                .staging
-                .read_bytes()?
-                .get(..n * size)
-                .ok_or_else(|| GpuError::Usage("accumulator staging is too small".into()))?;
-            for chunk in bytes.chunks(CHUNK * size) {
-                f(&bytemuck::pod_collect_to_vec::<u8, GpuSplatAccum>(chunk));
-            }
-        }
-        Ok(())
+        read_strips(
+            &mut self.kernel,
+            &self.staging,
+            &self.layout,
+            splat.strips.iter(),
+            f,
+        )
     }
 
     /// Puts a splatted render's splatted sums back on the device (after [`Renderer::restore`], from the
@@ -1113,14 +1146,13 @@ impl Renderer {
                 self.params.height
             )));
         }
-        let width = self.params.width as usize;
-        for (buffer, rows) in splat.strips.iter().zip(&self.layout.strips) {
-            let (a, b) = (rows[0] as usize * width, rows[1] as usize * width);
-            self.staging.write(bytemuck::cast_slice(&sums[a..b]))?;
-            self.kernel
-                .submit(&[Command::Copy(&self.staging, buffer)])?;
-        }
-        Ok(())
+        write_strips(
+            &mut self.kernel,
+            &mut self.staging,
+            &self.layout,
+            splat.strips.iter(),
+            sums,
+        )
     }
 }
 

@@ -118,15 +118,8 @@ impl Splat {
         let capacity = (most / per_sample).min(u64::from(u32::MAX)) as u32;
         let samples =
             Buffer::device_storage(ctx, "splat records", per_sample * u64::from(capacity))?;
-        let strips = (0..layout.strips.len())
-            .map(|i| {
-                Buffer::device_storage(
-                    ctx,
-                    "splatted sums",
-                    layout.strip_pixels(i) * SPLAT_ACCUM_BYTES_PER_PIXEL,
-                )
-            })
-            .collect::<Result<Vec<_>, _>>()?;
+        let strips =
+            super::strip_buffers(ctx, layout, "splatted sums", SPLAT_ACCUM_BYTES_PER_PIXEL)?;
         let constants = Buffer::device_uniform(
             ctx,
             "splat constants",
