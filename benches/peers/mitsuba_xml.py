@@ -8,11 +8,12 @@ comparison's tmp/ folder). The camera, `max_depth`, the materials and the meshes
 The original is never written.
 
 Why the filter: Mitsuba's film splats each sample into every pixel its filter covers (a tent of radius 1
-covers four), vkpath importance-samples the filter and puts each sample into one pixel (pbrt-v4's way).
-Both are unbiased for the same image, but splatting averages about four samples into each pixel, so at
-equal spp its per-pixel error is about half (Bitterli's Cornell box, 512x512, 64 spp: 9.4 % against
-18.8 %), and the per-pixel error is what compare.py's efficiency measures. With a box filter of one pixel
-both put each sample into one pixel, as for the TOML scenes.
+covers four). vkpath does the same for these files (`render.splat`, on by default for a tent or Gaussian
+with `sample_border = false`); with `--splat off`, or with `sample_border = true`, it importance-samples
+the filter and puts each sample into one pixel (pbrt-v4's way), whose per-pixel error at equal spp is
+about twice as large (Bitterli's Cornell box, 512x512, 64 spp: 18.8 % against Mitsuba's 9.4 %). With a
+box filter of one pixel both put each sample into one pixel, as for the TOML scenes: the default here,
+so that the samplers and the speed are compared alone; `--xml-filter file` keeps the files' filters.
 """
 
 from __future__ import annotations
