@@ -440,6 +440,12 @@ struct PassConstants {
     casts: u32,
     // The pass's first sample index: sample s of a pixel is its splat record s - pass_start (trace.wgsl).
     pass_start: u32,
+    // Adaptive sampling (render.adaptive, src/render/adaptive.rs): when list_len > 0, the dispatch that
+    // begins paths traces the pixels active_pixels[list_start .. list_start + list_len] (one invocation
+    // each, in rows tile_x1 - tile_x0 wide) instead of the tile's rectangle, so that pixels that have
+    // converged cost nothing. 0: the rectangle.
+    list_start: u32,
+    list_len: u32,
 }
 
 @group(0) @binding(5) var<storage, read_write> accum: array<Accum>;

@@ -634,6 +634,10 @@ fn step(path: ptr<function, Path>) -> bool {
 // The bits do not depend on `casts`, the tiling or the order of the queue: each sample is the same
 // function of (pixel, sample index, seed), a saved path resumes exactly, and the pixel's samples are
 // added in index order to an exact sum, so that any split of a render gives the same image.
+// Adaptive sampling's list of the pixels still sampling (PassConstants.list_start, list_len), as
+// row-major pixel indices y * width + x, ascending.
+@group(0) @binding(49) var<storage, read> active_pixels: array<u32>;
+
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let pc = pass_constants;
@@ -643,7 +647,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var sample = pc.sample_index;
     var end = pc.sample_index + pc.sample_count;
     var path: Path;
-    if pc.queued == 0u {
+    if pc.queued == 0u && pc.list_len != 0u {
+        // Adaptive sampling: the pixels still sampling, listed by the host (row-major indices).
+        if gid.x >= tile_w || slot >= pc.list_len {
+            return;
+        }
+        let p = active_pixels[pc.list_start + slot];
+        px = vec2<u32>(p % params.width, p / params.width);
+        path = path_begin(px, sample);
+    } else if pc.queued == 0u {
         if px.x >= pc.tile_x1 || px.y >= pc.tile_y1 || px.x >= params.width || px.y >= params.height {
             return;
         }

@@ -10,8 +10,11 @@ use std::path::Path;
 pub struct Film {
     pub width: u32,
     pub height: u32,
-    /// Samples per pixel behind each mean.
+    /// Samples per pixel behind each mean (with adaptive sampling, the most any pixel took).
     pub spp: u32,
+    /// With adaptive sampling (`render.adaptive`), the samples behind each pixel's mean, row-major;
+    /// empty when every pixel has `spp`.
+    pub pixel_spp: Vec<u32>,
     /// Mean radiance (the estimate), RGB.
     pub mean: Vec<[f32; 3]>,
     /// Estimated variance of each mean: s^2 / n with s^2 the unbiased sample variance; NaN when n < 2.
@@ -63,6 +66,7 @@ impl Film {
             width,
             height,
             spp,
+            pixel_spp: Vec::new(),
             mean: Vec::with_capacity(pixels),
             variance: Vec::with_capacity(pixels),
         }
@@ -71,9 +75,13 @@ impl Film {
     /// Appends the means and variances of `accum`'s pixels (the next ones in row-major order; see
     /// [`Film::from_sums`]).
     pub fn push_sums(&mut self, accum: &[GpuAccum]) {
-        let spp = self.spp;
-        let n = spp as f64;
         for a in accum {
+            let spp = self
+                .pixel_spp
+                .get(self.mean.len())
+                .copied()
+                .unwrap_or(self.spp);
+            let n = spp as f64;
             let mut m = [0f32; 3];
             let mut v = [0f32; 3];
             for c in 0..3 {
@@ -114,6 +122,11 @@ impl Film {
                 *v = (sum / w) as f32;
             }
         }
+    }
+
+    /// The samples behind pixel `i`'s (row-major) mean.
+    pub fn samples_of(&self, i: usize) -> u32 {
+        self.pixel_spp.get(i).copied().unwrap_or(self.spp)
     }
 
     /// The mean radiance of pixel (x, y), (0, 0) the top-left.
@@ -213,6 +226,7 @@ mod tests {
     #[test]
     fn the_png_goes_through_the_tonemap() {
         let film = Film {
+            pixel_spp: Vec::new(),
             width: 1,
             height: 1,
             spp: 1,

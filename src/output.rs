@@ -90,15 +90,23 @@ pub enum Aov {
     Variance,
     /// The distance from the camera to the first surface along the camera ray.
     Depth,
+    /// The samples behind each pixel's mean (with adaptive sampling, each pixel's own count).
+    Spp,
 }
 
 impl Aov {
-    pub const ALL: [(Aov, &'static str); 4] = [
+    pub const ALL: [(Aov, &'static str); 5] = [
         (Aov::Albedo, "albedo"),
         (Aov::Normal, "normal"),
         (Aov::Variance, "variance"),
         (Aov::Depth, "depth"),
+        (Aov::Spp, "spp"),
     ];
+
+    /// Whether the layer comes from the render's own sums (no kernel of its own renders it).
+    pub fn from_sums(self) -> bool {
+        matches!(self, Aov::Variance | Aov::Spp)
+    }
 
     pub fn name(self) -> &'static str {
         Aov::ALL
@@ -107,7 +115,7 @@ impl Aov {
             .map_or("?", |(_, n)| n)
     }
 
-    /// `albedo,normal,variance,depth` (any subset, any order, each once).
+    /// `albedo,normal,variance,depth,spp` (any subset, any order, each once).
     pub fn parse_list(text: &str) -> Result<Vec<Aov>, String> {
         let mut list = Vec::new();
         for word in text.split(',').map(str::trim) {
@@ -133,6 +141,8 @@ impl Aov {
 #[derive(Clone, Debug, Default)]
 pub struct Layers {
     pub variance: bool,
+    /// Write the samples behind each pixel (`spp.Y`).
+    pub spp: bool,
     pub albedo: Option<Film>,
     pub normal: Option<Film>,
     pub depth: Option<Film>,
@@ -257,6 +267,10 @@ impl ImageFile<'_> {
             for (c, n) in rgb.iter().enumerate() {
                 channels.push(channel(&format!("variance.{n}"), plane(&f.variance, c)));
             }
+        }
+        if self.layers.spp {
+            let counts = (0..f.mean.len()).map(|i| f.samples_of(i) as f32).collect();
+            channels.push(channel("spp.Y", counts));
         }
         if let Some(a) = &self.layers.albedo {
             for (c, n) in rgb.iter().enumerate() {
@@ -585,6 +599,7 @@ mod tests {
             width: 2,
             height: 1,
             spp: 4,
+            pixel_spp: Vec::new(),
             mean: vec![[0.5, 0.25, 1.0], [2.0, 0.0, 0.125]],
             variance: vec![[0.01, 0.02, 0.03], [0.0, 0.0, 0.0]],
         }
@@ -648,6 +663,6 @@ mod tests {
                 .contains("twice")
         );
         let e = Aov::parse_list("position").unwrap_err();
-        assert!(e.contains("albedo, normal, variance, depth"), "{e}");
+        assert!(e.contains("albedo, normal, variance, depth, spp"), "{e}");
     }
 }

@@ -140,7 +140,7 @@ impl<'a> Session<'a> {
             checkpoint: request.checkpoint.is_some() || request.resume.is_some(),
             aov_layers: aov_list(request.aovs, request.denoiser.is_some() || request.keep_aux)
                 .iter()
-                .filter(|a| !matches!(a, Aov::Variance))
+                .filter(|a| !a.from_sums())
                 .count() as u32,
             denoise: request.denoiser.is_some(),
         };
@@ -210,6 +210,7 @@ impl<'a> Session<'a> {
     ) -> Result<(StopReason, Duration), Error> {
         let target = self.budget.spp;
         let variance = self.aovs.contains(&Aov::Variance);
+        let spp = self.aovs.contains(&Aov::Spp);
         let files = &mut self.files;
         render_progressive(
             &mut self.renderer,
@@ -223,6 +224,7 @@ impl<'a> Session<'a> {
                     let film = r.film()?;
                     let layers = Layers {
                         variance,
+                        spp,
                         ..Layers::default()
                     };
                     files.write_images(&film, &layers, None)?;
@@ -399,6 +401,7 @@ fn aov_layers(
 ) -> Result<Layers, Error> {
     let mut layers = Layers {
         variance: list.contains(&Aov::Variance),
+        spp: list.contains(&Aov::Spp),
         ..Layers::default()
     };
     let spp = spp.clamp(1, AOV_MAX_SPP);
@@ -407,7 +410,7 @@ fn aov_layers(
             Aov::Albedo => (AOV_ALBEDO, &mut layers.albedo),
             Aov::Normal => (AOV_NORMAL, &mut layers.normal),
             Aov::Depth => (AOV_DEPTH, &mut layers.depth),
-            Aov::Variance => continue,
+            Aov::Variance | Aov::Spp => continue,
         };
         *slot = Some(render_aov(ctx, scene, options, code, spp)?);
     }

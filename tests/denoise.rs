@@ -158,6 +158,7 @@ fn a_noisy_furnace_comes_out_closer_to_its_answer() {
         width: 64,
         height: 64,
         spp: 4,
+        pixel_spp: Vec::new(),
         mean: denoised,
         variance: vec![[0.0; 3]; 64 * 64],
     };

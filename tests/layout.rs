@@ -650,7 +650,9 @@ fn pass_constants_match_wgsl() {
             queue_in,
             queue_out,
             casts,
-            pass_start
+            pass_start,
+            list_start,
+            list_len
         ),
     );
     let (_, var) = module

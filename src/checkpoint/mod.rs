@@ -284,7 +284,16 @@ pub struct Checkpoint {
 
 impl Checkpoint {
     /// The renderer's current state (read back from the device) as a checkpoint of a render of `scene`.
+    /// Refused for an adaptive render (`render.adaptive`): the file has no place for its counts.
     pub fn of(renderer: &mut crate::Renderer, scene: &Scene) -> Result<Checkpoint, Error> {
+        if renderer.adaptive().is_some() {
+            return Err(crate::gpu::GpuError::Usage(
+                "a checkpoint of an adaptive render (render.adaptive): checkpoints do not hold the \
+                 per-pixel sample counts"
+                    .into(),
+            )
+            .into());
+        }
         let accum = renderer.accum_state()?;
         let splat = if renderer.splats() {
             Some(renderer.splat_state()?)

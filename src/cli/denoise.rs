@@ -76,6 +76,7 @@ pub fn run_denoise(a: DenoiseArgs) -> Result<i32, Error> {
         width: exr.width,
         height: exr.height,
         spp,
+        pixel_spp: Vec::new(),
         mean: denoised,
         variance: vec![[0.0; 3]; n],
     };

@@ -52,9 +52,9 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
         Some(list) => Aov::parse_list(list).map_err(|e| usage(format!("--aov: {e}.")))?,
         None => Vec::new(),
     };
-    if let Some(other) = aovs.iter().find(|a| **a != Aov::Variance) {
+    if let Some(other) = aovs.iter().find(|a| !a.from_sums()) {
         return Err(usage(format!(
-            "vkpath merge --aov can add only the variance layer, which the parts hold; {} is rendered \
+            "vkpath merge --aov can add only the variance and spp layers, which the parts hold; {} is rendered \
              from the scene: vkpath render --aov {}.",
             other.name(),
             other.name()
@@ -127,6 +127,7 @@ pub fn run_merge(m: MergeArgs) -> Result<i32, Error> {
     };
     let mut layers = Layers {
         variance: aovs.contains(&Aov::Variance),
+        spp: aovs.contains(&Aov::Spp),
         ..Layers::default()
     };
     let (written, description) = match (&denoiser, &merged.aux) {

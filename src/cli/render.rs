@@ -8,7 +8,7 @@
 //! overrides, the options, the outputs, the checkpoint to resume, all before any device work), the
 //! session with a progress bar, and [`report`] (what is printed, and the exit status).
 
-use super::report::{RenderReport, kernel_name, print_json, shown_paths};
+use super::report::{AdaptiveReport, RenderReport, kernel_name, print_json, shown_paths};
 use super::{
     check_image_size, check_output_formats, install_stop_handler, load_scene_with,
     report_validation_errors, usage,
@@ -24,6 +24,7 @@ use vkpath::film::Film;
 use vkpath::film::OutputFormat;
 use vkpath::gpu::{ContextOptions, GpuContext};
 use vkpath::output::Aov;
+use vkpath::render::adaptive::{self, AdaptiveSettings};
 use vkpath::render::{Fault, PassReport, RenderOptions, Renderer, SaveEvery, StopReason};
 use vkpath::scene::translated::ImportOptions;
 use vkpath::session::{Plan, Request, Session};
@@ -93,7 +94,7 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
         }
     }
     let bar = progress_bar(a.quiet, session.plan());
-    let mut error_shown: Option<std::time::Instant> = None;
+    let mut error_shown = ErrorShown::default();
     let ended = session.run(&stop, |r, report| {
         if let Some(bar) = &bar {
             show_progress(bar, r, report, &mut error_shown)?;
@@ -201,7 +202,7 @@ fn check_flags(a: &RenderArgs) -> Result<Flags, Error> {
     let aovs = match &a.aov {
         Some(list) => Aov::parse_list(list).map_err(|m| {
             usage(format!(
-                "--aov takes a comma-separated list of the EXR's extra layers (albedo,normal,variance,depth): {m}."
+                "--aov takes a comma-separated list of the EXR's extra layers (albedo,normal,variance,depth,spp): {m}."
             ))
         })?,
         None => Vec::new(),
@@ -239,7 +240,8 @@ fn prepare(a: &RenderArgs, is_part: bool) -> Result<Job, Error> {
     };
     let mut scene = load_scene_with(a.scene.as_deref(), &import)?;
     apply_overrides(&mut scene, a)?;
-    let options = render_options(a)?;
+    let mut options = render_options(a)?;
+    options.adaptive = adaptive_settings(&scene.render.adaptive, a.target_error);
     let outputs = if a.outputs.is_empty() && !is_part {
         vec![PathBuf::from(format!("{}.png", scene.stem()))]
     } else {
@@ -300,6 +302,13 @@ fn progress_bar(quiet: bool, plan: &Plan) -> Option<ProgressBar> {
     Some(bar)
 }
 
+/// The progress bar's estimated error: when it was last computed, and its text.
+#[derive(Default)]
+struct ErrorShown {
+    at: Option<std::time::Instant>,
+    text: String,
+}
+
 /// Brings the bar up to date after a pass: the samples done, and the estimated error, which needs the
 /// film read back (96 bytes a pixel): at most every few seconds, so that the bar costs the render next
 /// to nothing.
@@ -307,16 +316,25 @@ fn show_progress(
     bar: &ProgressBar,
     r: &mut Renderer,
     report: &PassReport,
-    shown: &mut Option<std::time::Instant>,
+    shown: &mut ErrorShown,
 ) -> Result<(), Error> {
     bar.set_position(report.samples_done as u64);
-    if report.samples_done >= 2 && shown.is_none_or(|t| t.elapsed() >= BAR_ERROR_EVERY) {
+    // Adaptive sampling: the share of the pixels still sampling, after every pass (no readback).
+    let active = r.adaptive().map_or(String::new(), |a| {
+        let pixels = a.counts().len().max(1);
+        format!(
+            ", {:.1}% of pixels sampling",
+            100.0 * a.active().len() as f64 / pixels as f64
+        )
+    });
+    if report.samples_done >= 2 && shown.at.is_none_or(|t| t.elapsed() >= BAR_ERROR_EVERY) {
         let rel = r.film()?.estimated_rel_error();
         if rel.is_finite() {
-            bar.set_message(format!(", error {:.2}%", 100.0 * rel));
+            shown.text = format!(", error {:.2}%", 100.0 * rel);
         }
-        *shown = Some(std::time::Instant::now());
+        shown.at = Some(std::time::Instant::now());
     }
+    bar.set_message(format!("{}{active}", shown.text));
     Ok(())
 }
 
@@ -382,9 +400,19 @@ fn report(
     let faults = renderer.sample_faults().unwrap_or_default();
     warn_sample_faults(&faults);
     let seconds = elapsed.as_secs_f64();
-    let traced = film.spp - plan.resumed_samples;
     let scene = session.scene();
-    let samples = scene.image.width as f64 * scene.image.height as f64 * traced as f64;
+    let pixels = scene.image.width as f64 * scene.image.height as f64;
+    // With adaptive sampling, each pixel's own count (those of a checkpoint resumed taken off).
+    let samples = match renderer.adaptive() {
+        Some(ad) => {
+            ad.counts().iter().map(|&n| n as f64).sum::<f64>() - ad.restored_samples() as f64
+        }
+        None => pixels * (film.spp - plan.resumed_samples) as f64,
+    };
+    let mean_spp = match renderer.adaptive() {
+        Some(ad) => ad.counts().iter().map(|&n| n as f64).sum::<f64>() / pixels.max(1.0),
+        None => film.spp as f64,
+    };
     if !a.quiet {
         eprintln!("{}", summary_line(session, film, seconds, samples));
     }
@@ -396,6 +424,12 @@ fn report(
             width: scene.image.width,
             height: scene.image.height,
             spp: film.spp,
+            mean_spp,
+            adaptive: renderer.adaptive().map(|ad| AdaptiveReport {
+                threshold: ad.settings.threshold,
+                min_spp: ad.settings.min_spp,
+                pixels_active: ad.active().len(),
+            }),
             seconds,
             samples_per_second: samples / seconds.max(1e-12),
             estimated_rel_error: rel.is_finite().then_some(rel),
@@ -464,7 +498,7 @@ enum SamplerArg {
 }
 
 /// `--splat` (render.splat in the scene file).
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum OnOff {
     On,
     Off,
@@ -532,6 +566,17 @@ pub struct RenderArgs {
     /// --denoise (the denoiser wants each pixel's own samples).
     #[arg(long, value_enum)]
     splat: Option<OnOff>,
+    /// Adaptive sampling (overrides the scene's render.adaptive): after render.adaptive_min_samples
+    /// (16), a pixel stops sampling once its estimated relative error is below --adaptive-threshold;
+    /// --spp is then the most any pixel takes. Default off. Not with --sample-range or --part, nor with
+    /// splatting (--splat off is implied unless --splat on is given, which is refused).
+    #[arg(long, value_enum)]
+    adaptive: Option<OnOff>,
+    /// The relative error at which adaptive sampling stops a pixel (overrides the scene's
+    /// render.adaptive_threshold; default: --target-error when given, else 0.01). Implies --adaptive on
+    /// unless --adaptive off is given.
+    #[arg(long = "adaptive-threshold", allow_negative_numbers = true)]
+    adaptive_threshold: Option<f64>,
     /// How sphere lights are sampled (overrides the scene's render.light_sampling).
     #[arg(long = "light-sampling", value_parser = light_sampling_names())]
     light_sampling: Option<String>,
@@ -580,8 +625,8 @@ pub struct RenderArgs {
     /// SLURM_ARRAY_TASK_COUNT. No image is written unless -o is given.
     #[arg(long, allow_hyphen_values = true)]
     part: Option<String>,
-    /// Extra layers in the EXR output: a comma-separated list of albedo, normal, variance, depth
-    /// (channels albedo.R/G/B, normal.X/Y/Z, variance.R/G/B, depth.Z).
+    /// Extra layers in the EXR output: a comma-separated list of albedo, normal, variance, depth, spp
+    /// (channels albedo.R/G/B, normal.X/Y/Z, variance.R/G/B, depth.Z, spp.Y).
     #[arg(long)]
     aov: Option<String>,
     /// Cut the image into tiles of at most WxH pixels (one dispatch each) and strips of at most H rows
@@ -626,6 +671,41 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
     if let Some(s) = a.seed {
         scene.render.seed = s;
     }
+    if let Some(on) = a.adaptive {
+        scene.render.adaptive.on = Some(matches!(on, OnOff::On));
+    } else if a.adaptive_threshold.is_some() {
+        scene.render.adaptive.on = Some(true);
+    }
+    if let Some(t) = a.adaptive_threshold {
+        if !(t.is_finite() && t > 0.0 && t <= f64::from(f32::MAX)) {
+            return Err(usage(format!(
+                "--adaptive-threshold must be a positive relative error (e.g. 0.01 for 1%), not {t}."
+            )));
+        }
+        scene.render.adaptive.threshold = Some(t as f32);
+    }
+    let adaptive = scene.render.adaptive.on == Some(true);
+    if adaptive && (a.sample_range.is_some() || a.part.is_some()) {
+        return Err(usage(
+            "adaptive sampling (--adaptive on, or render.adaptive in the scene) cannot render a part of \
+             the samples: which pixels go on depends on the samples before the part. Give --adaptive off \
+             with --sample-range or --part.",
+        ));
+    }
+    if adaptive && (a.checkpoint.is_some() || a.resume.is_some()) {
+        return Err(usage(
+            "adaptive sampling (--adaptive on, or render.adaptive in the scene) does not write or resume \
+             checkpoints yet: a checkpoint does not hold each pixel's sample count. Give --adaptive off \
+             with --checkpoint or --resume.",
+        ));
+    }
+    if adaptive && a.splat == Some(OnOff::On) {
+        return Err(usage(
+            "--splat on and adaptive sampling (--adaptive on, or render.adaptive in the scene) do not go \
+             together: a splatted pixel averages its neighbours' samples, which adaptive sampling takes \
+             in unequal numbers. Give one of them.",
+        ));
+    }
     match a.splat {
         Some(OnOff::On) if !scene.render.can_splat() => {
             return Err(usage(
@@ -638,6 +718,15 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
         None if (a.denoise || scene.image.denoise) && scene.render.splat.is_none() => {
             scene.render.splat = Some(false);
         }
+        None if adaptive && scene.render.splat == Some(true) => {
+            return Err(usage(
+                "the scene asks for splatting (render.splat = true), which does not go with adaptive \
+                 sampling (--adaptive on): a splatted pixel averages its neighbours' samples, which \
+                 adaptive sampling takes in unequal numbers. Give --splat off, or --adaptive off.",
+            ));
+        }
+        // Adaptive sampling keeps each pixel's own samples.
+        None if adaptive => scene.render.splat = Some(false),
         None => {}
     }
     if let Some(path) = &a.environment {
@@ -651,6 +740,22 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
         };
     }
     Ok(())
+}
+
+/// Adaptive sampling's settings when it is on: the threshold from the scene or the flag, else
+/// `--target-error`'s, else the default.
+fn adaptive_settings(
+    asked: &vkpath::scene::Adaptive,
+    target_error: Option<f64>,
+) -> Option<AdaptiveSettings> {
+    (asked.on == Some(true)).then(|| AdaptiveSettings {
+        threshold: asked
+            .threshold
+            .map(f64::from)
+            .or(target_error)
+            .unwrap_or(adaptive::DEFAULT_THRESHOLD),
+        min_spp: asked.min_samples.unwrap_or(adaptive::DEFAULT_MIN_SPP),
+    })
 }
 
 /// The renderer's options from the flags that tune it (pass size, roulette, tiles, dispatch time) and

@@ -37,8 +37,14 @@ pub struct RenderReport<'a> {
     pub scene: String,
     pub width: u32,
     pub height: u32,
-    /// Samples per pixel in the image, resumed ones included.
+    /// Samples per pixel in the image, resumed ones included (with adaptive sampling, the most any
+    /// pixel took).
     pub spp: u32,
+    /// The mean over the pixels of their samples (`spp` unless adaptive sampling stopped some early).
+    pub mean_spp: f64,
+    /// Adaptive sampling's threshold and the pixels still sampling when the render ended; `null`
+    /// without adaptive sampling.
+    pub adaptive: Option<AdaptiveReport>,
     pub seconds: f64,
     /// Samples traced by this run (not the resumed ones) per second.
     pub samples_per_second: f64,
@@ -70,6 +76,15 @@ pub struct RenderReport<'a> {
     /// Samples of this run that the accumulator clamped (radiance of 2^64 or more) or dropped as not
     /// finite: both 0 in a sane scene (see accumulate.wgsl).
     pub sample_faults: vkpath::render::SampleFaults,
+}
+
+/// Adaptive sampling in `vkpath render --json`.
+#[derive(Serialize)]
+pub struct AdaptiveReport {
+    pub threshold: f64,
+    pub min_spp: u32,
+    /// Pixels still sampling at the end (0 when every pixel met the threshold).
+    pub pixels_active: usize,
 }
 
 /// `vkpath merge --json`: the merged render and where it was written.

@@ -184,6 +184,18 @@ impl Buffer {
         )
     }
 
+    /// A host-visible storage buffer the host writes and the kernel reads (adaptive sampling's list of
+    /// pixels): small, rewritten now and then, read once per invocation, so not worth a staging copy.
+    pub fn host_storage(ctx: &Arc<GpuContext>, name: &str, bytes: u64) -> Result<Buffer, GpuError> {
+        Buffer::new(
+            ctx,
+            name,
+            bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )
+    }
+
     /// A small host-visible storage buffer the kernel writes and the host reads directly (test outputs,
     /// counters), zero-filled.
     pub fn readable_storage(

@@ -90,6 +90,11 @@ pub struct GpuPassConstants {
     /// The first sample index of the pass: sample s of a pixel is splat record s - pass_start
     /// (`splat_samples`, trace.wgsl).
     pub pass_start: u32,
+    /// Adaptive sampling (`crate::render::adaptive`): when `list_len > 0`, the dispatch that begins
+    /// paths traces the pixels `active_pixels[list_start..list_start + list_len]` (row-major indices,
+    /// one invocation each, in rows `tile_x1 - tile_x0` wide) instead of the tile's rectangle.
+    pub list_start: u32,
+    pub list_len: u32,
 }
 
 /// Mirrors `Sphere` in scene_data.wgsl.

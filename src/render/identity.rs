@@ -108,6 +108,10 @@ pub fn content_hash(scene: &Scene, gpu: &GpuScene, params: &GpuParams) -> u64 {
     // Whether the render splats is hashed as decided (`params.splat`), not as written: `splat = true`
     // written and left to its default are one render, and scenes from before the key keep their hash.
     render.splat = None;
+    // Adaptive sampling decides which samples are taken, not what a pixel converges to: a checkpoint
+    // carries its counts (and is refused by a render that does not sample adaptively), and a render may
+    // go on with another threshold, as with another sample count.
+    render.adaptive = crate::scene::Adaptive::default();
     let mut h = Fnv64::new();
     h.bytes(b"vkpath scene v1");
     // Debug prints every field, floats in their shortest round-trip form: a faithful serialisation.

@@ -9,6 +9,7 @@
 //! of k samples is bit-identical to one pass of N k samples: pass sizes are free to adapt to time budgets
 //! and progress reports.
 
+pub mod adaptive;
 pub mod identity;
 pub mod splat;
 pub mod tiles;
@@ -138,6 +139,9 @@ pub struct RenderOptions {
     /// images it writes, checkpoints: [`crate::memory::HostUse`]); the renderer refuses, before
     /// allocating, a render whose host memory would exceed what the machine has available.
     pub host_bytes_per_pixel: u64,
+    /// Adaptive sampling (`render.adaptive`, [`adaptive`]): pixels stop once their error is below the
+    /// threshold; `None` samples every pixel equally.
+    pub adaptive: Option<adaptive::AdaptiveSettings>,
 }
 
 /// Faults the renderer can be told to simulate, so that the handling of each (messages, exit codes,
@@ -181,6 +185,7 @@ impl Default for RenderOptions {
             aov: crate::kernel::abi::AOV_NONE,
             casts_per_dispatch: None,
             host_bytes_per_pixel: crate::memory::FILM_BYTES_PER_PIXEL,
+            adaptive: None,
         }
     }
 }
@@ -254,6 +259,8 @@ pub struct Renderer {
     content_hash: u64,
     /// A splatted render's gather and sums (`render.splat`); `None` for per-pixel sums alone.
     splat: Option<splat::Splat>,
+    /// Adaptive sampling's counts and list of pixels still sampling (`render.adaptive`).
+    adaptive: Option<adaptive::Adaptive>,
 }
 
 /// The compiled kernel for a feature set, compiled once per process (naga's work; the driver's pipeline
@@ -543,10 +550,14 @@ fn bind_all(
     pass_constants: &Buffer,
     [sample_faults, path_count]: [&Buffer; 2],
     splat: Option<&splat::Splat>,
+    adaptive: Option<&adaptive::Adaptive>,
 ) -> Result<(), GpuError> {
     let mut bindings: Vec<(&str, &Buffer)> = scene.iter().map(|(n, b)| (*n, b)).collect();
     if let Some(s) = splat {
         bindings.push(("splat_samples", &s.samples));
+    }
+    if let Some(a) = adaptive {
+        bindings.push(("active_pixels", &a.list));
     }
     bindings.push(("accum", accum));
     bindings.push(("pass_constants", pass_constants));
@@ -687,6 +698,36 @@ impl Renderer {
             }
             None
         };
+        if splat.is_some()
+            && options.adaptive.is_some()
+            && options.aov == crate::kernel::abi::AOV_NONE
+        {
+            return Err(GpuError::Usage(
+                "adaptive sampling of a splatted render (render.splat with render.adaptive)".into(),
+            ));
+        }
+        let adaptive = match options.adaptive {
+            // A caller's kernel (benchmarks) traces tiles only; AOV layers sample every pixel.
+            Some(settings)
+                if kernel.uses("active_pixels") && options.aov == crate::kernel::abi::AOV_NONE =>
+            {
+                Some(adaptive::Adaptive::new(
+                    ctx,
+                    settings,
+                    params.width,
+                    params.height,
+                )?)
+            }
+            _ => {
+                if kernel.uses("active_pixels") {
+                    bound.push((
+                        "active_pixels",
+                        Buffer::device_storage(ctx, "active pixels", 16)?,
+                    ));
+                }
+                None
+            }
+        };
         bind_all(
             &mut kernel,
             &bound,
@@ -694,6 +735,7 @@ impl Renderer {
             &pass_constants,
             [&sample_faults, &path_count],
             splat.as_ref(),
+            adaptive.as_ref(),
         )?;
         let mut r = Renderer {
             ctx: ctx.clone(),
@@ -724,6 +766,7 @@ impl Renderer {
             features,
             content_hash,
             splat,
+            adaptive,
         };
         r.reset()?;
         Ok(r)
@@ -778,6 +821,9 @@ impl Renderer {
         if let Some(s) = &mut self.splat {
             s.zero()?;
         }
+        if let Some(a) = &mut self.adaptive {
+            a.clear()?;
+        }
         self.sample_faults
             .write(&[0u8; 4 * SAMPLE_FAULT_COUNTERS])?;
         self.next_sample = first_sample;
@@ -809,6 +855,7 @@ impl Renderer {
             &self.pass_constants,
             [&self.sample_faults, &self.path_count],
             self.splat.as_ref(),
+            self.adaptive.as_ref(),
         )?;
         self.bound_strip = i;
         Ok(())
@@ -849,6 +896,9 @@ impl Renderer {
         }
         self.next_sample += spp;
         self.samples_done += spp;
+        if let Some(a) = &mut self.adaptive {
+            a.add_samples(spp);
+        }
         match self.ranges.last_mut() {
             Some(last) if last[1] == start => last[1] = self.next_sample,
             _ if spp == 0 => {}
@@ -886,7 +936,14 @@ impl Renderer {
         let chunk = self.samples_per_dispatch.clamp(1, spp.max(1));
         let mut slowest_per_pixel = 0.0f64;
         for si in 0..self.strips.len() {
-            let tiles = self.layout.tiles(si, self.tile_pixels);
+            let tiles = match &self.adaptive {
+                Some(a) => list_tiles(
+                    a.active_in_rows(self.strips[si].rows),
+                    self.tile_pixels,
+                    self.params.width,
+                ),
+                None => self.layout.tiles(si, self.tile_pixels),
+            };
             if tiles.is_empty() {
                 continue;
             }
@@ -897,8 +954,12 @@ impl Renderer {
                 let count = chunk.min(spp - offset);
                 for t in &tiles {
                     let seconds = self.trace_tile(t, accum_base, [start, start + offset], count)?;
-                    let pixels =
-                        f64::from(t.end[0] - t.origin[0]) * f64::from(t.end[1] - t.origin[1]);
+                    let pixels = match t.list {
+                        Some([_, n]) => f64::from(n),
+                        None => {
+                            f64::from(t.end[0] - t.origin[0]) * f64::from(t.end[1] - t.origin[1])
+                        }
+                    };
                     slowest_per_pixel = slowest_per_pixel.max(seconds / pixels.max(1.0));
                 }
                 offset += count;
@@ -938,6 +999,8 @@ impl Renderer {
             queue_out: 0,
             casts: self.casts_per_dispatch,
             pass_start,
+            list_start: t.list.map_or(0, |l| l[0]),
+            list_len: t.list.map_or(0, |l| l[1]),
         };
         let half = self.path_slots as u32;
         let mut longest = 0.0f64;
@@ -1091,6 +1154,9 @@ impl Renderer {
     /// accumulator (96).
     pub fn film(&mut self) -> Result<Film, GpuError> {
         let mut film = Film::for_sums(self.params.width, self.params.height, self.samples_done);
+        if let Some(a) = &self.adaptive {
+            film.pixel_spp = a.counts().to_vec();
+        }
         self.each_strip(|strip| film.push_sums(strip))?;
         let mut at = 0;
         self.each_splat_strip(|chunk| {
@@ -1098,6 +1164,36 @@ impl Renderer {
             at += chunk.len();
         })?;
         Ok(film)
+    }
+
+    /// Adaptive sampling's state (`render.adaptive`): the samples of each pixel and the pixels still
+    /// sampling; `None` when every pixel samples equally.
+    pub fn adaptive(&self) -> Option<&adaptive::Adaptive> {
+        self.adaptive.as_ref()
+    }
+
+    /// With adaptive sampling, at one of its checks ([`adaptive::Adaptive::checks_at`]): stops the
+    /// pixels that have converged and returns how many still sample. `None` without adaptive sampling
+    /// or between checks.
+    pub fn stop_converged(&mut self) -> Result<Option<usize>, GpuError> {
+        match &self.adaptive {
+            Some(a) if a.checks_at(self.samples_done) => {}
+            _ => return Ok(None),
+        }
+        let film = self.film()?;
+        let a = self.adaptive.as_mut().expect("checked above");
+        a.stop_converged(&film).map(Some)
+    }
+
+    /// Puts adaptive sampling's per-pixel counts back (from a checkpoint, after [`Renderer::restore`]).
+    pub fn restore_adaptive(&mut self, counts: &[u32]) -> Result<(), GpuError> {
+        let done = self.samples_done;
+        match &mut self.adaptive {
+            Some(a) => a.restore(counts, done),
+            None => Err(GpuError::Usage(
+                "restore of adaptive sample counts into a render without adaptive sampling".into(),
+            )),
+        }
     }
 
     /// Whether the render splats its samples (`render.splat`).
@@ -1156,6 +1252,26 @@ impl Renderer {
     }
 }
 
+/// The dispatches over the pixels still sampling `range` (indices into adaptive sampling's list), at
+/// most `tile_pixels` each, in rows of at most the image's `width` (the invocations a rectangle of the
+/// same pixels would have).
+fn list_tiles(range: std::ops::Range<usize>, tile_pixels: u64, width: u32) -> Vec<tiles::Tile> {
+    let most = tile_pixels.clamp(1, u64::from(u32::MAX)) as usize;
+    let mut out = Vec::new();
+    let mut at = range.start;
+    while at < range.end {
+        let n = (range.end - at).min(most) as u32;
+        let row = n.min(width.max(1));
+        out.push(tiles::Tile {
+            origin: [0, 0],
+            end: [row, n.div_ceil(row)],
+            list: Some([at as u32, n]),
+        });
+        at += n as usize;
+    }
+    out
+}
+
 /// When a progressive render stops.
 #[derive(Clone, Debug)]
 pub struct Budget {
@@ -1193,6 +1309,8 @@ pub enum StopReason {
     Samples,
     Time,
     TargetError,
+    /// Adaptive sampling stopped every pixel (each met `render.adaptive_threshold`).
+    Converged,
     Interrupted,
 }
 
@@ -1270,7 +1388,11 @@ pub fn render_progressive(
             break StopReason::Time;
         }
         let mut k = pass_spp.min(budget.spp - done);
-        for every in [budget.progress_every, save_samples].into_iter().flatten() {
+        let adaptive_every = renderer.adaptive().map(|a| a.settings.min_spp.max(1));
+        for every in [budget.progress_every, save_samples, adaptive_every]
+            .into_iter()
+            .flatten()
+        {
             if let Some(q) = done.checked_div(every) {
                 let next = (q + 1).saturating_mul(every);
                 k = k.min(next - done);
@@ -1280,6 +1402,9 @@ pub fn render_progressive(
         renderer.run_pass(k)?;
         let dt = t0.elapsed().as_secs_f64();
         let done = renderer.samples_done();
+        // Adaptive sampling's check, before the report, so that the progress line shows the pixels
+        // still sampling and a checkpoint holds the counts the next pass starts from.
+        let converged = renderer.stop_converged()? == Some(0);
         let progress = budget
             .progress_every
             .is_some_and(|e| e > 0 && done.is_multiple_of(e));
@@ -1300,6 +1425,9 @@ pub fn render_progressive(
                 save_state,
             },
         )?;
+        if converged && done < budget.spp {
+            break StopReason::Converged;
+        }
         if let Some(target) = budget.target_error
             && done >= TARGET_ERROR_MIN_SPP
             && done < budget.spp

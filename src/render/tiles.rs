@@ -53,11 +53,14 @@ impl TileLimits {
     }
 }
 
-/// A tile: the pixels from `origin` (included) to `end` (excluded).
+/// A tile: the pixels from `origin` (included) to `end` (excluded); or, with adaptive sampling, the
+/// `list = [start, len]` pixels still sampling from `active_pixels[start]` on, dispatched in rows
+/// `end[0]` wide (`origin` (0, 0), `end[1]` rows).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tile {
     pub origin: [u32; 2],
     pub end: [u32; 2],
+    pub list: Option<[u32; 2]>,
 }
 
 impl Tile {
@@ -183,6 +186,7 @@ impl TileLayout {
             while x < self.width {
                 let xe = x.saturating_add(tw).min(self.width);
                 tiles.push(Tile {
+                    list: None,
                     origin: [x, y],
                     end: [xe, ye],
                 });

@@ -249,8 +249,9 @@ impl RenderSettings {
     /// film has no pixels beyond the edges to trace). Not set, it splats wherever it can: at equal
     /// samples the weighted average has less variance than one pixel's own filter-importance-sampled
     /// samples (docs/speed-vs-accuracy.md, "Splatting").
+    /// An adaptive render (`render.adaptive`) does not splat unless told to (which the readers refuse).
     pub fn splats(&self) -> bool {
-        self.can_splat() && self.splat.unwrap_or(true)
+        self.can_splat() && self.splat.unwrap_or(self.adaptive.on != Some(true))
     }
 
     /// Whether this filter and border can be splatted (see [`RenderSettings::splats`]).
@@ -264,6 +265,20 @@ impl RenderSettings {
         };
         radius <= 7.5 && !self.sample_border
     }
+}
+
+/// Adaptive sampling as the scene file asks for it (`render.adaptive*`; Cycles' names): pixels stop
+/// sampling once their estimated error is below the threshold (`vkpath::render::adaptive`). Each is
+/// `None` when not written; the command line may override them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Adaptive {
+    /// `render.adaptive`: on or off (default off).
+    pub on: Option<bool>,
+    /// `render.adaptive_threshold`: the error at which a pixel stops (> 0; default 0.01).
+    pub threshold: Option<f32>,
+    /// `render.adaptive_min_samples`: samples every pixel takes first, and between checks (>= 2;
+    /// default 16).
+    pub min_samples: Option<u32>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -286,6 +301,8 @@ pub struct RenderSettings {
     /// else each sample counts for its own pixel only, its position drawn from that pixel's filter.
     /// `None` (not in the file): [`RenderSettings::splats`] decides.
     pub splat: Option<bool>,
+    /// `render.adaptive`, `render.adaptive_threshold`, `render.adaptive_min_samples`.
+    pub adaptive: Adaptive,
     pub sampler: Sampler,
     pub light_sampling: LightSampling,
     /// `render.clamp`: each sample's radiance is scaled down so that its largest channel is at most this

@@ -397,6 +397,30 @@ impl Checker<'_> {
                 "clamp is the largest radiance a sample may carry in any channel (biased: leave it out for an unbiased image).",
             )?),
         };
+        let adaptive = crate::scene::Adaptive {
+            on: raw.adaptive.as_ref().map(|b| *b.get_ref()),
+            threshold: match &raw.adaptive_threshold {
+                None => None,
+                Some(t) => Some(self.number_unless(
+                    t,
+                    "render.adaptive_threshold",
+                    |t| t <= 0.0,
+                    "the adaptive threshold must be > 0",
+                    "adaptive_threshold is the relative error at which a pixel stops sampling, e.g. 0.01.",
+                )?),
+            },
+            min_samples: match &raw.adaptive_min_samples {
+                None => None,
+                Some(n) => Some(self.integer(
+                    n,
+                    "render.adaptive_min_samples",
+                    2,
+                    u32::MAX,
+                    "adaptive_min_samples is the samples every pixel takes before any stops (and \
+                     between checks); it must be at least 2, for a variance.",
+                )?),
+            },
+        };
         let settings = RenderSettings {
             samples,
             max_bounces,
@@ -406,6 +430,7 @@ impl Checker<'_> {
             filter_radius,
             sample_border: raw.sample_border.as_ref().is_none_or(|b| *b.get_ref()),
             splat: raw.splat.as_ref().map(|b| *b.get_ref()),
+            adaptive,
             sampler,
             light_sampling,
             clamp,
@@ -417,10 +442,24 @@ impl Checker<'_> {
             return Err(self.error(
                 splat.span(),
                 "render.splat",
-                "splatting needs a tent or Gaussian filter of radius at most 7.5 pixels and samples                  that stay on the image"
+                "splatting needs a tent or Gaussian filter of radius at most 7.5 pixels and samples \
+                 that stay on the image"
                     .to_string(),
                 "Set filter = \"tent\" or \"gaussian\" and sample_border = false, or leave splat out \
                  (each pixel then keeps its own samples).",
+            ));
+        }
+        if let (Some(adaptive), Some(splat)) = (&raw.adaptive, &raw.splat)
+            && *adaptive.get_ref()
+            && *splat.get_ref()
+        {
+            return Err(self.error(
+                splat.span(),
+                "render.splat",
+                "splatting does not go with adaptive sampling (render.adaptive = true): a splatted pixel \
+                 averages its neighbours' samples, which adaptive sampling takes in unequal numbers"
+                    .to_string(),
+                "Leave out one of splat and adaptive (an adaptive render keeps each pixel's own samples).",
             ));
         }
         Ok((settings, background))

@@ -1,0 +1,262 @@
+//! Adaptive sampling (`render.adaptive`, `--adaptive`): after a minimum number of samples, each pixel
+//! keeps sampling only while its estimated error is above a threshold, and the passes go to the pixels
+//! still sampling, listed for the kernel (trace.wgsl, `active_pixels`) so that a pixel that has stopped
+//! costs nothing on the device.
+//!
+//! The rule, checked every `min_spp` samples (at `min_spp`, `2 min_spp`, ...): pixel p with mean m_p
+//! (the mean of its three channels) has the error
+//!
+//! ```text
+//!     e_p = sqrt(V_p) / max(m_p, M),    V_p = mean over the 3x3 window W(p) of v_q
+//! ```
+//!
+//! where v_q = s_q^2 / n_q is the estimated variance of pixel q's mean (the mean over channels of each
+//! channel's unbiased sample variance over its n_q samples, [`crate::film::Film`]) and M the image's mean
+//! (all pixels and channels). The denominator makes e_p relative to the pixel's own value where it is
+//! brighter than the image and to the image's mean where it is darker, so that dark pixels do not
+//! sample on for a relative precision nobody sees, and a render whose every pixel met the threshold
+//! meets `--target-error`'s own measure as well ([`Film::estimated_rel_error`]: the root of the mean of
+//! v_p, over M). The variance is pooled over the window because a variance estimated from 16 samples is
+//! itself noisy (its relative error is about sqrt(2 / (n - 1)) for Gaussian noise and far worse for
+//! heavy tails), and neighbouring pixels see much the same light. A pixel then stops when e_q <=
+//! threshold for every still-sampling q in its 3x3 neighbourhood: the dilation that Cycles applies to
+//! its convergence mask (intern/cycles/kernel/film/adaptive_sampling.h), which keeps a pixel sampling
+//! while its neighbours do. A pixel that has stopped never starts again, so every pixel's samples are
+//! the first n_p of its sequence (indices 0..n_p), as for a render without adaptive sampling, and n_p
+//! is the sample count at which it stopped.
+//!
+//! What it cannot see: light that arrives through rare paths (a caustic seen on a diffuse wall, a
+//! small light reached through a mirror) gives a pixel a large variance that its first samples may not
+//! show at all; such a pixel can stop with an error well above the threshold (docs/speed-vs-accuracy.md
+//! measures it). A higher `render.adaptive_min_samples` is the remedy.
+//!
+//! Unbiased: whether a pixel goes on depends only on its samples so far (and its neighbours'), a
+//! stopping time, so each pixel's estimate stays an average of independent samples of its value; a
+//! pixel stopped early has more variance, not a different mean (tests/adaptive.rs checks the means).
+//!
+//! Deterministic: the checks fall at fixed sample counts (the progressive loop cuts its passes to land
+//! on them), and read the exact sums and the Kahan pairs of squares, which do not depend on passes,
+//! tiles or the kernel; so the pixels' counts, and the image, are the same bits for a given seed however
+//! the render is cut into passes. A checkpoint carries the counts; a `--sample-range` part cannot know
+//! what the samples before it decided, so a partial render is refused with adaptive sampling on.
+
+use crate::film::Film;
+use crate::gpu::{Buffer, GpuContext, GpuError};
+use std::sync::Arc;
+
+/// What adaptive sampling aims for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveSettings {
+    /// The error e_p (see the module's documentation) below which a pixel stops.
+    pub threshold: f64,
+    /// Samples every pixel takes before any stops; the checks then fall every `min_spp` samples.
+    pub min_spp: u32,
+}
+
+/// Default `render.adaptive_threshold`: Cycles' default noise threshold.
+pub const DEFAULT_THRESHOLD: f64 = 0.01;
+
+/// Default `render.adaptive_min_spp`: as few as keep the variance estimates from being too noisy to
+/// trust (the same count as `--target-error`'s [`super::TARGET_ERROR_MIN_SPP`]).
+pub const DEFAULT_MIN_SPP: u32 = 16;
+
+/// A render's adaptive state: each pixel's samples, and the pixels still sampling.
+pub struct Adaptive {
+    pub settings: AdaptiveSettings,
+    width: u32,
+    /// Samples taken by each pixel (row-major).
+    counts: Vec<u32>,
+    /// The pixels still sampling, row-major indices, ascending.
+    active: Vec<u32>,
+    /// `active` on the device (trace.wgsl's `active_pixels`), host-written.
+    pub(super) list: Buffer,
+    /// The samples (summed over the pixels) put back from a checkpoint ([`Adaptive::restore`]).
+    restored: u64,
+}
+
+impl Adaptive {
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        settings: AdaptiveSettings,
+        width: u32,
+        height: u32,
+    ) -> Result<Adaptive, GpuError> {
+        let pixels = width as usize * height as usize;
+        let mut list = Buffer::host_storage(ctx, "active pixels", 4 * pixels.max(1) as u64)?;
+        let active: Vec<u32> = (0..pixels as u32).collect();
+        list.write(bytemuck::cast_slice(&active))?;
+        Ok(Adaptive {
+            settings,
+            width,
+            counts: vec![0; pixels],
+            active,
+            list,
+            restored: 0,
+        })
+    }
+
+    /// Back to no samples, every pixel sampling (the list rewritten in place: the kernel keeps its
+    /// binding).
+    pub fn clear(&mut self) -> Result<(), GpuError> {
+        self.counts.fill(0);
+        self.active = (0..self.counts.len() as u32).collect();
+        self.restored = 0;
+        self.list.write(bytemuck::cast_slice(&self.active))
+    }
+
+    /// Samples taken by each pixel, row-major.
+    pub fn counts(&self) -> &[u32] {
+        &self.counts
+    }
+
+    /// The samples, summed over the pixels, that came from a checkpoint.
+    pub fn restored_samples(&self) -> u64 {
+        self.restored
+    }
+
+    /// The pixels still sampling (row-major indices, ascending).
+    pub fn active(&self) -> &[u32] {
+        &self.active
+    }
+
+    /// Whether the render checks for converged pixels once `done` samples are in (a multiple of
+    /// `min_spp`).
+    pub fn checks_at(&self, done: u32) -> bool {
+        let m = self.settings.min_spp.max(1);
+        done >= m && done.is_multiple_of(m)
+    }
+
+    /// The pixels of rows `rows[0]..rows[1]` still sampling: a range of [`Adaptive::active`].
+    pub fn active_in_rows(&self, rows: [u32; 2]) -> std::ops::Range<usize> {
+        let lo = rows[0] * self.width;
+        let hi = rows[1] * self.width;
+        let a = self.active.partition_point(|&p| p < lo);
+        let b = self.active.partition_point(|&p| p < hi);
+        a..b
+    }
+
+    /// Counts `spp` more samples for every pixel still sampling (after a pass traced them).
+    pub fn add_samples(&mut self, spp: u32) {
+        for &p in &self.active {
+            self.counts[p as usize] += spp;
+        }
+    }
+
+    /// Stops the pixels that have converged (see the module's documentation), given the film of the
+    /// samples so far; returns how many are still sampling.
+    pub fn stop_converged(&mut self, film: &Film) -> Result<usize, GpuError> {
+        let still = converged_mask(film, &self.active, self.settings.threshold);
+        let (w, h) = (film.width as i64, film.height as i64);
+        // 3x3 dilation of "not converged" over the pixels still sampling.
+        self.active.retain(|&p| {
+            let (x, y) = ((p % film.width) as i64, (p / film.width) as i64);
+            (y - 1..=y + 1).any(|yy| {
+                (x - 1..=x + 1).any(|xx| {
+                    (0..w).contains(&xx) && (0..h).contains(&yy) && still[(yy * w + xx) as usize]
+                })
+            })
+        });
+        self.list.write(bytemuck::cast_slice(&self.active))?;
+        Ok(self.active.len())
+    }
+
+    /// Puts a checkpoint's counts back: the pixels still sampling are those with the most samples
+    /// (`done`), or none when the checkpoint's last check stopped them all. Refuses counts of the wrong
+    /// length or above `done`.
+    pub fn restore(&mut self, counts: &[u32], done: u32) -> Result<(), GpuError> {
+        if counts.len() != self.counts.len() || counts.iter().any(|&n| n > done) {
+            return Err(GpuError::Usage(format!(
+                "restore of {} adaptive sample counts (at most {done} each) into a render of {} pixels",
+                counts.len(),
+                self.counts.len()
+            )));
+        }
+        self.counts = counts.to_vec();
+        self.restored = counts.iter().map(|&n| u64::from(n)).sum();
+        self.active = (0..counts.len() as u32)
+            .filter(|&p| counts[p as usize] == done)
+            .collect();
+        self.list.write(bytemuck::cast_slice(&self.active))?;
+        Ok(())
+    }
+}
+
+/// Per pixel: true where the pixel is still sampling and its error is above `threshold` (or not yet
+/// known: NaN), so that it and its neighbours go on.
+fn converged_mask(film: &Film, active: &[u32], threshold: f64) -> Vec<bool> {
+    let image_mean = film.average();
+    let mut going = vec![false; film.mean.len()];
+    let (w, h) = (film.width as usize, film.height as usize);
+    let var = |i: usize| film.variance[i].iter().map(|&v| f64::from(v)).sum::<f64>() / 3.0;
+    for &p in active {
+        let p = p as usize;
+        let m = film.mean[p].iter().map(|&v| f64::from(v)).sum::<f64>() / 3.0;
+        // The variance pooled over the 3x3 window (clipped at the edges).
+        let (x, y) = (p % w, p / w);
+        let (mut sum, mut k) = (0.0, 0.0);
+        for yy in y.saturating_sub(1)..(y + 2).min(h) {
+            for xx in x.saturating_sub(1)..(x + 2).min(w) {
+                sum += var(yy * w + xx);
+                k += 1.0;
+            }
+        }
+        let v = sum / k;
+        let scale = m.max(image_mean);
+        let error = if v == 0.0 {
+            0.0
+        } else if scale > 0.0 {
+            v.sqrt() / scale
+        } else {
+            f64::INFINITY
+        };
+        // NaN (fewer than 2 samples) keeps going.
+        going[p] = error.is_nan() || error > threshold;
+    }
+    going
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn film(mean: Vec<[f32; 3]>, variance: Vec<[f32; 3]>, width: u32) -> Film {
+        let height = mean.len() as u32 / width;
+        Film {
+            width,
+            height,
+            spp: 16,
+            pixel_spp: Vec::new(),
+            mean,
+            variance,
+        }
+    }
+
+    #[test]
+    fn error_is_the_pooled_deviation_over_the_brighter_of_pixel_and_image() {
+        // A 4x1 image of means 0.5, 0.5, 1.5, 1.5 (image mean M = 1) and variances a, a, b, b with
+        // a = 0.02^2, b = 0.006^2. Pooled over each pixel's window (clipped at the ends) and divided by
+        // max(m, M): pixel 0: sqrt(a) / 1 = 0.02; pixel 1: sqrt((2a + b) / 3) / 1 = 0.0167; pixel 2:
+        // sqrt((a + 2b) / 3) / 1.5 = 0.0084; pixel 3: sqrt(b) / 1.5 = 0.004. Threshold 0.01.
+        let (a, b) = (0.02f32 * 0.02, 0.006f32 * 0.006);
+        let f = film(
+            vec![[0.5; 3], [0.5; 3], [1.5; 3], [1.5; 3]],
+            vec![[a; 3], [a; 3], [b; 3], [b; 3]],
+            4,
+        );
+        assert_eq!(
+            converged_mask(&f, &[0, 1, 2, 3], 0.01),
+            vec![true, true, false, false]
+        );
+        // A stopped pixel is never "going", whatever its error.
+        assert_eq!(
+            converged_mask(&f, &[2, 3], 0.01),
+            vec![false, false, false, false]
+        );
+    }
+
+    #[test]
+    fn nan_variance_keeps_a_pixel_going() {
+        let f = film(vec![[1.0; 3]], vec![[f32::NAN; 3]], 1);
+        assert_eq!(converged_mask(&f, &[0], 0.5), vec![true]);
+    }
+}
