@@ -511,6 +511,29 @@ fn plan_samples(
                     });
                 }
             }
+            match (&c.adaptive, renderer.adaptive().is_some()) {
+                (Some(counts), true) => renderer.restore_adaptive(counts)?,
+                (None, false) => {}
+                (held, _) => {
+                    return Err(Error::Checkpoint {
+                        path: path.clone(),
+                        message: format!(
+                            "this checkpoint {} and this render {} (render.adaptive, --adaptive): resume \
+                             it with the scene file and flags it was made with.",
+                            if held.is_some() {
+                                "is of an adaptive render"
+                            } else {
+                                "is not of an adaptive render"
+                            },
+                            if renderer.adaptive().is_some() {
+                                "samples adaptively"
+                            } else {
+                                "does not"
+                            }
+                        ),
+                    });
+                }
+            }
             let device = &renderer.context().device_info().name;
             if &c.header.device != device {
                 warnings.push(format!(

@@ -297,10 +297,6 @@ fn the_command_line_writes_the_spp_layer_and_refuses_what_it_cannot_do() {
             ],
             "part",
         ),
-        (
-            vec!["--adaptive", "on", "--checkpoint", "c.ckpt"],
-            "checkpoint",
-        ),
         (vec!["--adaptive-threshold", "0"], "--adaptive-threshold"),
     ] {
         let mut all = vec![
@@ -312,6 +308,62 @@ fn the_command_line_writes_the_spp_layer_and_refuses_what_it_cannot_do() {
         assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
         assert!(err.contains(says), "{args:?}: {err}");
         assert!(!d.join("x.png").exists(), "{args:?} wrote an image");
+    }
+
+    // A checkpoint carries the counts: 32 samples, then resumed to 48, are the bits of 48 at once
+    // (the check at 32 is in the checkpoint); the other setting, and a merge, are refused.
+    let adaptive = [
+        "render",
+        "--width",
+        "24",
+        "--height",
+        "24",
+        "--adaptive-threshold",
+        "0.05",
+        "--quiet",
+    ];
+    fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+        [base, extra].concat()
+    }
+    run_ok(d, &with(&adaptive, &["--spp", "48", "-o", "whole.exr"]));
+    run_ok(
+        d,
+        &with(
+            &adaptive,
+            &["--spp", "32", "--checkpoint", "c.ckpt", "-o", "half.exr"],
+        ),
+    );
+    run_ok(
+        d,
+        &with(
+            &adaptive,
+            &["--spp", "48", "--resume", "c.ckpt", "-o", "resumed.exr"],
+        ),
+    );
+    let same = run(d, &["compare", "whole.exr", "resumed.exr"]);
+    assert_eq!(
+        same.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&same.stdout)
+    );
+    let differs = run(d, &["compare", "whole.exr", "half.exr"]);
+    assert_eq!(differs.status.code(), Some(1), "the test cannot fail");
+    for (args, says) in [
+        (
+            vec![
+                "render", "--width", "24", "--height", "24", "--spp", "64", "--resume", "c.ckpt",
+                "-o", "y.png",
+            ],
+            "is of an adaptive render",
+        ),
+        (vec!["merge", "c.ckpt", "-o", "y.png"], "adaptive render"),
+    ] {
+        let out = run(d, &args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(says), "{args:?}: {err}");
+        assert!(!d.join("y.png").exists(), "{args:?} wrote an image");
     }
 
     // The scene file's keys: a bad threshold names its key and line; splat with adaptive is refused.

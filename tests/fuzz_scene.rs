@@ -607,6 +607,7 @@ fn checkpoint_bytes() -> Vec<u8> {
             part: None,
             aux_samples: Some(4),
             splat: true,
+            adaptive: true,
         },
         accum: vec![vkpath::kernel::abi::GpuAccum::default(); 6],
         aux: Some(Aux {
@@ -620,6 +621,7 @@ fn checkpoint_bytes() -> Vec<u8> {
             };
             6
         ]),
+        adaptive: Some(vec![[8, 1], [8, 0], [4, 0], [8, 1], [0, 0], [8, 1]]),
     };
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("c.ckpt");

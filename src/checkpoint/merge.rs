@@ -101,6 +101,14 @@ fn check_headers(parts: &[(PathBuf, &Header)]) -> Result<Plan, Error> {
             });
         }
     }
+    if let Some((path, _)) = parts.iter().find(|(_, h)| h.adaptive) {
+        return Err(Error::Checkpoint {
+            path: path.clone(),
+            message: "this is the checkpoint of an adaptive render (render.adaptive), which is never a \
+                      part of a render: resume it with vkpath render --resume instead of merging it."
+                .into(),
+        });
+    }
     check_split(parts)?;
     // Every range, with the part it comes from, sorted by start: overlaps would count samples twice.
     let mut ranges: Vec<([u32; 2], usize)> = parts
@@ -155,6 +163,7 @@ fn check_headers(parts: &[(PathBuf, &Header)]) -> Result<Plan, Error> {
             // Every part's identity is the render's, whose scene says whether it splats; set by the
             // merge from the parts' sums.
             splat: false,
+            adaptive: false,
         },
         pixels,
         order,
@@ -230,6 +239,7 @@ impl Sum {
             accum: self.accum,
             aux: self.aux.map(|(a, _)| a),
             splat: self.splat,
+            adaptive: None,
         }
     }
 }

@@ -26,6 +26,8 @@
 //! | Q | only then: the denoiser's aux images ([`Aux`]: albedo RGB then normal XYZ, f32, compressed) |
 //! | 8 | only when the header has `splat`: splat length S (u64) |
 //! | S | only then: a splatted render's `GpuSplatAccum`s, byte-planar and compressed as the pixels are |
+//! | 8 | only when the header has `adaptive`: length A (u64) |
+//! | A | only then: an adaptive render's `[samples, still sampling (0 or 1)]` per pixel (two u32), compressed so |
 //! | 4 | CRC-32 (IEEE) of every byte before it: magic, version, header, lengths and payloads |
 //!
 //! The pixels are row-major from the top-left; each is 96 bytes: 18 u32 limbs (3 channels × 6,
@@ -156,6 +158,10 @@ pub struct Header {
     /// the aux images. Absent (false) otherwise.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub splat: bool,
+    /// The file carries an adaptive render's per-pixel counts ([`Checkpoint::adaptive`],
+    /// `render.adaptive`) after the splatted sums. Absent (false) otherwise.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub adaptive: bool,
 }
 
 /// The albedo and normal images a denoiser reads beside the image (`session::aov_layers`), one entry
@@ -280,20 +286,16 @@ pub struct Checkpoint {
     /// A splatted render's splatted sums, one entry per pixel (exactly as the GPU holds them), when
     /// `header.splat` says the file has them.
     pub splat: Option<Vec<GpuSplatAccum>>,
+    /// An adaptive render's `[samples taken, 1 if still sampling else 0]` per pixel, when
+    /// `header.adaptive` says the file has them. The flag is needed: a pixel stopped by the check at
+    /// sample n has n samples, as many as those that go on.
+    pub adaptive: Option<Vec<[u32; 2]>>,
 }
 
 impl Checkpoint {
     /// The renderer's current state (read back from the device) as a checkpoint of a render of `scene`.
-    /// Refused for an adaptive render (`render.adaptive`): the file has no place for its counts.
     pub fn of(renderer: &mut crate::Renderer, scene: &Scene) -> Result<Checkpoint, Error> {
-        if renderer.adaptive().is_some() {
-            return Err(crate::gpu::GpuError::Usage(
-                "a checkpoint of an adaptive render (render.adaptive): checkpoints do not hold the \
-                 per-pixel sample counts"
-                    .into(),
-            )
-            .into());
-        }
+        let adaptive = renderer.adaptive().map(|a| a.state());
         let accum = renderer.accum_state()?;
         let splat = if renderer.splats() {
             Some(renderer.splat_state()?)
@@ -310,10 +312,12 @@ impl Checkpoint {
                 part: None,
                 aux_samples: None,
                 splat: splat.is_some(),
+                adaptive: adaptive.is_some(),
             },
             accum,
             aux: None,
             splat,
+            adaptive,
         })
     }
 
@@ -329,12 +333,15 @@ impl Checkpoint {
 
     /// Means and variances, exactly as the renderer's `film()` would give them for this state.
     pub fn film(&self) -> Film {
-        let mut film = Film::from_sums(
+        let mut film = Film::for_sums(
             self.header.identity.width,
             self.header.identity.height,
             self.samples(),
-            &self.accum,
         );
+        if let Some(a) = &self.adaptive {
+            film.pixel_spp = a.iter().map(|p| p[0]).collect();
+        }
+        film.push_sums(&self.accum);
         if let Some(splat) = &self.splat {
             film.push_splatted(0, splat);
         }
@@ -384,6 +391,11 @@ impl Checkpoint {
             self.header.splat,
             "splatted sums",
         )?;
+        let adaptive = section(
+            self.adaptive.as_deref().map(compress),
+            self.header.adaptive,
+            "adaptive counts",
+        )?;
         let header_len = u32::try_from(json.len()).unwrap_or(u32::MAX);
         let head = [
             &MAGIC[..],
@@ -393,7 +405,15 @@ impl Checkpoint {
         .concat();
         let payload_len = (payload.len() as u64).to_le_bytes();
         let mut crc = crc32fast::Hasher::new();
-        for part in [&head[..], &json, &payload_len, &payload, &aux, &splat] {
+        for part in [
+            &head[..],
+            &json,
+            &payload_len,
+            &payload,
+            &aux,
+            &splat,
+            &adaptive,
+        ] {
             crc.update(part);
         }
         let crc = crc.finalize();
@@ -404,6 +424,7 @@ impl Checkpoint {
             f.write_all(&payload)?;
             f.write_all(&aux)?;
             f.write_all(&splat)?;
+            f.write_all(&adaptive)?;
             f.write_all(&crc.to_le_bytes())
         })
     }
@@ -511,7 +532,12 @@ impl Checkpoint {
             AUX_BYTES as u64
         } else {
             0
-        } + if header.splat { SPLAT_BYTES as u64 } else { 0 };
+        } + if header.splat { SPLAT_BYTES as u64 } else { 0 }
+            + if header.adaptive {
+                ADAPTIVE_BYTES as u64
+            } else {
+                0
+            };
         crate::memory::check_available(
             pixels * (crate::memory::CHECKPOINT_BYTES_PER_PIXEL + aux_bytes),
             &format!("decoding its {}x{} pixels", id.width, id.height),
@@ -541,7 +567,9 @@ impl Checkpoint {
             let payload_len = u64::from_le_bytes(l);
             // With aux images or splatted sums, their lengths and bytes follow the payload (their sizes
             // checked below).
-            let sections = u64::from(header.aux_samples.is_some()) + u64::from(header.splat);
+            let sections = u64::from(header.aux_samples.is_some())
+                + u64::from(header.splat)
+                + u64::from(header.adaptive);
             let fits = |payload_len: u64| match sections {
                 0 => held == 8 + payload_len + 4,
                 n => held >= 8 + payload_len + 8 * n + 4,
@@ -605,6 +633,11 @@ impl Checkpoint {
             pixels * AUX_BYTES as u64,
         )?;
         let splat_payload = section(header.splat, "splatted sums", pixels * SPLAT_BYTES as u64)?;
+        let adaptive_payload = section(
+            header.adaptive,
+            "adaptive counts",
+            pixels * ADAPTIVE_BYTES as u64,
+        )?;
         if held != consumed + 4 {
             return Err(truncated(format!(
                 "{consumed} bytes of lengths and compressed data and 4 of checksum"
@@ -654,11 +687,31 @@ impl Checkpoint {
         } else {
             None
         };
+        let adaptive = if header.adaptive {
+            let counts: Vec<[u32; 2]> =
+                decompress(&adaptive_payload, pixels as usize).map_err(|e| {
+                    invalid(format!(
+                        "its adaptive counts do not decompress to {}x{} pixels ({e})",
+                        id.width, id.height
+                    ))
+                })?;
+            let most = count_samples(&header.ranges).map_err(invalid)?;
+            if counts.iter().any(|&[n, on]| n > most || on > 1) {
+                return Err(invalid(format!(
+                    "its adaptive counts are not valid (a pixel with more than its {most} samples, or a \
+                     flag other than 0 or 1)"
+                )));
+            }
+            Some(counts)
+        } else {
+            None
+        };
         Ok(Checkpoint {
             header,
             accum,
             aux,
             splat,
+            adaptive,
         })
     }
 
@@ -826,6 +879,9 @@ fn decompress_aux(payload: &[u8], pixels: usize) -> std::io::Result<Aux> {
     Ok(Aux { albedo, normal })
 }
 
+/// Bytes per pixel of an adaptive render's counts decoded.
+const ADAPTIVE_BYTES: usize = 8;
+
 /// Bytes per pixel of the splatted sums decoded.
 const SPLAT_BYTES: usize = std::mem::size_of::<GpuSplatAccum>();
 
@@ -905,6 +961,7 @@ mod tests {
                 ranges,
                 aux_samples: None,
                 splat: false,
+                adaptive: false,
                 display: Display {
                     exposure: 1.0,
                     gamma: Some(2.2),
@@ -929,6 +986,7 @@ mod tests {
             ],
             aux: None,
             splat: None,
+            adaptive: None,
         }
     }
 

@@ -692,13 +692,6 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
              with --sample-range or --part.",
         ));
     }
-    if adaptive && (a.checkpoint.is_some() || a.resume.is_some()) {
-        return Err(usage(
-            "adaptive sampling (--adaptive on, or render.adaptive in the scene) does not write or resume \
-             checkpoints yet: a checkpoint does not hold each pixel's sample count. Give --adaptive off \
-             with --checkpoint or --resume.",
-        ));
-    }
     if adaptive && a.splat == Some(OnOff::On) {
         return Err(usage(
             "--splat on and adaptive sampling (--adaptive on, or render.adaptive in the scene) do not go \

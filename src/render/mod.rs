@@ -1186,7 +1186,7 @@ impl Renderer {
     }
 
     /// Puts adaptive sampling's per-pixel counts back (from a checkpoint, after [`Renderer::restore`]).
-    pub fn restore_adaptive(&mut self, counts: &[u32]) -> Result<(), GpuError> {
+    pub fn restore_adaptive(&mut self, counts: &[[u32; 2]]) -> Result<(), GpuError> {
         let done = self.samples_done;
         match &mut self.adaptive {
             Some(a) => a.restore(counts, done),
