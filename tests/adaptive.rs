@@ -239,25 +239,25 @@ fn no_pixel_stops_with_more_than_twice_the_threshold_of_true_error() {
 fn the_command_line_writes_the_spp_layer_and_refuses_what_it_cannot_do() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
+    let adaptive = [
+        "render",
+        "--width",
+        "24",
+        "--height",
+        "24",
+        "--adaptive-threshold",
+        "0.05",
+        "--quiet",
+    ];
+    fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
+        [base, extra].concat()
+    }
     let out = run_ok(
         d,
-        &[
-            "render",
-            "--spp",
-            "48",
-            "--width",
-            "24",
-            "--height",
-            "24",
-            "--adaptive-threshold",
-            "0.05",
-            "--aov",
-            "spp",
-            "--json",
-            "--quiet",
-            "-o",
-            "a.exr",
-        ],
+        &with(
+            &adaptive,
+            &["--spp", "48", "--aov", "spp", "--json", "-o", "a.exr"],
+        ),
     );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
     let mean_spp = report["mean_spp"].as_f64().expect("mean_spp");
@@ -312,19 +312,7 @@ fn the_command_line_writes_the_spp_layer_and_refuses_what_it_cannot_do() {
 
     // A checkpoint carries the counts: 32 samples, then resumed to 48, are the bits of 48 at once
     // (the check at 32 is in the checkpoint); the other setting, and a merge, are refused.
-    let adaptive = [
-        "render",
-        "--width",
-        "24",
-        "--height",
-        "24",
-        "--adaptive-threshold",
-        "0.05",
-        "--quiet",
-    ];
-    fn with<'a>(base: &[&'a str], extra: &[&'a str]) -> Vec<&'a str> {
-        [base, extra].concat()
-    }
+
     run_ok(d, &with(&adaptive, &["--spp", "48", "-o", "whole.exr"]));
     run_ok(
         d,
