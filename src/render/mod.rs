@@ -1049,10 +1049,19 @@ impl Renderer {
         self.casts_per_dispatch
     }
 
-    /// The tiles one sample is dispatched over now (they adapt to the dispatch target).
+    /// The tiles one sample is dispatched over now (they adapt to the dispatch target; with adaptive
+    /// sampling, the pieces of the list of pixels still sampling).
     pub fn tiles_per_sample(&self) -> usize {
         (0..self.strips.len())
-            .map(|i| self.layout.tiles(i, self.tile_pixels).len())
+            .map(|i| match &self.adaptive {
+                Some(a) => list_tiles(
+                    a.active_in_rows(self.strips[i].rows),
+                    self.tile_pixels,
+                    self.params.width,
+                )
+                .len(),
+                None => self.layout.tiles(i, self.tile_pixels).len(),
+            })
             .sum()
     }
 
@@ -1131,6 +1140,11 @@ impl Renderer {
         self.ranges = ranges.to_vec();
         self.samples_done = samples;
         self.next_sample = ranges.last().map_or(0, |r| r[1]);
+        // Adaptive sampling: every pixel holds all the samples and goes on, until
+        // [`Renderer::restore_adaptive`] says otherwise.
+        if let Some(a) = &mut self.adaptive {
+            a.restore(&vec![[samples, 1]; pixels], samples)?;
+        }
         Ok(())
     }
 
