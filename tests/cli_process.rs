@@ -86,3 +86,41 @@ fn no_vulkan_device_is_explained() {
         "nothing may be written"
     );
 }
+
+/// Ctrl-C while the kernel compiles (made to take two minutes by the `slow-compile` fault) ends the
+/// program at once, exit 1, nothing written; it used to wait for the compile to finish.
+#[test]
+fn sigint_during_the_compile_stops_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let child = vkpath(dir.path())
+        .env("VKPATH_FAULT", "slow-compile")
+        .args([
+            "render", "--width", "16", "--height", "16", "--spp", "4", "-o", "out.png",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    let start = Instant::now();
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    let waited = start.elapsed();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    // The compile would have gone on for two minutes.
+    assert!(
+        waited < Duration::from_secs(10),
+        "took {waited:?}: {stderr}"
+    );
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("before the first sample"), "{stderr}");
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        0,
+        "wrote a file"
+    );
+}

@@ -180,18 +180,28 @@ fn check_output_formats(outputs: &[PathBuf]) -> Result<(), Error> {
 
 /// Ctrl-C, SIGTERM and SIGHUP end the render after the pass in flight (the outputs and the checkpoint are
 /// then written); a second one exits at once (every file on disk is still whole: they are written
-/// atomically).
-fn install_stop_handler() -> Arc<AtomicBool> {
+/// atomically). Before the passes start (`started` still false: the scene is uploaded and the kernel
+/// compiled, which can take minutes on a cold shader cache), there is nothing to write, so the first
+/// one exits at once, with status 1 (an interrupted render that wrote nothing).
+fn install_stop_handler() -> (Arc<AtomicBool>, Arc<AtomicBool>) {
     let stop = Arc::new(AtomicBool::new(false));
-    let flag = stop.clone();
+    let started = Arc::new(AtomicBool::new(false));
+    let (flag, passes) = (stop.clone(), started.clone());
     // If a handler cannot be installed (e.g. one already exists in an embedding), a signal just kills us.
     let _ = ctrlc::set_handler(move || {
+        if !passes.load(Ordering::SeqCst) {
+            eprintln!(
+                "vkpath: interrupted before the first sample (while the scene was uploaded and the \
+                 kernel compiled); nothing was written."
+            );
+            std::process::exit(1);
+        }
         if flag.swap(true, Ordering::SeqCst) {
             eprintln!("vkpath: interrupted twice; exiting now without writing.");
             std::process::exit(130);
         }
     });
-    stop
+    (stop, started)
 }
 
 /// The Vulkan validation layer's errors (only collected when VKPATH_VALIDATION is set) on stderr; true

@@ -55,7 +55,7 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
         .transpose()?;
     let range = part.map(|p| p.range()).or(flags.range);
 
-    let stop = install_stop_handler();
+    let (stop, started) = install_stop_handler();
     let ctx = GpuContext::new(&ContextOptions::default())?;
     if let (Some(w), false) = (ctx.device_info().old_lavapipe_warning(), a.quiet) {
         eprintln!("vkpath: warning: {w}");
@@ -88,6 +88,8 @@ pub fn run_render(a: RenderArgs) -> Result<i32, Error> {
             save_every: flags.save_every,
         },
     )?;
+    // The kernel is compiled and the passes start: from now on a stop request writes what was rendered.
+    started.store(true, std::sync::atomic::Ordering::SeqCst);
     if !a.quiet {
         for w in &session.plan().warnings {
             eprintln!("vkpath: warning: {w}");

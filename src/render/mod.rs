@@ -155,6 +155,9 @@ pub enum Fault {
     OutOfMemory,
     /// The kernel fails to compile.
     Shader,
+    /// The kernel takes two minutes to compile (as `--generic` may on a cold cache): for the test that
+    /// a stop request during the compile ends the program at once.
+    SlowCompile,
 }
 
 impl Fault {
@@ -163,6 +166,7 @@ impl Fault {
         match text.trim() {
             "out-of-memory" => Some(Fault::OutOfMemory),
             "shader" => Some(Fault::Shader),
+            "slow-compile" => Some(Fault::SlowCompile),
             t => t
                 .strip_prefix("device-lost@")
                 .and_then(|n| n.parse().ok())
@@ -381,6 +385,9 @@ fn compile_kernel(
         return Err(GpuError::Shader(
             "error: injected fault (VKPATH_FAULT=shader)".into(),
         ));
+    }
+    if fault == Some(Fault::SlowCompile) {
+        std::thread::sleep(Duration::from_secs(120));
     }
     kernel_for(features)
 }
