@@ -262,10 +262,7 @@ fn the_command_line_writes_the_spp_layer_and_refuses_what_it_cannot_do() {
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
     let mean_spp = report["mean_spp"].as_f64().expect("mean_spp");
     assert!((16.0..=48.0).contains(&mean_spp), "{report}");
-    assert_eq!(
-        report["adaptive"]["threshold"].as_f64(),
-        Some(0.05f32 as f64)
-    );
+    assert_eq!(report["adaptive"]["threshold"].as_f64(), Some(0.05));
     let exr = exr::prelude::read_all_flat_layers_from_file(d.join("a.exr")).expect("exr");
     let layer = &exr.layer_data[0];
     let spp = layer

@@ -679,12 +679,12 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
         scene.render.adaptive.on = Some(true);
     }
     if let Some(t) = a.adaptive_threshold {
-        if !(t.is_finite() && t > 0.0 && t <= f64::from(f32::MAX)) {
+        if !(t.is_finite() && t > 0.0) {
             return Err(usage(format!(
                 "--adaptive-threshold must be a positive relative error (e.g. 0.01 for 1%), not {t}."
             )));
         }
-        scene.render.adaptive.threshold = Some(t as f32);
+        scene.render.adaptive.threshold = Some(t);
     }
     let adaptive = scene.render.adaptive.on == Some(true);
     if adaptive && (a.sample_range.is_some() || a.part.is_some()) {
@@ -746,7 +746,6 @@ fn adaptive_settings(
     (asked.on == Some(true)).then(|| AdaptiveSettings {
         threshold: asked
             .threshold
-            .map(f64::from)
             .or(target_error)
             .unwrap_or(adaptive::DEFAULT_THRESHOLD),
         min_spp: asked.min_samples.unwrap_or(adaptive::DEFAULT_MIN_SPP),

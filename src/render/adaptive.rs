@@ -35,8 +35,8 @@
 //! E[S_tau] = E[tau] mu by Wald's identity; Kirk and Arvo, "Unbiased sampling techniques for image
 //! synthesis", SIGGRAPH 1991): a pixel whose first samples missed a rare bright path looks calm and
 //! stops a little dark, one whose samples caught it goes on and averages it down. Cycles' adaptive
-//! sampling has the same bias. Each pixel still converges (it samples on unless its error estimate is
-//! small, and every pixel takes `min_spp`). Deciding from the neighbours' samples alone removes the
+//! sampling has the same bias. The image converges as the threshold goes to 0 (every pixel then samples
+//! on to the render's samples). Deciding from the neighbours' samples alone removes the
 //! bias to first order, and was tried: on the course's box it gave 1.1x the equal-time efficiency of
 //! plain sampling where this rule gives 2.3x, because the pixel that drew a firefly is exactly the one
 //! that needs more samples. Measured here: the pixels that stopped at 16 samples on Bitterli's
@@ -67,7 +67,7 @@ pub struct AdaptiveSettings {
 /// Default `render.adaptive_threshold`: Cycles' default noise threshold.
 pub const DEFAULT_THRESHOLD: f64 = 0.01;
 
-/// Default `render.adaptive_min_spp`: as few as keep the variance estimates from being too noisy to
+/// Default `render.adaptive_min_samples`: as few as keep the variance estimates from being too noisy to
 /// trust (the same count as `--target-error`'s [`super::TARGET_ERROR_MIN_SPP`]).
 pub const DEFAULT_MIN_SPP: u32 = 16;
 

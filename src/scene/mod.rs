@@ -275,7 +275,7 @@ pub struct Adaptive {
     /// `render.adaptive`: on or off (default off).
     pub on: Option<bool>,
     /// `render.adaptive_threshold`: the error at which a pixel stops (> 0; default 0.01).
-    pub threshold: Option<f32>,
+    pub threshold: Option<f64>,
     /// `render.adaptive_min_samples`: samples every pixel takes first, and between checks (>= 2;
     /// default 16).
     pub min_samples: Option<u32>,

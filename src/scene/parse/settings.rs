@@ -401,13 +401,13 @@ impl Checker<'_> {
             on: raw.adaptive.as_ref().map(|b| *b.get_ref()),
             threshold: match &raw.adaptive_threshold {
                 None => None,
-                Some(t) => Some(self.number_unless(
+                Some(t) => Some(f64::from(self.number_unless(
                     t,
                     "render.adaptive_threshold",
                     |t| t <= 0.0,
                     "the adaptive threshold must be > 0",
                     "adaptive_threshold is the relative error at which a pixel stops sampling, e.g. 0.01.",
-                )?),
+                )?)),
             },
             min_samples: match &raw.adaptive_min_samples {
                 None => None,
