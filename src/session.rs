@@ -441,6 +441,18 @@ fn aux_of(layers: &Layers) -> Result<Aux, Error> {
     Ok(Aux::from_films(albedo, normal))
 }
 
+/// The refusal of a checkpoint made with another setting of a knob that its state depends on: "this
+/// checkpoint {held} {what} and this render {render} ({knob}): resume it with ...".
+fn setting_differs(path: &Path, held: &str, what: &str, render: &str, knob: &str) -> Error {
+    Error::Checkpoint {
+        path: path.to_path_buf(),
+        message: format!(
+            "this checkpoint {held} {what} and this render {render} ({knob}): resume it with the scene \
+             file and flags it was made with."
+        ),
+    }
+}
+
 /// Decides where the samples start: from the checkpoint resumed (which must be of this render, and, for
 /// a partial render, of the start of the same `--sample-range` or the same `--part`: anything else would
 /// render other samples), at the start of the range, or at 0. Puts the resumed state on the device, and
@@ -495,43 +507,31 @@ fn plan_samples(
             match (&c.splat, renderer.splats()) {
                 (Some(sums), true) => renderer.restore_splat(sums)?,
                 (None, false) => {}
-                (held, _) => {
-                    return Err(Error::Checkpoint {
-                        path: path.clone(),
-                        message: format!(
-                            "this checkpoint {} splatted sums and this render {} (render.splat): resume \
-                             it with the scene file and flags it was made with.",
-                            if held.is_some() { "holds" } else { "has no" },
-                            if renderer.splats() {
-                                "splats"
-                            } else {
-                                "does not splat"
-                            }
-                        ),
-                    });
+                (held, splats) => {
+                    return Err(setting_differs(
+                        path,
+                        if held.is_some() { "holds" } else { "has no" },
+                        "splatted sums",
+                        if splats { "splats" } else { "does not splat" },
+                        "render.splat",
+                    ));
                 }
             }
             match (&c.adaptive, renderer.adaptive().is_some()) {
                 (Some(counts), true) => renderer.restore_adaptive(counts)?,
                 (None, false) => {}
-                (held, _) => {
-                    return Err(Error::Checkpoint {
-                        path: path.clone(),
-                        message: format!(
-                            "this checkpoint {} and this render {} (render.adaptive, --adaptive): resume \
-                             it with the scene file and flags it was made with.",
-                            if held.is_some() {
-                                "is of an adaptive render"
-                            } else {
-                                "is not of an adaptive render"
-                            },
-                            if renderer.adaptive().is_some() {
-                                "samples adaptively"
-                            } else {
-                                "does not"
-                            }
-                        ),
-                    });
+                (held, adaptive) => {
+                    return Err(setting_differs(
+                        path,
+                        if held.is_some() { "is" } else { "is not" },
+                        "of an adaptive render",
+                        if adaptive {
+                            "samples adaptively"
+                        } else {
+                            "does not"
+                        },
+                        "render.adaptive, --adaptive",
+                    ));
                 }
             }
             let device = &renderer.context().device_info().name;

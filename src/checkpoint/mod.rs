@@ -652,7 +652,7 @@ impl Checkpoint {
                  the file is damaged or was edited"
             )));
         }
-        count_samples(&header.ranges).map_err(invalid)?;
+        let samples = count_samples(&header.ranges).map_err(invalid)?;
         if let Some(p) = header.part {
             Part::new(p.index, p.count, p.samples)
                 .map_err(|m| invalid(format!("its part {} is not valid: {m}", p.show())))?;
@@ -695,10 +695,9 @@ impl Checkpoint {
                         id.width, id.height
                     ))
                 })?;
-            let most = count_samples(&header.ranges).map_err(invalid)?;
-            if counts.iter().any(|&[n, on]| n > most || on > 1) {
+            if counts.iter().any(|&[n, on]| n > samples || on > 1) {
                 return Err(invalid(format!(
-                    "its adaptive counts are not valid (a pixel with more than its {most} samples, or a \
+                    "its adaptive counts are not valid (a pixel with more than its {samples} samples, or a \
                      flag other than 0 or 1)"
                 )));
             }

@@ -943,14 +943,7 @@ impl Renderer {
         let chunk = self.samples_per_dispatch.clamp(1, spp.max(1));
         let mut slowest_per_pixel = 0.0f64;
         for si in 0..self.strips.len() {
-            let tiles = match &self.adaptive {
-                Some(a) => list_tiles(
-                    a.active_in_rows(self.strips[si].rows),
-                    self.tile_pixels,
-                    self.params.width,
-                ),
-                None => self.layout.tiles(si, self.tile_pixels),
-            };
+            let tiles = self.tiles_of_strip(si);
             if tiles.is_empty() {
                 continue;
             }
@@ -1060,16 +1053,21 @@ impl Renderer {
     /// sampling, the pieces of the list of pixels still sampling).
     pub fn tiles_per_sample(&self) -> usize {
         (0..self.strips.len())
-            .map(|i| match &self.adaptive {
-                Some(a) => list_tiles(
-                    a.active_in_rows(self.strips[i].rows),
-                    self.tile_pixels,
-                    self.params.width,
-                )
-                .len(),
-                None => self.layout.tiles(i, self.tile_pixels).len(),
-            })
+            .map(|i| self.tiles_of_strip(i).len())
             .sum()
+    }
+
+    /// The dispatches of one sample over strip `si` at the current tile size: its tiles, or with
+    /// adaptive sampling, the pieces of the list of its pixels still sampling.
+    fn tiles_of_strip(&self, si: usize) -> Vec<tiles::Tile> {
+        match &self.adaptive {
+            Some(a) => list_tiles(
+                a.active_in_rows(self.strips[si].rows),
+                self.tile_pixels,
+                self.params.width,
+            ),
+            None => self.layout.tiles(si, self.tile_pixels),
+        }
     }
 
     /// The sample index the next pass starts at.
