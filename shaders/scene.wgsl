@@ -421,10 +421,17 @@ fn bump_mapped(s: Surface, dp: SurfaceDerivatives, texture: u32, scale: f32) -> 
     let tex = textures[texture];
     let du = 1.0 / f32(tex.width);
     let dv = 1.0 / f32(tex.height);
-    let hu = (texture_value(texture, s.uv + vec2<f32>(du, 0.0)).x
-            - texture_value(texture, s.uv - vec2<f32>(du, 0.0)).x) * (scale / (2.0 * du));
-    let hv = (texture_value(texture, s.uv + vec2<f32>(0.0, dv)).x
-            - texture_value(texture, s.uv - vec2<f32>(0.0, dv)).x) * (scale / (2.0 * dv));
+    // The heights at uv + (du, 0), - (du, 0), + (0, dv), - (0, dv), by one texture_value in a loop (see
+    // textured_material; the trip count is 4, written so that the compiler cannot unroll it).
+    var heights = vec4<f32>(0.0);
+    let taps = select(4u, 0u, tex.width == 0u);
+    for (var k = 0u; k < taps; k++) {
+        let along_u = vec2<f32>(select(du, -du, k == 1u), 0.0);
+        let along_v = vec2<f32>(0.0, select(dv, -dv, k == 3u));
+        heights[k] = texture_value(texture, s.uv + select(along_v, along_u, k < 2u)).x;
+    }
+    let hu = (heights.x - heights.y) * (scale / (2.0 * du));
+    let hv = (heights.z - heights.w) * (scale / (2.0 * dv));
     let c = cross(tu + hu * n, tv + hv * n);
     let len2 = dot(c, c);
     if len2 > 1e-30 && len2 < 1e30 {
@@ -500,22 +507,41 @@ fn surface_emission_scale(sp: Surface) -> vec3<f32> {
 // is alpha texel^2 (below SMOOTH_ALPHA, the smooth lobe: microfacet_smooth). (alpha's product reaches the
 // BSDF only through material_alpha's max, never an addition, so it rounds the same in every kernel: see
 // texture_lookup.)
+//
+// The lookups go through one call of texture_lookup in a loop over the textures the material has (see
+// image_lookup for why: each call is compiled in full, and the loop's trip count is the data's).
 fn textured_material(mat: Material, sp: Surface) -> Material {
     var m = mat;
     if HAS_TEXTURES || HAS_METALLIC_ROUGHNESS_TEXTURES {
         let mt = material_textures_of(sp.material);
+        // Bit 0 albedo, bit 1 metallic, bit 2 roughness: the textures still to look up, in that order.
+        var todo = 0u;
         if HAS_TEXTURES {
-            if mt.albedo_texture != NO_TEXTURE {
-                m.albedo = texture_lookup(mt.albedo_texture, sp.uv, mat.albedo);
-            }
+            todo |= select(0u, 1u, mt.albedo_texture != NO_TEXTURE);
         }
         if HAS_METALLIC_ROUGHNESS_TEXTURES {
-            if mt.metallic_texture != NO_TEXTURE {
-                m.metallic = texture_lookup(mt.metallic_texture, sp.uv, vec3<f32>(mat.metallic)).x;
+            todo |= select(0u, 2u, mt.metallic_texture != NO_TEXTURE);
+            todo |= select(0u, 4u, mt.roughness_texture != NO_TEXTURE);
+        }
+        while todo != 0u {
+            let k = firstTrailingBit(todo);
+            todo &= todo - 1u;
+            var texture = mt.albedo_texture;
+            var scale = mat.albedo;
+            if k == 1u {
+                texture = mt.metallic_texture;
+                scale = vec3<f32>(mat.metallic);
+            } else if k == 2u {
+                texture = mt.roughness_texture;
+                scale = vec3<f32>(1.0);
             }
-            if mt.roughness_texture != NO_TEXTURE {
-                let r = texture_value(mt.roughness_texture, sp.uv).x;
-                let r2 = r * r;
+            let value = texture_lookup(texture, sp.uv, scale);
+            if k == 0u {
+                m.albedo = value;
+            } else if k == 1u {
+                m.metallic = value.x;
+            } else {
+                let r2 = value.x * value.x;
                 m.alpha_x *= r2;
                 m.alpha_y *= r2;
             }

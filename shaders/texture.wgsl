@@ -153,33 +153,53 @@ fn texture_lookup(index: u32, uv_in: vec2<f32>, scale: vec3<f32>) -> vec3<f32> {
 }
 
 // An image texture's filtered value at the transformed uv, times `scale` (see texture_lookup).
+//
+// One loop over the taps (one for nearest, four for bilinear) rather than four written-out texel reads:
+// lavapipe inlines every call and expands each storage-buffer read whose index differs between lanes
+// into branches per lane, so every texel read written here is compiled once per texture lookup in the
+// kernel; a loop whose trip count the compiler cannot know keeps one (docs/performance.md, "What the
+// first sample waits for"). The sum runs over the taps in the order of the formula above.
 fn image_lookup(tex: TextureInfo, uv: vec2<f32>, scale: vec3<f32>) -> vec3<f32> {
     let w = tex.width;
     let h = tex.height;
     // Wrapped into [0, 1] first, so that huge uvs never reach an integer conversion.
     let u = texture_wrap(uv.x, tex.flags);
     let v = texture_wrap(uv.y, tex.flags);
+    var taps = 4u;
+    var x0 = 0u;
+    var y0 = 0u;
+    var x1 = 0u;
+    var y1 = 0u;
+    var fx = 0.0;
+    var fy = 0.0;
     if (tex.flags & TEXTURE_NEAREST) != 0u {
-        let x = min(u32(u * f32(w)), w - 1u);
-        let y = min(u32((1.0 - v) * f32(h)), h - 1u);
-        return scale * texel_linear(tex, x, y);
+        // The texel whose square contains the sample, weight 1.
+        taps = 1u;
+        x0 = min(u32(u * f32(w)), w - 1u);
+        y0 = min(u32((1.0 - v) * f32(h)), h - 1u);
+    } else {
+        let x = u * f32(w) - 0.5; // in [-0.5, w - 0.5]
+        let y = (1.0 - v) * f32(h) - 0.5; // rows from the top
+        let xf = floor(x);
+        let yf = floor(y);
+        fx = x - xf;
+        fy = y - yf;
+        // xf in [-1, w - 1]: -1 is the last column when repeating, the first when clamping (and likewise
+        // for rows).
+        x0 = texel_index(i32(xf), w, tex.flags);
+        y0 = texel_index(i32(yf), h, tex.flags);
+        x1 = texel_index(i32(xf) + 1, w, tex.flags);
+        y1 = texel_index(i32(yf) + 1, h, tex.flags);
     }
-    let x = u * f32(w) - 0.5; // in [-0.5, w - 0.5]
-    let y = (1.0 - v) * f32(h) - 0.5; // rows from the top
-    let xf = floor(x);
-    let yf = floor(y);
-    let fx = x - xf;
-    let fy = y - yf;
-    // xf in [-1, w - 1]: -1 is the last column when repeating, the first when clamping (and likewise
-    // for rows).
-    let x0 = texel_index(i32(xf), w, tex.flags);
-    let y0 = texel_index(i32(yf), h, tex.flags);
-    let x1 = texel_index(i32(xf) + 1, w, tex.flags);
-    let y1 = texel_index(i32(yf) + 1, h, tex.flags);
-    return (1.0 - fx) * (1.0 - fy) * (scale * texel_linear(tex, x0, y0))
-         + fx * (1.0 - fy) * (scale * texel_linear(tex, x1, y0))
-         + (1.0 - fx) * fy * (scale * texel_linear(tex, x0, y1))
-         + fx * fy * (scale * texel_linear(tex, x1, y1));
+    var value = vec3<f32>(0.0);
+    for (var k = 0u; k < taps; k++) {
+        // Tap k: bit 0 the column (x0 or x1), bit 1 the row (y0 or y1).
+        let right = (k & 1u) != 0u;
+        let below = (k & 2u) != 0u;
+        let weight = select(1.0 - fx, fx, right) * select(1.0 - fy, fy, below);
+        value += weight * (scale * texel_linear(tex, select(x0, x1, right), select(y0, y1, below)));
+    }
+    return value;
 }
 
 // The texture's value at uv (factor 1).

@@ -647,6 +647,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var sample = pc.sample_index;
     var end = pc.sample_index + pc.sample_count;
     var path: Path;
+    // Whether `path` is to begin (sample `sample` of pixel px) at the top of the loop: one call site of
+    // path_begin for the first sample and every regenerated one, so that the driver, which inlines
+    // every call, compiles the camera's sampling once (docs/performance.md, compile time).
+    var begin = pc.queued == 0u;
     if pc.queued == 0u && pc.list_len != 0u {
         // Adaptive sampling: the pixels still sampling, listed by the host (row-major indices).
         if gid.x >= tile_w || slot >= pc.list_len {
@@ -654,12 +658,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let p = active_pixels[pc.list_start + slot];
         px = vec2<u32>(p % params.width, p / params.width);
-        path = path_begin(px, sample);
     } else if pc.queued == 0u {
         if px.x >= pc.tile_x1 || px.y >= pc.tile_y1 || px.x >= params.width || px.y >= params.height {
             return;
         }
-        path = path_begin(px, sample);
     } else {
         if gid.x >= tile_w || slot >= pc.queued {
             return;
@@ -676,6 +678,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var added = false;
     var casts = 0u;
     loop {
+        if begin {
+            path = path_begin(px, sample);
+            begin = false;
+        }
         if casts >= pc.casts {
             path_state[slot] = path_save(path, px, sample, end);
             path_queue[pc.queue_out + atomicAdd(&path_count, 1u)] = slot;
@@ -692,7 +698,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if sample >= end {
                 break;
             }
-            path = path_begin(px, sample);
+            begin = true;
         }
     }
     if added {
