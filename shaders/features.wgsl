@@ -70,6 +70,8 @@ override UNIFORM_LIGHTS: bool = false;
 override UNIFORM_LIGHT_TRIANGLES: bool = false;
 override UNIFORM_INSTANCES: bool = false;
 override UNIFORM_MATERIALS: bool = false;
+override UNIFORM_TEXTURES: bool = false;
+override UNIFORM_MATERIAL_TEXTURES: bool = false;
 // Exactly one material kind (counting emitters) / one light kind in the scene: the kind tests go.
 override SINGLE_MATERIAL_KIND: bool = false;
 override SINGLE_LIGHT_KIND: bool = false;

@@ -418,7 +418,7 @@ fn bump_mapped(s: Surface, dp: SurfaceDerivatives, texture: u32, scale: f32) -> 
     let n = s.ns;
     let tu = dp.dpdu - dot(dp.dpdu, n) * n;
     let tv = dp.dpdv - dot(dp.dpdv, n) * n;
-    let tex = textures[texture];
+    let tex = texture_info_at(texture);
     let du = 1.0 / f32(tex.width);
     let dv = 1.0 / f32(tex.height);
     // The heights at uv + (du, 0), - (du, 0), + (0, dv), - (0, dv), by one texture_value in a loop (see

@@ -249,6 +249,8 @@ struct Hit {
 @group(0) @binding(44) var<uniform> lights_uniform: array<Light, 819>;
 @group(0) @binding(46) var<uniform> instances_uniform: array<Instance, 585>;
 @group(0) @binding(47) var<uniform> materials_uniform: array<Material, 455>;
+@group(0) @binding(50) var<uniform> textures_uniform: array<TextureInfo, 1365>;
+@group(0) @binding(51) var<uniform> material_textures_uniform: array<MaterialTextures, 1024>;
 
 // Arrays larger than one storage binding may hold (Vulkan guarantees 2^27 bytes) are read through
 // several: part k of an array holds its elements [k 2^BITS, (k + 1) 2^BITS), part 0 under the array's
@@ -368,6 +370,15 @@ fn material_at(i: u32) -> Material {
         return materials_uniform[i];
     } else {
         return materials[i];
+    }
+}
+
+// Entry i of the texture table (texture.wgsl).
+fn texture_info_at(i: u32) -> TextureInfo {
+    if UNIFORM_TEXTURES {
+        return textures_uniform[i];
+    } else {
+        return textures[i];
     }
 }
 

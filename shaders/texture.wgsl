@@ -136,7 +136,7 @@ fn texture_uv(tex: TextureInfo, uv: vec2<f32>) -> vec2<f32> {
 // the BSDF, which adds it (1 - metallic, a Schlick f0 + ...), could round differently in the two. A sum
 // handed on rounds the same in both.)
 fn texture_lookup(index: u32, uv_in: vec2<f32>, scale: vec3<f32>) -> vec3<f32> {
-    let tex = textures[index];
+    let tex = texture_info_at(index);
     let uv = texture_uv(tex, uv_in);
     var value = vec3<f32>(0.0);
     var image = true;
@@ -207,14 +207,19 @@ fn texture_value(index: u32, uv: vec2<f32>) -> vec3<f32> {
     return texture_lookup(index, uv, vec3<f32>(1.0));
 }
 
-// Material m's textures and modifiers: its entry of `material_textures`, or none (opaque, untextured)
-// when the buffer is empty (the host uploads it only when some material has one; the generic kernel
+// Material m's textures and modifiers: its entry of `material_textures` (or of its uniform twin), or none
+// (opaque, untextured) when the buffer is empty (the host uploads it only when some material has one; the generic kernel
 // still runs such scenes).
 fn material_textures_of(m: u32) -> MaterialTextures {
     var t = MaterialTextures(NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE, NO_TEXTURE,
                              NO_TEXTURE, 0u, 1.0, 0.0, 1.0, 1.0, 0u, 0.0, NO_TEXTURE, 0u);
-    if m < arrayLength(&material_textures) {
-        t = material_textures[m];
+    if UNIFORM_MATERIAL_TEXTURES {
+        // Its twin only holds a table that is there, one entry per material (UniformArray::fits).
+        t = material_textures_uniform[m];
+    } else {
+        if m < arrayLength(&material_textures) {
+            t = material_textures[m];
+        }
     }
     return t;
 }

@@ -726,7 +726,7 @@ impl UniformArray {
 
 /// The arrays the BVH walk, the shading and the light sampling read at indices that differ between
 /// lanes.
-pub const UNIFORM_ARRAYS: [UniformArray; 8] = [
+pub const UNIFORM_ARRAYS: [UniformArray; 10] = [
     UniformArray {
         name: "triangles",
         uniform: "triangles_uniform",
@@ -774,6 +774,18 @@ pub const UNIFORM_ARRAYS: [UniformArray; 8] = [
         uniform: "instances_uniform",
         constant: "UNIFORM_INSTANCES",
         element_bytes: std::mem::size_of::<GpuInstance>(),
+    },
+    UniformArray {
+        name: "textures",
+        uniform: "textures_uniform",
+        constant: "UNIFORM_TEXTURES",
+        element_bytes: std::mem::size_of::<GpuTextureInfo>(),
+    },
+    UniformArray {
+        name: "material_textures",
+        uniform: "material_textures_uniform",
+        constant: "UNIFORM_MATERIAL_TEXTURES",
+        element_bytes: std::mem::size_of::<GpuMaterialTextures>(),
     },
 ];
 

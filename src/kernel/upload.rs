@@ -127,6 +127,8 @@ impl GpuScene {
             "lights" => bytemuck::cast_slice(&self.lights),
             "instances" => bytemuck::cast_slice(&self.instances),
             "materials" => bytemuck::cast_slice(&self.materials),
+            "textures" => bytemuck::cast_slice(&self.textures),
+            "material_textures" => bytemuck::cast_slice(&self.material_textures),
             _ => &[],
         }
     }
