@@ -18,7 +18,15 @@ fn sphere_uv(q: vec3<f32>, radius: f32) -> vec2<f32> {
 // data, whose mesh_faces is empty.)
 fn triangle_face(i: u32) -> MeshFace {
     var face = MeshFace(vec3<u32>(0u), NO_MESH);
-    if i < arrayLength(&mesh_faces) {
+    // (A non-empty mesh_faces has an entry per triangle. With DATA_IMAGES the faces are in their image
+    // and the storage binding is a witness of one entry, or none: render::upload_scene.)
+    var there = false;
+    if DATA_IMAGES {
+        there = arrayLength(&mesh_faces) > 0u;
+    } else {
+        there = i < arrayLength(&mesh_faces);
+    }
+    if there {
         face = mesh_face_at(i);
     }
     return face;

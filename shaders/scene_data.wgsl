@@ -262,6 +262,7 @@ const BVH_NODE_PART_BITS: u32 = 21u;
 const MESH_FACE_PART_BITS: u32 = 23u;
 const MESH_VERTEX_PART_BITS: u32 = 22u;
 const TEXEL_PART_BITS: u32 = 25u;
+const DATA_IMAGE_WIDTH_BITS: u32 = 12u;
 @group(0) @binding(21) var<storage, read> triangles_1: array<Triangle>;
 @group(0) @binding(22) var<storage, read> triangles_2: array<Triangle>;
 @group(0) @binding(23) var<storage, read> triangles_3: array<Triangle>;
@@ -287,6 +288,8 @@ fn part_mask(bits: u32) -> u32 {
 fn triangle_at(i: u32) -> Triangle {
     if UNIFORM_TRIANGLES {
         return triangles_uniform[i];
+    } else if DATA_IMAGES {
+        return triangle_from_image(i);
     } else {
         if HAS_SPLIT_ARRAYS {
             let j = i & part_mask(TRIANGLE_PART_BITS);
@@ -305,9 +308,49 @@ fn triangle_at(i: u32) -> Triangle {
     }
 }
 
+// Data images (src/gpu/image.rs): an array's bytes as the texels of a 2D rgba32uint image,
+// 2^DATA_IMAGE_WIDTH_BITS texels a row, so that 16-byte texel j is at (j mod width, j / width). A BVH node
+// is four texels, a triangle three, a mesh face one, a mesh vertex one and a half, a texel word a
+// quarter. Read where the kernel has DATA_IMAGES and the array has no uniform
+// twin.
+@group(0) @binding(52) var bvh_nodes_image: texture_2d<u32>;
+@group(0) @binding(53) var triangles_image: texture_2d<u32>;
+@group(0) @binding(54) var mesh_faces_image: texture_2d<u32>;
+@group(0) @binding(55) var mesh_vertices_image: texture_2d<u32>;
+@group(0) @binding(56) var texels_image: texture_2d<u32>;
+
+fn data_texel_position(j: u32) -> vec2<u32> {
+    return vec2<u32>(j & ((1u << DATA_IMAGE_WIDTH_BITS) - 1u), j >> DATA_IMAGE_WIDTH_BITS);
+}
+
+fn bvh_node_texel(j: u32) -> vec4<u32> {
+    return textureLoad(bvh_nodes_image, data_texel_position(j), 0);
+}
+
+fn triangle_texel(j: u32) -> vec4<u32> {
+    return textureLoad(triangles_image, data_texel_position(j), 0);
+}
+
+fn bvh_node_from_image(i: u32) -> BvhNode {
+    let a = bvh_node_texel(4u * i);
+    let b = bvh_node_texel(4u * i + 1u);
+    let c = bvh_node_texel(4u * i + 2u);
+    let d = bvh_node_texel(4u * i + 3u);
+    return BvhNode(bitcast<vec3<f32>>(a.xyz), a.w, b, c.xy, c.z, c.w, d);
+}
+
+fn triangle_from_image(i: u32) -> Triangle {
+    let a = triangle_texel(3u * i);
+    let b = triangle_texel(3u * i + 1u);
+    let c = triangle_texel(3u * i + 2u);
+    return Triangle(bitcast<vec3<f32>>(a.xyz), a.w, bitcast<vec3<f32>>(b.xyz), b.w, bitcast<vec3<f32>>(c.xyz), c.w);
+}
+
 fn bvh_node_at(i: u32) -> BvhNode {
     if UNIFORM_BVH_NODES {
         return bvh_nodes_uniform[i];
+    } else if DATA_IMAGES {
+        return bvh_node_from_image(i);
     } else {
         if HAS_SPLIT_ARRAYS {
             let j = i & part_mask(BVH_NODE_PART_BITS);
@@ -323,7 +366,9 @@ fn bvh_node_at(i: u32) -> BvhNode {
 }
 
 // Whether the scene's triangles have a BVH (the generic kernel finds `bvh_nodes` empty otherwise; a
-// uniform twin is used only for a tree that has nodes).
+// uniform twin is used only for a tree that has nodes). With DATA_IMAGES the nodes are in their image and
+// the storage binding is only a witness of their number: one element when there are nodes, none when not
+// (render::upload_scene).
 fn has_bvh_nodes() -> bool {
     if UNIFORM_BVH_NODES {
         return true;
@@ -391,6 +436,15 @@ fn instance_at(i: u32) -> Instance {
 }
 
 fn mesh_face_at(i: u32) -> MeshFace {
+    if DATA_IMAGES {
+        let t = textureLoad(mesh_faces_image, data_texel_position(i), 0);
+        return MeshFace(t.xyz, t.w);
+    } else {
+        return mesh_face_from_storage(i);
+    }
+}
+
+fn mesh_face_from_storage(i: u32) -> MeshFace {
     if HAS_SPLIT_ARRAYS {
         let j = i & part_mask(MESH_FACE_PART_BITS);
         switch i >> MESH_FACE_PART_BITS {
@@ -401,7 +455,25 @@ fn mesh_face_at(i: u32) -> MeshFace {
     return mesh_faces[i];
 }
 
+// A vertex is six words: vertex i starts at word 6i, texel 3i / 2, at its first word for an even i and
+// its third for an odd one, and ends in the next texel (the image has a texel to spare past its data:
+// gpu::image).
 fn mesh_vertex_at(i: u32) -> MeshVertex {
+    if DATA_IMAGES {
+        let j = (3u * i) >> 1u;
+        let a = textureLoad(mesh_vertices_image, data_texel_position(j), 0);
+        let b = textureLoad(mesh_vertices_image, data_texel_position(j + 1u), 0);
+        let odd = (i & 1u) != 0u;
+        let w = select(a, vec4<u32>(a.zw, b.xy), odd);
+        let last = select(b.xy, b.zw, odd);
+        return MeshVertex(bitcast<f32>(w.x), bitcast<f32>(w.y), bitcast<f32>(w.z), bitcast<f32>(w.w),
+                          bitcast<f32>(last.x), last.y);
+    } else {
+        return mesh_vertex_from_storage(i);
+    }
+}
+
+fn mesh_vertex_from_storage(i: u32) -> MeshVertex {
     if HAS_SPLIT_ARRAYS {
         let j = i & part_mask(MESH_VERTEX_PART_BITS);
         switch i >> MESH_VERTEX_PART_BITS {
@@ -414,7 +486,18 @@ fn mesh_vertex_at(i: u32) -> MeshVertex {
     return mesh_vertices[i];
 }
 
+// Word i of the texels: component i mod 4 of texel i / 4.
 fn texel_at(i: u32) -> u32 {
+    if DATA_IMAGES {
+        let t = textureLoad(texels_image, data_texel_position(i >> 2u), 0);
+        let k = i & 3u;
+        return select(select(t.x, t.y, k == 1u), select(t.z, t.w, k == 3u), k >= 2u);
+    } else {
+        return texel_from_storage(i);
+    }
+}
+
+fn texel_from_storage(i: u32) -> u32 {
     if HAS_SPLIT_ARRAYS {
         let j = i & part_mask(TEXEL_PART_BITS);
         switch i >> TEXEL_PART_BITS {

@@ -66,11 +66,13 @@ impl SceneKernel {
         let compiled = specialise::compile(&source).expect("test kernel compiles");
         let mut kernel = Kernel::new(&ctx, &compiled).unwrap();
         // The scene's buffers as the renderer uploads them (every part of the split arrays included).
-        let buffers = vkpath::render::upload_scene(&ctx, &mut kernel, &gpu, &params).unwrap();
+        // (A test kernel keeps the WGSL default, DATA_IMAGES off: no data images.)
+        let uploaded = vkpath::render::upload_scene(&ctx, &mut kernel, &gpu, &params).unwrap();
+        assert!(uploaded.images.is_empty());
         let k = SceneKernel {
             ctx,
             kernel,
-            scene: buffers,
+            scene: uploaded.buffers,
         };
         (k, gpu)
     }

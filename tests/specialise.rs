@@ -455,3 +455,71 @@ fn small_arrays_are_read_from_uniform_twins() {
     let helps = vkpath::render::uniform_arrays_help(vkpath::gpu::testing::context().device_info());
     assert_eq!(renderer.features().has_uniform_arrays(), helps);
 }
+
+/// The data images (gpu::image) hold the bytes of the storage buffers they replace: with every array
+/// out of its uniform twin, a kernel that reads the BVH nodes, triangles, mesh faces and vertices and the
+/// texels from images renders the same bits as one that reads them from storage, on meshes, instances (whose tree references and per-placement
+/// nodes are node words too) and a textured glTF scene. And on lavapipe before Mesa 26 the renderer uses
+/// them (render::data_images_help), with the image bindings in place of the storage ones.
+#[test]
+fn data_images_render_the_bits_of_storage_reads() {
+    use vkpath::kernel::specialise::BufferKind;
+    let ctx = vkpath::gpu::testing::context();
+    for name in ["mesh.toml", "spot-instances.toml", "gltf-extensions.toml"] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(name);
+        let mut s = vkpath::Scene::load(&path).unwrap();
+        s.image.width = 24;
+        s.image.height = 16;
+        let gpu = vkpath::kernel::upload::GpuScene::build(&s);
+        let mut features = FeatureSet::of(&gpu, &vkpath::kernel::upload::params_for(&s, 3));
+        features.without_uniform_arrays();
+        let mut with_images = features;
+        with_images.set(F::DataImages, true);
+        let render = |set: &FeatureSet| {
+            let kernel = kernel_for(set).unwrap();
+            let mut r =
+                vkpath::Renderer::with_kernel(&ctx, &s, &RenderOptions::default(), kernel.clone())
+                    .unwrap();
+            r.run_pass(4).unwrap();
+            (kernel, r.film().unwrap())
+        };
+        let (image_kernel, from_images) = render(&with_images);
+        let (_, from_storage) = render(&features);
+        let kind = |n: &str| {
+            image_kernel
+                .bindings
+                .iter()
+                .find(|b| b.name == n)
+                .map(|b| b.kind)
+        };
+        let tree = features.has(F::Bvh).then_some(BufferKind::SampledImage);
+        assert_eq!(kind("bvh_nodes_image"), tree, "{name}");
+        assert_eq!(
+            kind("triangles_image"),
+            Some(BufferKind::SampledImage),
+            "{name}"
+        );
+        assert_eq!(
+            kind("triangles"),
+            None,
+            "{name}: triangles still read from storage"
+        );
+        assert!(from_images.average() > 0.0, "{name}: black image");
+        assert_eq!(
+            from_images.mean, from_storage.mean,
+            "{name}: images and storage differ"
+        );
+        assert_no_validation_errors();
+    }
+    let mesh = vkpath::Scene::load(
+        &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/mesh.toml"),
+    )
+    .unwrap();
+    let renderer = vkpath::Renderer::new(&ctx, &mesh, &RenderOptions::default()).unwrap();
+    assert_eq!(
+        renderer.features().has(F::DataImages),
+        vkpath::render::data_images_help(ctx.device_info())
+    );
+}

@@ -49,7 +49,7 @@ fn trimmed_applies(f: &FeatureSet) -> bool {
         && features().iter().all(|row| {
             !f.has(row.feature)
                 || has.contains(&row.feature)
-                || matches!(row.feature, Feature::UniformArray(_))
+                || matches!(row.feature, Feature::UniformArray(_) | Feature::DataImages)
         })
         && f.knob("filter") == Some(FILTER_NONE)
 }

@@ -65,6 +65,15 @@ pub fn run_info(json: bool) -> Result<i32, Error> {
         }
     );
     println!(
+        "  max image dimension 2D:            {} texels{}",
+        d.max_image_dimension_2d,
+        if vkpath::render::data_images_help(d) {
+            " (meshes' BVH nodes and triangles are read from images)"
+        } else {
+            ""
+        }
+    );
+    println!(
         "  max memory allocation size:        {} bytes",
         d.max_memory_allocation_size
     );

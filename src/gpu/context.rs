@@ -28,6 +28,8 @@ pub struct DeviceInfo {
     pub max_compute_workgroup_invocations: u32,
     pub max_storage_buffer_range: u32,
     pub max_uniform_buffer_range: u32,
+    /// The widest and tallest 2D image (maxImageDimension2D): a data image's rows (`gpu::image`).
+    pub max_image_dimension_2d: u32,
     pub max_memory_allocation_size: u64,
     pub device_local_memory_bytes: u64,
     /// The device's UUID (VkPhysicalDeviceIDProperties::deviceUUID, core in Vulkan 1.1): the same
@@ -252,6 +254,7 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
         max_compute_workgroup_invocations: props.limits.max_compute_work_group_invocations,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
         max_uniform_buffer_range: props.limits.max_uniform_buffer_range,
+        max_image_dimension_2d: props.limits.max_image_dimension2_d,
         max_memory_allocation_size: maint3.max_memory_allocation_size,
         device_local_memory_bytes: device_local,
         uuid: ids.device_uuid,
@@ -671,6 +674,7 @@ mod tests {
             max_compute_workgroup_invocations: 1,
             max_storage_buffer_range: 1,
             max_uniform_buffer_range: 65536,
+            max_image_dimension_2d: 16384,
             max_memory_allocation_size: 1,
             device_local_memory_bytes: 1,
             uuid: [0; 16],

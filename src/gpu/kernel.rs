@@ -1,6 +1,7 @@
 //! A compute kernel: pipeline + descriptor set whose layout is reflected from the shader, and a way to
 //! run it and wait.
 
+use super::image::{DATA_IMAGE_WIDTH, DataImage};
 use super::{Buffer, GpuContext, GpuError};
 use crate::kernel::specialise::{BindingInfo, BufferKind, CompiledShader};
 use ash::vk;
@@ -152,7 +153,12 @@ impl Kernel {
                 .iter()
                 .filter(|b| b.kind == BufferKind::Uniform)
                 .count() as u32;
-            let storage_count = shader.bindings.len() as u32 - uniform_count;
+            let image_count = shader
+                .bindings
+                .iter()
+                .filter(|b| b.kind == BufferKind::SampledImage)
+                .count() as u32;
+            let storage_count = shader.bindings.len() as u32 - uniform_count - image_count;
             let mut sizes = Vec::new();
             if uniform_count > 0 {
                 sizes.push(vk::DescriptorPoolSize {
@@ -164,6 +170,12 @@ impl Kernel {
                 sizes.push(vk::DescriptorPoolSize {
                     ty: vk::DescriptorType::STORAGE_BUFFER,
                     descriptor_count: storage_count,
+                });
+            }
+            if image_count > 0 {
+                sizes.push(vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::SAMPLED_IMAGE,
+                    descriptor_count: image_count,
                 });
             }
             k.pool = device
@@ -204,30 +216,65 @@ impl Kernel {
     /// Points the descriptor set at the buffers given as (WGSL variable name, buffer). Every binding the
     /// shader uses must be given; names it does not use (compacted away by specialisation) are skipped.
     pub fn bind(&mut self, buffers: &[(&str, &Buffer)]) -> Result<(), GpuError> {
-        let mut infos = Vec::with_capacity(self.bindings.len());
+        self.bind_with_images(buffers, &[])
+    }
+
+    /// [`Kernel::bind`] with data images too, given as (WGSL variable name, image) for the shader's
+    /// `texture_2d<u32>` bindings.
+    pub fn bind_with_images(
+        &mut self,
+        buffers: &[(&str, &Buffer)],
+        images: &[(&str, &DataImage)],
+    ) -> Result<(), GpuError> {
+        let missing = |b: &BindingInfo, what: &str| {
+            GpuError::Usage(format!(
+                "no {what} given for `{}` (binding {})",
+                b.name, b.binding
+            ))
+        };
+        let mut buffer_infos = Vec::with_capacity(self.bindings.len());
+        let mut image_infos = Vec::new();
         for b in &self.bindings {
-            let buffer = buffers.iter().find(|(n, _)| *n == b.name).ok_or_else(|| {
-                GpuError::Usage(format!(
-                    "no buffer given for `{}` (binding {})",
-                    b.name, b.binding
-                ))
-            })?;
-            infos.push([vk::DescriptorBufferInfo {
-                buffer: buffer.1.raw,
-                offset: 0,
-                range: vk::WHOLE_SIZE,
-            }]);
+            if b.kind == BufferKind::SampledImage {
+                let image = images
+                    .iter()
+                    .find(|(n, _)| *n == b.name)
+                    .ok_or_else(|| missing(b, "image"))?;
+                image_infos.push([vk::DescriptorImageInfo {
+                    sampler: vk::Sampler::null(),
+                    image_view: image.1.view,
+                    image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                }]);
+            } else {
+                let buffer = buffers
+                    .iter()
+                    .find(|(n, _)| *n == b.name)
+                    .ok_or_else(|| missing(b, "buffer"))?;
+                buffer_infos.push([vk::DescriptorBufferInfo {
+                    buffer: buffer.1.raw,
+                    offset: 0,
+                    range: vk::WHOLE_SIZE,
+                }]);
+            }
         }
+        let (mut next_buffer, mut next_image) = (buffer_infos.iter(), image_infos.iter());
         let writes: Vec<vk::WriteDescriptorSet> = self
             .bindings
             .iter()
-            .zip(infos.iter())
-            .map(|(b, info)| {
-                vk::WriteDescriptorSet::default()
+            .map(|b| {
+                let write = vk::WriteDescriptorSet::default()
                     .dst_set(self.set)
                     .dst_binding(b.binding)
-                    .descriptor_type(descriptor_type(b.kind))
-                    .buffer_info(info)
+                    .descriptor_type(descriptor_type(b.kind));
+                if b.kind == BufferKind::SampledImage {
+                    write.image_info(next_image.next().expect("one image info per image binding"))
+                } else {
+                    write.buffer_info(
+                        next_buffer
+                            .next()
+                            .expect("one buffer info per buffer binding"),
+                    )
+                }
             })
             .collect();
         // SAFETY: the set is not in use by the GPU (every submit waits for completion).
@@ -305,6 +352,63 @@ impl Kernel {
                     Command::Zero(buffer) => {
                         device.cmd_fill_buffer(cb, buffer.raw, 0, vk::WHOLE_SIZE, 0)
                     }
+                    Command::CopyToImage(src, image) => {
+                        let to_transfer = vk::ImageMemoryBarrier::default()
+                            .src_access_mask(vk::AccessFlags::empty())
+                            .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                            .old_layout(vk::ImageLayout::UNDEFINED)
+                            .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                            .image(image.raw)
+                            .subresource_range(DataImage::range());
+                        device.cmd_pipeline_barrier(
+                            cb,
+                            vk::PipelineStageFlags::TOP_OF_PIPE,
+                            vk::PipelineStageFlags::TRANSFER,
+                            vk::DependencyFlags::empty(),
+                            &[],
+                            &[],
+                            &[to_transfer],
+                        );
+                        let region = vk::BufferImageCopy::default()
+                            .image_subresource(vk::ImageSubresourceLayers {
+                                aspect_mask: vk::ImageAspectFlags::COLOR,
+                                mip_level: 0,
+                                base_array_layer: 0,
+                                layer_count: 1,
+                            })
+                            .image_extent(vk::Extent3D {
+                                width: DATA_IMAGE_WIDTH,
+                                height: image.rows(),
+                                depth: 1,
+                            });
+                        device.cmd_copy_buffer_to_image(
+                            cb,
+                            src.raw,
+                            image.raw,
+                            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                            &[region],
+                        );
+                        let to_read = vk::ImageMemoryBarrier::default()
+                            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                            .dst_access_mask(vk::AccessFlags::SHADER_READ)
+                            .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                            .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
+                            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+                            .image(image.raw)
+                            .subresource_range(DataImage::range());
+                        device.cmd_pipeline_barrier(
+                            cb,
+                            vk::PipelineStageFlags::TRANSFER,
+                            vk::PipelineStageFlags::COMPUTE_SHADER,
+                            vk::DependencyFlags::empty(),
+                            &[],
+                            &[],
+                            &[to_read],
+                        );
+                    }
                     Command::Copy(src, dst) => {
                         let size = src.size().min(dst.size());
                         device.cmd_copy_buffer(
@@ -370,6 +474,9 @@ pub enum Command<'a> {
     Zero(&'a Buffer),
     /// Copy the start of one buffer into another.
     Copy(&'a Buffer, &'a Buffer),
+    /// Copy a buffer into a whole data image (as many bytes as the image holds), leaving the image ready
+    /// for the kernel's reads (SHADER_READ_ONLY_OPTIMAL).
+    CopyToImage(&'a Buffer, &'a DataImage),
 }
 
 impl Drop for Kernel {
@@ -388,6 +495,7 @@ fn descriptor_type(kind: BufferKind) -> vk::DescriptorType {
     match kind {
         BufferKind::Uniform => vk::DescriptorType::UNIFORM_BUFFER,
         BufferKind::Storage => vk::DescriptorType::STORAGE_BUFFER,
+        BufferKind::SampledImage => vk::DescriptorType::SAMPLED_IMAGE,
     }
 }
 

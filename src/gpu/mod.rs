@@ -2,6 +2,7 @@
 //!
 //! - [`context`]: instance, device choice, queue, allocator, validation messages.
 //! - [`buffer`]: storage/uniform buffers and readback.
+//! - [`image`]: data images, read-only scene arrays the kernel reads with `textureLoad`.
 //! - [`kernel`]: a compute pipeline whose descriptor layout is reflected from the WGSL (compiled by
 //!   [`crate::kernel::specialise`]), buffers bound by their WGSL names, and dispatch.
 //! - [`present`] (feature `preview`): a window's surface and swapchain, showing 8-bit images.
@@ -9,6 +10,7 @@
 
 pub mod buffer;
 pub mod context;
+pub mod image;
 pub mod kernel;
 #[cfg(feature = "preview")]
 pub mod present;
@@ -16,6 +18,7 @@ pub mod testing;
 
 pub use buffer::{Buffer, upload_device_local, upload_uniform_padded};
 pub use context::{ContextOptions, DeviceInfo, GpuContext};
+pub use image::DataImage;
 pub use kernel::{Command, Kernel};
 
 use ash::vk;

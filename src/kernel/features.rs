@@ -48,6 +48,10 @@ pub enum Feature {
     Orthographic,
     Roulette,
     SplitArrays,
+    /// The large read-only arrays are read from data images (`gpu::image`): like
+    /// [`Feature::SplitArrays`], how arrays are laid out across bindings; the renderer decides it per
+    /// device (`render::data_images_help`).
+    DataImages,
     /// A material kind (`MAT_*`), a row of the registry (`scene::bsdfs`).
     Material(u32),
     /// A light kind (`LIGHT_*`), a row of the light registry (`kernel::light_kinds`).
@@ -363,6 +367,15 @@ const AFTER_LIGHTS: &[FeatureRow] = &[
         reported: true,
     },
     FeatureRow {
+        // The BVH nodes and triangles read from data images (gpu::image); set by the renderer per device.
+        feature: Feature::DataImages,
+        name: "data_images",
+        constant: "DATA_IMAGES",
+        group: Group::Other,
+        needed: |_, _| false,
+        reported: false,
+    },
+    FeatureRow {
         // Some array is larger than its first binding (abi::SPLIT_ARRAYS): every access picks a part.
         feature: Feature::SplitArrays,
         name: "split_arrays",
@@ -564,6 +577,7 @@ impl FeatureSet {
             knobs: [None; KNOBS.len()],
         };
         set.set(Feature::SplitArrays, false);
+        set.set(Feature::DataImages, false);
         set.without_uniform_arrays();
         set.knobs[AOV_KNOB] = Some(AOV_NONE);
         set
@@ -573,6 +587,7 @@ impl FeatureSet {
     pub fn is_generic(&self) -> bool {
         let mut set = *self;
         set.set(Feature::SplitArrays, false);
+        set.set(Feature::DataImages, false);
         set.without_uniform_arrays();
         set.knobs[AOV_KNOB] = Some(AOV_NONE);
         set == FeatureSet::generic()
@@ -797,7 +812,10 @@ mod tests {
         assert_eq!(KNOBS[AOV_KNOB].name, "aov");
         let g = FeatureSet::generic();
         assert!(features().iter().all(|r| g.has(r.feature)
-            == !matches!(r.feature, Feature::SplitArrays | Feature::UniformArray(_))));
+            == !matches!(
+                r.feature,
+                Feature::SplitArrays | Feature::DataImages | Feature::UniformArray(_)
+            )));
         assert!(g.absent().is_empty());
         assert_eq!(g.kernel_name(), "generic");
         let consts = g.pipeline_constants();

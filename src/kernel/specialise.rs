@@ -13,6 +13,8 @@ use super::KernelError as GpuError;
 pub enum BufferKind {
     Uniform,
     Storage,
+    /// A `texture_2d<u32>` read with `textureLoad`: a data image (`gpu::image`).
+    SampledImage,
 }
 
 /// One resource binding of a compiled shader, reflected from the WGSL: its number, the name of its
@@ -105,6 +107,7 @@ pub fn compile_with(source: &str, constants: &[(&str, f64)]) -> Result<CompiledS
         let kind = match var.space {
             naga::AddressSpace::Uniform => BufferKind::Uniform,
             naga::AddressSpace::Storage { .. } => BufferKind::Storage,
+            naga::AddressSpace::Handle => BufferKind::SampledImage,
             other => {
                 return Err(GpuError::Shader(format!(
                     "unsupported binding address space {other:?}"

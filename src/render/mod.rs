@@ -16,13 +16,14 @@ pub mod tiles;
 
 use crate::film::Film;
 use crate::gpu::{
-    Buffer, Command, GpuContext, GpuError, Kernel, upload_device_local, upload_uniform_padded,
+    Buffer, Command, DataImage, GpuContext, GpuError, Kernel, upload_device_local,
+    upload_uniform_padded,
 };
 use crate::kernel::abi::{
     GpuAccum, GpuParams, GpuPassConstants, GpuSplatAccum, PATH_STATE_BYTES, SAMPLE_FAULT_COUNTERS,
     SPLIT_ARRAYS, UNIFORM_ARRAY_BYTES, UNIFORM_ARRAYS, split_array,
 };
-use crate::kernel::features::FeatureSet;
+use crate::kernel::features::{Feature, FeatureSet};
 use crate::kernel::specialise::CompiledShader;
 use crate::kernel::upload::{GpuScene, SceneStats, params_for};
 use crate::kernel::{library, specialise};
@@ -239,6 +240,8 @@ pub struct Renderer {
     pass_constants: Buffer,
     // Parameter and scene buffers with their WGSL names: bound to the kernel, kept alive with it.
     bound: Vec<(&'static str, Buffer)>,
+    /// The data images the kernel reads (`Feature::DataImages`).
+    images: Vec<(&'static str, DataImage)>,
     /// `sample_faults` (scene_data.wgsl): samples clamped and dropped by the accumulator since the
     /// last reset, counted on the device.
     sample_faults: Buffer,
@@ -402,6 +405,40 @@ pub fn uniform_arrays_help(info: &crate::gpu::DeviceInfo) -> bool {
         && info.lavapipe_mesa.is_none_or(|[major, _]| major < 26)
 }
 
+/// Whether the kernel should read its large arrays (BVH nodes, triangles) from data images
+/// (`gpu::image` says why): on Mesa's lavapipe before 26, whose llvmpipe compiles every storage read at a
+/// lane-varying index into branches per lane (Mesa 26 gathers them). Other devices keep the storage
+/// buffers until a measurement there says otherwise.
+pub fn data_images_help(info: &crate::gpu::DeviceInfo) -> bool {
+    info.lavapipe_mesa.is_some_and(|[major, _]| major < 26)
+}
+
+/// The arrays a kernel with `Feature::DataImages` reads from data images: (array name, image binding's
+/// WGSL name, bytes of one element).
+pub const DATA_IMAGE_ARRAYS: [(&str, &str, usize); 5] = [
+    (
+        "bvh_nodes",
+        "bvh_nodes_image",
+        std::mem::size_of::<crate::kernel::abi::GpuBvhNode>(),
+    ),
+    (
+        "triangles",
+        "triangles_image",
+        std::mem::size_of::<crate::kernel::abi::GpuTriangle>(),
+    ),
+    (
+        "mesh_faces",
+        "mesh_faces_image",
+        std::mem::size_of::<crate::kernel::abi::GpuMeshFace>(),
+    ),
+    (
+        "mesh_vertices",
+        "mesh_vertices_image",
+        std::mem::size_of::<crate::kernel::abi::GpuMeshVertex>(),
+    ),
+    ("texels", "texels_image", 4),
+];
+
 /// Pixels converted per copy out of the mapped staging buffer (which need not be aligned for the
 /// entries): 4096, 384 KiB of `GpuAccum`s.
 const STRIP_CHUNK: usize = 4096;
@@ -477,6 +514,13 @@ fn write_strips<'a, T: bytemuck::Pod>(
     Ok(())
 }
 
+/// The scene's resources as the kernel reads them, each under its WGSL name.
+pub struct UploadedScene {
+    pub buffers: Vec<(&'static str, Buffer)>,
+    /// The data images (`Feature::DataImages`).
+    pub images: Vec<(&'static str, DataImage)>,
+}
+
 /// Uploads the arrays the (specialised) kernel still reads, each under its WGSL name: a scene without
 /// triangles has no triangle buffer at all. The big mesh arrays (64 bytes per BVH node, 48 per
 /// triangle) live in device-local memory, uploaded through a staging copy.
@@ -485,8 +529,9 @@ pub fn upload_scene(
     kernel: &mut Kernel,
     gpu: &GpuScene,
     params: &GpuParams,
-) -> Result<Vec<(&'static str, Buffer)>, GpuError> {
+) -> Result<UploadedScene, GpuError> {
     let mut bound = vec![("params", Buffer::uniform_from(ctx, "params", params)?)];
+    let mut images = Vec::new();
     let small = |name: &'static str, bytes: &[u8]| -> Result<(&'static str, Buffer), GpuError> {
         Ok((name, Buffer::storage_from(ctx, name, bytes)?))
     };
@@ -529,6 +574,22 @@ pub fn upload_scene(
         }
     }
     for (name, bytes) in gpu.large_arrays() {
+        let image = DATA_IMAGE_ARRAYS
+            .iter()
+            .find(|(array, image, _)| *array == name && kernel.uses(image));
+        if let Some(&(_, image_name, element_bytes)) = image {
+            images.push((
+                image_name,
+                DataImage::upload(ctx, kernel, image_name, bytes)?,
+            ));
+            if kernel.uses(name) {
+                // The kernel reads only the array's length (`has_bvh_nodes`): a witness of one element,
+                // or none.
+                let witness = &bytes[..bytes.len().min(element_bytes)];
+                bound.push((name, upload_device_local(ctx, kernel, name, witness)?));
+            }
+            continue;
+        }
         match split_array(name) {
             // Each part the kernel reads (all of them in the generic kernel, empty past the data).
             Some(split) => {
@@ -546,13 +607,18 @@ pub fn upload_scene(
             }
         }
     }
-    Ok(bound)
+    Ok(UploadedScene {
+        buffers: bound,
+        images,
+    })
 }
 
 /// Binds the scene's buffers, one accumulator strip, the pass constants and the fault counters.
+#[allow(clippy::too_many_arguments)]
 fn bind_all(
     kernel: &mut Kernel,
     scene: &[(&'static str, Buffer)],
+    images: &[(&'static str, DataImage)],
     accum: &Buffer,
     pass_constants: &Buffer,
     [sample_faults, path_count]: [&Buffer; 2],
@@ -570,7 +636,8 @@ fn bind_all(
     bindings.push(("pass_constants", pass_constants));
     bindings.push(("sample_faults", sample_faults));
     bindings.push(("path_count", path_count));
-    kernel.bind(&bindings)
+    let images: Vec<(&str, &DataImage)> = images.iter().map(|(n, i)| (*n, i)).collect();
+    kernel.bind_with_images(&bindings, &images)
 }
 
 impl Renderer {
@@ -614,6 +681,19 @@ impl Renderer {
         };
         if !uniform_arrays_help(ctx.device_info()) {
             features.without_uniform_arrays();
+        }
+        // (Only where there are triangles: the arrays the images hold.)
+        if data_images_help(ctx.device_info())
+            && features.has(Feature::Triangles)
+            && !features.has(Feature::SplitArrays)
+            && DATA_IMAGE_ARRAYS.iter().all(|(name, _, _)| {
+                crate::gpu::image::data_image_fits(
+                    gpu.array_bytes(name).len(),
+                    ctx.device_info().max_image_dimension_2d,
+                )
+            })
+        {
+            features.set(Feature::DataImages, true);
         }
         let content_hash = identity::content_hash(scene, &gpu, &params);
         // A caller's kernel (benchmarks) traces one sample per invocation and never saves a path.
@@ -668,7 +748,10 @@ impl Renderer {
             splat_bytes,
         )?;
         let mut kernel = Kernel::new(ctx, &compiled)?;
-        let bound = upload_scene(ctx, &mut kernel, &gpu, &params)?;
+        let UploadedScene {
+            buffers: bound,
+            images,
+        } = upload_scene(ctx, &mut kernel, &gpu, &params)?;
         // Device-local: every sample reads and writes its pixel's sums, one buffer per strip of rows. The
         // host reads them (and restores them) through a copy to (from) a host-visible staging buffer.
         if options.fault == Some(Fault::OutOfMemory) {
@@ -738,6 +821,7 @@ impl Renderer {
         bind_all(
             &mut kernel,
             &bound,
+            &images,
             &strips[0].buffer,
             &pass_constants,
             [&sample_faults, &path_count],
@@ -761,6 +845,7 @@ impl Renderer {
             staging,
             pass_constants,
             bound,
+            images,
             sample_faults,
             poisoned: None,
             warmed_up: false,
@@ -858,6 +943,7 @@ impl Renderer {
         bind_all(
             &mut self.kernel,
             &self.bound,
+            &self.images,
             &self.strips[i].buffer,
             &self.pass_constants,
             [&self.sample_faults, &self.path_count],
