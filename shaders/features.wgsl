@@ -72,7 +72,7 @@ override UNIFORM_INSTANCES: bool = false;
 override UNIFORM_MATERIALS: bool = false;
 override UNIFORM_TEXTURES: bool = false;
 override UNIFORM_MATERIAL_TEXTURES: bool = false;
-// The large read-only arrays (BVH nodes, triangles) read from data images with textureLoad rather than
+// The large read-only arrays (BVH nodes, triangles, mesh faces and vertices, texels) read from data images with textureLoad rather than
 // from storage buffers (scene_data.wgsl; src/gpu/image.rs says why and when). Their layout again: the
 // host decides it per device.
 override DATA_IMAGES: bool = false;

@@ -353,15 +353,14 @@ impl Kernel {
                         device.cmd_fill_buffer(cb, buffer.raw, 0, vk::WHOLE_SIZE, 0)
                     }
                     Command::CopyToImage(src, image) => {
-                        let to_transfer = vk::ImageMemoryBarrier::default()
-                            .src_access_mask(vk::AccessFlags::empty())
-                            .dst_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                            .old_layout(vk::ImageLayout::UNDEFINED)
-                            .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                            .image(image.raw)
-                            .subresource_range(DataImage::range());
+                        let to_transfer = layout_change(
+                            image,
+                            [vk::AccessFlags::empty(), vk::AccessFlags::TRANSFER_WRITE],
+                            [
+                                vk::ImageLayout::UNDEFINED,
+                                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                            ],
+                        );
                         device.cmd_pipeline_barrier(
                             cb,
                             vk::PipelineStageFlags::TOP_OF_PIPE,
@@ -390,15 +389,17 @@ impl Kernel {
                             vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                             &[region],
                         );
-                        let to_read = vk::ImageMemoryBarrier::default()
-                            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                            .dst_access_mask(vk::AccessFlags::SHADER_READ)
-                            .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                            .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
-                            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-                            .image(image.raw)
-                            .subresource_range(DataImage::range());
+                        let to_read = layout_change(
+                            image,
+                            [
+                                vk::AccessFlags::TRANSFER_WRITE,
+                                vk::AccessFlags::SHADER_READ,
+                            ],
+                            [
+                                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                            ],
+                        );
                         device.cmd_pipeline_barrier(
                             cb,
                             vk::PipelineStageFlags::TRANSFER,
@@ -489,6 +490,24 @@ impl Drop for Kernel {
             d.destroy_descriptor_pool(self.pool, None);
         }
     }
+}
+
+/// A barrier that moves a whole data image from one layout to another, the writes of `access[0]` made
+/// visible to the accesses of `access[1]`.
+fn layout_change(
+    image: &DataImage,
+    access: [vk::AccessFlags; 2],
+    layouts: [vk::ImageLayout; 2],
+) -> vk::ImageMemoryBarrier<'static> {
+    vk::ImageMemoryBarrier::default()
+        .src_access_mask(access[0])
+        .dst_access_mask(access[1])
+        .old_layout(layouts[0])
+        .new_layout(layouts[1])
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image.raw)
+        .subresource_range(DataImage::range())
 }
 
 fn descriptor_type(kind: BufferKind) -> vk::DescriptorType {

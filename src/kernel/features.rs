@@ -367,7 +367,8 @@ const AFTER_LIGHTS: &[FeatureRow] = &[
         reported: true,
     },
     FeatureRow {
-        // The BVH nodes and triangles read from data images (gpu::image); set by the renderer per device.
+        // The large arrays read from data images (gpu::image, render::DATA_IMAGE_ARRAYS); set by the
+        // renderer per device.
         feature: Feature::DataImages,
         name: "data_images",
         constant: "DATA_IMAGES",

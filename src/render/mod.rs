@@ -405,7 +405,7 @@ pub fn uniform_arrays_help(info: &crate::gpu::DeviceInfo) -> bool {
         && info.lavapipe_mesa.is_none_or(|[major, _]| major < 26)
 }
 
-/// Whether the kernel should read its large arrays (BVH nodes, triangles) from data images
+/// Whether the kernel should read its large arrays ([`DATA_IMAGE_ARRAYS`]) from data images
 /// (`gpu::image` says why): on Mesa's lavapipe before 26, whose llvmpipe compiles every storage read at a
 /// lane-varying index into branches per lane (Mesa 26 gathers them). Other devices keep the storage
 /// buffers until a measurement there says otherwise.
@@ -583,8 +583,8 @@ pub fn upload_scene(
                 DataImage::upload(ctx, kernel, image_name, bytes)?,
             ));
             if kernel.uses(name) {
-                // The kernel reads only the array's length (`has_bvh_nodes`): a witness of one element,
-                // or none.
+                // The kernel reads only whether the array is empty (`has_bvh_nodes`, `triangle_face`):
+                // a witness of one element, or none.
                 let witness = &bytes[..bytes.len().min(element_bytes)];
                 bound.push((name, upload_device_local(ctx, kernel, name, witness)?));
             }
