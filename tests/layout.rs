@@ -510,6 +510,12 @@ fn shared_constants_match_wgsl() {
     for &(name, value) in vkpath::kernel::abi::SHARED_CONSTANTS {
         assert_eq!(constant(name), value, "{name}: WGSL vs src/kernel/abi.rs");
     }
+    // The data images' row width, which the GPU layer owns (src/gpu/image.rs).
+    assert_eq!(
+        constant("DATA_IMAGE_WIDTH_BITS"),
+        vkpath::gpu::image::DATA_IMAGE_WIDTH_BITS,
+        "DATA_IMAGE_WIDTH_BITS: WGSL vs src/gpu/image.rs"
+    );
     // The material kinds are generated from the registry: each row's MAT_* is its index, and every
     // MAT_* of the kernel is a row (MATERIAL_* flags are shared constants above).
     for (i, k) in vkpath::scene::bsdfs::BSDFS.iter().enumerate() {

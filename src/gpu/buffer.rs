@@ -89,6 +89,32 @@ impl Buffer {
         Ok(b)
     }
 
+    /// A host-visible storage buffer of `size` bytes (at least `data`'s) holding `data` at its start and
+    /// zeros after it: the source of a copy into a padded buffer or a data image, written once, without a
+    /// padded copy of `data` on the host.
+    pub fn zero_padded(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        data: &[u8],
+        size: usize,
+    ) -> Result<Buffer, GpuError> {
+        let mut b = Buffer::new(
+            ctx,
+            name,
+            size as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        b.write(data)?;
+        let slice = b
+            .allocation
+            .as_mut()
+            .and_then(|a| a.mapped_slice_mut())
+            .ok_or_else(|| GpuError::Usage("write to a buffer that is not host-visible".into()))?;
+        slice[data.len()..].fill(0);
+        Ok(b)
+    }
+
     /// A host-visible uniform buffer holding `value`.
     pub fn uniform_from<T: bytemuck::Pod>(
         ctx: &Arc<GpuContext>,
@@ -239,24 +265,26 @@ pub fn upload_device_local<T: bytemuck::Pod>(
         kernel,
         name,
         data,
+        data.len(),
         vk::BufferUsageFlags::STORAGE_BUFFER,
     )
 }
 
-/// A new device-local buffer for `usage` holding `data`, copied from a host-visible staging buffer by a
-/// copy recorded on `kernel`.
+/// A new device-local buffer of `size` bytes for `usage` holding `data` and zeros after it, copied from a
+/// host-visible staging buffer by a copy recorded on `kernel`.
 fn device_local_copy(
     ctx: &Arc<GpuContext>,
     kernel: &mut super::Kernel,
     name: &str,
     data: &[u8],
+    size: usize,
     usage: vk::BufferUsageFlags,
 ) -> Result<Buffer, GpuError> {
-    let staging = Buffer::storage_from(ctx, name, data)?;
+    let staging = Buffer::zero_padded(ctx, name, data, size)?;
     let buffer = Buffer::new(
         ctx,
         name,
-        data.len() as u64,
+        size as u64,
         usage | vk::BufferUsageFlags::TRANSFER_DST,
         MemoryLocation::GpuOnly,
     )?;
@@ -284,13 +312,12 @@ pub fn upload_uniform_padded(
             ctx.device_info().name
         )));
     }
-    let mut padded = data.to_vec();
-    padded.resize(bytes, 0);
     device_local_copy(
         ctx,
         kernel,
         name,
-        &padded,
+        data,
+        bytes,
         vk::BufferUsageFlags::UNIFORM_BUFFER,
     )
 }

@@ -16,9 +16,14 @@ use gpu_allocator::MemoryLocation;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use std::sync::Arc;
 
+/// log2 of a data image's texels per row (4096: 64 KiB a row), the WGSL's DATA_IMAGE_WIDTH_BITS
+/// (scene_data.wgsl; `tests/layout.rs` holds the two equal). Defined here rather than in `kernel::abi`,
+/// so that the GPU layer imports nothing from the kernel's data model.
+pub const DATA_IMAGE_WIDTH_BITS: u32 = 12;
+
 /// Texels per row of a data image. A power of two, so that the kernel finds element i's texel with a
-/// mask and a shift (`kernel::abi::DATA_IMAGE_WIDTH_BITS`).
-pub const DATA_IMAGE_WIDTH: u32 = 1 << crate::kernel::abi::DATA_IMAGE_WIDTH_BITS;
+/// mask and a shift.
+pub const DATA_IMAGE_WIDTH: u32 = 1 << DATA_IMAGE_WIDTH_BITS;
 
 /// Bytes of one texel (`rgba32uint`).
 pub const DATA_TEXEL_BYTES: usize = 16;
@@ -66,12 +71,8 @@ impl DataImage {
             )));
         }
         let rows = data_image_rows(data.len()) as u32;
-        let mut padded = data.to_vec();
-        padded.resize(
-            rows as usize * DATA_IMAGE_WIDTH as usize * DATA_TEXEL_BYTES,
-            0,
-        );
-        let staging = Buffer::storage_from(ctx, name, &padded)?;
+        let bytes = rows as usize * DATA_IMAGE_WIDTH as usize * DATA_TEXEL_BYTES;
+        let staging = Buffer::zero_padded(ctx, name, data, bytes)?;
         let mut image = DataImage {
             ctx: ctx.clone(),
             raw: vk::Image::null(),

@@ -590,9 +590,6 @@ pub const MESH_FACE_PART_BITS: u32 = 23;
 pub const MESH_VERTEX_PART_BITS: u32 = 22;
 pub const TEXEL_PART_BITS: u32 = 25;
 
-/// log2 of a data image's texels per row (`gpu::image::DATA_IMAGE_WIDTH`, 4096: 64 KiB a row).
-pub const DATA_IMAGE_WIDTH_BITS: u32 = 12;
-
 /// A scene array the kernel reads through several storage bindings, because a large scene's array can
 /// exceed what one binding may hold: Vulkan guarantees only `maxStorageBufferRange` >= 2^27 bytes (128
 /// MiB), which is exactly lavapipe's limit, and 10^7 triangles take 457 MiB. Part k holds elements
@@ -801,7 +798,6 @@ pub const SHARED_CONSTANTS: &[(&str, u32)] = &[
     ("MESH_FACE_PART_BITS", MESH_FACE_PART_BITS),
     ("MESH_VERTEX_PART_BITS", MESH_VERTEX_PART_BITS),
     ("TEXEL_PART_BITS", TEXEL_PART_BITS),
-    ("DATA_IMAGE_WIDTH_BITS", DATA_IMAGE_WIDTH_BITS),
     ("MATERIAL_TWO_SIDED_EMISSION", MATERIAL_TWO_SIDED_EMISSION),
     ("MATERIAL_SCHLICK", MATERIAL_SCHLICK),
     ("MATERIAL_LINEAR", MATERIAL_LINEAR),
