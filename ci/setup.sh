@@ -15,8 +15,9 @@
 #                        libxcursor1, libxi6, libxkbcommon-x11-0); for the render-farm tests, Slurm and
 #                        munge (slurmctld, slurmd, slurm-client, munge; no service is started: ci/slurm.sh
 #                        starts a private cluster and stops it) and a Python venv in target/ci-venv with
-#                        kubernetes-validate (the Kubernetes JSON schemas, offline) for ci/k8s-check.sh;
-#                        and the denoiser, as --denoise does.
+#                        kubernetes-validate (the Kubernetes JSON schemas, offline) for ci/k8s-check.sh
+#                        (python3's venv module, python3-venv on Debian, then also makes the Python
+#                        module's venv in ci/python-test.sh); and the denoiser, as --denoise does.
 #   ci/setup.sh --denoise
 #                        also Intel Open Image Denoise (OIDN 2.5.1, Apache-2.0), which `vkpath render --denoise`
 #                        loads at run time: Debian and Ubuntu do not package it, so its official Linux build

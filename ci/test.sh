@@ -6,16 +6,18 @@
 #   2. cargo fmt --check       formatting
 #      cargo build             the debug binary, which compiles the generic kernel in the background
 #                              (Mesa's shader cache then has it for the tests: below)
-#   3. cargo clippy            lints, warnings are errors
+#   3. cargo clippy            lints, warnings are errors (the Python module's crate too)
 #   4. cargo check --no-default-features --bins
 #                              the headless binary still builds without the `preview` feature (the window)
 #   5. cargo test              unit and integration tests (dev profile); the tests that use the GPU
 #                              turn the validation layers on themselves, and any validation error fails them;
 #                              tests/preview.rs opens the preview window under Xvfb (xvfb-run)
-#   6. ci/farm-test.sh         the Slurm render farm: a private one-node cluster (ci/slurm.sh: munged,
+#   6. ci/python-test.sh     the Python module: `pip install .` in a fresh venv (the wheel built by
+#                              maturin), then its pytest suite against the command line, bit for bit
+#   7. ci/farm-test.sh         the Slurm render farm: a private one-node cluster (ci/slurm.sh: munged,
 #                              slurmctld, slurmd, stopped after), the deploy/slurm recipe with a cancelled
 #                              and resubmitted part, the merge checked bit for bit against one render
-#   7. ci/k8s-check.sh         the Kubernetes recipe (deploy/k8s) validated against the API's schemas
+#   8. ci/k8s-check.sh         the Kubernetes recipe (deploy/k8s) validated against the API's schemas
 #                              offline, and its Jobs' commands run locally, checked bit for bit
 #
 # Exits non-zero at the first failing step.
@@ -53,7 +55,7 @@ warm_pid=$!
 trap 'kill "$warm_pid" 2>/dev/null || true; rm -rf "$warm_dir"' EXIT
 warm_start=$SECONDS
 
-step clippy cargo clippy --all-targets -- -D warnings
+step clippy cargo clippy --workspace --all-targets -- -D warnings
 step headless cargo check --no-default-features --bins
 step test cargo test
 if wait "$warm_pid"; then
@@ -61,6 +63,7 @@ if wait "$warm_pid"; then
 else
     echo "==> the generic kernel's warm-up failed (the tests compiled it themselves): $(tail -n 1 "$warm_dir/log")"
 fi
+step python ./ci/python-test.sh
 step farm ./ci/farm-test.sh
 step k8s ./ci/k8s-check.sh
 echo "==> all checks passed in $SECONDS s"

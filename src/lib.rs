@@ -21,6 +21,7 @@
 pub mod accum;
 pub mod bench;
 pub mod checkpoint;
+pub mod compare;
 pub mod denoise;
 pub mod film;
 pub mod fs_atomic;

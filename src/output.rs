@@ -251,44 +251,53 @@ impl ImageFile<'_> {
         Ok(bytes)
     }
 
-    fn encode_exr(&self) -> Result<Vec<u8>, String> {
-        use exr::prelude::*;
+    /// The EXR's channels, named as written (`R`, `G`, `B`, then `variance.R`, `spp.Y`, `albedo.R`,
+    /// `normal.X`, `depth.Z`, ... for the layers asked), each one value per pixel, row-major from the top
+    /// left: the one definition of what each layer holds, for the EXR and for the Python module's arrays.
+    pub fn channels(&self) -> Vec<(String, Vec<f32>)> {
         let f = self.film;
-        let channel =
-            |name: &str, values: Vec<f32>| AnyChannel::new(name, FlatSamples::F32(values));
         let plane = |data: &[[f32; 3]], c: usize| data.iter().map(|p| p[c]).collect::<Vec<f32>>();
-        let mut channels = vec![
-            channel("R", plane(&f.mean, 0)),
-            channel("G", plane(&f.mean, 1)),
-            channel("B", plane(&f.mean, 2)),
-        ];
         let rgb = ["R", "G", "B"];
+        let mut channels: Vec<(String, Vec<f32>)> = rgb
+            .iter()
+            .enumerate()
+            .map(|(c, n)| (n.to_string(), plane(&f.mean, c)))
+            .collect();
         if self.layers.variance {
             for (c, n) in rgb.iter().enumerate() {
-                channels.push(channel(&format!("variance.{n}"), plane(&f.variance, c)));
+                channels.push((format!("variance.{n}"), plane(&f.variance, c)));
             }
         }
         if self.layers.spp {
             let counts = (0..f.mean.len()).map(|i| f.samples_of(i) as f32).collect();
-            channels.push(channel("spp.Y", counts));
+            channels.push(("spp.Y".into(), counts));
         }
         if let Some(a) = &self.layers.albedo {
             for (c, n) in rgb.iter().enumerate() {
-                channels.push(channel(&format!("albedo.{n}"), plane(&a.mean, c)));
+                channels.push((format!("albedo.{n}"), plane(&a.mean, c)));
             }
         }
         if let Some(nf) = &self.layers.normal {
             for (c, n) in ["X", "Y", "Z"].iter().enumerate() {
                 let values = nf.mean.iter().map(|p| normal_from_film(*p)[c]).collect();
-                channels.push(channel(&format!("normal.{n}"), values));
+                channels.push((format!("normal.{n}"), values));
             }
         }
         if let Some(d) = &self.layers.depth {
-            channels.push(channel("depth.Z", crate::output::Layers::depth_values(d)));
+            channels.push(("depth.Z".into(), Layers::depth_values(d)));
         }
-        for (name, values) in &self.layers.extra {
-            channels.push(channel(name, values.clone()));
-        }
+        channels.extend(self.layers.extra.iter().cloned());
+        channels
+    }
+
+    fn encode_exr(&self) -> Result<Vec<u8>, String> {
+        use exr::prelude::*;
+        let f = self.film;
+        let channels: Vec<AnyChannel<FlatSamples>> = self
+            .channels()
+            .into_iter()
+            .map(|(name, values)| AnyChannel::new(name.as_str(), FlatSamples::F32(values)))
+            .collect();
         let mut attributes = LayerAttributes {
             software_name: Text::new_or_none(format!("vkpath {}", crate::VKPATH_VERSION)),
             ..LayerAttributes::default()

@@ -128,6 +128,17 @@ pub struct Session<'a> {
     renderer: Renderer,
     plan: Plan,
     files: Files<'a>,
+    /// What the last [`Session::finish`] made besides the raw film.
+    finished: Option<Finished>,
+}
+
+/// What [`Session::finish`] makes besides the raw film, kept for callers that hold the images in memory
+/// (the Python module) rather than read them back from disk.
+pub struct Finished {
+    /// The AOV layers, as the EXR holds them (with `raw.R/G/B` in `extra` when denoised).
+    pub layers: Layers,
+    /// The denoised image, when a denoiser was given.
+    pub denoised: Option<Film>,
 }
 
 impl<'a> Session<'a> {
@@ -196,6 +207,7 @@ impl<'a> Session<'a> {
             },
             renderer,
             plan,
+            finished: None,
         })
     }
 
@@ -270,6 +282,10 @@ impl<'a> Session<'a> {
         }
         let Some(denoiser) = self.denoiser else {
             self.files.write_images(&film, &layers, None)?;
+            self.finished = Some(Finished {
+                layers,
+                denoised: None,
+            });
             return Ok(Some(film));
         };
         let started = Instant::now();
@@ -285,7 +301,77 @@ impl<'a> Session<'a> {
         layers.extra = raw_channels(&film.mean);
         self.files
             .write_images(&denoised, &layers, Some(&denoiser.describe()))?;
+        self.finished = Some(Finished {
+            layers,
+            denoised: Some(denoised),
+        });
         Ok(Some(film))
+    }
+
+    /// The layers and the denoised image of the last [`Session::finish`] that returned a film.
+    pub fn finished(&self) -> Option<&Finished> {
+        self.finished.as_ref()
+    }
+
+    /// What the render did (`vkpath render --json`'s object), once [`Session::run`] has ended with
+    /// `reason` after `elapsed` and [`Session::finish`] has returned `film`. Reads the sample-fault
+    /// counters back from the device (a failed read counts none).
+    pub fn report(&self, film: &Film, reason: StopReason, elapsed: Duration) -> RenderReport {
+        let renderer = &self.renderer;
+        let scene = self.files.scene;
+        let seconds = elapsed.as_secs_f64();
+        let pixels = scene.image.width as f64 * scene.image.height as f64;
+        // With adaptive sampling, each pixel's own count (those of a checkpoint resumed taken off).
+        let (samples, mean_spp) = match renderer.adaptive() {
+            Some(ad) => {
+                let all = ad.counts().iter().map(|&n| n as f64).sum::<f64>();
+                (all - ad.restored_samples() as f64, all / pixels.max(1.0))
+            }
+            None => (
+                pixels * (film.spp - self.plan.resumed_samples) as f64,
+                film.spp as f64,
+            ),
+        };
+        let rel = film.estimated_rel_error();
+        let stats = renderer.scene_stats();
+        let ctx = renderer.context();
+        RenderReport {
+            scene: scene.display_name(),
+            width: scene.image.width,
+            height: scene.image.height,
+            spp: film.spp,
+            mean_spp,
+            adaptive: renderer.adaptive().map(|ad| AdaptiveReport {
+                threshold: ad.settings.threshold,
+                min_spp: ad.settings.min_spp,
+                pixels_active: ad.active().len(),
+            }),
+            seconds,
+            samples_per_second: samples / seconds.max(1e-12),
+            estimated_rel_error: rel.is_finite().then_some(rel),
+            device: ctx.device_info().name.clone(),
+            max_bounces: crate::scene::bounces_as_written(scene.render.max_bounces),
+            seed: scene.render.seed,
+            stop_reason: reason,
+            outputs: self
+                .outputs()
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect(),
+            validation_errors: ctx.validation_errors().len(),
+            triangles: stats.triangles,
+            instances: stats.instances,
+            bvh_nodes: stats.bvh_nodes,
+            bvh_build_ms: stats.bvh_build_ms,
+            kernel: kernel_name(renderer.features()),
+            features_absent: renderer.features().absent(),
+            sample_ranges: renderer.ranges().to_vec(),
+            strips: renderer.tile_layout().strips.len(),
+            tiles_per_sample: renderer.tiles_per_sample(),
+            resumed_spp: self.plan.resumed_samples,
+            checkpoint: self.checkpoint().map(|p| p.display().to_string()),
+            sample_faults: renderer.sample_faults().unwrap_or_default(),
+        }
     }
 
     /// Seconds the denoiser took on the final image (after [`Session::finish`] with a denoiser).
@@ -551,4 +637,69 @@ fn plan_samples(
         resumed_samples: renderer.samples_done(),
         warnings,
     })
+}
+
+/// Which kernel a renderer runs, for reports: specialised and generic kernels give the same bits.
+pub fn kernel_name(features: &crate::kernel::features::FeatureSet) -> &'static str {
+    if features.is_generic() {
+        "generic"
+    } else {
+        "specialised"
+    }
+}
+
+/// `vkpath render --json` (and a Python render's `summary`): what was rendered, how fast, how it ended, and how the work was cut.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RenderReport {
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel in the image, resumed ones included (with adaptive sampling, the most any
+    /// pixel took).
+    pub spp: u32,
+    /// The mean over the pixels of their samples (`spp` unless adaptive sampling stopped some early).
+    pub mean_spp: f64,
+    /// Adaptive sampling's threshold and the pixels still sampling when the render ended; `null`
+    /// without adaptive sampling.
+    pub adaptive: Option<AdaptiveReport>,
+    pub seconds: f64,
+    /// Samples traced by this run (not the resumed ones) per second.
+    pub samples_per_second: f64,
+    /// `null` where the film has no estimate: below 2 samples per pixel, or for a black image.
+    pub estimated_rel_error: Option<f64>,
+    pub device: String,
+    /// -1: no limit.
+    pub max_bounces: i64,
+    pub seed: u32,
+    pub stop_reason: StopReason,
+    pub outputs: Vec<String>,
+    /// How many errors the validation layer reported (VKPATH_VALIDATION).
+    pub validation_errors: usize,
+    /// Triangles uploaded (an instanced mesh's once, however many placements it has).
+    pub triangles: usize,
+    /// Placements of instanced meshes (0 in a scene without).
+    pub instances: usize,
+    pub bvh_nodes: usize,
+    pub bvh_build_ms: f64,
+    /// [`kernel_name`].
+    pub kernel: &'static str,
+    pub features_absent: Vec<&'static str>,
+    pub sample_ranges: Vec<[u32; 2]>,
+    pub strips: usize,
+    pub tiles_per_sample: usize,
+    /// Samples per pixel taken from the checkpoint resumed (0 when none).
+    pub resumed_spp: u32,
+    pub checkpoint: Option<String>,
+    /// Samples of this run that the accumulator clamped (radiance of 2^64 or more) or dropped as not
+    /// finite: both 0 in a sane scene (see accumulate.wgsl).
+    pub sample_faults: crate::render::SampleFaults,
+}
+
+/// Adaptive sampling in [`RenderReport`].
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct AdaptiveReport {
+    pub threshold: f64,
+    pub min_spp: u32,
+    /// Pixels still sampling at the end (0 when every pixel met the threshold).
+    pub pixels_active: usize,
 }

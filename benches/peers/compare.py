@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """vkpath vs Mitsuba 3: samples/s, and relative error against a common reference at equal time.
 
-Run benches/peers/setup.sh once, build vkpath (cargo build --release), then from the repository root:
+Run benches/peers/setup.sh once (it installs vkpath's Python module from this checkout into the venv,
+through which vkpath renders; `--vkpath-via binary` runs the release binary instead: cargo build
+--release), then from the repository root:
 
     benches/peers/.venv/bin/python benches/peers/compare.py            # the course scenes, 128x128
     benches/peers/.venv/bin/python benches/peers/compare.py --quick    # a 1-2 minute smoke run
@@ -167,6 +169,62 @@ class Vkpath:
         img = read_exr(out)
         out.unlink()
         return Render(img, float(info["seconds"]), spp, info)
+
+
+class VkpathModule:
+    """The same renders through vkpath's Python module (`import vkpath`; setup.sh installs it in the venv
+    from this checkout): the scene is read once per config and each render comes back as an array, with
+    no process start and no EXR between them. The timing is the same `seconds` field (the render loop).
+    The config's flags become the module's arguments; a flag with no equivalent stops the run (give
+    --vkpath-via binary for it)."""
+
+    # Command-line flags and the `[render]` key each sets (values as the scene format writes them).
+    RENDER_KEYS = {"--splat": "splat", "--adaptive": "adaptive", "--light-sampling": "light_sampling",
+                   "--sampler": "sampler", "--max-bounces": "max_bounces",
+                   "--adaptive-threshold": "adaptive_threshold"}
+
+    def __init__(self, label: str, extra_args: list[str], scene: Path):
+        import vkpath
+
+        self.label = label
+        lenient, defines, render = False, {}, {}
+        args = list(extra_args)
+        while args:
+            flag = args.pop(0)
+            if flag == "--xml-lenient":
+                lenient = True
+            elif flag == "-D" and args:
+                name, _, value = args.pop(0).partition("=")
+                defines[name] = value
+            elif flag in self.RENDER_KEYS and args:
+                value = args.pop(0)
+                if value in ("on", "off"):
+                    value = value == "on"
+                elif flag in ("--max-bounces", "--adaptive-threshold"):
+                    value = float(value) if "." in value else int(value)
+                render[self.RENDER_KEYS[flag]] = value
+            else:
+                sys.exit(f"compare.py: config {label!r}: the Python module has no equivalent of {flag!r}; "
+                         "give --vkpath-via binary")
+        self.scene = vkpath.load(scene, xml_lenient=lenient, **defines)
+        if render:
+            self.scene.set("render", **render)
+
+    def render(self, spp: int, seed: int) -> Render:
+        import numpy as np
+
+        r = self.scene.render(spp=spp, seed=seed)
+        if r.spp != spp:
+            raise RuntimeError(f"vkpath rendered {r.spp} spp, asked for {spp}")
+        return Render(np.asarray(r.image, dtype=np.float64), float(r.summary["seconds"]), spp, r.summary)
+
+
+def vkpath_module_available() -> bool:
+    try:
+        import vkpath  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 MITSUBA = "Mitsuba 3"
@@ -415,6 +473,9 @@ def main() -> int:
     ap.add_argument("--rr-depth", type=int, default=3,
                     help="Russian roulette start for Mitsuba (vkpath's default roulette_depth is 3)")
     ap.add_argument("--vkpath", default=str(ROOT / "target" / "release" / "vkpath"), help="vkpath binary")
+    ap.add_argument("--vkpath-via", choices=["module", "binary"], default=None,
+                    help="render vkpath through its Python module (the default when `import vkpath` works: "
+                         "setup.sh installs it) or by running the binary (--vkpath) for each render")
     ap.add_argument("--vkpath-config", action="append", metavar="LABEL:ARGS",
                     help="a vkpath setting to compare, e.g. 'vkpath generic:--generic' or "
                     "'mis:--light-sampling mis' (repeatable: one ladder each, side by side in the tables; "
@@ -459,7 +520,11 @@ def main() -> int:
     if len(set(a.mitsuba_samplers)) != len(a.mitsuba_samplers):
         sys.exit("compare.py: a Mitsuba sampler is named twice in --mitsuba-samplers")
     vkpath_bin = Path(a.vkpath)
-    if not vkpath_bin.exists():
+    via = a.vkpath_via or ("module" if vkpath_module_available() else "binary")
+    if via == "module" and not vkpath_module_available():
+        sys.exit("compare.py: --vkpath-via module, and `import vkpath` fails: run benches/peers/setup.sh "
+                 "(it installs the module from this checkout into the venv)")
+    if via == "binary" and not vkpath_bin.exists():
         sys.exit(f"compare.py: no vkpath binary at {vkpath_bin}; run `cargo build --release` first")
 
     import numpy as np
@@ -497,6 +562,8 @@ def main() -> int:
         "ladder": f"1..{max_spp} spp (doubling)",
         "reference": f"{ref_spp} spp from each renderer in {batches} batches (mean of both)",
         "mitsuba_samplers": " ".join(a.mitsuba_samplers),
+        # The module is the one setup.sh installed: run setup.sh again after changing vkpath's code.
+        "vkpath_via": "Python module" if via == "module" else f"binary {vkpath_bin}",
     }
     print("# " + ", ".join(f"{k}: {v}" for k, v in meta.items()), flush=True)
 
@@ -559,7 +626,10 @@ def main() -> int:
                 return Mitsuba(dr, mi, ms.mitsuba_dict(mi, over, spp=1, tmp_dir=tmp / name,
                                                        rr_depth=a.rr_depth, sampler=sampler), sampler)
 
-        vks = [Vkpath(vkpath_bin, label, [*vk_args, *extra], vk_scene, tmp) for label, extra in configs]
+        if via == "module":
+            vks = [VkpathModule(label, [*vk_args, *extra], vk_scene) for label, extra in configs]
+        else:
+            vks = [Vkpath(vkpath_bin, label, [*vk_args, *extra], vk_scene, tmp) for label, extra in configs]
         for v in vks:
             v.render(1, seed=999_999)  # warm-up (page cache, driver), not recorded
         # No `samples_per_pass`: Mitsuba 3.6 deprecates it and splits a large render into passes itself.
@@ -642,7 +712,7 @@ def main() -> int:
                   flush=True)
 
     meta["vkpath_device"] = vk_device or "?"
-    meta["vkpath_driver"] = vkpath_driver(vkpath_bin)
+    meta["vkpath_driver"] = vkpath_driver(vkpath_bin) if vkpath_bin.exists() else ""
     meta["command"] = " ".join(["compare.py", *sys.argv[1:]])
     for rows in (ladder_rows, ref_rows):
         for row in rows:

@@ -102,6 +102,27 @@ def vkpath_scene(vkpath: Path, gltf: Path, tmp: Path, bounces: int) -> tuple[Pat
 
 def render_vkpath(vkpath: Path, scene: Path, w: int, h: int, spp: int, seed: int, env: Path | None,
                   out: Path) -> dict:
+    """vkpath's render: through its Python module when this venv has it (benches/peers/setup.sh installs
+    it), else by running the binary."""
+    try:
+        import vkpath as vk
+    except ImportError:
+        return render_vkpath_binary(vkpath, scene, w, h, spp, seed, env, out)
+    import numpy as np
+
+    t0 = time.perf_counter()
+    s = vk.load(scene)
+    s.set_size(w, h)
+    if env is not None:
+        s.set_environment(env)
+    r = s.render(spp=spp, seed=seed, aovs=["variance", "depth"])
+    wall = time.perf_counter() - t0
+    return {"rgb": np.asarray(r.image, dtype=np.float64), "var": np.asarray(r.aovs["variance"], dtype=np.float64),
+            "mask": np.isfinite(r.aovs["depth"]), "wall": wall, "seconds": r.summary["seconds"]}
+
+
+def render_vkpath_binary(vkpath: Path, scene: Path, w: int, h: int, spp: int, seed: int, env: Path | None,
+                         out: Path) -> dict:
     cmd = [str(vkpath), "render", str(scene), "--width", str(w), "--height", str(h), "--spp", str(spp),
            "--seed", str(seed), "--aov", "variance,depth", "-o", str(out), "--json", "--quiet"]
     if env is not None:

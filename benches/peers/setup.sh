@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # benches/peers/setup.sh: prepare this machine for the Mitsuba 3 side-by-side (benches/peers/compare.py).
 #
-#   benches/peers/setup.sh     creates benches/peers/.venv (git-ignored) with the pinned mitsuba, numpy and
-#                              an EXR reader; installs Debian's libllvm19 when missing (Dr.Jit's LLVM back
-#                              end crashes with the LLVM 15 that Mesa pulls in, so compare.py points
-#                              DRJIT_LIBLLVM_PATH at LLVM 19 instead).
+#   benches/peers/setup.sh     creates benches/peers/.venv (git-ignored) with the pinned mitsuba, numpy,
+#                              an EXR reader and vkpath's Python module (built from this checkout);
+#                              installs Debian's libllvm19 when missing (Dr.Jit's LLVM back end crashes
+#                              with the LLVM 15 that Mesa pulls in, so compare.py points DRJIT_LIBLLVM_PATH
+#                              at LLVM 19 instead).
 #
 # Debian/Ubuntu only. Idempotent: what is already there is left alone; prints one line per step saying
 # what it did. Run from anywhere.
@@ -110,6 +111,12 @@ else
         "mitsuba==$MITSUBA_VERSION" "$NUMPY_SPEC" "$OPENEXR_SPEC"
     echo "setup.sh: pip installed mitsuba==$MITSUBA_VERSION, numpy, OpenEXR into the venv"
 fi
+
+# --- vkpath's Python module, from this checkout (compare.py renders through it) --------------------
+# Built in release (maturin, a few minutes the first time); run setup.sh again after changing the code.
+root=$(cd "$here/../.." && pwd)
+"$venv/bin/python" -m pip install -q --disable-pip-version-check "$root"
+echo "setup.sh: pip installed vkpath's Python module from $root into the venv"
 
 # --- smoke test: the LLVM variant loads with LLVM 19 -------------------------------------------
 if DRJIT_LIBLLVM_PATH="$llvm" "$venv/bin/python" -c \

@@ -87,18 +87,31 @@ def main() -> int:
         flags = ["-D", "integrator=path"] if mx.custom_integrator(a.scene) else []
         flags += ["--xml-lenient"] if a.xml_lenient else []
         t0 = time.perf_counter()
-        subprocess.run([str(a.vkpath), "render", str(a.scene), "--width", str(width), "--height", str(height),
-                        "--spp", str(a.spp), "--seed", str(a.seed), "--aov", "variance", "-o", str(exr), "--quiet",
-                        *flags], check=True)
+        try:
+            # Through vkpath's Python module when this venv has it (benches/peers/setup.sh installs it).
+            import vkpath as vk
+        except ImportError:
+            vk = None
+        if vk is not None:
+            defines = {"integrator": "path"} if flags[:1] == ["-D"] else {}
+            s = vk.load(a.scene, xml_lenient=a.xml_lenient, **defines)
+            s.set_size(width, height)
+            r = s.render(spp=a.spp, seed=a.seed, aovs=["variance"])
+            rgb, var = r.image, r.aovs["variance"]
+        else:
+            subprocess.run([str(a.vkpath), "render", str(a.scene), "--width", str(width), "--height", str(height),
+                            "--spp", str(a.spp), "--seed", str(a.seed), "--aov", "variance", "-o", str(exr),
+                            "--quiet", *flags], check=True)
         v_time = time.perf_counter() - t0
         copy = mx.copy(a.scene, Path(tmp) / "mitsuba.xml", width, height, "independent", 3, box=False)
         per_batch = max(1, (a.mitsuba_spp or a.spp) // a.batches)
         scene = mi.load_file(str(copy))
-        with OpenEXR.File(str(exr)) as f:
-            ch = f.channels()
-            rgb = ch["RGB"].pixels if "RGB" in ch else np.stack([ch[c].pixels for c in "RGB"], axis=-1)
-            # The OpenEXR module groups a layer's channels (variance.R, .G, .B) under the layer's name.
-            var = ch["variance"].pixels
+        if vk is None:
+            with OpenEXR.File(str(exr)) as f:
+                ch = f.channels()
+                rgb = ch["RGB"].pixels if "RGB" in ch else np.stack([ch[c].pixels for c in "RGB"], axis=-1)
+                # The OpenEXR module groups a layer's channels (variance.R, .G, .B) under the layer's name.
+                var = ch["variance"].pixels
     rgb = np.asarray(rgb, dtype=np.float64).reshape(-1, 3)
     var = np.asarray(var, dtype=np.float64).reshape(-1, 3)
     p = rgb.shape[0]

@@ -8,7 +8,7 @@
 //! overrides, the options, the outputs, the checkpoint to resume, all before any device work), the
 //! session with a progress bar, and [`report`] (what is printed, and the exit status).
 
-use super::report::{AdaptiveReport, RenderReport, kernel_name, print_json, shown_paths};
+use super::report::print_json;
 use super::{
     check_image_size, check_output_formats, install_stop_handler, load_scene_with,
     report_validation_errors, usage,
@@ -24,7 +24,7 @@ use vkpath::film::Film;
 use vkpath::film::OutputFormat;
 use vkpath::gpu::{ContextOptions, GpuContext};
 use vkpath::output::Aov;
-use vkpath::render::adaptive::{self, AdaptiveSettings};
+use vkpath::render::adaptive::AdaptiveSettings;
 use vkpath::render::{Fault, PassReport, RenderOptions, Renderer, SaveEvery, StopReason};
 use vkpath::scene::translated::ImportOptions;
 use vkpath::session::{Plan, Request, Session};
@@ -243,7 +243,7 @@ fn prepare(a: &RenderArgs, is_part: bool) -> Result<Job, Error> {
     let mut scene = load_scene_with(a.scene.as_deref(), &import)?;
     apply_overrides(&mut scene, a)?;
     let mut options = render_options(a)?;
-    options.adaptive = adaptive_settings(&scene.render.adaptive, a.target_error);
+    options.adaptive = AdaptiveSettings::asked(&scene.render.adaptive, a.target_error);
     let outputs = if a.outputs.is_empty() && !is_part {
         vec![PathBuf::from(format!("{}.png", scene.stem()))]
     } else {
@@ -361,7 +361,6 @@ fn report(
     // A part that stopped early is not done: exit 1, so that the scheduler (Slurm, Kubernetes) does not
     // count the task as a success and runs it again, and the merge is not started without it.
     let renderer = session.renderer();
-    let plan = session.plan();
     let unfinished_part = match (reason, session.part()) {
         (StopReason::Interrupted, Some(p)) => Some(p),
         _ => None,
@@ -396,64 +395,18 @@ fn report(
             }
         );
     }
-    let ctx = renderer.context();
-    let validation_errors = ctx.validation_errors();
+    let validation_errors = renderer.context().validation_errors();
     // Read once the passes have completed; a failed read only loses the warning.
-    let faults = renderer.sample_faults().unwrap_or_default();
-    warn_sample_faults(&faults);
-    let seconds = elapsed.as_secs_f64();
-    let scene = session.scene();
-    let pixels = scene.image.width as f64 * scene.image.height as f64;
-    // With adaptive sampling, each pixel's own count (those of a checkpoint resumed taken off).
-    let samples = match renderer.adaptive() {
-        Some(ad) => {
-            ad.counts().iter().map(|&n| n as f64).sum::<f64>() - ad.restored_samples() as f64
-        }
-        None => pixels * (film.spp - plan.resumed_samples) as f64,
-    };
-    let mean_spp = match renderer.adaptive() {
-        Some(ad) => ad.counts().iter().map(|&n| n as f64).sum::<f64>() / pixels.max(1.0),
-        None => film.spp as f64,
-    };
+    let summary = session.report(film, reason, elapsed);
+    warn_sample_faults(&summary.sample_faults);
     if !a.quiet {
-        eprintln!("{}", summary_line(session, film, seconds, samples));
+        eprintln!(
+            "{}",
+            summary_line(session, film, summary.seconds, summary.samples_per_second)
+        );
     }
     if a.json {
-        let rel = film.estimated_rel_error();
-        let stats = renderer.scene_stats();
-        print_json(&RenderReport {
-            scene: scene.display_name(),
-            width: scene.image.width,
-            height: scene.image.height,
-            spp: film.spp,
-            mean_spp,
-            adaptive: renderer.adaptive().map(|ad| AdaptiveReport {
-                threshold: ad.settings.threshold,
-                min_spp: ad.settings.min_spp,
-                pixels_active: ad.active().len(),
-            }),
-            seconds,
-            samples_per_second: samples / seconds.max(1e-12),
-            estimated_rel_error: rel.is_finite().then_some(rel),
-            device: &ctx.device_info().name,
-            max_bounces: vkpath::scene::bounces_as_written(scene.render.max_bounces),
-            seed: scene.render.seed,
-            stop_reason: reason,
-            outputs: shown_paths(session.outputs()),
-            validation_errors: validation_errors.len(),
-            triangles: stats.triangles,
-            instances: stats.instances,
-            bvh_nodes: stats.bvh_nodes,
-            bvh_build_ms: stats.bvh_build_ms,
-            kernel: kernel_name(renderer.features()),
-            features_absent: renderer.features().absent(),
-            sample_ranges: renderer.ranges(),
-            strips: renderer.tile_layout().strips.len(),
-            tiles_per_sample: renderer.tiles_per_sample(),
-            resumed_spp: plan.resumed_samples,
-            checkpoint: session.checkpoint().map(|p| p.display().to_string()),
-            sample_faults: faults,
-        });
+        print_json(&summary);
     }
     if report_validation_errors(&validation_errors) || unfinished_part.is_some() {
         return 1;
@@ -709,20 +662,15 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
             ));
         }
         Some(on) => scene.render.splat = Some(matches!(on, OnOff::On)),
-        // The denoiser reads each pixel's own estimate, whose noise is independent of its neighbours'.
-        None if (a.denoise || scene.image.denoise) && scene.render.splat.is_none() => {
-            scene.render.splat = Some(false);
+        None => {
+            if !scene.render.settle_splat(a.denoise || scene.image.denoise) {
+                return Err(usage(
+                    "the scene asks for splatting (render.splat = true), which does not go with adaptive \
+                     sampling (--adaptive on): a splatted pixel averages its neighbours' samples, which \
+                     adaptive sampling takes in unequal numbers. Give --splat off, or --adaptive off.",
+                ));
+            }
         }
-        None if adaptive && scene.render.splat == Some(true) => {
-            return Err(usage(
-                "the scene asks for splatting (render.splat = true), which does not go with adaptive \
-                 sampling (--adaptive on): a splatted pixel averages its neighbours' samples, which \
-                 adaptive sampling takes in unequal numbers. Give --splat off, or --adaptive off.",
-            ));
-        }
-        // Adaptive sampling keeps each pixel's own samples.
-        None if adaptive => scene.render.splat = Some(false),
-        None => {}
     }
     if let Some(path) = &a.environment {
         // The same reader and checks as the scene file's [environment] map; radiance 1, no rotation.
@@ -735,21 +683,6 @@ fn apply_overrides(scene: &mut Scene, a: &RenderArgs) -> Result<(), Error> {
         };
     }
     Ok(())
-}
-
-/// Adaptive sampling's settings when it is on: the threshold from the scene or the flag, else
-/// `--target-error`'s, else the default.
-fn adaptive_settings(
-    asked: &vkpath::scene::Adaptive,
-    target_error: Option<f64>,
-) -> Option<AdaptiveSettings> {
-    (asked.on == Some(true)).then(|| AdaptiveSettings {
-        threshold: asked
-            .threshold
-            .or(target_error)
-            .unwrap_or(adaptive::DEFAULT_THRESHOLD),
-        min_spp: asked.min_samples.unwrap_or(adaptive::DEFAULT_MIN_SPP),
-    })
 }
 
 /// The renderer's options from the flags that tune it (pass size, roulette, tiles, dispatch time) and
@@ -818,7 +751,7 @@ fn render_options(a: &RenderArgs) -> Result<RenderOptions, Error> {
 
 /// The line `vkpath render` ends with on stderr (unless `--quiet`): what it wrote, how many samples per
 /// pixel in how long, at what rate, and the image's estimated relative error.
-fn summary_line(session: &Session, film: &Film, seconds: f64, samples: f64) -> String {
+fn summary_line(session: &Session, film: &Film, seconds: f64, samples_per_second: f64) -> String {
     let mut wrote: Vec<String> = session
         .outputs()
         .iter()
@@ -840,7 +773,7 @@ fn summary_line(session: &Session, film: &Film, seconds: f64, samples: f64) -> S
         "vkpath: wrote {}: {} spp in {seconds:.2} s, {:.3} Msamples/s, estimated error {error}{denoised}",
         wrote.join(", "),
         film.spp,
-        samples / seconds.max(1e-12) / 1e6
+        samples_per_second / 1e6
     )
 }
 

@@ -64,6 +64,20 @@ pub struct AdaptiveSettings {
     pub min_spp: u32,
 }
 
+impl AdaptiveSettings {
+    /// The settings when the scene (with the command line's overrides) turns adaptive sampling on: its
+    /// threshold, else the target error's (`--target-error`), else the default; `None` when off.
+    pub fn asked(asked: &crate::scene::Adaptive, target_error: Option<f64>) -> Option<Self> {
+        (asked.on == Some(true)).then(|| AdaptiveSettings {
+            threshold: asked
+                .threshold
+                .or(target_error)
+                .unwrap_or(DEFAULT_THRESHOLD),
+            min_spp: asked.min_samples.unwrap_or(DEFAULT_MIN_SPP),
+        })
+    }
+}
+
 /// Default `render.adaptive_threshold`: Cycles' default noise threshold.
 pub const DEFAULT_THRESHOLD: f64 = 0.01;
 

@@ -270,11 +270,21 @@ pub struct Renderer {
     adaptive: Option<adaptive::Adaptive>,
 }
 
+/// The kernels compiled in this process, by feature set (see [`kernel_for`]).
+static KERNELS: OnceLock<Mutex<HashMap<FeatureSet, Arc<CompiledShader>>>> = OnceLock::new();
+
+/// How many kernels this process has compiled: one per feature set rendered (the Python module's tests
+/// hold an edit that changes only values to compiling none).
+pub fn kernels_compiled() -> usize {
+    KERNELS
+        .get()
+        .map_or(0, |c| c.lock().unwrap_or_else(|p| p.into_inner()).len())
+}
+
 /// The compiled kernel for a feature set, compiled once per process (naga's work; the driver's pipeline
 /// compile happens per renderer).
 pub fn kernel_for(features: &FeatureSet) -> Result<Arc<CompiledShader>, GpuError> {
-    static CACHE: OnceLock<Mutex<HashMap<FeatureSet, Arc<CompiledShader>>>> = OnceLock::new();
-    let cache = CACHE.get_or_init(Default::default);
+    let cache = KERNELS.get_or_init(Default::default);
     if let Some(hit) = cache
         .lock()
         .unwrap_or_else(|p| p.into_inner())

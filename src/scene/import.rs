@@ -8,7 +8,7 @@
 
 use super::mesh_file::GLTF_EXTENSIONS;
 use super::translated::{ImportOptions, Translated};
-use super::{Scene, SceneError, gltf_scene, mitsuba, read_scene_text};
+use super::{FileCache, Scene, SceneError, gltf_scene, mitsuba, read_scene_text};
 use std::path::Path;
 
 /// A scene file format.
@@ -70,12 +70,25 @@ impl Importer {
     /// from the file's folder), an error of the TOML reader reported where its line came from, and the
     /// warnings of the translation before the TOML reader's.
     pub fn load(&self, path: &Path, options: &ImportOptions) -> Result<Scene, SceneError> {
+        self.load_cached(path, options, &mut FileCache::default())
+            .map(|(scene, _)| scene)
+    }
+
+    /// [`Importer::load`] with the files the scene names read through `cache`, and the TOML text the
+    /// scene was read from (the Python module edits that text and reads it again with the same cache).
+    pub fn load_cached(
+        &self,
+        path: &Path,
+        options: &ImportOptions,
+        cache: &mut FileCache,
+    ) -> Result<(Scene, String), SceneError> {
         let t = (self.to_toml)(path, options, None)?;
-        let mut scene = Scene::from_toml_str(&t.toml, Some(path)).map_err(|e| t.relocate(e))?;
+        let mut scene =
+            Scene::from_toml_str_cached(&t.toml, Some(path), cache).map_err(|e| t.relocate(e))?;
         let mut warnings = t.warnings;
         warnings.append(&mut scene.warnings);
         scene.warnings = warnings;
-        Ok(scene)
+        Ok((scene, t.toml))
     }
 }
 

@@ -45,7 +45,7 @@ pub fn warning_line(w: &str) -> String {
 }
 pub use image_texture::Texture;
 pub use mesh::Mesh;
-pub use parse::SceneError;
+pub use parse::{FileCache, SceneError};
 pub use texture::{MaterialTextures, TextureRef};
 
 /// The course's box of spheres, embedded so that `vkpath render` works with no file at all.
@@ -264,6 +264,21 @@ impl RenderSettings {
             Filter::Box | Filter::None => return false,
         };
         radius <= 7.5 && !self.sample_border
+    }
+
+    /// Decides splatting where nothing overrides the scene's `render.splat`: off when denoising (the
+    /// denoiser reads each pixel's own estimate, whose noise is independent of its neighbours') and with
+    /// adaptive sampling (which keeps each pixel's own samples). False when the scene asks for both
+    /// splatting and adaptive sampling, which do not go together (a splatted pixel averages its
+    /// neighbours' samples, which adaptive sampling takes in unequal numbers): the caller refuses it.
+    pub fn settle_splat(&mut self, denoise: bool) -> bool {
+        let adaptive = self.adaptive.on == Some(true);
+        match self.splat {
+            None if denoise || adaptive => self.splat = Some(false),
+            Some(true) if adaptive => return false,
+            _ => {}
+        }
+        true
     }
 }
 
@@ -650,6 +665,16 @@ impl Scene {
     /// Parses and validates scene text. `path` is used for messages and to resolve relative paths.
     pub fn from_toml_str(text: &str, path: Option<&Path>) -> Result<Scene, SceneError> {
         parse::parse_scene(text, path)
+    }
+
+    /// [`Scene::from_toml_str`], reading the mesh files, textures and environment map through `cache`:
+    /// those it already holds are not read again (the Python module's edits of a loaded scene).
+    pub fn from_toml_str_cached(
+        text: &str,
+        path: Option<&Path>,
+        cache: &mut FileCache,
+    ) -> Result<Scene, SceneError> {
+        parse::parse_scene_cached(text, path, cache)
     }
 
     /// The embedded default scene (the course's box of spheres).

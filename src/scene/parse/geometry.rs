@@ -3,7 +3,7 @@
 
 use super::error::SceneError;
 use super::raw::{RawInstance, RawMatrix, RawMesh, RawSphere, RawTriangle, RawVec3};
-use super::{Checker, LoadedFiles};
+use super::{Checker, FileCache};
 use crate::scene::image_texture::{Texture, load_texture};
 use crate::scene::mesh::{self, Mesh, MeshMaps, ObjMesh, Placement};
 use crate::scene::mesh_file;
@@ -265,7 +265,7 @@ impl Checker<'_> {
         names: &[String],
         materials: &[Material],
         base: &Path,
-        files: &mut LoadedFiles,
+        files: &mut FileCache,
     ) -> Result<MeshTable, SceneError> {
         let m = raw.get_ref();
         let key = |field: &str| format!("mesh[{i}].{field}");

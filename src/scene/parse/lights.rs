@@ -340,6 +340,7 @@ impl Checker<'_> {
         raw: &RawScene,
         background: Vec3,
         base: &Path,
+        cache: &mut super::FileCache,
     ) -> Result<Environment, SceneError> {
         let Some(env) = &raw.environment else {
             return Ok(Environment {
@@ -361,7 +362,10 @@ impl Checker<'_> {
             None => None,
             Some(m) => {
                 let path = base.join(m.get_ref());
-                let loaded = environment::load_map(&path).map_err(|problem| {
+                if let Some(map) = cache.environments.get(&path) {
+                    Some(map.clone())
+                } else {
+                    let loaded = environment::load_map(&path).map_err(|problem| {
                     self.error(
                         m.span(),
                         "environment.map",
@@ -370,7 +374,10 @@ impl Checker<'_> {
                          image of linear radiance.",
                     )
                 })?;
-                Some(Arc::new(loaded))
+                    let loaded = Arc::new(loaded);
+                    cache.environments.insert(path, loaded.clone());
+                    Some(loaded)
+                }
             }
         };
         let default = if map.is_some() { Vec3::ONE } else { Vec3::ZERO };

@@ -68,6 +68,15 @@ const DEFAULT_SCENE_FILE: &str = "<default scene>";
 
 /// Parses and validates a scene. `path` is only used for messages and stored in the result.
 pub(crate) fn parse_scene(text: &str, path: Option<&Path>) -> Result<Scene, SceneError> {
+    parse_scene_cached(text, path, &mut FileCache::default())
+}
+
+/// [`parse_scene`], reading the files it names through `cache` (see [`FileCache`]).
+pub(crate) fn parse_scene_cached(
+    text: &str,
+    path: Option<&Path>,
+    cache: &mut FileCache,
+) -> Result<Scene, SceneError> {
     let file = match path {
         Some(p) => p.display().to_string(),
         None => DEFAULT_SCENE_FILE.to_string(),
@@ -80,7 +89,7 @@ pub(crate) fn parse_scene(text: &str, path: Option<&Path>) -> Result<Scene, Scen
     let raw = RawScene::deserialize(toml::de::Deserializer::from(tree.clone()))
         .map_err(|e| checker.shape_error(&e, tree.get_ref()))?;
     // Step 3: meaning.
-    checker.scene(&raw, path)
+    checker.scene(&raw, path, cache)
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -93,7 +102,12 @@ struct Checker<'a> {
     text: &'a str,
 }
 impl Checker<'_> {
-    fn scene(&self, raw: &RawScene, path: Option<&Path>) -> Result<Scene, SceneError> {
+    fn scene(
+        &self,
+        raw: &RawScene,
+        path: Option<&Path>,
+        cache: &mut FileCache,
+    ) -> Result<Scene, SceneError> {
         let camera = self.camera(&raw.camera)?;
         let mut image = self.image(raw.image.as_ref())?;
         let (render, background) = self.render(raw.render.as_ref())?;
@@ -104,7 +118,7 @@ impl Checker<'_> {
             .and_then(|r| r.denoise.as_ref())
             .is_some_and(|d| *d.get_ref());
         let base = path.and_then(Path::parent).unwrap_or(Path::new(""));
-        let environment = self.environment(raw, background, base)?;
+        let environment = self.environment(raw, background, base, cache)?;
 
         // TOML has already rejected duplicate names, so sorting by position is a total order.
         let mut named: Vec<_> = raw.materials.iter().collect();
@@ -113,7 +127,7 @@ impl Checker<'_> {
         // embedded scene). A file used by several meshes or materials is read once.
         let mut files = Files {
             base,
-            loaded: LoadedFiles::default(),
+            loaded: cache,
         };
         let mut materials = Vec::with_capacity(named.len());
         let mut material_names = Vec::with_capacity(named.len());
@@ -189,14 +203,7 @@ impl Checker<'_> {
             )
         };
         for (i, mesh) in raw.mesh.iter().enumerate() {
-            let table = self.mesh(
-                i,
-                mesh,
-                &material_names,
-                &materials,
-                base,
-                &mut files.loaded,
-            )?;
+            let table = self.mesh(i, mesh, &material_names, &materials, base, files.loaded)?;
             total += table
                 .meshes
                 .iter()
@@ -315,7 +322,7 @@ impl Checker<'_> {
         t: &Spanned<String>,
         key: &str,
         base: &Path,
-        files: &mut LoadedFiles,
+        files: &mut FileCache,
         hint: &str,
     ) -> Result<Arc<Texture>, SceneError> {
         let path = base.join(t.get_ref());
@@ -416,19 +423,22 @@ impl Checker<'_> {
     }
 }
 
-/// OBJ files and textures already read while checking this scene, by resolved path.
+/// The files a scene reads besides itself (mesh files, textures, the environment map), by resolved
+/// path, each read once however many keys name it. A scene read again with the same cache (the Python
+/// module's edits: `Scene::from_toml_str_cached`) reads none of them again: a file changed on disk since
+/// is seen only by a fresh load.
 #[derive(Default)]
-struct LoadedFiles {
-    /// Mesh files read, by path and `shape_index` (read once however many meshes use them).
+pub struct FileCache {
+    /// Mesh files read, by path and `shape_index`.
     objs: HashMap<(PathBuf, u32), Arc<ObjMesh>>,
     textures: HashMap<PathBuf, Arc<Texture>>,
+    environments: HashMap<PathBuf, Arc<super::EnvironmentMap>>,
 }
 
-/// The files a scene reads besides itself (meshes, images), relative to `base` (the scene file's
-/// directory), each read once however many keys name it.
+/// The files a scene reads besides itself, relative to `base` (the scene file's directory).
 struct Files<'a> {
     base: &'a Path,
-    loaded: LoadedFiles,
+    loaded: &'a mut FileCache,
 }
 
 #[cfg(test)]

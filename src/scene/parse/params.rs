@@ -113,7 +113,7 @@ impl Checker<'_> {
                 file,
                 &sub("texture"),
                 files.base,
-                &mut files.loaded,
+                files.loaded,
                 "The path is relative to the scene file; PNG, JPEG, EXR and HDR images are read.",
             )?,
             (None, Some(colors)) if !modifier => {
