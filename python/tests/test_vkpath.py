@@ -90,6 +90,9 @@ def test_the_png_and_the_notebook_image_are_the_command_lines(tmp_path):
     r = s.render(spp=2)
     vkpath.write(tmp_path / "py.png", r.image, scene=s)
     assert vkpath.compare(tmp_path / "py.png", png)["identical"]
+    r2 = s.render(spp=2, aovs=["albedo"])
+    r2.write(tmp_path / "result.png")  # the layers go to EXR files only
+    assert vkpath.compare(tmp_path / "result.png", png)["identical"]
     shown = tmp_path / "shown.png"
     shown.write_bytes(r._repr_png_())
     assert vkpath.compare(shown, png)["identical"]

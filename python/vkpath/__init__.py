@@ -81,8 +81,10 @@ class Result:
         return self.summary["stop_reason"] == "interrupted"
 
     def write(self, path: PathLike, aovs: bool = True) -> None:
-        """The image to a PNG (through the scene's display transform) or an EXR (with the layers)."""
-        write(path, self.image, aovs=self.aovs if aovs else None, scene=self._scene)
+        """The image to a PNG (through the scene's display transform) or an EXR (with the layers, unless
+        `aovs` is false)."""
+        exr = os.fspath(path).lower().endswith(".exr")
+        write(path, self.image, aovs=self.aovs if aovs and exr else None, scene=self._scene)
 
     def _repr_png_(self) -> bytes:
         # Jupyter shows a Result as its image, through the scene's display transform.
