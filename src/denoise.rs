@@ -351,7 +351,7 @@ impl Denoiser {
             }
         }
         crate::memory::check_available(
-            n as u64 * crate::memory::DENOISE_BYTES_PER_PIXEL,
+            n as u64 * crate::render::host_use::DENOISE_BYTES_PER_PIXEL,
             &format!("denoising {w}x{h} pixels"),
         )
         .map_err(|m| Error::Denoise(format!("{m}: denoise on a machine with more memory")))?;

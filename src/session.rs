@@ -146,7 +146,7 @@ impl<'a> Session<'a> {
     /// a resumed checkpoint is put on the device here, or the refusal says why it does not fit.
     pub fn start(ctx: &Arc<GpuContext>, request: Request<'a>) -> Result<Session<'a>, Error> {
         // What this session holds on the host per pixel, for the renderer's up-front memory check.
-        let host = crate::memory::HostUse {
+        let host = crate::render::host_use::HostUse {
             images: !request.outputs.is_empty(),
             checkpoint: request.checkpoint.is_some() || request.resume.is_some(),
             aov_layers: aov_list(request.aovs, request.denoiser.is_some() || request.keep_aux)

@@ -39,8 +39,8 @@ pub fn merge_files(
 ) -> Result<Checkpoint, Error> {
     let borrowed: Vec<(PathBuf, &Header)> = headers.iter().map(|(p, h)| (p.clone(), h)).collect();
     let plan = check_headers(&borrowed)?;
-    let bytes =
-        plan.pixels as u64 * (MERGED_BYTES_PER_PIXEL + crate::memory::CHECKPOINT_BYTES_PER_PIXEL);
+    let bytes = plan.pixels as u64
+        * (MERGED_BYTES_PER_PIXEL + crate::render::host_use::CHECKPOINT_BYTES_PER_PIXEL);
     crate::memory::check_available(bytes, &format!("merging {} parts", headers.len())).map_err(
         |m| Error::Checkpoint {
             path: headers[0].0.clone(),

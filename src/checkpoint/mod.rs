@@ -539,7 +539,7 @@ impl Checkpoint {
                 0
             };
         crate::memory::check_available(
-            pixels * (crate::memory::CHECKPOINT_BYTES_PER_PIXEL + aux_bytes),
+            pixels * (crate::render::host_use::CHECKPOINT_BYTES_PER_PIXEL + aux_bytes),
             &format!("decoding its {}x{} pixels", id.width, id.height),
         )
         .map_err(Decode::TooLarge)?;

@@ -644,23 +644,11 @@ impl Drop for GpuContext {
     }
 }
 
+/// A lavapipe of Mesa `mesa` with small limits: for the tests of what depends on the device (here and
+/// in `render`).
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn mesa_versions_are_read_from_driver_strings() {
-        assert_eq!(
-            mesa_version("Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"),
-            Some([25, 0])
-        );
-        assert_eq!(mesa_version("Mesa 22.3.6 (LLVM 15.0.6)"), Some([22, 3]));
-        assert_eq!(mesa_version("Mesa 24.2"), Some([24, 2]));
-        assert_eq!(mesa_version("535.104.05"), None);
-        assert_eq!(mesa_version("Mesa x"), None);
-    }
-
-    fn lavapipe(mesa: [u32; 2]) -> DeviceInfo {
+impl DeviceInfo {
+    pub(crate) fn test_lavapipe(mesa: [u32; 2]) -> DeviceInfo {
         DeviceInfo {
             index: 0,
             name: "llvmpipe".into(),
@@ -681,6 +669,27 @@ mod tests {
             robust_buffer_access: true,
         }
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mesa_versions_are_read_from_driver_strings() {
+        assert_eq!(
+            mesa_version("Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"),
+            Some([25, 0])
+        );
+        assert_eq!(mesa_version("Mesa 22.3.6 (LLVM 15.0.6)"), Some([22, 3]));
+        assert_eq!(mesa_version("Mesa 24.2"), Some([24, 2]));
+        assert_eq!(mesa_version("535.104.05"), None);
+        assert_eq!(mesa_version("Mesa x"), None);
+    }
+
+    fn lavapipe(mesa: [u32; 2]) -> DeviceInfo {
+        DeviceInfo::test_lavapipe(mesa)
+    }
 
     #[test]
     fn only_an_old_lavapipe_is_warned_about() {
@@ -691,25 +700,5 @@ mod tests {
         assert_eq!(d.old_lavapipe_warning(), None);
         d.lavapipe_mesa = None;
         assert_eq!(d.old_lavapipe_warning(), None);
-    }
-
-    /// The uniform twins: on CPU devices whose uniform buffers hold one, but not on Mesa 26's lavapipe
-    /// (whose storage reads are gathers already) nor on GPUs.
-    #[test]
-    fn uniform_twins_are_for_cpu_drivers_before_mesa_26() {
-        use crate::render::uniform_arrays_help;
-        assert!(uniform_arrays_help(&lavapipe([25, 0])));
-        assert!(uniform_arrays_help(&lavapipe([24, 2])));
-        assert!(!uniform_arrays_help(&lavapipe([26, 1])));
-        let mut other_cpu = lavapipe([25, 0]);
-        other_cpu.lavapipe_mesa = None;
-        assert!(uniform_arrays_help(&other_cpu));
-        let mut small = lavapipe([25, 0]);
-        small.max_uniform_buffer_range = 16384;
-        assert!(!uniform_arrays_help(&small));
-        let mut gpu = lavapipe([25, 0]);
-        gpu.device_type = "discrete GPU".into();
-        gpu.lavapipe_mesa = None;
-        assert!(!uniform_arrays_help(&gpu));
     }
 }

@@ -27,14 +27,16 @@
 //! [`COAT_NODES`] cosines mu_j = (j / (COAT_NODES - 1))^2, denser towards grazing where T changes
 //! fastest; the shader interpolates it by a Catmull-Rom cubic in sqrt(mu) (coat_transmittance), within
 //! 5e-4 of T at every cosine (3e-5 over most of them), where linear interpolation was 1e-3 off.
-
-use super::upload::fresnel_dielectric;
+//!
+//! The smooth interface's Fresnel reflectance and its diffuse reflectance Fdr (a smooth plastic's
+//! `fdr_int`, integrated here by the same quadrature) live here too, so that the upload reads the tables
+//! of this module and this module reads nothing of the upload.
 
 /// Entries in a plastic's transmittance table (`GpuMaterial::coat`).
 pub const COAT_NODES: usize = 16;
 
 /// Gauss-Legendre nodes and weights on [-1, 1], 4 points (also upload.rs's Fdr quadrature).
-pub(super) const GL4: [(f64, f64); 4] = [
+const GL4: [(f64, f64); 4] = [
     (-0.861_136_311_594_052_6, 0.347_854_845_137_453_8),
     (-0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
     (0.339_981_043_584_856_3, 0.652_145_154_862_546_1),
@@ -186,9 +188,68 @@ pub fn coat_table(ior: f64, alpha: f64, beckmann: bool) -> ([f32; COAT_NODES], f
     (table, fdr_int as f32)
 }
 
+// --- Smooth interfaces -----------------------------------------------------------------------------
+
+/// Unpolarised Fresnel reflectance of a smooth dielectric interface of relative index eta = n_t / n_i
+/// at incidence cosine c, in f64 (the shader's fresnel_dielectric, same formula); 1 under total internal
+/// reflection.
+fn fresnel_dielectric(c: f64, eta: f64) -> f64 {
+    let sin2_t = (1.0 - c * c) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let r_par = (eta * c - cos_t) / (eta * c + cos_t);
+    let r_perp = (c - eta * cos_t) / (c + eta * cos_t);
+    0.5 * (r_par * r_par + r_perp * r_perp)
+}
+
+/// The diffuse (cosine-weighted hemispherical) reflectance of a smooth interface of relative index eta,
+/// Fdr(eta) = 2 \int_0^1 F(c, eta) c dc: what a plastic's coat reflects back of the light its base
+/// scatters diffusely (eta = 1 / ior, from inside). Below the critical cosine sqrt(1 - eta^2) (eta < 1)
+/// F = 1 and that part is c_crit^2 exactly; the rest by Gauss–Legendre on 64 panels in u with
+/// c = c_crit + (1 - c_crit) u^2, which removes the square-root kink of cos_t at the critical angle (the
+/// integrand becomes smooth in u). Accurate to about 1e-12.
+pub fn fresnel_diffuse_reflectance(eta: f64) -> f64 {
+    let c_crit = if eta < 1.0 {
+        (1.0 - eta * eta).sqrt()
+    } else {
+        0.0
+    };
+    let panels = 64;
+    let mut sum = 0.0;
+    for p in 0..panels {
+        let (u0, u1) = (p as f64 / panels as f64, (p + 1) as f64 / panels as f64);
+        for (x, w) in GL4 {
+            let u = 0.5 * (u0 + u1) + 0.5 * (u1 - u0) * x;
+            let c = c_crit + (1.0 - c_crit) * u * u;
+            let dc_du = 2.0 * (1.0 - c_crit) * u;
+            sum += 0.5 * (u1 - u0) * w * fresnel_dielectric(c, eta) * c * dc_du;
+        }
+    }
+    c_crit * c_crit + 2.0 * sum
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Reciprocity of hemispherical reflectance across an interface: 1 - Fdr(eta) = eta^2 (1 - Fdr(1/eta))
+    /// (what makes a smooth white plastic reflect all the light), for the integral computed here.
+    /// Normal incidence alone bounds Fdr from below for eta > 1: Fdr(eta) >= ((eta - 1) / (eta + 1))^2.
+    #[test]
+    fn fresnel_diffuse_reflectance_obeys_reciprocity() {
+        for eta in [1.01, 1.33, 1.5, 2.0, 2.42, 4.0] {
+            let outside = fresnel_diffuse_reflectance(eta);
+            let inside = fresnel_diffuse_reflectance(1.0 / eta);
+            let lhs = 1.0 - outside;
+            let rhs = eta * eta * (1.0 - inside);
+            assert!((lhs - rhs).abs() < 1e-9, "eta {eta}: {lhs} vs {rhs}");
+            assert!(outside >= ((eta - 1.0) / (eta + 1.0)).powi(2));
+            assert!(inside > outside && inside < 1.0);
+        }
+        assert!(fresnel_diffuse_reflectance(1.0) < 1e-15); // no interface (up to f64 rounding)
+    }
 
     /// As alpha goes to 0 the rough interface becomes the smooth one: R(mu) -> F(mu), T(mu) -> 1 - F(mu),
     /// from outside and (below the critical angle) from inside.

@@ -13,7 +13,7 @@
 
 use super::abi::*;
 use super::alias;
-use super::coat::{GL4, coat_table};
+use super::coat::{coat_table, fresnel_diffuse_reflectance};
 use super::sheen::{SHEEN_MIN_ALPHA, sheen_albedo_table};
 use crate::scene::bvh::{self, Bvh};
 use crate::scene::environment::channel_mean;
@@ -214,32 +214,6 @@ fn gpu_nodes(wide: &[bvh::WideNode]) -> Vec<GpuBvhNode> {
         .collect()
 }
 
-/// The solid angle a spot light's falloff covers, Omega = integral of f(theta) over the sphere, so that
-/// a spot of on-axis intensity I emits P = I Omega. With f = 1 out to the beam angle b and
-/// (c - theta) / (c - b) from there to the cutoff c (radians):
-/// Omega = 2 pi [integral_0^b sin t dt + integral_b^c (c - t)/(c - b) sin t dt]
-///       = 2 pi [1 - (sin c - sin b) / (c - b)]
-/// (the second integral by parts: (c - b) cos b - (sin c - sin b)); as b -> c it tends to the cap's
-/// 2 pi (1 - cos c).
-///
-/// The smooth falloff (glTF's), f = t^2 with t = (cos theta - cos c) / (cos b - cos c) between the
-/// angles: with x = cos theta, Omega = 2 pi [integral_{cos b}^1 dx + integral_{cos c}^{cos b} t^2 dx]
-/// = 2 pi [(1 - cos b) + (cos b - cos c) / 3].
-pub fn spot_cone_solid_angle(cutoff_deg: f64, beam_deg: f64, falloff: SpotFalloff) -> f64 {
-    let (c, b) = (cutoff_deg.to_radians(), beam_deg.to_radians());
-    let tau = std::f64::consts::TAU;
-    if falloff == SpotFalloff::Smooth {
-        // 1 - cos b as 2 sin^2(b / 2), without cancellation.
-        let one_minus_cos_b = 2.0 * (b / 2.0).sin().powi(2);
-        return tau * (one_minus_cos_b + (b.cos() - c.cos()) / 3.0);
-    }
-    if c - b < 1e-6 {
-        // 1 - cos c without cancellation.
-        return tau * 2.0 * (c / 2.0).sin().powi(2);
-    }
-    tau * (1.0 - (c.sin() - b.sin()) / (c - b))
-}
-
 /// A material as the shader has it. Glossy materials whose GGX alpha is below [`SMOOTH_ALPHA`] on both
 /// axes are uploaded as their smooth forms (a dielectric as MAT_DIELECTRIC, whose code is the course's
 /// glass; a conductor with a delta lobe), and so is a dielectric of ior 1 (no interface at all).
@@ -398,46 +372,6 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         }
     }
     g
-}
-
-/// Unpolarised Fresnel reflectance of a smooth dielectric interface of relative index eta = n_t / n_i
-/// at incidence cosine c, in f64 (the shader's fresnel_dielectric, same formula); 1 under total internal
-/// reflection.
-pub(super) fn fresnel_dielectric(c: f64, eta: f64) -> f64 {
-    let sin2_t = (1.0 - c * c) / (eta * eta);
-    if sin2_t >= 1.0 {
-        return 1.0;
-    }
-    let cos_t = (1.0 - sin2_t).sqrt();
-    let r_par = (eta * c - cos_t) / (eta * c + cos_t);
-    let r_perp = (c - eta * cos_t) / (c + eta * cos_t);
-    0.5 * (r_par * r_par + r_perp * r_perp)
-}
-
-/// The diffuse (cosine-weighted hemispherical) reflectance of a smooth interface of relative index eta,
-/// Fdr(eta) = 2 \int_0^1 F(c, eta) c dc: what a plastic's coat reflects back of the light its base
-/// scatters diffusely (eta = 1 / ior, from inside). Below the critical cosine sqrt(1 - eta^2) (eta < 1)
-/// F = 1 and that part is c_crit^2 exactly; the rest by Gauss–Legendre on 64 panels in u with
-/// c = c_crit + (1 - c_crit) u^2, which removes the square-root kink of cos_t at the critical angle (the
-/// integrand becomes smooth in u). Accurate to about 1e-12.
-pub fn fresnel_diffuse_reflectance(eta: f64) -> f64 {
-    let c_crit = if eta < 1.0 {
-        (1.0 - eta * eta).sqrt()
-    } else {
-        0.0
-    };
-    let panels = 64;
-    let mut sum = 0.0;
-    for p in 0..panels {
-        let (u0, u1) = (p as f64 / panels as f64, (p + 1) as f64 / panels as f64);
-        for (x, w) in GL4 {
-            let u = 0.5 * (u0 + u1) + 0.5 * (u1 - u0) * x;
-            let c = c_crit + (1.0 - c_crit) * u * u;
-            let dc_du = 2.0 * (1.0 - c_crit) * u;
-            sum += 0.5 * (u1 - u0) * w * fresnel_dielectric(c, eta) * c * dc_du;
-        }
-    }
-    c_crit * c_crit + 2.0 * sum
 }
 
 /// The images whose texels are uploaded already, and where they start in `texels`.
@@ -1266,23 +1200,6 @@ pub fn params_for(scene: &Scene, roulette_depth: u32) -> GpuParams {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Reciprocity of hemispherical reflectance across an interface: 1 - Fdr(eta) = eta^2 (1 - Fdr(1/eta))
-    /// (what makes a smooth white plastic reflect all the light), for the integral computed here.
-    /// Normal incidence alone bounds Fdr from below for eta > 1: Fdr(eta) >= ((eta - 1) / (eta + 1))^2.
-    #[test]
-    fn fresnel_diffuse_reflectance_obeys_reciprocity() {
-        for eta in [1.01, 1.33, 1.5, 2.0, 2.42, 4.0] {
-            let outside = fresnel_diffuse_reflectance(eta);
-            let inside = fresnel_diffuse_reflectance(1.0 / eta);
-            let lhs = 1.0 - outside;
-            let rhs = eta * eta * (1.0 - inside);
-            assert!((lhs - rhs).abs() < 1e-9, "eta {eta}: {lhs} vs {rhs}");
-            assert!(outside >= ((eta - 1.0) / (eta + 1.0)).powi(2));
-            assert!(inside > outside && inside < 1.0);
-        }
-        assert!(fresnel_diffuse_reflectance(1.0) < 1e-15); // no interface (up to f64 rounding)
-    }
 
     /// Roughness 0 (and ior 1) uploads the course's smooth glass; a rough one the rough kind, alpha =
     /// roughness^2; an anisotropic conductor keeps both alphas, an effectively smooth one none.

@@ -10,6 +10,7 @@
 //! and progress reports.
 
 pub mod adaptive;
+pub mod host_use;
 pub mod identity;
 pub mod splat;
 pub mod tiles;
@@ -137,7 +138,7 @@ pub struct RenderOptions {
     /// does not depend on it (tests/tiling.rs).
     pub casts_per_dispatch: Option<u32>,
     /// Bytes per pixel the caller will hold on the host besides the renderer's buffers (its film, the
-    /// images it writes, checkpoints: [`crate::memory::HostUse`]); the renderer refuses, before
+    /// images it writes, checkpoints: [`host_use::HostUse`]); the renderer refuses, before
     /// allocating, a render whose host memory would exceed what the machine has available.
     pub host_bytes_per_pixel: u64,
     /// Adaptive sampling (`render.adaptive`, [`adaptive`]): pixels stop once their error is below the
@@ -189,7 +190,7 @@ impl Default for RenderOptions {
             fault: None,
             aov: crate::kernel::abi::AOV_NONE,
             casts_per_dispatch: None,
-            host_bytes_per_pixel: crate::memory::FILM_BYTES_PER_PIXEL,
+            host_bytes_per_pixel: host_use::FILM_BYTES_PER_PIXEL,
             adaptive: None,
         }
     }
@@ -1773,6 +1774,26 @@ fn check_device_memory(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The uniform twins: on CPU devices whose uniform buffers hold one, but not on Mesa 26's lavapipe
+    /// (whose storage reads are gathers already) nor on GPUs.
+    #[test]
+    fn uniform_twins_are_for_cpu_drivers_before_mesa_26() {
+        let lavapipe = crate::gpu::DeviceInfo::test_lavapipe;
+        assert!(uniform_arrays_help(&lavapipe([25, 0])));
+        assert!(uniform_arrays_help(&lavapipe([24, 2])));
+        assert!(!uniform_arrays_help(&lavapipe([26, 1])));
+        let mut other_cpu = lavapipe([25, 0]);
+        other_cpu.lavapipe_mesa = None;
+        assert!(uniform_arrays_help(&other_cpu));
+        let mut small = lavapipe([25, 0]);
+        small.max_uniform_buffer_range = 16384;
+        assert!(!uniform_arrays_help(&small));
+        let mut gpu = lavapipe([25, 0]);
+        gpu.device_type = "discrete GPU".into();
+        gpu.lavapipe_mesa = None;
+        assert!(!uniform_arrays_help(&gpu));
+    }
 
     /// The warm-up dispatch (`Renderer::warm_up`, before a renderer's first pass) is over an empty tile,
     /// which must trace nothing: after a pass, another warm-up leaves every pixel's sums, the fault

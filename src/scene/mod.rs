@@ -629,6 +629,32 @@ pub enum SpotFalloff {
     Smooth,
 }
 
+/// The solid angle a spot light's falloff covers, Omega = integral of f(theta) over the sphere, so that
+/// a spot of on-axis intensity I emits P = I Omega. With f = 1 out to the beam angle b and
+/// (c - theta) / (c - b) from there to the cutoff c (radians):
+/// Omega = 2 pi [integral_0^b sin t dt + integral_b^c (c - t)/(c - b) sin t dt]
+///       = 2 pi [1 - (sin c - sin b) / (c - b)]
+/// (the second integral by parts: (c - b) cos b - (sin c - sin b)); as b -> c it tends to the cap's
+/// 2 pi (1 - cos c).
+///
+/// The smooth falloff (glTF's), f = t^2 with t = (cos theta - cos c) / (cos b - cos c) between the
+/// angles: with x = cos theta, Omega = 2 pi [integral_{cos b}^1 dx + integral_{cos c}^{cos b} t^2 dx]
+/// = 2 pi [(1 - cos b) + (cos b - cos c) / 3].
+pub fn spot_cone_solid_angle(cutoff_deg: f64, beam_deg: f64, falloff: SpotFalloff) -> f64 {
+    let (c, b) = (cutoff_deg.to_radians(), beam_deg.to_radians());
+    let tau = std::f64::consts::TAU;
+    if falloff == SpotFalloff::Smooth {
+        // 1 - cos b as 2 sin^2(b / 2), without cancellation.
+        let one_minus_cos_b = 2.0 * (b / 2.0).sin().powi(2);
+        return tau * (one_minus_cos_b + (b.cos() - c.cos()) / 3.0);
+    }
+    if c - b < 1e-6 {
+        // 1 - cos c without cancellation.
+        return tau * 2.0 * (c / 2.0).sin().powi(2);
+    }
+    tau * (1.0 - (c.sin() - b.sin()) / (c - b))
+}
+
 impl Scene {
     /// Reads and validates a scene file. Errors name the file, the line and the key.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {

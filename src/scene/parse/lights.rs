@@ -212,7 +212,7 @@ impl Checker<'_> {
     /// `type = "spot"` (see [`Light::Spot`]): its cone from `position` towards `look_at`, half-angles
     /// `cutoff_angle` in (0, 90] and `beam_width` in (0, cutoff] (default 3/4 of the cutoff, Mitsuba's),
     /// and either its `power` (W into the cone: the on-axis intensity is power / the falloff's solid
-    /// angle, `upload::spot_cone_solid_angle`) or its on-axis `intensity` (W/sr).
+    /// angle, `scene::spot_cone_solid_angle`) or its on-axis `intensity` (W/sr).
     fn spot_light(
         &self,
         raw: &Spanned<RawLight>,
@@ -307,7 +307,7 @@ impl Checker<'_> {
                     "a light's power must be > 0",
                     "power is the light's total emitted flux in watts; remove the light rather than giving it no power.",
                 )?;
-                let omega = crate::kernel::upload::spot_cone_solid_angle(
+                let omega = crate::scene::spot_cone_solid_angle(
                     f64::from(cutoff_deg),
                     f64::from(beam_deg),
                     falloff,
