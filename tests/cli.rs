@@ -1,5 +1,5 @@
-//! The `vkpath` binary against its contract (shared/docs/cli.md and the "Errors" and "Outputs" sections
-//! of shared/docs/scene-format.md), run as a child process with the Khronos validation layer on
+//! The `vkpath` binary against its contract (docs/cli.md and the "Errors" and "Outputs" sections
+//! of docs/scene-format.md), run as a child process with the Khronos validation layer on
 //! (`VKPATH_VALIDATION=1`: the CLI then exits 1 if the layer reported anything).
 //!
 //! Every test works in its own temporary directory, which is also the child's working directory, so

@@ -1,6 +1,6 @@
 """Translate a vkpath scene (TOML) into a Mitsuba 3 scene dict with the same radiometry.
 
-The contract for the TOML is shared/docs/scene-format.md; what the renderer really does is in src/scene/,
+The contract for the TOML is docs/scene-format.md; what the renderer really does is in src/scene/,
 src/kernel/upload.rs and shaders/*.wgsl. Everything below states which vkpath rule it reproduces and which
 Mitsuba 3 convention it relies on (Mitsuba 3 documentation, "Plugin reference": sensors, emitters, BSDFs,
 integrators, films, reconstruction filters; https://mitsuba.readthedocs.io/en/stable/src/plugin_reference.html).

@@ -6,7 +6,7 @@
 // The materials sit behind one interface the integrator calls (after pbrt-v4's BSDF::Sample_f, f and PDF;
 // Pharr, Jakob & Humphreys, "Physically Based Rendering", 4th ed., §9.1): bsdf_sample, bsdf_eval,
 // bsdf_pdf, bsdf_albedo, bsdf_is_delta and bsdf_transmits, in the module `bsdf.wgsl`, which the host
-// generates from the registry of materials (src/kernel/bsdfs.rs): one branch per material kind, each
+// generates from the registry of materials (src/scene/bsdfs.rs): one branch per material kind, each
 // under its feature constant. A material is one file, shaders/bsdfs/<name>.wgsl, defining six functions:
 //  * <name>_sample(mat, wo, sh, rng) -> BsdfSample: an incident direction wi drawn with density pdf(wi),
 //    and the weight f(wo, wi) |cos theta_i| / pdf(wi) that the path throughput is multiplied by. A
@@ -37,7 +37,7 @@
 // kernel without glossy materials keeps none of it.
 //
 // Adding a material: its file here (the six functions, a doc header, `// requires:` what it uses) and a
-// row in src/kernel/bsdfs.rs; the dispatchers, its MAT_* kind and HAS_* feature constant, and the
+// row in src/scene/bsdfs.rs; the dispatchers, its MAT_* kind and HAS_* feature constant, and the
 // specialisation tables follow from the row.
 
 // Material::flags: emission leaves both faces, not only the front.

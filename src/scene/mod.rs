@@ -1,4 +1,4 @@
-//! Scenes: the TOML file format (`../shared/docs/scene-format.md` is the contract), its validation, and
+//! Scenes: the TOML file format (`docs/scene-format.md` is the contract), its validation, and
 //! the in-memory [`Scene`] the renderer consumes.
 //!
 //! Everything here is plain data in `f32`/glam types: it knows nothing of Vulkan. `kernel::upload` turns a

@@ -13,7 +13,7 @@
 //! 3. `Checker` applies the contract's rules (finite numbers, positive radii, a usable camera, ...) and
 //!    builds the renderer's types, filling in defaults.
 //!
-//! The contract is `shared/docs/scene-format.md`. Nothing here may panic on any input: user numbers are
+//! The contract is `docs/scene-format.md`. Nothing here may panic on any input: user numbers are
 //! compared, never unwrapped, and integer arithmetic on them is done in a type wide enough not to
 //! overflow.
 //!
