@@ -88,12 +88,17 @@ fn table_from_json(json: &str, what: &str) -> PyResult<toml::Table> {
     })
 }
 
+/// Reads `doc` as a scene file at `label` would be, its files through `files`.
+fn read_doc(doc: &toml::Table, label: &Path, files: &mut FileCache) -> Result<Scene, Error> {
+    let text = toml::to_string(doc).map_err(|e| Error::Usage(e.to_string()))?;
+    Ok(Scene::from_toml_str_cached(&text, Some(label), files)?)
+}
+
 impl PyScene {
-    /// Reads `doc` as a scene file at `path` would be, through the scene's file cache.
+    /// Reads `doc` as a scene file at `label` would be, through the scene's file cache.
     fn read(&self, doc: &toml::Table, label: &Path) -> Result<Scene, Error> {
-        let text = toml::to_string(doc).map_err(|e| Error::Usage(e.to_string()))?;
         let mut files = self.files.lock().unwrap_or_else(|e| e.into_inner());
-        Ok(Scene::from_toml_str_cached(&text, Some(label), &mut files)?)
+        read_doc(doc, label, &mut files)
     }
 
     /// The name errors of an edited scene give as the file: its own, marked as edited (the lines they
@@ -162,17 +167,15 @@ fn load(
 fn load_dict(json: &str, base_dir: PathBuf) -> PyResult<PyScene> {
     let doc = table_from_json(json, "the dict")?;
     let path = base_dir.join("<dict>");
-    let mut scene = PyScene {
-        path: Some(path.clone()),
-        doc: toml::Table::new(),
-        warnings: Vec::new(),
-        files: Mutex::new(FileCache::default()),
-        scene: Scene::default_scene(),
-    };
-    scene.scene = scene.read(&doc, &path).map_err(py_err)?;
-    scene.warnings = scene.scene.warnings.clone();
-    scene.doc = doc;
-    Ok(scene)
+    let mut files = FileCache::default();
+    let scene = read_doc(&doc, &path, &mut files).map_err(py_err)?;
+    Ok(PyScene {
+        path: Some(path),
+        doc,
+        warnings: scene.warnings.clone(),
+        files: Mutex::new(files),
+        scene,
+    })
 }
 
 /// What `Scene.render` hands to the Python side: the summary's JSON, the width and height, the named

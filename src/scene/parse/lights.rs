@@ -362,22 +362,25 @@ impl Checker<'_> {
             None => None,
             Some(m) => {
                 let path = base.join(m.get_ref());
-                if let Some(map) = cache.environments.get(&path) {
-                    Some(map.clone())
-                } else {
-                    let loaded = environment::load_map(&path).map_err(|problem| {
-                    self.error(
-                        m.span(),
-                        "environment.map",
-                        problem,
-                        "The path is relative to the scene file; the map must be an equirectangular .exr or .hdr \
-                         image of linear radiance.",
-                    )
-                })?;
-                    let loaded = Arc::new(loaded);
-                    cache.environments.insert(path, loaded.clone());
-                    Some(loaded)
-                }
+                // Read once per cache (an edited scene read again does not read its map again).
+                let map = match cache.environments.get(&path) {
+                    Some(map) => map.clone(),
+                    None => {
+                        let loaded = environment::load_map(&path).map_err(|problem| {
+                            self.error(
+                                m.span(),
+                                "environment.map",
+                                problem,
+                                "The path is relative to the scene file; the map must be an equirectangular \
+                                 .exr or .hdr image of linear radiance.",
+                            )
+                        })?;
+                        let loaded = Arc::new(loaded);
+                        cache.environments.insert(path, loaded.clone());
+                        loaded
+                    }
+                };
+                Some(map)
             }
         };
         let default = if map.is_some() { Vec3::ONE } else { Vec3::ZERO };
