@@ -32,6 +32,7 @@ override HAS_SMOOTH_NORMALS: bool = true;
 override HAS_TEXTURES: bool = true;
 override HAS_EMISSIVE_TEXTURES: bool = true;
 override HAS_METALLIC_ROUGHNESS_TEXTURES: bool = true;
+override HAS_PLUGIN_TEXTURES: bool = true; // a material plugin's parameter (plugin_textures.wgsl)
 override HAS_NORMAL_MAPS: bool = true;
 override HAS_BUMP_MAPS: bool = true;
 override HAS_BACK_MATERIALS: bool = true;

@@ -1,7 +1,7 @@
 // scene.wgsl: closest-hit and visibility queries over the scene buffers (scene_data.wgsl), the surface
 // at a hit, and which lights a next-event estimate samples (light selection).
 //
-// requires: features.wgsl, light_kinds.wgsl, scene_data.wgsl, intersect.wgsl, bvh.wgsl, texture.wgsl, opacity.wgsl
+// requires: features.wgsl, light_kinds.wgsl, scene_data.wgsl, intersect.wgsl, bvh.wgsl, texture.wgsl, opacity.wgsl, plugin_textures.wgsl
 
 // How many spheres, loop-tested triangles (scenes without a BVH) and lights the scene has. The generic
 // kernel reads them from `params`; a kernel specialised for a scene has them as constants (the
@@ -546,6 +546,10 @@ fn textured_material(mat: Material, sp: Surface) -> Material {
                 m.alpha_y *= r2;
             }
         }
+    }
+    // A material plugin's textured parameters (plugin_textures.wgsl, generated from its declaration).
+    if HAS_PLUGIN_TEXTURES {
+        m = plugin_textured(m, sp.uv);
     }
     return m;
 }

@@ -27,6 +27,7 @@ pub mod film;
 pub mod fs_atomic;
 pub mod gpu;
 pub mod kernel;
+pub mod materials;
 pub mod memory;
 pub mod output;
 #[cfg(feature = "preview")]

@@ -213,7 +213,7 @@ fn sheen_e(mat: &GpuMaterial, mu: f64) -> f64 {
     let x = mu.clamp(0.0, 1.0).cbrt() * 7.0;
     let j = (x as usize).min(6);
     let u = x - j as f64;
-    f64::from(mat.coat[8 + j]) * (1.0 - u) + f64::from(mat.coat[9 + j]) * u
+    f64::from(mat.block[8 + j]) * (1.0 - u) + f64::from(mat.block[9 + j]) * u
 }
 
 /// f(wo, wi) of the whole material; `entering`: wo is on the outer side.
@@ -393,7 +393,7 @@ fn the_sheen_albedo_table_is_the_lobes_albedo() {
                 }
             }
             e *= 2.0 * PI / (nc * np) as f64;
-            let table = f64::from(mat.coat[8 + j]);
+            let table = f64::from(mat.block[8 + j]);
             assert!(
                 (table - e).abs() < 2e-3,
                 "sheen roughness {r}, mu {mu}: table {table}, quadrature {e}"
@@ -622,9 +622,9 @@ fn gltf_pbr_keys_are_checked() {
     for (k, want) in [0.5f64, 0.25, 1.0].iter().enumerate() {
         let sigma = -want.ln() / 2.0;
         assert!(
-            (f64::from(v.coat[4 + k]) - sigma).abs() < 1e-6,
+            (f64::from(v.block[4 + k]) - sigma).abs() < 1e-6,
             "{k}: {}",
-            v.coat[4 + k]
+            v.block[4 + k]
         );
     }
     for (spec, key) in [

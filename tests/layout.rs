@@ -378,7 +378,7 @@ fn material_matches_wgsl() {
         "Material",
         "GpuMaterial",
         size_of::<GpuMaterial>(),
-        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, back, coat),
+        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, back, block),
     );
     check_storage_array(
         &module,
@@ -518,7 +518,7 @@ fn shared_constants_match_wgsl() {
     );
     // The material kinds are generated from the registry: each row's MAT_* is its index, and every
     // MAT_* of the kernel is a row (MATERIAL_* flags are shared constants above).
-    for (i, k) in vkpath::scene::bsdfs::BSDFS.iter().enumerate() {
+    for (i, k) in vkpath::scene::bsdfs::kinds().iter().enumerate() {
         assert_eq!(constant(&k.constant()), i as u32, "{}", k.constant());
     }
     // Every other kind-like WGSL constant is in the table: a new LIGHT_* in the shader without its
@@ -527,7 +527,7 @@ fn shared_constants_match_wgsl() {
         let name = c.name.as_deref().unwrap_or("");
         if name.starts_with("MAT_") {
             assert!(
-                vkpath::scene::bsdfs::BSDFS
+                vkpath::scene::bsdfs::kinds()
                     .iter()
                     .any(|k| k.constant() == name),
                 "WGSL constant {name} is not a kind of the material registry"
@@ -604,7 +604,7 @@ fn check_struct_reports_a_swapped_member() {
     let module = naga::front::wgsl::parse_str(
         "struct Material { albedo: vec3<f32>, ior: f32, emission: vec3<f32>, kind: u32, eta: vec3<f32>, \
          alpha_x: f32, k: vec3<f32>, alpha_y: f32, flags: u32, metallic: f32, fdr_int: f32, back: u32, \
-         coat: array<f32, 16>, }\n\
+         block: array<f32, 16>, }\n\
          @group(0) @binding(0) var<storage, read> m: array<Material>;\n",
     )
     .expect("test WGSL parses");
@@ -613,7 +613,7 @@ fn check_struct_reports_a_swapped_member() {
         "Material",
         "GpuMaterial",
         size_of::<GpuMaterial>(),
-        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, back, coat),
+        fields!(GpuMaterial: albedo, kind, emission, ior, eta, alpha_x, k, alpha_y, flags, metallic, fdr_int, back, block),
     );
 }
 

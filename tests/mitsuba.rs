@@ -10,6 +10,7 @@ use proptest::prelude::*;
 use std::f32::consts::PI;
 use std::path::Path;
 use vkpath::Scene;
+use vkpath::materials::Value;
 use vkpath::scene::NO_BOUNCE_LIMIT;
 use vkpath::scene::mitsuba;
 use vkpath::scene::texture::{Channel, TextureFilter, Wrap};
@@ -2042,20 +2043,16 @@ fn roughdiffuse_is_the_rough_diffuse_material() {
         r#"<shape type="sphere"><bsdf type="roughdiffuse"><rgb name="reflectance" value="0.6, 0.5, 0.4"/>
              <float name="alpha" value="0.36"/><boolean name="use_fast_approx" value="true"/></bsdf></shape>"#,
     );
-    let Bsdf::Registered {
-        kind,
-        albedo,
-        roughness,
-    } = s.materials[s.spheres[0].material as usize].bsdf
-    else {
+    let Bsdf::Plugin { kind, block } = s.materials[s.spheres[0].material as usize].bsdf else {
         panic!("{:?}", s.materials[0].bsdf)
     };
-    assert_eq!(kind, vkpath::scene::bsdfs::kind("rough_diffuse"));
-    assert_close(albedo, Vec3::new(0.6, 0.5, 0.4));
-    assert!(
-        (roughness.u - 0.6).abs() < 1e-6 && roughness.u == roughness.v,
-        "{roughness:?}"
-    );
+    let (number, plugin) = vkpath::scene::bsdfs::by_toml_type("rough_diffuse").unwrap();
+    assert_eq!(kind, number);
+    let [Value::Color(albedo), Value::Float(roughness)] = plugin.unpack(&block)[..] else {
+        panic!("{block:?}")
+    };
+    assert_close(Vec3::from(albedo), Vec3::new(0.6, 0.5, 0.4));
+    assert!((roughness - 0.6).abs() < 1e-6, "{roughness}");
 
     let dir = tempfile::tempdir().unwrap();
     let body = r#"<shape type="sphere"><bsdf type="roughdiffuse"/></shape>"#;
@@ -2067,12 +2064,11 @@ fn roughdiffuse_is_the_rough_diffuse_material() {
     let p = write(dir.path(), "scene.xml", &scene_xml(body));
     let s = Scene::load_with_options(&p, None, true).unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    let Bsdf::Registered { roughness, .. } = s.materials[s.spheres[0].material as usize].bsdf
-    else {
+    let Bsdf::Plugin { block, .. } = s.materials[s.spheres[0].material as usize].bsdf else {
         panic!("{:?}", s.materials[0].bsdf)
     };
     // Mitsuba's default alpha, 0.2.
-    assert!((roughness.u - 0.2f32.sqrt()).abs() < 1e-6, "{roughness:?}");
+    assert_eq!(plugin.unpack(&block)[1], Value::Float(0.2f32.sqrt()));
 }
 
 /// Issue 31's recursion defects: deep nesting (written out, or through includes) and BSDFs that hold

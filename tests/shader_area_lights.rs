@@ -1,4 +1,4 @@
-//! The emissive-triangle and environment lights of shaders/lights.wgsl, read back from the GPU, against
+//! The emissive-triangle and environment lights (shaders/lights/), read back from the GPU, against
 //! expectations computed here in f64:
 //!
 //! * Triangles: where the samples land on the triangle fits (chi-square) the solid angle (Arvo's

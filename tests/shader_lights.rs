@@ -1,5 +1,5 @@
-//! The lights of shaders/lights.wgsl, read back from the GPU: each light's sample against its own pdf
-//! and geometry, and its estimate against the analytic irradiance.
+//! The lights (shaders/lights/, dispatched by the generated lights.wgsl), read back from the GPU: each
+//! light's sample against its own pdf and geometry, and its estimate against the analytic irradiance.
 //!
 //! * Sphere lights, cone and area strategies: the pdf a sample reports equals `light_pdf_li` at its
 //!   direction; the point it aims shadow rays at lies on the sphere, along the sampled direction, at the

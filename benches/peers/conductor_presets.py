@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Prints the RGB complex index of refraction (eta, k) of the conductor presets vkpath has (src/scene/presets.rs).
+"""Prints the RGB complex index of refraction (eta, k) of the conductor presets vkpath has (CONDUCTOR_PRESETS in src/scene/mod.rs).
 
 The values are Mitsuba 3's: its `conductor` plugin with `material = "Au"` (and "Ag", "Cu", "Al") reads
 spectral n, k tables shipped in the mitsuba package (mitsuba/data/ior/*.spd, from the luxpop.com database)

@@ -73,7 +73,7 @@ Mapping (vkpath -> Mitsuba 3):
 * plastic (a diffuse base of albedo a under a dielectric coat of index `ior`, default 1.5) -> `twosided`
   `plastic` (smooth coat) or `roughplastic`, `diffuse_reflectance` = albedo, `int_ior = ior`,
   `ext_ior = 1`, `specular_reflectance` 1, `nonlinear = true`. With a smooth coat vkpath's model is
-  exactly Mitsuba's (shaders/bsdf.wgsl): specular F(cos_o), diffuse
+  exactly Mitsuba's (shaders/bsdfs/plastic.wgsl): specular F(cos_o), diffuse
   (1 - F(cos_i)) (1 - F(cos_o)) a / (pi eta^2 (1 - a Fdr_int)), nonlinear being the a in the denominator.
   With a rough coat the models differ: vkpath keeps the smooth interface's 1 - F for the light
   crossing the coat to and from the base, Mitsuba's `roughplastic` uses its precomputed rough-coat

@@ -7,7 +7,8 @@
 // Pharr, Jakob & Humphreys, "Physically Based Rendering", 4th ed., §9.1): bsdf_sample, bsdf_eval,
 // bsdf_pdf, bsdf_albedo, bsdf_is_delta and bsdf_transmits, in the module `bsdf.wgsl`, which the host
 // generates from the registry of materials (src/scene/bsdfs.rs): one branch per material kind, each
-// under its feature constant. A material is one file, shaders/bsdfs/<name>.wgsl, defining six functions:
+// under its feature constant. A material is one file (shaders/bsdfs/<name>.wgsl for the built-in kinds,
+// src/materials/<name>/<name>.wgsl for the plugins) defining six functions:
 //  * <name>_sample(mat, wo, sh, rng) -> BsdfSample: an incident direction wi drawn with density pdf(wi),
 //    and the weight f(wo, wi) |cos theta_i| / pdf(wi) that the path throughput is multiplied by. A
 //    material draws a fixed count of numbers from the generator (diffuse and conductor two, smooth
@@ -36,9 +37,11 @@
 // microfacet.wgsl are written: they build it with material_frame inside their own functions, so that a
 // kernel without glossy materials keeps none of it.
 //
-// Adding a material: its file here (the six functions, a doc header, `// requires:` what it uses) and a
-// row in src/scene/bsdfs.rs; the dispatchers, its MAT_* kind and HAS_* feature constant, and the
-// specialisation tables follow from the row.
+// Adding a material: a plugin folder src/materials/<name>/ (its declared parameters in mod.rs, the six
+// functions in <name>.wgsl, reading the parameters through the generated <name>_params(mat); see
+// src/materials/mod.rs). The dispatchers, its MAT_* kind and HAS_* feature constant, and the
+// specialisation tables follow. The built-in kinds here (shaders/bsdfs/<name>.wgsl, rows of
+// src/scene/bsdfs.rs) predate the plugins.
 
 // Material::flags: emission leaves both faces, not only the front.
 const MATERIAL_TWO_SIDED_EMISSION: u32 = 1u;
@@ -74,20 +77,22 @@ struct Material {
     metallic: f32, // metallic_roughness: the metal's weight in [0, 1]
     fdr_int: f32, // plastic: the coat's internal diffuse reflectance (bsdfs/coated.wgsl)
     back: u32, // 1 + the material the back face shows (surface_at, scene.wgsl); 0: this one
-    // plastic with MATERIAL_ROUGH_COAT: the rough coat's transmittance at mu_j = (j / 15)^2; read entry
-    // j with material_coat. Four floats to an element, so that the struct may also live in a uniform
-    // buffer (scene_data.wgsl, "Uniform twins"), whose arrays need a stride of 16 bytes.
-    coat: array<vec4<f32>, 4>,
+    // The kind's own parameters, 16 numbers: a material plugin's, which its generated <kind>_params
+    // reads by name (src/materials/mod.rs); a plastic with MATERIAL_ROUGH_COAT: the rough coat's
+    // transmittance at mu_j = (j / 15)^2, entry j read with material_coat; gltf_pbr's layers. Four floats
+    // to an element, so that the struct may also live in a uniform buffer (scene_data.wgsl, "Uniform
+    // twins"), whose arrays need a stride of 16 bytes.
+    block: array<vec4<f32>, 4>,
 }
 
-// Entry j of Material::coat. By selects over constant indices rather than `mat.coat[j / 4u][j % 4u]`:
+// Entry j of a rough coat's table in Material::block. By selects over constant indices rather than `mat.block[j / 4u][j % 4u]`:
 // a lane-varying index into a value's array makes the compiler store the array in private memory and
 // read it back lane by lane (the whole vec4 of each entry), which cost rough plastic 4-7 % on lavapipe.
 fn material_coat(mat: Material, j: u32) -> f32 {
     let q = j / 4u;
     let r = j % 4u;
-    let lo = select(mat.coat[0], mat.coat[1], q == 1u);
-    let hi = select(mat.coat[2], mat.coat[3], q == 3u);
+    let lo = select(mat.block[0], mat.block[1], q == 1u);
+    let hi = select(mat.block[2], mat.block[3], q == 3u);
     let v = select(lo, hi, q >= 2u);
     return select(select(v.x, v.y, r == 1u), select(v.z, v.w, r == 3u), r >= 2u);
 }

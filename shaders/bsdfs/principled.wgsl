@@ -5,7 +5,7 @@
 //
 // requires: bsdfs/common.wgsl
 //
-// Written to give what Mitsuba 3 (3.9.1, src/bsdfs/principled.cpp and principledhelpers.h) computes for
+// Written to give what Mitsuba 3 (3.9.1, mitsuba3/src/bsdfs/principled.cpp and principledhelpers.h) computes for
 // the same parameters, so that a Mitsuba scene renders as its author saw it; where Mitsuba departs from
 // Burley's notes, Mitsuba is followed and the departure is named. With the viewer's direction wo and the
 // light's wi in the local frame (z the shading normal, both above it), h = normalize(wo + wi), cos_d = wi.h

@@ -8,6 +8,7 @@
 
 use super::coat::COAT_NODES;
 use super::light_kinds;
+use crate::materials::BLOCK_WORDS;
 use crate::scene::bsdfs;
 use bytemuck::{Pod, Zeroable};
 
@@ -193,9 +194,11 @@ pub struct GpuMaterial {
     /// 1 + the index of the material the back face shows (the `back` modifier: Mitsuba's twosided
     /// with two BSDFs); 0: the back shows this material (zero, as every unused field, by default).
     pub back: u32,
-    /// A plastic with [`MATERIAL_ROUGH_COAT`]: its rough coat's transmittance T(mu) at
-    /// mu_j = (j / 15)^2 (`coat::coat_table`; bsdfs/coated.wgsl, coat_transmittance).
-    pub coat: [f32; COAT_NODES],
+    /// The kind's own parameters (`Material::block` in bsdfs/common.wgsl): a material plugin's, laid
+    /// out by its declaration (`crate::materials`); a plastic with [`MATERIAL_ROUGH_COAT`]: its rough
+    /// coat's transmittance T(mu) at mu_j = (j / 15)^2 (`coat::coat_table`; bsdfs/coated.wgsl,
+    /// coat_transmittance); gltf_pbr: its layers' weights and tables (bsdfs/gltf_pbr.wgsl).
+    pub block: [f32; BLOCK_WORDS],
 }
 
 /// Light kinds: the rows of the light registry (`kernel::light_kinds`; `LIGHT_*` in the generated

@@ -17,6 +17,7 @@
 use super::abi::*;
 use super::light_kinds;
 use super::upload::GpuScene;
+use crate::materials;
 use crate::scene::bsdfs;
 use std::sync::LazyLock;
 
@@ -34,6 +35,8 @@ pub enum Feature {
     Textures,
     EmissiveTextures,
     MetallicRoughnessTextures,
+    /// Some material plugin's parameter is a texture (`crate::materials`).
+    PluginTextures,
     NormalMaps,
     BumpMaps,
     BackMaterials,
@@ -96,6 +99,21 @@ fn by_group(_: &GpuScene, _: &GpuParams) -> bool {
 
 fn mesh_flag(g: &GpuScene, flag: u32) -> bool {
     g.meshes.iter().any(|m| m.flags & flag != 0)
+}
+
+/// Whether `m` is a material plugin's with a textured parameter (a texture word set: materials::Slot).
+fn plugin_textured(m: &GpuMaterial) -> bool {
+    bsdfs::plugin_of(m.kind).is_some_and(|p| {
+        p.layout()
+            .iter()
+            .filter_map(|s| s.texture_word)
+            .any(|t| m.block[t] != materials::NO_TEXTURE_WORD)
+    })
+}
+
+/// Whether `m` is an anisotropic material plugin's (`MaterialPlugin::anisotropy`).
+fn plugin_anisotropic(m: &GpuMaterial) -> bool {
+    bsdfs::plugin_of(m.kind).is_some_and(|p| p.is_anisotropic(&m.block))
 }
 
 /// The textures and modifiers of the materials some sphere or triangle uses.
@@ -236,6 +254,14 @@ const BEFORE_MATERIALS: &[FeatureRow] = &[
         reported: true,
     },
     FeatureRow {
+        feature: Feature::PluginTextures,
+        name: "plugin_textures",
+        constant: "HAS_PLUGIN_TEXTURES",
+        group: Group::Other,
+        needed: |g, _| used_materials(g).any(plugin_textured),
+        reported: true,
+    },
+    FeatureRow {
         feature: Feature::NormalMaps,
         name: "normal_maps",
         constant: "HAS_NORMAL_MAPS",
@@ -308,7 +334,7 @@ const AFTER_MATERIALS: &[FeatureRow] = &[
         name: "anisotropy",
         constant: "HAS_ANISOTROPY",
         group: Group::Other,
-        needed: |g, _| used_materials(g).any(|m| m.alpha_x != m.alpha_y),
+        needed: |g, _| used_materials(g).any(|m| m.alpha_x != m.alpha_y || plugin_anisotropic(m)),
         reported: true,
     },
     FeatureRow {
@@ -396,7 +422,7 @@ const AFTER_LIGHTS: &[FeatureRow] = &[
 /// A feature's bit in a [`FeatureSet`] is its row's index.
 pub fn features() -> &'static [FeatureRow] {
     static ROWS: LazyLock<Vec<FeatureRow>> = LazyLock::new(|| {
-        let materials = bsdfs::BSDFS.iter().enumerate().map(|(i, k)| FeatureRow {
+        let materials = bsdfs::kinds().iter().enumerate().map(|(i, k)| FeatureRow {
             feature: Feature::Material(i as u32),
             name: k.feature,
             // Leaked once: the table lives as long as the program.
@@ -698,6 +724,7 @@ impl FeatureSet {
             Feature::Textures,
             Feature::EmissiveTextures,
             Feature::MetallicRoughnessTextures,
+            Feature::PluginTextures,
             Feature::NormalMaps,
             Feature::BumpMaps,
             Feature::Opacity,

@@ -55,6 +55,8 @@ pub const BSDF_KINDS: &str = "bsdf_kinds.wgsl";
 pub const BSDF: &str = "bsdf.wgsl";
 pub const LIGHT_KINDS: &str = "light_kinds.wgsl";
 pub const LIGHTS: &str = "lights.wgsl";
+/// Generated from the material plugins (`crate::materials`): the texturing of their textured parameters.
+pub const PLUGIN_TEXTURES: &str = "plugin_textures.wgsl";
 
 /// A generated dispatcher: its name and signature, the kind function's suffix and arguments, and the
 /// value when no kind matched.
@@ -140,7 +142,7 @@ fn bsdf_rows() -> Vec<Row> {
         feature_constant: k.feature_constant(),
         file: k.file(),
     };
-    bsdfs::BSDFS.iter().map(row).collect()
+    bsdfs::kinds().iter().map(row).collect()
 }
 
 fn light_rows() -> Vec<Row> {
@@ -242,7 +244,46 @@ fn generate_lights() -> String {
     )
 }
 
-static GENERATED: LazyLock<[(&str, String); 4]> = LazyLock::new(|| {
+/// The text of `plugin_textures.wgsl`: `plugin_textured(mat, uv)`, which `textured_material`
+/// (scene.wgsl) calls, a branch per plugin kind with textured parameters, and each such kind's
+/// `<kind>_textured` (`MaterialPlugin::wgsl_textured`).
+fn generate_plugin_textures() -> String {
+    let textured: Vec<(&bsdfs::BsdfKind, String)> = bsdfs::kinds()
+        .iter()
+        .filter_map(|k| match k.keys {
+            bsdfs::Keys::Plugin(p) => p.wgsl_textured().map(|f| (k, f)),
+            bsdfs::Keys::Builtin => None,
+        })
+        .collect();
+    let mut requires = vec![
+        "features.wgsl".to_string(),
+        BSDF_KINDS.to_string(),
+        "texture.wgsl".to_string(),
+    ];
+    requires.extend(textured.iter().map(|(k, _)| k.file()));
+    let mut out = format!(
+        "// plugin_textures.wgsl, generated from the material plugins (src/materials) by src/kernel/library.rs:\n\
+         // a plugin material's textured parameters at a hit, each the constant times the texture's value.\n\
+         //\n// requires: {}\n\nfn plugin_textured(mat: Material, uv: vec2<f32>) -> Material {{\n    var m = mat;\n",
+        requires.join(", ")
+    );
+    for (k, _) in &textured {
+        out += &format!(
+            "    if {} {{\n        if mat.kind == {} {{\n            m = {}_textured(mat, uv);\n        }}\n    }}\n",
+            k.feature_constant(),
+            k.constant(),
+            k.name
+        );
+    }
+    out += "    return m;\n}\n";
+    for (_, f) in &textured {
+        out += "\n";
+        out += f;
+    }
+    out
+}
+
+static GENERATED: LazyLock<[(&str, String); 5]> = LazyLock::new(|| {
     [
         (
             BSDF_KINDS,
@@ -262,6 +303,7 @@ static GENERATED: LazyLock<[(&str, String); 4]> = LazyLock::new(|| {
             ),
         ),
         (LIGHTS, generate_lights()),
+        (PLUGIN_TEXTURES, generate_plugin_textures()),
     ]
 });
 
@@ -281,7 +323,7 @@ pub fn module(name: &str) -> Option<&'static str> {
         .chain(light_kinds::SHARED_FILES)
         .find(|(n, _)| *n == name);
     let kind = || {
-        let bsdf = bsdfs::BSDFS.iter().find(|k| k.file() == name);
+        let bsdf = bsdfs::kinds().iter().find(|k| k.file() == name);
         let light = || light_kinds::LIGHTS.iter().find(|k| k.file() == name);
         bsdf.map(|k| k.source).or_else(|| light().map(|k| k.source))
     };
@@ -302,7 +344,7 @@ pub fn all_modules() -> Vec<(String, &'static str)> {
         .chain(light_kinds::SHARED_FILES)
         .map(|(n, t)| (n.to_string(), *t))
         .collect();
-    all.extend(bsdfs::BSDFS.iter().map(|k| (k.file(), k.source)));
+    all.extend(bsdfs::kinds().iter().map(|k| (k.file(), k.source)));
     all.extend(light_kinds::LIGHTS.iter().map(|k| (k.file(), k.source)));
     all.extend(GENERATED.iter().map(|(n, t)| (n.to_string(), t.as_str())));
     all

@@ -278,7 +278,7 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
             // whose roughness a texture varies, which keep the smooth interface's 1 - F.
             if !smooth && roughness.u == roughness.v && m.textures.roughness.is_none() {
                 let alpha = f64::from(g.alpha_x);
-                (g.coat, g.fdr_int) = coat_table(f64::from(ior), alpha, roughness.beckmann);
+                (g.block, g.fdr_int) = coat_table(f64::from(ior), alpha, roughness.beckmann);
                 g.flags |= MATERIAL_ROUGH_COAT;
             }
         }
@@ -299,17 +299,17 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
                 g.eta = layers.specular_color.into();
                 g.fdr_int = layers.specular;
                 g.k = layers.sheen_color.into();
-                g.coat[0] = layers.transmission;
-                g.coat[1] = layers.clearcoat;
-                g.coat[2] = layers.clearcoat_roughness * layers.clearcoat_roughness;
+                g.block[0] = layers.transmission;
+                g.block[1] = layers.clearcoat;
+                g.block[2] = layers.clearcoat_roughness * layers.clearcoat_roughness;
                 let sheen_alpha = layers.sheen_roughness.max(SHEEN_MIN_ALPHA);
-                g.coat[3] = sheen_alpha;
+                g.block[3] = sheen_alpha;
                 if let Some(sigma) = layers.volume {
                     g.flags |= MATERIAL_VOLUME;
-                    g.coat[4..7].copy_from_slice(&sigma.to_array());
+                    g.block[4..7].copy_from_slice(&sigma.to_array());
                 }
                 if layers.sheen_color != Vec3::ZERO {
-                    g.coat[8..16].copy_from_slice(&sheen_albedo_table(f64::from(sheen_alpha)));
+                    g.block[8..16].copy_from_slice(&sheen_albedo_table(f64::from(sheen_alpha)));
                 }
             }
         }
@@ -345,17 +345,9 @@ pub fn gpu_material(m: &Material) -> GpuMaterial {
         }
         Bsdf::Black => g.kind = MAT_EMITTER,
         Bsdf::ThinDielectric { ior } => (g.kind, g.ior) = (MAT_THIN_DIELECTRIC, ior),
-        Bsdf::Registered {
-            kind,
-            albedo,
-            roughness,
-        } => {
-            // Uploaded as the registry's parameter kinds say (scene::bsdfs::ParamValue): the colour in
-            // `albedo`, alpha = roughness^2 on both axes (not snapped to a delta: the kind decides).
-            g.kind = kind;
-            g.albedo = albedo.into();
-            (g.alpha_x, g.alpha_y) = roughness.alpha();
-        }
+        // A plugin's parameters are its block, packed by its declaration (`crate::materials`); its
+        // textures' words are filled when the textures are uploaded (`GpuScene::build`).
+        Bsdf::Plugin { kind, block } => (g.kind, g.block) = (kind, block),
     }
     if m.textures.one_sided {
         g.flags |= MATERIAL_ONE_SIDED;
@@ -455,9 +447,13 @@ impl GpuScene {
         };
         g.materials = scene.materials.iter().map(gpu_material).collect();
         let mut images = ImageTable::default();
-        for m in &scene.materials {
+        for (i, m) in scene.materials.iter().enumerate() {
             let entry = g.material_entry(&mut images, &m.textures);
             g.material_textures.push(entry);
+            // A plugin's textured parameters: the texture's index, as a number, in its block word.
+            for (word, r) in &m.textures.block {
+                g.materials[i].block[*word] = g.add_texture(&mut images, r) as f32;
+            }
         }
         for s in &scene.spheres {
             let material = &g.materials[s.material as usize];

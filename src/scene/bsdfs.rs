@@ -1,22 +1,26 @@
 //! The registry of materials (BSDFs): one row per kind, and everything else follows from the rows.
 //!
-//! A material kind is its WGSL file, `shaders/bsdfs/<name>.wgsl`, which defines six functions
-//! (`<name>_sample`, `_eval`, `_pdf`, `_albedo`, `_is_delta`, `_transmits`; the interface is documented
-//! in `shaders/bsdfs/common.wgsl`), and its row in [`BSDFS`]. From the table:
-//! - the kind's number is its row's index ([`kind`]; the Rust `MAT_*` constants of `kernel::abi` are
-//!   defined by it, and the WGSL ones are generated with it, so the two cannot disagree);
+//! A kind is a WGSL file defining six functions (`<name>_sample`, `_eval`, `_pdf`, `_albedo`,
+//! `_is_delta`, `_transmits`; the interface is documented in `shaders/bsdfs/common.wgsl`) and its row in
+//! [`kinds`]: the built-in kinds of [`BSDFS`] (`shaders/bsdfs/<name>.wgsl`), then one row per material
+//! plugin (`crate::materials`: a folder `src/materials/<name>/` with its declaration and its WGSL). From
+//! the rows:
+//! - the kind's number is its row's index ([`kind`] for the built-in ones, whose Rust `MAT_*` constants
+//!   of `kernel::abi` it defines; the WGSL constants are generated with them, so the two cannot disagree);
 //! - the kernel's module `bsdf.wgsl` (the six dispatchers, one branch per row) and `bsdf_kinds.wgsl`
 //!   (the `MAT_*` constants and the `HAS_*` feature overrides) are generated (`kernel::library`);
 //! - each row is a feature of the kernel (`kernel::features`): a scene that uses no material of the kind
 //!   gets a kernel without its code, reported under the row's `feature` name;
-//! - a row with [`Keys::Params`] is read from a scene file by the generic material reader
-//!   (`scene::parse`), its parameters checked, textured and uploaded by their [`ParamValue`]; the
-//!   kinds marked [`Keys::Builtin`] predate the table and keep their own readers there (their keys have
-//!   cross-field rules: a conductor's three ways to give its Fresnel, a dielectric that is smooth or
-//!   rough by its roughness).
+//! - a plugin ([`Keys::Plugin`]) is read from a scene file by the generic material reader
+//!   (`scene::parse`), its parameters checked, textured and packed into the GPU record's parameter block
+//!   by their declared types; the kinds marked [`Keys::Builtin`] predate the plugins and keep their own
+//!   readers there (their keys have cross-field rules: a conductor's three ways to give its Fresnel, a
+//!   dielectric that is smooth or rough by its roughness) and the record's shared fields.
 //!
-//! Adding a material: the WGSL file, a row here, its keys in docs/scene-format.md, and a test through the
-//! shared adapter (tests/common/bsdf.rs). `rough_diffuse` was added that way.
+//! Adding a material: see `crate::materials` (a folder, its docs row, its test).
+
+use crate::materials::{self, MaterialPlugin};
+use std::sync::LazyLock;
 
 /// One material kind.
 pub struct BsdfKind {
@@ -33,38 +37,16 @@ pub struct BsdfKind {
 }
 
 /// How a scene file's `[materials]` entry gives a kind.
+#[derive(Clone, Copy)]
 pub enum Keys {
     /// Read by its own code in `scene::parse` (`type` is the name there; `dielectric` gives both smooth
     /// and rough glass).
     Builtin,
-    /// Read by the generic reader: `type = "<toml_type>"` and these keys (each a constant or, where the
-    /// value allows, a texture), plus the keys every material takes (emission, the surface modifiers).
-    Params {
-        toml_type: &'static str,
-        params: &'static [Param],
-    },
+    /// A material plugin (`crate::materials`): read, checked, packed and textured by its declaration.
+    Plugin(&'static MaterialPlugin),
 }
 
-/// One key of a material read by the generic reader.
-pub struct Param {
-    pub key: &'static str,
-    pub value: ParamValue,
-    /// What the key means, for error messages: the hint after a bad value.
-    pub hint: &'static str,
-}
-
-/// What a key holds, how it is checked, and where it is uploaded (`GpuMaterial`).
-#[derive(Clone, Copy)]
-pub enum ParamValue {
-    /// A linear RGB colour with components in [0, 1], or a texture; uploaded as `albedo` (and its
-    /// texture in the albedo slot). `None`: the key is required.
-    Albedo { default: Option<[f32; 3]> },
-    /// A perceptual roughness r in [0, 1] (one number, or a texture), uploaded as alpha = r^2 on both
-    /// axes (`alpha_x`, `alpha_y`; a texture in the roughness slot, squared on the device).
-    Roughness { default: f32 },
-}
-
-/// The table. The order is the kinds' numbering (`MAT_*`): append new kinds.
+/// The built-in kinds. The order is their numbering (`MAT_*`); the plugins' kinds follow ([`kinds`]).
 pub const BSDFS: &[BsdfKind] = &[
     BsdfKind {
         name: "diffuse",
@@ -124,27 +106,6 @@ pub const BSDFS: &[BsdfKind] = &[
         keys: Keys::Builtin,
     },
     BsdfKind {
-        // Oren & Nayar's rough diffuse reflector (Mitsuba's `roughdiffuse`).
-        name: "rough_diffuse",
-        source: include_str!("../../shaders/bsdfs/rough_diffuse.wgsl"),
-        feature: "rough_diffuse",
-        keys: Keys::Params {
-            toml_type: "rough_diffuse",
-            params: &[
-                Param {
-                    key: "albedo",
-                    value: ParamValue::Albedo { default: None },
-                    hint: "Albedo is the fraction of light reflected per channel; energy conservation needs it in [0, 1].",
-                },
-                Param {
-                    key: "roughness",
-                    value: ParamValue::Roughness { default: 0.5 },
-                    hint: "roughness^2 is the RMS slope of the surface's facets (Mitsuba's alpha); 0 is Lambert's diffuse.",
-                },
-            ],
-        },
-    },
-    BsdfKind {
         // A thin pane of glass: reflection and straight transmission (Mitsuba's `thindielectric`).
         name: "thin_dielectric",
         source: include_str!("../../shaders/bsdfs/thin_dielectric.wgsl"),
@@ -172,8 +133,37 @@ pub const SHARED_FILES: &[(&str, &str)] = &[
     ),
 ];
 
-/// The number of the kind named `name` (its row's index), for constants: a name not in the table fails
-/// to compile.
+/// Every kind: the built-in ones, then one per material plugin (`crate::materials::PLUGINS`, in their
+/// order), whose source is the plugin's file followed by the WGSL generated from its parameters.
+pub fn kinds() -> &'static [BsdfKind] {
+    static KINDS: LazyLock<Vec<BsdfKind>> = LazyLock::new(|| {
+        let plugins = materials::PLUGINS.iter().map(|p| {
+            let mut source = p.source.to_string();
+            source += &p.wgsl();
+            BsdfKind {
+                name: p.name,
+                // Leaked once: the table lives as long as the program.
+                source: source.leak(),
+                feature: p.name,
+                keys: Keys::Plugin(p),
+            }
+        });
+        BSDFS
+            .iter()
+            .map(|k| BsdfKind {
+                name: k.name,
+                source: k.source,
+                feature: k.feature,
+                keys: k.keys,
+            })
+            .chain(plugins)
+            .collect()
+    });
+    &KINDS
+}
+
+/// The number of a built-in kind named `name` (its row's index), for constants: a name not in the table
+/// fails to compile. (A plugin's number is its place in [`kinds`]: [`by_toml_type`].)
 pub const fn kind(name: &str) -> u32 {
     let mut i = 0;
     while i < BSDFS.len() {
@@ -201,12 +191,20 @@ pub(crate) const fn str_eq(a: &str, b: &str) -> bool {
     true
 }
 
-/// The kind whose scene-file `type` is `toml_type` and is read by the generic reader.
-pub fn by_toml_type(toml_type: &str) -> Option<(u32, &'static BsdfKind)> {
-    BSDFS.iter().enumerate().find_map(|(i, k)| match k.keys {
-        Keys::Params { toml_type: t, .. } if t == toml_type => Some((i as u32, k)),
+/// The plugin kind whose scene-file `type` is `toml_type`, and its number.
+pub fn by_toml_type(toml_type: &str) -> Option<(u32, &'static MaterialPlugin)> {
+    kinds().iter().enumerate().find_map(|(i, k)| match k.keys {
+        Keys::Plugin(p) if p.name == toml_type => Some((i as u32, p)),
         _ => None,
     })
+}
+
+/// The plugin of kind number `kind`, if it is one.
+pub fn plugin_of(kind: u32) -> Option<&'static MaterialPlugin> {
+    match kinds().get(kind as usize)?.keys {
+        Keys::Plugin(p) => Some(p),
+        Keys::Builtin => None,
+    }
 }
 
 impl BsdfKind {
@@ -220,9 +218,12 @@ impl BsdfKind {
         format!("HAS_{}", self.feature.to_uppercase())
     }
 
-    /// The library name of its file.
+    /// The library name of its file (a plugin's under `materials/`).
     pub fn file(&self) -> String {
-        format!("bsdfs/{}.wgsl", self.name)
+        match self.keys {
+            Keys::Builtin => format!("bsdfs/{}.wgsl", self.name),
+            Keys::Plugin(_) => format!("materials/{}.wgsl", self.name),
+        }
     }
 }
 
@@ -232,7 +233,7 @@ mod tests {
 
     #[test]
     fn every_kind_file_defines_its_six_functions() {
-        for k in BSDFS {
+        for k in kinds() {
             for f in ["sample", "eval", "pdf", "albedo", "is_delta", "transmits"] {
                 let def = format!("fn {}_{f}(mat: Material", k.name);
                 assert!(
@@ -241,7 +242,12 @@ mod tests {
                     k.file()
                 );
             }
-            assert!(k.source.starts_with(&format!("// {}: ", k.file())));
+            let first = k.file();
+            let first = first.rsplit('/').next().expect("a name");
+            assert!(
+                k.source.starts_with(&format!("// {}: ", k.file()))
+                    || k.source.starts_with(&format!("// {first}: "))
+            );
         }
     }
 
@@ -249,11 +255,15 @@ mod tests {
     fn names_are_unique_and_kinds_are_indices() {
         for (i, k) in BSDFS.iter().enumerate() {
             assert_eq!(kind(k.name), i as u32);
-            assert_eq!(BSDFS.iter().filter(|o| o.feature == k.feature).count(), 1);
+        }
+        for k in kinds() {
+            assert_eq!(kinds().iter().filter(|o| o.feature == k.feature).count(), 1);
+            assert_eq!(kinds().iter().filter(|o| o.name == k.name).count(), 1);
         }
         assert_eq!(
-            by_toml_type("rough_diffuse").map(|(i, _)| i),
-            Some(kind("rough_diffuse"))
+            by_toml_type("rough_diffuse").map(|(i, p)| (i as usize, p.name)),
+            Some((BSDFS.len(), "rough_diffuse")),
+            "plugins follow the built-in kinds in their folders' order"
         );
         assert!(
             by_toml_type("diffuse").is_none(),

@@ -423,13 +423,12 @@ pub enum Bsdf {
     },
     /// Reflects and transmits nothing (the `emitter` material: a lamp's surface).
     Black,
-    /// A kind of the registry that its generic reader reads (`bsdfs::Keys::Params`): the kind's number
-    /// (`MAT_*`) and the values of its parameters by their kinds (`bsdfs::ParamValue`; a kind without
-    /// one has its default: black, smooth).
-    Registered {
+    /// A material plugin's material (`crate::materials`): the kind's number (its row in
+    /// `bsdfs::kinds`) and its parameters as packed into the GPU record's block (the plugin's `layout`;
+    /// `unpack` reads them back by name). Its textures are in `MaterialTextures::block`.
+    Plugin {
         kind: u32,
-        albedo: Vec3,
-        roughness: Roughness,
+        block: [f32; crate::materials::BLOCK_WORDS],
     },
 }
 

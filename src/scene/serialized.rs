@@ -1,6 +1,6 @@
 //! Mitsuba's `.serialized` meshes (`[[mesh]] obj = "*.serialized"`, `shape_index` picking one of the
 //! file's meshes): the format of Mitsuba 0.4 to 3's `serialized` shape plugin, read from its
-//! documentation (Mitsuba 3, src/shapes/serialized.cpp; the layout is described there, the code here is
+//! documentation (Mitsuba 3, mitsuba3/src/shapes/serialized.cpp; the layout is described there, the code here is
 //! vkpath's own).
 //!
 //! Little-endian throughout. Each mesh is a 4-byte header (u16 0x041C, u16 version 3 or 4) followed by a

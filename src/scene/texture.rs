@@ -140,6 +140,9 @@ pub struct MaterialTextures {
     pub blend: Option<u32>,
     pub blend_weight: f32,
     pub blend_weight_texture: Option<TextureRef>,
+    /// A plugin material's textured parameters: the block word that takes the texture's index and the
+    /// texture (`crate::materials::Slot::texture_word`).
+    pub block: Vec<(usize, TextureRef)>,
 }
 
 impl Default for MaterialTextures {
@@ -160,6 +163,7 @@ impl Default for MaterialTextures {
             blend: None,
             blend_weight: 0.5,
             blend_weight_texture: None,
+            block: Vec::new(),
         }
     }
 }

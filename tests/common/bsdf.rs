@@ -455,6 +455,29 @@ pub fn material_from_toml(spec: &str) -> GpuMaterial {
     vkpath::kernel::upload::gpu_material(&scene.materials[0])
 }
 
+/// f at 512 directions spread over the hemisphere above `setup.ns` (stratified in cos theta, azimuths
+/// stepping by 0.37 rad) against `model(wi)` per channel, within `rel` relative (plus 1e-6 absolute, for
+/// f32 rounding near zero).
+pub fn assert_eval_matches(what: &str, setup: &Setup, rel: f64, model: impl Fn(V3) -> [f64; 3]) {
+    let qs: Vec<V3> = (0..512)
+        .map(|i| {
+            let c = ((i * 29 % 512) as f64 + 0.5) / 512.0;
+            from_angles(setup.ns, c, i as f64 * 0.37)
+        })
+        .collect();
+    let out = gpu(&qs.iter().map(|&q| setup.case(0, q)).collect::<Vec<_>>());
+    for (q, o) in qs.iter().zip(&out) {
+        for (k, want) in model(*q).iter().enumerate() {
+            let got = f64::from(o.aq[k]);
+            assert!(
+                (got - want).abs() <= rel * want + 1e-6,
+                "{what}, cos_i {}: channel {k}: f = {got}, model {want}",
+                dot(*q, setup.ns)
+            );
+        }
+    }
+}
+
 /// The directional albedo two ways: the mean of `samples`' weights f cos / pdf per channel (the sampler's
 /// estimate, with its standard error), and the integral of the model's `f(wi)` |cos theta_i| over the
 /// hemispheres on `sides` of `ns` (1: the one ns points to, -1: the other), by the midpoint rule in

@@ -15,9 +15,9 @@ use std::rc::Rc;
 /// A BSDF as vkpath material keys (`key = value` lines), and the element of a bitmap it reads, if any
 /// (the shape must then be a mesh, whose uvs it is read at).
 #[derive(Clone)]
-struct MatOut {
-    lines: Vec<(String, Loc)>,
-    textured: Option<Loc>,
+pub(super) struct MatOut {
+    pub(super) lines: Vec<(String, Loc)>,
+    pub(super) textured: Option<Loc>,
 }
 
 impl Tr<'_> {
@@ -136,7 +136,7 @@ impl Tr<'_> {
     /// A parameter of `owner` that Mitsuba reads as one number (`eval_1`), default 0.5: a grey colour, or
     /// a bitmap (its luminance; `textured` becomes the bitmap's element). The TOML value, and the number
     /// when it is one; a coloured constant is refused.
-    fn scalar_tex(
+    pub(super) fn scalar_tex(
         &mut self,
         args: &Args,
         obj: &Obj,
@@ -651,10 +651,21 @@ impl Tr<'_> {
                 let known: Vec<&str> = read.into_iter().chain(WEIGHTS).chain(RATES).collect();
                 self.finish(&args, &known)?;
             }
+            other if crate::materials::by_mitsuba_type(other).is_some() => {
+                let plugin = crate::materials::by_mitsuba_type(other).expect("matched");
+                return self.plugin_bsdf(plugin, obj).map(Some);
+            }
             _ => {
+                let plugins: Vec<&str> = crate::materials::PLUGINS
+                    .iter()
+                    .flat_map(|p| p.mitsuba.iter().copied())
+                    .collect();
                 self.unsupported(
                     obj,
-                    "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, twosided, mask, bumpmap, normalmap and blendbsdf",
+                    &format!(
+                        "diffuse, roughdiffuse, conductor, roughconductor, dielectric, roughdielectric, thindielectric, plastic, roughplastic, principled, {}, twosided, mask, bumpmap, normalmap and blendbsdf",
+                        plugins.join(", ")
+                    ),
                 )?;
                 return Ok(None);
             }

@@ -32,6 +32,7 @@ mod context;
 mod emitters;
 mod materials;
 mod objects;
+mod plugins;
 mod sensor;
 mod shapes;
 mod spectra;

@@ -1,6 +1,5 @@
-//! `[materials]`: the keys each material type takes and the material it becomes, the registry's generic
-//! reader for the kinds `scene::bsdfs` describes by their parameters, a conductor's Fresnel, and the
-//! surface modifiers that any material takes.
+//! `[materials]`: the keys each material type takes and the material it becomes (a material plugin's by
+//! `plugins.rs`), a conductor's Fresnel, and the surface modifiers that any material takes.
 
 use super::error::SceneError;
 use super::params::in_unit_range;
@@ -254,16 +253,13 @@ impl Checker<'_> {
                 )
             }
             other if bsdfs::by_toml_type(other).is_some() => {
-                let (kind, row) = bsdfs::by_toml_type(other).expect("matched");
-                self.registered_material(kind, row, name, raw, files, &mut textures)?
+                let (kind, plugin) = bsdfs::by_toml_type(other).expect("matched");
+                self.plugin_material(kind, plugin, name, raw, files, &mut textures)?
             }
             other => {
-                let registered: Vec<String> = bsdfs::BSDFS
+                let registered: Vec<String> = crate::materials::PLUGINS
                     .iter()
-                    .filter_map(|k| match k.keys {
-                        bsdfs::Keys::Params { toml_type, .. } => Some(format!("\"{toml_type}\"")),
-                        bsdfs::Keys::Builtin => None,
-                    })
+                    .map(|p| format!("\"{}\"", p.name))
                     .collect();
                 return Err(self.error(
                     m.kind.span(),
@@ -310,6 +306,17 @@ impl Checker<'_> {
                 m.two_sided_emission.as_ref().map(Spanned::span),
             ),
         ];
+        // Keys that are no built-in type's (a plugin's, or a mistake), with their spans from the tree.
+        let others = self.material_keys(name);
+        let present: Vec<(&str, Option<std::ops::Range<usize>>)> = present
+            .into_iter()
+            .chain(
+                others
+                    .iter()
+                    .filter(|(k, _)| m.other.contains_key(*k))
+                    .map(|(k, v)| (*k, Some(v.span()))),
+            )
+            .collect();
         let allowed: Vec<&str> = allowed.iter().chain(MODIFIERS.iter()).copied().collect();
         self.reject_foreign_keys(
             &present,
@@ -419,80 +426,6 @@ impl Checker<'_> {
             *slot = Some((r, scale.unwrap_or(1.0)));
         }
         Ok(())
-    }
-
-    /// A material of a kind the registry's generic reader reads (`scene::bsdfs`, `Keys::Params`): each
-    /// of the row's parameters read from its key, checked, defaulted and textured by its value kind.
-    /// Returns the keys the kind allows (its parameters and emission) and the material.
-    fn registered_material(
-        &self,
-        kind: u32,
-        row: &'static bsdfs::BsdfKind,
-        name: &str,
-        raw: &Spanned<RawMaterial>,
-        files: &mut Files,
-        textures: &mut MaterialTextures,
-    ) -> Result<(Vec<&'static str>, Bsdf), SceneError> {
-        let m = raw.get_ref();
-        let bsdfs::Keys::Params { toml_type, params } = row.keys else {
-            unreachable!("by_toml_type finds rows with parameters only")
-        };
-        let (mut albedo, mut roughness) = (Vec3::ZERO, Roughness::SMOOTH);
-        for p in params {
-            let key = format!("materials.{name}.{}", p.key);
-            match p.value {
-                bsdfs::ParamValue::Albedo { default } => {
-                    let value = m.color_key(p.key);
-                    albedo = match (value, default) {
-                        (None, Some(d)) => Vec3::from(d),
-                        _ => {
-                            let problem = format!("a {toml_type} material needs {}", p.key);
-                            let v = self.required(value, raw, &key, &problem)?;
-                            self.color_param(
-                                v,
-                                &key,
-                                |a| !in_unit_range(a),
-                                "every component must be in [0, 1]",
-                                p.hint,
-                                files,
-                                &mut textures.albedo,
-                            )?
-                        }
-                    };
-                }
-                bsdfs::ParamValue::Roughness { default } => {
-                    roughness = match &m.roughness {
-                        None => Roughness::isotropic(default),
-                        Some(r) => match self.roughness(
-                            &m.roughness,
-                            &key,
-                            files,
-                            &mut textures.roughness,
-                        )? {
-                            iso @ Roughness { u, v, .. } if u == v => iso,
-                            _ => {
-                                return Err(self.error(
-                                    r.span(),
-                                    &key,
-                                    format!("a {toml_type} material's roughness is one number"),
-                                    p.hint,
-                                ));
-                            }
-                        },
-                    };
-                }
-            }
-        }
-        let mut allowed: Vec<&'static str> = params.iter().map(|p| p.key).collect();
-        allowed.extend(["emission", "two_sided_emission"]);
-        Ok((
-            allowed,
-            Bsdf::Registered {
-                kind,
-                albedo,
-                roughness,
-            },
-        ))
     }
 
     /// A conductor's Fresnel: exactly one of `preset`, `eta` with `k`, or `base_color`.

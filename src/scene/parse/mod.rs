@@ -41,6 +41,7 @@ mod geometry;
 mod lights;
 mod materials;
 mod params;
+mod plugins;
 mod raw;
 mod settings;
 
@@ -81,14 +82,22 @@ pub(crate) fn parse_scene_cached(
         Some(p) => p.display().to_string(),
         None => DEFAULT_SCENE_FILE.to_string(),
     };
-    let checker = Checker { file, text };
+    let checker = Checker {
+        file,
+        text,
+        tree: None,
+    };
 
     // Step 1: syntax. The tree is kept so that step 2's errors can be located in it.
     let tree = DeTable::parse(text).map_err(|e| checker.syntax_error(&e))?;
     // Step 2: shape. Scene files are small, so cloning the tree costs nothing worth avoiding.
     let raw = RawScene::deserialize(toml::de::Deserializer::from(tree.clone()))
         .map_err(|e| checker.shape_error(&e, tree.get_ref()))?;
-    // Step 3: meaning.
+    // Step 3: meaning, with the tree at hand for the keys step 2 does not type (material plugins').
+    let checker = Checker {
+        tree: Some(tree.get_ref()),
+        ..checker
+    };
     checker.scene(&raw, path, cache)
 }
 
@@ -100,6 +109,8 @@ pub(crate) fn parse_scene_cached(
 struct Checker<'a> {
     file: String,
     text: &'a str,
+    /// The file's syntax tree (from step 3 on).
+    tree: Option<&'a DeTable<'a>>,
 }
 impl Checker<'_> {
     fn scene(

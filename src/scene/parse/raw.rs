@@ -90,9 +90,11 @@ pub(super) struct RawRender {
 /// tagged enum buffers its content, which loses the spans (toml's `Spanned` inside an internally tagged
 /// enum fails to deserialize at all: toml-rs/toml#535), and its "unknown variant" error would point at
 /// the whole material rather than at `type`. Which keys a type allows is checked by hand in
-/// `Checker::material`; the registry's kinds (`bsdfs::Keys::Params`) list their keys in their row.
+/// `Checker::material`, for every key: the keys of the built-in types are fields here; any other key
+/// (a material plugin's, or a mistake) lands in `other`, and the checker reads it, with its span, from
+/// the TOML tree (`Checker::material_keys`): serde's `flatten` buffers what it collects, which would lose
+/// the spans.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
 pub(super) struct RawMaterial {
     #[serde(rename = "type")]
     pub(super) kind: Spanned<String>,
@@ -148,19 +150,9 @@ pub(super) struct RawMaterial {
     /// The name of the material a hit shows instead with probability `blend_weight`.
     pub(super) blend: Option<Spanned<String>>,
     pub(super) blend_weight: Option<Spanned<RawParam<f32>>>,
-}
-
-impl RawMaterial {
-    /// The colour key named `key`, for the registry's generic reader (a colour parameter's key must be
-    /// one of these; a kind naming another fails the first time a scene uses it, which its own tests do).
-    pub(super) fn color_key(&self, key: &str) -> &Option<Spanned<RawParam<RawVec3>>> {
-        match key {
-            "albedo" => &self.albedo,
-            "tint" => &self.tint,
-            "base_color" => &self.base_color,
-            _ => panic!("the material registry names colour key `{key}`, which RawMaterial lacks"),
-        }
-    }
+    /// Every other key (only its name is kept here).
+    #[serde(flatten)]
+    pub(super) other: BTreeMap<String, serde::de::IgnoredAny>,
 }
 
 #[derive(Deserialize)]

@@ -1,4 +1,4 @@
-// bsdfs/rough_diffuse.wgsl: a rough diffuse reflector (Oren & Nayar 1994).
+// rough_diffuse.wgsl: a rough diffuse reflector (Oren & Nayar 1994).
 //
 // requires: bsdfs/common.wgsl
 //
@@ -15,9 +15,10 @@
 // max(0, wi.wo - cos_i cos_o) / max(cos_i, cos_o). f is symmetric in wo and wi (reciprocal), and 0
 // unless both lie above the surface (as `diffuse`).
 //
-// Roughness: the material's roughness r gives alpha = r^2 (alpha_x), Mitsuba's `alpha`, the RMS slope of
-// the microgeometry, and sigma = alpha / sqrt(2) (as Mitsuba converts it). r = 0 is Lambert exactly
-// (A = 1, B = 0).
+// Parameters (src/materials/rough_diffuse/mod.rs; RoughDiffuseParams is generated from it): albedo, and
+// the roughness r, which gives alpha = r^2, Mitsuba's `alpha`, the RMS slope of the microgeometry, and
+// sigma = alpha / sqrt(2) (as Mitsuba converts it). r = 0 is Lambert exactly (A = 1, B = 0). A textured
+// roughness is r x texel, squared here.
 //
 // Sampled cosine-weighted (pdf = cos_i / pi, two numbers, as `diffuse`): the weight f cos_i / pdf =
 // albedo (A + B ...) is bounded by albedo (A + B), at most 1.45 albedo, so the cosine pdf suits it.
@@ -28,11 +29,13 @@ fn rough_diffuse_f(mat: Material, wo: vec3<f32>, wi: vec3<f32>, ns: vec3<f32>) -
     if cos_i <= 0.0 || cos_o <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let sigma2 = 0.5 * mat.alpha_x * mat.alpha_x;
+    let p = rough_diffuse_params(mat);
+    let alpha = p.roughness * p.roughness;
+    let sigma2 = 0.5 * alpha * alpha;
     let a = 1.0 - sigma2 / (2.0 * (sigma2 + 0.33));
     let b = 0.45 * sigma2 / (sigma2 + 0.09);
     let angular = max(0.0, dot(wi, wo) - cos_i * cos_o) / max(cos_i, cos_o);
-    return mat.albedo * (INV_PI * (a + b * angular));
+    return p.albedo * (INV_PI * (a + b * angular));
 }
 
 fn rough_diffuse_sample(mat: Material, wo: vec3<f32>, sh: Shading, rng: ptr<function, Rng>) -> BsdfSample {
@@ -54,7 +57,7 @@ fn rough_diffuse_pdf(mat: Material, wo: vec3<f32>, wi: vec3<f32>, sh: Shading) -
 }
 
 fn rough_diffuse_albedo(mat: Material) -> vec3<f32> {
-    return mat.albedo;
+    return rough_diffuse_params(mat).albedo;
 }
 
 fn rough_diffuse_is_delta(mat: Material) -> bool {
