@@ -196,461 +196,27 @@ impl Tr<'_> {
         out
     }
 
-    /// [`Tr::bsdf`] once the nesting is checked. `twosided` is accepted and unwrapped: vkpath shades both
-    /// faces of every surface (Mitsuba's other BSDFs are black from behind).
+    /// [`Tr::bsdf`] once the nesting is checked: each BSDF type by its own method. `twosided` is accepted
+    /// and unwrapped: vkpath shades both faces of every surface (Mitsuba's other BSDFs are black from
+    /// behind).
     fn bsdf_unwrapped(&mut self, obj: &Obj) -> Result<Option<MatOut>, SceneError> {
-        let args = Args::new(obj);
-        let at = |s: String| (s, obj.loc.clone());
-        let mut lines = Vec::new();
-        let mut textured = None;
+        let args = &Args::new(obj);
         let kind = obj.kind.as_str();
+        let mut out = MatOut {
+            lines: Vec::new(),
+            textured: None,
+        };
         match kind {
-            "twosided" => {
-                // One BSDF: both faces show it. Two: the front shows the first, the back the second
-                // (as its own front), vkpath's `back` modifier naming a material of its own.
-                let inner = args.objects("bsdf", self.ids)?;
-                self.finish(&args, &["bsdf"])?;
-                return match inner.as_slice() {
-                    [(b, _)] => self.bsdf(b),
-                    [(front, _), (back, _)] => {
-                        let Some(mut out) = self.bsdf(front)? else {
-                            return Ok(None);
-                        };
-                        let (name, textured) =
-                            self.material(Some(back), None, "twosided-back", &obj.loc)?;
-                        out.lines.push(at(format!("back = {}", toml_string(&name))));
-                        out.textured = out.textured.or(textured);
-                        Ok(Some(out))
-                    }
-                    _ => Err(obj.loc.error(
-                        "a twosided BSDF with other than one or two nested BSDFs",
-                        "Nest one BSDF (both faces) or two (front, then back).",
-                    )),
-                };
-            }
-            "mask" => {
-                // Mitsuba's mask: the nested BSDF where a ray stops, with probability `opacity`
-                // (default 0.5), else the ray passes on unchanged (a null interaction): vkpath's
-                // opacity without alpha_cutoff, the same stochastic transparency.
-                let inner = args.objects("bsdf", self.ids)?;
-                let [(b, _)] = inner.as_slice() else {
-                    return Err(obj.loc.error(
-                        "a mask BSDF with other than one nested BSDF",
-                        "Nest exactly one BSDF.",
-                    ));
-                };
-                let (opacity, _) = self.scalar_tex(&args, obj, "opacity", "mask", &mut textured)?;
-                self.finish(&args, &["opacity", "bsdf"])?;
-                let Some(mut out) = self.bsdf(b)? else {
-                    return Ok(None);
-                };
-                if out.lines.iter().any(|(l, _)| l.starts_with("opacity")) {
-                    return Err(obj.loc.error(
-                        "a mask inside a mask",
-                        "Give one mask, its opacity the product of the two.",
-                    ));
-                }
-                out.lines.push(at(format!("opacity = {opacity}")));
-                out.textured = out.textured.or(textured);
-                return Ok(Some(out));
-            }
-            "blendbsdf" => {
-                // Mitsuba's blendbsdf: (1 - weight) x the first BSDF + weight x the second. vkpath's
-                // blend modifier: the first BSDF's material shows the second's at a fraction `weight`
-                // of its hits (the same expected BSDF; the choice: scene.wgsl, surface_at).
-                let inner = args.objects("bsdf", self.ids)?;
-                let [(a, _), (b, _)] = inner.as_slice() else {
-                    return Err(obj.loc.error(
-                        "a blendbsdf with other than two nested BSDFs",
-                        "Nest exactly two BSDFs.",
-                    ));
-                };
-                let (weight, constant) =
-                    self.scalar_tex(&args, obj, "weight", "blendbsdf", &mut textured)?;
-                if let Some(w) = constant.filter(|w| !(0.0..=1.0).contains(w)) {
-                    let p = args.prop("weight").map_or(&obj.loc, |p| &p.loc);
-                    return Err(p.error(
-                        format!("weight = {w}: a blendbsdf's weight is in [0, 1]"),
-                        "Give the second BSDF's share, from 0 to 1.",
-                    ));
-                }
-                self.finish(&args, &["weight", "bsdf"])?;
-                if self.two_sided(a) != self.two_sided(b) {
-                    return Err(obj.loc.error(
-                        "a blendbsdf of a two-sided and a one-sided BSDF: vkpath's one_sided applies to the \
-                         whole blend",
-                        "Wrap both BSDFs in twosided, or neither.",
-                    ));
-                }
-                let Some(mut out) = self.bsdf(a)? else {
-                    return Ok(None);
-                };
-                if out.lines.iter().any(|(l, _)| l.starts_with("blend")) {
-                    return Err(obj.loc.error(
-                        "a blendbsdf whose first BSDF is a blendbsdf",
-                        "vkpath blends two materials at a hit: flatten the nested blendbsdfs into one.",
-                    ));
-                }
-                let (name, second_textured) = self.material(Some(b), None, "blend", &obj.loc)?;
-                out.lines
-                    .push(at(format!("blend = {}", toml_string(&name))));
-                out.lines.push(at(format!("blend_weight = {weight}")));
-                out.textured = out.textured.or(textured).or(second_textured);
-                return Ok(Some(out));
-            }
-            "bumpmap" | "normalmap" => {
-                // Mitsuba's bumpmap: the nested BSDF under the shading frame of the surface displaced
-                // by `scale` x the texture's value (eval_1: the luminance of a colour texture), whose
-                // derivatives in uv it takes; vkpath's bump modifier is the same model (scene.wgsl,
-                // bump_mapped). Its normalmap: the frame's normal is 2 x rgb - 1 in the tangent frame
-                // along dp/du (the texture as given: Mitsuba's scenes set raw = true), vkpath's
-                // normal_map. A texture of any name, as in Mitsuba.
-                let bump = kind == "bumpmap";
-                let inner = args.objects("bsdf", self.ids)?;
-                let maps = args.objects("texture", self.ids)?;
-                let ([(b, _)], [(map, _)]) = (inner.as_slice(), maps.as_slice()) else {
-                    return Err(obj.loc.error(
-                        format!("a {kind} BSDF with other than one nested BSDF and one texture"),
-                        "Nest exactly one BSDF and one <texture>.",
-                    ));
-                };
-                let scale = if bump {
-                    args.float_or("scale", 1.0)?
-                } else {
-                    1.0
-                };
-                self.finish(&args, &["bsdf", "texture", "scale"])?;
-                let key = if bump { "bump" } else { "normal_map" };
-                let texture = match self.texture(map)? {
-                    // A constant height displaces the surface without tilting it: the nested BSDF as is.
-                    ColorTex::Color(_) if bump => None,
-                    ColorTex::Color(_) => {
-                        return Err(map.loc.error(
-                            "a normalmap whose texture is a constant colour",
-                            "Give a bitmap texture, or leave the normalmap out.",
-                        ));
-                    }
-                    ColorTex::Bitmap(bitmap) if bitmap.path().is_none() => {
-                        return Err(bitmap.loc.error(
-                            format!("a {kind} of a checkerboard"),
-                            "vkpath's bump and normal maps read a bitmap: a checkerboard's steps have no \
-                             slope to tilt a normal by.",
-                        ));
-                    }
-                    ColorTex::Bitmap(bitmap) => Some(bitmap),
-                };
-                let Some(mut out) = self.bsdf(b)? else {
-                    return Ok(None);
-                };
-                let Some(bitmap) = texture else {
-                    return Ok(Some(out));
-                };
-                if out.lines.iter().any(|(l, _)| l.starts_with(key)) {
-                    return Err(obj.loc.error(
-                        format!("a {kind} inside a {kind}"),
-                        "vkpath applies one map of each kind to a material: keep one.",
-                    ));
-                }
-                let mut keys = self.texture_keys(&bitmap, bump, false);
-                if bump {
-                    keys.push(format!("scale = {}", num(scale)));
-                }
-                out.lines
-                    .push(at(format!("{key} = {{ {} }}", keys.join(", "))));
-                out.textured = out.textured.or(Some(bitmap.loc));
-                return Ok(Some(out));
-            }
-            "diffuse" | "roughdiffuse" => {
-                let rough = kind == "roughdiffuse";
-                let vkpath_type = if rough { "rough_diffuse" } else { "diffuse" };
-                lines.push(at(format!("type = \"{vkpath_type}\"")));
-                match self.color_tex(&args, "reflectance", DVec3::splat(0.5))? {
-                    ColorTex::Color(c) => lines.push(at(format!("albedo = {}", vec3(c)))),
-                    ColorTex::Bitmap(b) => {
-                        lines.push(at(format!("albedo = {}", self.texture_ref(&b, false))));
-                        textured = Some(b.loc);
-                    }
-                }
-                if rough {
-                    // Mitsuba's alpha is the RMS slope of the facets (default 0.2); vkpath's roughness
-                    // r has r^2 = alpha (rough_diffuse.wgsl).
-                    let (alpha, loc) = args
-                        .float("alpha")?
-                        .map_or((0.2, &obj.loc), |(a, l)| (a, l));
-                    if !(0.0..=1.0).contains(&alpha) {
-                        return Err(loc.error(
-                            format!(
-                                "alpha = {alpha}: vkpath's roughness sqrt(alpha) must be in [0, 1]"
-                            ),
-                            "Give alpha in [0, 1].",
-                        ));
-                    }
-                    lines.push(at(format!("roughness = {}", num(alpha.sqrt()))));
-                    match args.boolean("use_fast_approx")? {
-                        Some((true, _)) => {}
-                        _ => self.approximate(
-                            &obj.loc,
-                            "roughdiffuse without use_fast_approx: Mitsuba's default is Oren and Nayar's full model, vkpath's rough_diffuse their qualitative one".into(),
-                            "Add <boolean name=\"use_fast_approx\" value=\"true\"/> to read it as that model.",
-                        )?,
-                    }
-                    self.finish(&args, &["reflectance", "alpha", "use_fast_approx"])?;
-                } else {
-                    self.finish(&args, &["reflectance"])?;
-                }
-            }
-            "conductor" | "roughconductor" => {
-                let material = args.string("material")?;
-                let eta = args.prop("eta").map(|_| ());
-                let k = args.prop("k").map(|_| ());
-                let tint = self.color(&args, "specular_reflectance", DVec3::ONE)?;
-                let rough = if kind == "roughconductor" {
-                    Some(self.roughness(&args, obj)?)
-                } else {
-                    None
-                };
-                match (material, eta.is_some() || k.is_some()) {
-                    (Some((_, l)), true) => {
-                        return Err(
-                            l.error("both a material and eta / k are given", "Give one of them.")
-                        );
-                    }
-                    (None, true) => {
-                        let eta = self.color(&args, "eta", DVec3::ZERO)?;
-                        let k = self.color(&args, "k", DVec3::ONE)?;
-                        lines.push(at("type = \"conductor\"".into()));
-                        lines.push(at(format!("eta = {}", vec3(eta))));
-                        lines.push(at(format!("k = {}", vec3(k))));
-                    }
-                    (m, false) => {
-                        let (name, mloc) = m.map_or(("none", &obj.loc), |(n, l)| (n, l));
-                        let preset = match name {
-                            "none" => None,
-                            "Au" => Some("gold"),
-                            "Ag" => Some("silver"),
-                            "Cu" => Some("copper"),
-                            "Al" => Some("aluminium"),
-                            other => {
-                                return Err(mloc.error(
-                                    format!("the conductor material \"{other}\" is not one vkpath has"),
-                                    "vkpath has Au, Ag, Cu, Al (its presets gold, silver, copper, aluminium) and none (a perfect mirror); or give eta and k.",
-                                ));
-                            }
-                        };
-                        match preset {
-                            Some(p) => {
-                                lines.push(at("type = \"conductor\"".into()));
-                                lines.push(at(format!("preset = \"{p}\"")));
-                            }
-                            None if rough.as_ref().is_none_or(|(r, _)| *r == 0.0) => {
-                                // Reflectance 1 times specular_reflectance: vkpath's mirror and its tint.
-                                lines.push(at("type = \"mirror\"".into()));
-                                lines.push(at(format!("tint = {}", vec3(tint))));
-                            }
-                            None => {
-                                // Reflectance 1, rough: Schlick's form with f0 = 1 is exactly 1.
-                                lines.push(at("type = \"conductor\"".into()));
-                                lines.push(at("base_color = [1.0, 1.0, 1.0]".into()));
-                            }
-                        }
-                    }
-                }
-                let is_mirror = lines.iter().any(|(l, _)| l == "type = \"mirror\"");
-                if !is_mirror && tint != DVec3::ONE {
-                    // specular_reflectance multiplies the Fresnel reflectance: vkpath's conductor tint.
-                    lines.push(at(format!("tint = {}", vec3(tint))));
-                }
-                if let Some((r, distribution)) = rough {
-                    lines.push(at(format!("roughness = {}", num(r))));
-                    lines.push(at(distribution));
-                }
-                let known: &[&str] = if kind == "conductor" {
-                    &["material", "eta", "k", "specular_reflectance"]
-                } else {
-                    &[
-                        "material",
-                        "eta",
-                        "k",
-                        "specular_reflectance",
-                        "distribution",
-                        "alpha",
-                        "sample_visible",
-                    ]
-                };
-                self.finish(&args, known)?;
-            }
-            "thindielectric" => {
-                // A thin pane: the same model as Mitsuba's (reflection with the internal reflections
-                // summed, 2R / (1 + R), and straight transmission).
-                let ior = self.untinted_dielectric_ior(&args, obj)?;
-                lines.push(at("type = \"thin_dielectric\"".into()));
-                lines.push(at(format!("ior = {}", num(ior))));
-                self.finish(
-                    &args,
-                    &[
-                        "int_ior",
-                        "ext_ior",
-                        "specular_reflectance",
-                        "specular_transmittance",
-                    ],
-                )?;
-            }
-            "dielectric" | "roughdielectric" => {
-                let ior = self.untinted_dielectric_ior(&args, obj)?;
-                lines.push(at("type = \"dielectric\"".into()));
-                lines.push(at(format!("ior = {}", num(ior))));
-                if kind == "roughdielectric" {
-                    let (r, distribution) = self.roughness(&args, obj)?;
-                    lines.push(at(format!("roughness = {}", num(r))));
-                    lines.push(at(distribution));
-                }
-                let known: &[&str] = if kind == "dielectric" {
-                    &[
-                        "int_ior",
-                        "ext_ior",
-                        "specular_reflectance",
-                        "specular_transmittance",
-                    ]
-                } else {
-                    &[
-                        "int_ior",
-                        "ext_ior",
-                        "specular_reflectance",
-                        "specular_transmittance",
-                        "distribution",
-                        "alpha",
-                        "sample_visible",
-                    ]
-                };
-                self.finish(&args, known)?;
-            }
-            "plastic" | "roughplastic" => {
-                let ior = self.ior(&args, "int_ior", "polypropylene")?
-                    / self.ior(&args, "ext_ior", "air")?;
-                if self.color(&args, "specular_reflectance", DVec3::ONE)? != DVec3::ONE {
-                    return Err(obj.loc.error(
-                        "specular_reflectance other than 1: vkpath's plastic coat has no tint",
-                        "Remove it.",
-                    ));
-                }
-                // Mitsuba's nonlinear (default false): whether the base's internal reflections are
-                // tinted by its albedo, a / (1 - a Fdr) rather than a / (1 - Fdr); vkpath's too.
-                let nonlinear = args.boolean("nonlinear")?.is_some_and(|(n, _)| n);
-                lines.push(at("type = \"plastic\"".into()));
-                lines.push(at(format!("nonlinear = {nonlinear}")));
-                match self.color_tex(&args, "diffuse_reflectance", DVec3::splat(0.5))? {
-                    ColorTex::Color(c) => lines.push(at(format!("albedo = {}", vec3(c)))),
-                    ColorTex::Bitmap(b) => {
-                        lines.push(at(format!("albedo = {}", self.texture_ref(&b, false))));
-                        textured = Some(b.loc);
-                    }
-                }
-                lines.push(at(format!("ior = {}", num(ior))));
-                if kind == "roughplastic" {
-                    let (r, distribution) = self.roughness(&args, obj)?;
-                    lines.push(at(format!("roughness = {}", num(r))));
-                    lines.push(at(distribution));
-                }
-                let known: &[&str] = if kind == "plastic" {
-                    &[
-                        "int_ior",
-                        "ext_ior",
-                        "diffuse_reflectance",
-                        "specular_reflectance",
-                        "nonlinear",
-                    ]
-                } else {
-                    &[
-                        "int_ior",
-                        "ext_ior",
-                        "diffuse_reflectance",
-                        "specular_reflectance",
-                        "nonlinear",
-                        "distribution",
-                        "alpha",
-                        "sample_visible",
-                    ]
-                };
-                self.finish(&args, known)?;
-            }
-            "principled" => {
-                lines.push(at("type = \"principled\"".into()));
-                match self.color_tex(&args, "base_color", DVec3::splat(0.5))? {
-                    ColorTex::Color(c) => lines.push(at(format!("base_color = {}", vec3(c)))),
-                    ColorTex::Bitmap(b) => {
-                        lines.push(at(format!("base_color = {}", self.texture_ref(&b, false))));
-                        textured = Some(b.loc);
-                    }
-                }
-                // roughness and metallic may be textures (read as Mitsuba's eval_1); the other weights
-                // are numbers here.
-                for (name, default) in [("roughness", 0.5), ("metallic", 0.0)] {
-                    if args.prop(name).is_some() {
-                        let (value, _) =
-                            self.scalar_tex(&args, obj, name, "principled", &mut textured)?;
-                        lines.push(at(format!("{name} = {value}")));
-                    } else {
-                        lines.push(at(format!("{name} = {}", num(default))));
-                    }
-                }
-                if let Some((t, l)) = args.float("spec_trans")?.filter(|(t, _)| *t != 0.0) {
-                    return Err(l.error(
-                        format!("spec_trans = {t}: vkpath reads the principled BSDF without its specular transmission"),
-                        "Give spec_trans 0 (or leave it out), or use a roughdielectric for the glass.",
-                    ));
-                }
-                if let Some((a, l)) = args.float("anisotropic")?.filter(|(a, _)| *a != 0.0) {
-                    return Err(l.error(
-                        format!("anisotropic = {a}: vkpath's tangent frame is not Mitsuba's, so the anisotropy would run another way"),
-                        "Give anisotropic 0 (or leave it out).",
-                    ));
-                }
-                match (args.float("specular")?, args.float("eta")?) {
-                    (Some(_), Some((_, l))) => {
-                        return Err(l.error(
-                            "both specular and eta (Mitsuba refuses them together)",
-                            "Give one of the two.",
-                        ));
-                    }
-                    (None, Some((eta, _))) => lines.push(at(format!("ior = {}", num(eta)))),
-                    (Some((s, _)), None) => lines.push(at(format!("specular = {}", num(s)))),
-                    (None, None) => {}
-                }
-                // The weights vkpath's principled takes by the same names.
-                const WEIGHTS: [&str; 6] = [
-                    "spec_tint",
-                    "sheen",
-                    "sheen_tint",
-                    "clearcoat",
-                    "clearcoat_gloss",
-                    "flatness",
-                ];
-                // The sampling rates change how Mitsuba draws directions, not the image it converges to.
-                const RATES: [&str; 3] = [
-                    "diffuse_reflectance_sampling_rate",
-                    "main_specular_sampling_rate",
-                    "clearcoat_sampling_rate",
-                ];
-                for name in WEIGHTS {
-                    if let Some((x, _)) = args.float(name)? {
-                        lines.push(at(format!("{name} = {}", num(x))));
-                    }
-                }
-                for name in RATES {
-                    let _ = args.float(name)?;
-                }
-                let read = [
-                    "base_color",
-                    "roughness",
-                    "metallic",
-                    "spec_trans",
-                    "anisotropic",
-                    "specular",
-                    "eta",
-                ];
-                let known: Vec<&str> = read.into_iter().chain(WEIGHTS).chain(RATES).collect();
-                self.finish(&args, &known)?;
-            }
+            "twosided" => return self.bsdf_twosided(obj, args),
+            "mask" => return self.bsdf_mask(obj, args),
+            "blendbsdf" => return self.bsdf_blend(obj, args),
+            "bumpmap" | "normalmap" => return self.bsdf_surface_map(obj, args, kind),
+            "diffuse" | "roughdiffuse" => self.bsdf_diffuse(obj, args, kind, &mut out)?,
+            "conductor" | "roughconductor" => self.bsdf_conductor(obj, args, kind, &mut out)?,
+            "thindielectric" => self.bsdf_thin_dielectric(obj, args, &mut out)?,
+            "dielectric" | "roughdielectric" => self.bsdf_dielectric(obj, args, kind, &mut out)?,
+            "plastic" | "roughplastic" => self.bsdf_plastic(obj, args, kind, &mut out)?,
+            "principled" => self.bsdf_principled(obj, args, &mut out)?,
             other if crate::materials::by_mitsuba_type(other).is_some() => {
                 let plugin = crate::materials::by_mitsuba_type(other).expect("matched");
                 return self.plugin_bsdf(plugin, obj).map(Some);
@@ -670,7 +236,529 @@ impl Tr<'_> {
                 return Ok(None);
             }
         }
-        Ok(Some(MatOut { lines, textured }))
+        Ok(Some(out))
+    }
+
+    /// `twosided`: one BSDF shows on both faces; two: the front shows the first, the back the second.
+    fn bsdf_twosided(&mut self, obj: &Obj, args: &Args) -> Result<Option<MatOut>, SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        // One BSDF: both faces show it. Two: the front shows the first, the back the second
+        // (as its own front), vkpath's `back` modifier naming a material of its own.
+        let inner = args.objects("bsdf", self.ids)?;
+        self.finish(args, &["bsdf"])?;
+        match inner.as_slice() {
+            [(b, _)] => self.bsdf(b),
+            [(front, _), (back, _)] => {
+                let Some(mut out) = self.bsdf(front)? else {
+                    return Ok(None);
+                };
+                let (name, textured) =
+                    self.material(Some(back), None, "twosided-back", &obj.loc)?;
+                out.lines.push(at(format!("back = {}", toml_string(&name))));
+                out.textured = out.textured.or(textured);
+                Ok(Some(out))
+            }
+            _ => Err(obj.loc.error(
+                "a twosided BSDF with other than one or two nested BSDFs",
+                "Nest one BSDF (both faces) or two (front, then back).",
+            )),
+        }
+    }
+
+    /// `mask`: the nested BSDF with an opacity.
+    fn bsdf_mask(&mut self, obj: &Obj, args: &Args) -> Result<Option<MatOut>, SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        let mut textured = None;
+        // Mitsuba's mask: the nested BSDF where a ray stops, with probability `opacity`
+        // (default 0.5), else the ray passes on unchanged (a null interaction): vkpath's
+        // opacity without alpha_cutoff, the same stochastic transparency.
+        let inner = args.objects("bsdf", self.ids)?;
+        let [(b, _)] = inner.as_slice() else {
+            return Err(obj.loc.error(
+                "a mask BSDF with other than one nested BSDF",
+                "Nest exactly one BSDF.",
+            ));
+        };
+        let (opacity, _) = self.scalar_tex(args, obj, "opacity", "mask", &mut textured)?;
+        self.finish(args, &["opacity", "bsdf"])?;
+        let Some(mut out) = self.bsdf(b)? else {
+            return Ok(None);
+        };
+        if out.lines.iter().any(|(l, _)| l.starts_with("opacity")) {
+            return Err(obj.loc.error(
+                "a mask inside a mask",
+                "Give one mask, its opacity the product of the two.",
+            ));
+        }
+        out.lines.push(at(format!("opacity = {opacity}")));
+        out.textured = out.textured.or(textured);
+        Ok(Some(out))
+    }
+
+    /// `blendbsdf`: the first BSDF's material with the second's blended in.
+    fn bsdf_blend(&mut self, obj: &Obj, args: &Args) -> Result<Option<MatOut>, SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        let mut textured = None;
+        // Mitsuba's blendbsdf: (1 - weight) x the first BSDF + weight x the second. vkpath's
+        // blend modifier: the first BSDF's material shows the second's at a fraction `weight`
+        // of its hits (the same expected BSDF; the choice: scene.wgsl, surface_at).
+        let inner = args.objects("bsdf", self.ids)?;
+        let [(a, _), (b, _)] = inner.as_slice() else {
+            return Err(obj.loc.error(
+                "a blendbsdf with other than two nested BSDFs",
+                "Nest exactly two BSDFs.",
+            ));
+        };
+        let (weight, constant) =
+            self.scalar_tex(args, obj, "weight", "blendbsdf", &mut textured)?;
+        if let Some(w) = constant.filter(|w| !(0.0..=1.0).contains(w)) {
+            let p = args.prop("weight").map_or(&obj.loc, |p| &p.loc);
+            return Err(p.error(
+                format!("weight = {w}: a blendbsdf's weight is in [0, 1]"),
+                "Give the second BSDF's share, from 0 to 1.",
+            ));
+        }
+        self.finish(args, &["weight", "bsdf"])?;
+        if self.two_sided(a) != self.two_sided(b) {
+            return Err(obj.loc.error(
+                "a blendbsdf of a two-sided and a one-sided BSDF: vkpath's one_sided applies to the \
+                 whole blend",
+                "Wrap both BSDFs in twosided, or neither.",
+            ));
+        }
+        let Some(mut out) = self.bsdf(a)? else {
+            return Ok(None);
+        };
+        if out.lines.iter().any(|(l, _)| l.starts_with("blend")) {
+            return Err(obj.loc.error(
+                "a blendbsdf whose first BSDF is a blendbsdf",
+                "vkpath blends two materials at a hit: flatten the nested blendbsdfs into one.",
+            ));
+        }
+        let (name, second_textured) = self.material(Some(b), None, "blend", &obj.loc)?;
+        out.lines
+            .push(at(format!("blend = {}", toml_string(&name))));
+        out.lines.push(at(format!("blend_weight = {weight}")));
+        out.textured = out.textured.or(textured).or(second_textured);
+        Ok(Some(out))
+    }
+
+    /// `bumpmap` and `normalmap`: the nested BSDF under a bump or normal map.
+    fn bsdf_surface_map(
+        &mut self,
+        obj: &Obj,
+        args: &Args,
+        kind: &str,
+    ) -> Result<Option<MatOut>, SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        // Mitsuba's bumpmap: the nested BSDF under the shading frame of the surface displaced
+        // by `scale` x the texture's value (eval_1: the luminance of a colour texture), whose
+        // derivatives in uv it takes; vkpath's bump modifier is the same model (scene.wgsl,
+        // bump_mapped). Its normalmap: the frame's normal is 2 x rgb - 1 in the tangent frame
+        // along dp/du (the texture as given: Mitsuba's scenes set raw = true), vkpath's
+        // normal_map. A texture of any name, as in Mitsuba.
+        let bump = kind == "bumpmap";
+        let inner = args.objects("bsdf", self.ids)?;
+        let maps = args.objects("texture", self.ids)?;
+        let ([(b, _)], [(map, _)]) = (inner.as_slice(), maps.as_slice()) else {
+            return Err(obj.loc.error(
+                format!("a {kind} BSDF with other than one nested BSDF and one texture"),
+                "Nest exactly one BSDF and one <texture>.",
+            ));
+        };
+        let scale = if bump {
+            args.float_or("scale", 1.0)?
+        } else {
+            1.0
+        };
+        self.finish(args, &["bsdf", "texture", "scale"])?;
+        let key = if bump { "bump" } else { "normal_map" };
+        let texture = match self.texture(map)? {
+            // A constant height displaces the surface without tilting it: the nested BSDF as is.
+            ColorTex::Color(_) if bump => None,
+            ColorTex::Color(_) => {
+                return Err(map.loc.error(
+                    "a normalmap whose texture is a constant colour",
+                    "Give a bitmap texture, or leave the normalmap out.",
+                ));
+            }
+            ColorTex::Bitmap(bitmap) if bitmap.path().is_none() => {
+                return Err(bitmap.loc.error(
+                    format!("a {kind} of a checkerboard"),
+                    "vkpath's bump and normal maps read a bitmap: a checkerboard's steps have no \
+                     slope to tilt a normal by.",
+                ));
+            }
+            ColorTex::Bitmap(bitmap) => Some(bitmap),
+        };
+        let Some(mut out) = self.bsdf(b)? else {
+            return Ok(None);
+        };
+        let Some(bitmap) = texture else {
+            return Ok(Some(out));
+        };
+        if out.lines.iter().any(|(l, _)| l.starts_with(key)) {
+            return Err(obj.loc.error(
+                format!("a {kind} inside a {kind}"),
+                "vkpath applies one map of each kind to a material: keep one.",
+            ));
+        }
+        let mut keys = self.texture_keys(&bitmap, bump, false);
+        if bump {
+            keys.push(format!("scale = {}", num(scale)));
+        }
+        out.lines
+            .push(at(format!("{key} = {{ {} }}", keys.join(", "))));
+        out.textured = out.textured.or(Some(bitmap.loc));
+        Ok(Some(out))
+    }
+
+    /// `diffuse` and `roughdiffuse`.
+    fn bsdf_diffuse(
+        &mut self,
+        obj: &Obj,
+        args: &Args,
+        kind: &str,
+        out: &mut MatOut,
+    ) -> Result<(), SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        let rough = kind == "roughdiffuse";
+        let vkpath_type = if rough { "rough_diffuse" } else { "diffuse" };
+        out.lines.push(at(format!("type = \"{vkpath_type}\"")));
+        match self.color_tex(args, "reflectance", DVec3::splat(0.5))? {
+            ColorTex::Color(c) => out.lines.push(at(format!("albedo = {}", vec3(c)))),
+            ColorTex::Bitmap(b) => {
+                out.lines
+                    .push(at(format!("albedo = {}", self.texture_ref(&b, false))));
+                out.textured = Some(b.loc);
+            }
+        }
+        if rough {
+            // Mitsuba's alpha is the RMS slope of the facets (default 0.2); vkpath's roughness
+            // r has r^2 = alpha (rough_diffuse.wgsl).
+            let (alpha, loc) = args
+                .float("alpha")?
+                .map_or((0.2, &obj.loc), |(a, l)| (a, l));
+            if !(0.0..=1.0).contains(&alpha) {
+                return Err(loc.error(
+                    format!("alpha = {alpha}: vkpath's roughness sqrt(alpha) must be in [0, 1]"),
+                    "Give alpha in [0, 1].",
+                ));
+            }
+            out.lines
+                .push(at(format!("roughness = {}", num(alpha.sqrt()))));
+            match args.boolean("use_fast_approx")? {
+                Some((true, _)) => {}
+                _ => self.approximate(
+                    &obj.loc,
+                    "roughdiffuse without use_fast_approx: Mitsuba's default is Oren and Nayar's full model, vkpath's rough_diffuse their qualitative one".into(),
+                    "Add <boolean name=\"use_fast_approx\" value=\"true\"/> to read it as that model.",
+                )?,
+            }
+            self.finish(args, &["reflectance", "alpha", "use_fast_approx"])?;
+        } else {
+            self.finish(args, &["reflectance"])?;
+        }
+        Ok(())
+    }
+
+    /// `conductor` and `roughconductor`.
+    fn bsdf_conductor(
+        &mut self,
+        obj: &Obj,
+        args: &Args,
+        kind: &str,
+        out: &mut MatOut,
+    ) -> Result<(), SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        let material = args.string("material")?;
+        let eta = args.prop("eta").map(|_| ());
+        let k = args.prop("k").map(|_| ());
+        let tint = self.color(args, "specular_reflectance", DVec3::ONE)?;
+        let rough = if kind == "roughconductor" {
+            Some(self.roughness(args, obj)?)
+        } else {
+            None
+        };
+        match (material, eta.is_some() || k.is_some()) {
+            (Some((_, l)), true) => {
+                return Err(l.error("both a material and eta / k are given", "Give one of them."));
+            }
+            (None, true) => {
+                let eta = self.color(args, "eta", DVec3::ZERO)?;
+                let k = self.color(args, "k", DVec3::ONE)?;
+                out.lines.push(at("type = \"conductor\"".into()));
+                out.lines.push(at(format!("eta = {}", vec3(eta))));
+                out.lines.push(at(format!("k = {}", vec3(k))));
+            }
+            (m, false) => {
+                let (name, mloc) = m.map_or(("none", &obj.loc), |(n, l)| (n, l));
+                let preset = match name {
+                    "none" => None,
+                    "Au" => Some("gold"),
+                    "Ag" => Some("silver"),
+                    "Cu" => Some("copper"),
+                    "Al" => Some("aluminium"),
+                    other => {
+                        return Err(mloc.error(
+                            format!("the conductor material \"{other}\" is not one vkpath has"),
+                            "vkpath has Au, Ag, Cu, Al (its presets gold, silver, copper, aluminium) and none (a perfect mirror); or give eta and k.",
+                        ));
+                    }
+                };
+                match preset {
+                    Some(p) => {
+                        out.lines.push(at("type = \"conductor\"".into()));
+                        out.lines.push(at(format!("preset = \"{p}\"")));
+                    }
+                    None if rough.as_ref().is_none_or(|(r, _)| *r == 0.0) => {
+                        // Reflectance 1 times specular_reflectance: vkpath's mirror and its tint.
+                        out.lines.push(at("type = \"mirror\"".into()));
+                        out.lines.push(at(format!("tint = {}", vec3(tint))));
+                    }
+                    None => {
+                        // Reflectance 1, rough: Schlick's form with f0 = 1 is exactly 1.
+                        out.lines.push(at("type = \"conductor\"".into()));
+                        out.lines.push(at("base_color = [1.0, 1.0, 1.0]".into()));
+                    }
+                }
+            }
+        }
+        let is_mirror = out.lines.iter().any(|(l, _)| l == "type = \"mirror\"");
+        if !is_mirror && tint != DVec3::ONE {
+            // specular_reflectance multiplies the Fresnel reflectance: vkpath's conductor tint.
+            out.lines.push(at(format!("tint = {}", vec3(tint))));
+        }
+        if let Some((r, distribution)) = rough {
+            out.lines.push(at(format!("roughness = {}", num(r))));
+            out.lines.push(at(distribution));
+        }
+        let known: &[&str] = if kind == "conductor" {
+            &["material", "eta", "k", "specular_reflectance"]
+        } else {
+            &[
+                "material",
+                "eta",
+                "k",
+                "specular_reflectance",
+                "distribution",
+                "alpha",
+                "sample_visible",
+            ]
+        };
+        self.finish(args, known)?;
+        Ok(())
+    }
+
+    /// `thindielectric`.
+    fn bsdf_thin_dielectric(
+        &mut self,
+        obj: &Obj,
+        args: &Args,
+        out: &mut MatOut,
+    ) -> Result<(), SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        // A thin pane: the same model as Mitsuba's (reflection with the internal reflections
+        // summed, 2R / (1 + R), and straight transmission).
+        let ior = self.untinted_dielectric_ior(args, obj)?;
+        out.lines.push(at("type = \"thin_dielectric\"".into()));
+        out.lines.push(at(format!("ior = {}", num(ior))));
+        self.finish(
+            args,
+            &[
+                "int_ior",
+                "ext_ior",
+                "specular_reflectance",
+                "specular_transmittance",
+            ],
+        )?;
+        Ok(())
+    }
+
+    /// `dielectric` and `roughdielectric`.
+    fn bsdf_dielectric(
+        &mut self,
+        obj: &Obj,
+        args: &Args,
+        kind: &str,
+        out: &mut MatOut,
+    ) -> Result<(), SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        let ior = self.untinted_dielectric_ior(args, obj)?;
+        out.lines.push(at("type = \"dielectric\"".into()));
+        out.lines.push(at(format!("ior = {}", num(ior))));
+        if kind == "roughdielectric" {
+            let (r, distribution) = self.roughness(args, obj)?;
+            out.lines.push(at(format!("roughness = {}", num(r))));
+            out.lines.push(at(distribution));
+        }
+        let known: &[&str] = if kind == "dielectric" {
+            &[
+                "int_ior",
+                "ext_ior",
+                "specular_reflectance",
+                "specular_transmittance",
+            ]
+        } else {
+            &[
+                "int_ior",
+                "ext_ior",
+                "specular_reflectance",
+                "specular_transmittance",
+                "distribution",
+                "alpha",
+                "sample_visible",
+            ]
+        };
+        self.finish(args, known)?;
+        Ok(())
+    }
+
+    /// `plastic` and `roughplastic`.
+    fn bsdf_plastic(
+        &mut self,
+        obj: &Obj,
+        args: &Args,
+        kind: &str,
+        out: &mut MatOut,
+    ) -> Result<(), SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        let ior = self.ior(args, "int_ior", "polypropylene")? / self.ior(args, "ext_ior", "air")?;
+        if self.color(args, "specular_reflectance", DVec3::ONE)? != DVec3::ONE {
+            return Err(obj.loc.error(
+                "specular_reflectance other than 1: vkpath's plastic coat has no tint",
+                "Remove it.",
+            ));
+        }
+        // Mitsuba's nonlinear (default false): whether the base's internal reflections are
+        // tinted by its albedo, a / (1 - a Fdr) rather than a / (1 - Fdr); vkpath's too.
+        let nonlinear = args.boolean("nonlinear")?.is_some_and(|(n, _)| n);
+        out.lines.push(at("type = \"plastic\"".into()));
+        out.lines.push(at(format!("nonlinear = {nonlinear}")));
+        match self.color_tex(args, "diffuse_reflectance", DVec3::splat(0.5))? {
+            ColorTex::Color(c) => out.lines.push(at(format!("albedo = {}", vec3(c)))),
+            ColorTex::Bitmap(b) => {
+                out.lines
+                    .push(at(format!("albedo = {}", self.texture_ref(&b, false))));
+                out.textured = Some(b.loc);
+            }
+        }
+        out.lines.push(at(format!("ior = {}", num(ior))));
+        if kind == "roughplastic" {
+            let (r, distribution) = self.roughness(args, obj)?;
+            out.lines.push(at(format!("roughness = {}", num(r))));
+            out.lines.push(at(distribution));
+        }
+        let known: &[&str] = if kind == "plastic" {
+            &[
+                "int_ior",
+                "ext_ior",
+                "diffuse_reflectance",
+                "specular_reflectance",
+                "nonlinear",
+            ]
+        } else {
+            &[
+                "int_ior",
+                "ext_ior",
+                "diffuse_reflectance",
+                "specular_reflectance",
+                "nonlinear",
+                "distribution",
+                "alpha",
+                "sample_visible",
+            ]
+        };
+        self.finish(args, known)?;
+        Ok(())
+    }
+
+    /// `principled`.
+    fn bsdf_principled(
+        &mut self,
+        obj: &Obj,
+        args: &Args,
+        out: &mut MatOut,
+    ) -> Result<(), SceneError> {
+        let at = |s: String| (s, obj.loc.clone());
+        out.lines.push(at("type = \"principled\"".into()));
+        match self.color_tex(args, "base_color", DVec3::splat(0.5))? {
+            ColorTex::Color(c) => out.lines.push(at(format!("base_color = {}", vec3(c)))),
+            ColorTex::Bitmap(b) => {
+                out.lines
+                    .push(at(format!("base_color = {}", self.texture_ref(&b, false))));
+                out.textured = Some(b.loc);
+            }
+        }
+        // roughness and metallic may be textures (read as Mitsuba's eval_1); the other weights
+        // are numbers here.
+        for (name, default) in [("roughness", 0.5), ("metallic", 0.0)] {
+            if args.prop(name).is_some() {
+                let (value, _) =
+                    self.scalar_tex(args, obj, name, "principled", &mut out.textured)?;
+                out.lines.push(at(format!("{name} = {value}")));
+            } else {
+                out.lines.push(at(format!("{name} = {}", num(default))));
+            }
+        }
+        if let Some((t, l)) = args.float("spec_trans")?.filter(|(t, _)| *t != 0.0) {
+            return Err(l.error(
+                format!("spec_trans = {t}: vkpath reads the principled BSDF without its specular transmission"),
+                "Give spec_trans 0 (or leave it out), or use a roughdielectric for the glass.",
+            ));
+        }
+        if let Some((a, l)) = args.float("anisotropic")?.filter(|(a, _)| *a != 0.0) {
+            return Err(l.error(
+                format!("anisotropic = {a}: vkpath's tangent frame is not Mitsuba's, so the anisotropy would run another way"),
+                "Give anisotropic 0 (or leave it out).",
+            ));
+        }
+        match (args.float("specular")?, args.float("eta")?) {
+            (Some(_), Some((_, l))) => {
+                return Err(l.error(
+                    "both specular and eta (Mitsuba refuses them together)",
+                    "Give one of the two.",
+                ));
+            }
+            (None, Some((eta, _))) => out.lines.push(at(format!("ior = {}", num(eta)))),
+            (Some((s, _)), None) => out.lines.push(at(format!("specular = {}", num(s)))),
+            (None, None) => {}
+        }
+        // The weights vkpath's principled takes by the same names.
+        const WEIGHTS: [&str; 6] = [
+            "spec_tint",
+            "sheen",
+            "sheen_tint",
+            "clearcoat",
+            "clearcoat_gloss",
+            "flatness",
+        ];
+        // The sampling rates change how Mitsuba draws directions, not the image it converges to.
+        const RATES: [&str; 3] = [
+            "diffuse_reflectance_sampling_rate",
+            "main_specular_sampling_rate",
+            "clearcoat_sampling_rate",
+        ];
+        for name in WEIGHTS {
+            if let Some((x, _)) = args.float(name)? {
+                out.lines.push(at(format!("{name} = {}", num(x))));
+            }
+        }
+        for name in RATES {
+            let _ = args.float(name)?;
+        }
+        let read = [
+            "base_color",
+            "roughness",
+            "metallic",
+            "spec_trans",
+            "anisotropic",
+            "specular",
+            "eta",
+        ];
+        let known: Vec<&str> = read.into_iter().chain(WEIGHTS).chain(RATES).collect();
+        self.finish(args, &known)?;
+        Ok(())
     }
 
     /// The material of a shape with `bsdf` (Mitsuba's default: diffuse, reflectance 0.5) and `emission`

@@ -3,7 +3,7 @@
 
 use super::args::Args;
 use super::context::{ORTHO_TOL, Tr};
-use super::objects::Obj;
+use super::objects::{Loc, Obj};
 use super::toml_out::{num, vec3};
 use crate::scene::SceneError;
 use crate::scene::toml_text::toml_string;
@@ -134,7 +134,6 @@ impl Tr<'_> {
             &obj.loc,
         )?;
         let material = toml_string(&material);
-        let loc = Some(&obj.loc);
         let uv_kind = matches!(kind, "obj" | "ply" | "serialized" | "rectangle" | "cube");
         if texture.is_some() && !uv_kind {
             return Err(obj.loc.error(
@@ -142,208 +141,283 @@ impl Tr<'_> {
                 "Give the shape a plain colour, or make it a mesh with texture coordinates.",
             ));
         }
+        let cx = ShapeCx {
+            obj,
+            kind,
+            args: &args,
+            m,
+            xf_loc,
+            flip,
+            material,
+            textured: texture.is_some(),
+            shape_name,
+            in_group,
+        };
         match kind {
-            "sphere" => {
-                // Mitsuba places the unit sphere by to_world x translate(center) x scale(radius).
-                let center = args.vector("center")?.map_or(DVec3::ZERO, |(c, _)| c);
-                let radius = match args.float("radius")? {
-                    None => 1.0,
-                    Some((r, _)) if r > 0.0 => r,
-                    Some((r, l)) => {
-                        return Err(l.error(
-                            format!("radius = {r}: a sphere's radius must be > 0"),
-                            "Give a positive radius.",
-                        ));
-                    }
-                };
-                if let Some((true, l)) = flip {
-                    return Err(l.error(
-                        "flip_normals on a sphere: vkpath's sphere normals point outwards",
-                        "Remove flip_normals.",
-                    ));
-                }
-                self.finish(
-                    &args,
-                    &[
-                        "center",
-                        "radius",
-                        "to_world",
-                        "flip_normals",
-                        "bsdf",
-                        "emitter",
-                    ],
-                )?;
-                let full =
-                    m * DMat4::from_translation(center) * DMat4::from_scale(DVec3::splat(radius));
-                let (c, r) = similarity(&full).ok_or_else(|| {
-                    xf_loc.error(
-                        "the sphere's to_world scales unevenly or shears it: an ellipsoid, which vkpath's spheres cannot be",
-                        "Scale spheres uniformly (or give radius).",
-                    )
-                })?;
-                let o = &mut self.out_shapes;
-                o.line("", None);
-                o.line("[[sphere]]", loc);
-                o.line(format!("center   = {}", vec3(c)), loc);
-                o.line(format!("radius   = {}", num(r)), loc);
-                o.line(format!("material = {material}"), loc);
-            }
+            "sphere" => self.sphere_shape(cx)?,
             "rectangle" | "cube" | "disk" => {
                 self.finish(&args, &["to_world", "flip_normals", "bsdf", "emitter"])?;
-                // Textured: Mitsuba's own vertices with their uvs (rectangle: (x + 1, y + 1) / 2; the cube
-                // its 24-vertex mesh); else the plain triangles (the same surfaces).
-                let (local, uvs) = match (kind, texture.is_some()) {
-                    ("rectangle", false) => (rectangle_triangles(), None),
-                    ("cube", false) => (cube_triangles(), None),
-                    ("rectangle", true) => {
-                        let t = rectangle_triangles();
-                        let uv = t
-                            .iter()
-                            .map(|f| f.map(|p| [(p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0]))
-                            .collect();
-                        (t, Some(uv))
-                    }
-                    ("cube", true) => {
-                        let (t, uv) = mitsuba_cube();
-                        (t, Some(uv))
-                    }
-                    _ => (disk_triangles(), None),
-                };
-                // Mitsuba's rectangle and disk take their normal through the inverse transpose, so a
-                // mirroring to_world (det < 0) keeps it on the side that +z maps to, while the winding of
-                // the mirrored vertices turns to the other side: reverse it to keep the emitting side.
-                // (The cube is a mesh there, whose normals follow the winding.)
-                let det = DMat3::from_mat4(m).determinant();
-                let reverse = (det < 0.0 && kind != "cube") != flip.is_some_and(|(f, _)| f);
-                let o = &mut self.out_shapes;
-                for (k, [a, b, c]) in local.into_iter().enumerate() {
-                    let [a, b, c] = [a, b, c].map(|p| m.transform_point3(p));
-                    let (b, c) = if reverse { (c, b) } else { (b, c) };
-                    o.line("", None);
-                    o.line("[[triangle]]", loc);
-                    o.line(
-                        format!("vertices = [{}, {}, {}]", vec3(a), vec3(b), vec3(c)),
-                        loc,
-                    );
-                    o.line(format!("material = {material}"), loc);
-                    if let Some(uvs) = &uvs {
-                        let [ua, ub, uc]: [[f64; 2]; 3] = uvs[k];
-                        let (ub, uc) = if reverse { (uc, ub) } else { (ub, uc) };
-                        let uv = |[u, v]: [f64; 2]| format!("[{}, {}]", num(u), num(v));
-                        o.line(
-                            format!("uv       = [{}, {}, {}]", uv(ua), uv(ub), uv(uc)),
-                            loc,
-                        );
-                    }
-                }
+                self.flat_shape(cx);
             }
-            _ => {
-                let Some((name, floc)) = args.string("filename")? else {
-                    return Err(obj.loc.error(
-                        format!("a {kind} shape needs a filename"),
-                        "Give <string name=\"filename\" value=\"mesh.obj\"/>.",
-                    ));
-                };
-                let file = self.file(name, floc);
-                let face_normals = args.boolean("face_normals")?.is_some_and(|(f, _)| f);
-                if let Some((true, l)) = flip {
-                    return Err(l.error(
-                        "flip_normals on a mesh: vkpath's [[mesh]] keeps the file's winding",
-                        "Reverse the faces in the mesh file instead.",
-                    ));
-                }
-                let serialized = kind == "serialized";
-                let flip_uv = if serialized {
-                    None
-                } else {
-                    args.boolean("flip_tex_coords")?
-                };
-                // Which mesh of a .serialized file (Mitsuba's default 0).
-                let index_arg = if serialized {
-                    args.int("shape_index")?
-                } else {
-                    None
-                };
-                let shape_index = match index_arg {
-                    None => None,
-                    Some((i, l)) => Some(u32::try_from(i).map_err(|_| {
-                        l.error(
-                            format!("shape_index = {i}: a mesh's index in the file, from 0"),
-                            "Give 0 for the file's first mesh.",
-                        )
-                    })?),
-                };
-                if texture.is_some() {
-                    // vkpath's uv (0, 0) is the image's bottom-left corner: Mitsuba's OBJ reader with
-                    // flip_tex_coords = true (its default). Its PLY reader does not flip; nor does its
-                    // serialized reader, whose v vkpath's own turns over (super::super::serialized).
-                    let flipped = serialized || flip_uv.map_or(kind == "obj", |(f, _)| f);
-                    if !flipped {
-                        return Err(obj.loc.error(
-                            "a texture on a mesh whose texture coordinates Mitsuba does not flip (a PLY, or flip_tex_coords = false): vkpath's uv (0, 0) is the image's bottom-left corner",
-                            "Use an OBJ with flip_tex_coords true (the default).",
-                        ));
-                    }
-                }
-                self.finish(
-                    &args,
-                    &[
-                        "filename",
-                        "face_normals",
-                        if serialized {
-                            "shape_index"
-                        } else {
-                            "flip_tex_coords"
-                        },
-                        "to_world",
-                        "flip_normals",
-                        "bsdf",
-                        "emitter",
-                    ],
-                )?;
-                // A similarity as scale / rotate / translate; any other transform that keeps the
-                // handedness as a `matrix`. A mirror is refused: Mitsuba keeps a mesh's face normals on
-                // the side its winding gives (so a one-sided emitter turns around), where vkpath's
-                // `matrix` keeps the front a face had before (pbrt-v4's convention).
-                let srt = placement(&m);
-                if srt.is_none() && DMat3::from_mat4(m).determinant() <= 0.0 {
-                    return Err(xf_loc.error(
-                        "the mesh's to_world mirrors it (or is singular)",
-                        "Mitsuba turns a mirrored mesh's faces around and vkpath keeps their fronts: bake the mirror into the mesh file.",
-                    ));
-                }
-                // A shapegroup's mesh at its second and later instances: one more placement of the
-                // mesh written at the first.
-                let key = obj as *const Obj as usize;
-                if let Some(mesh) = self.shared_meshes.get(&key).filter(|_| in_group) {
-                    let mesh = toml_string(mesh);
-                    let o = &mut self.out_shapes;
-                    o.line("", None);
-                    o.line("[[instance]]", loc);
-                    o.line(format!("mesh      = {mesh}"), loc);
-                    write_placement(o, srt, &m, &xf_loc);
-                    return Ok(());
-                }
-                let file_ref = self.refer(&file);
-                let o = &mut self.out_shapes;
-                o.line("", None);
-                o.line("[[mesh]]", loc);
-                if in_group {
-                    o.line(format!("name      = {}", toml_string(&shape_name)), loc);
-                    self.shared_meshes.insert(key, shape_name.clone());
-                }
-                let o = &mut self.out_shapes;
-                o.line(format!("obj       = {file_ref}"), Some(floc));
-                if let Some(i) = shape_index {
-                    o.line(format!("shape_index = {i}"), loc);
-                }
-                o.line(format!("material  = {material}"), loc);
-                write_placement(o, srt, &m, &xf_loc);
-                o.line(format!("smooth    = {}", !face_normals), loc);
-            }
+            _ => self.mesh_shape(cx)?,
         }
         Ok(())
     }
+
+    /// A `sphere`: Mitsuba's unit sphere placed by to_world x translate(center) x scale(radius), which
+    /// must be a similarity.
+    fn sphere_shape(&mut self, cx: ShapeCx<'_>) -> Result<(), SceneError> {
+        let ShapeCx {
+            obj,
+            args,
+            m,
+            xf_loc,
+            flip,
+            material,
+            ..
+        } = cx;
+        let loc = Some(&obj.loc);
+        // Mitsuba places the unit sphere by to_world x translate(center) x scale(radius).
+        let center = args.vector("center")?.map_or(DVec3::ZERO, |(c, _)| c);
+        let radius = match args.float("radius")? {
+            None => 1.0,
+            Some((r, _)) if r > 0.0 => r,
+            Some((r, l)) => {
+                return Err(l.error(
+                    format!("radius = {r}: a sphere's radius must be > 0"),
+                    "Give a positive radius.",
+                ));
+            }
+        };
+        if let Some((true, l)) = flip {
+            return Err(l.error(
+                "flip_normals on a sphere: vkpath's sphere normals point outwards",
+                "Remove flip_normals.",
+            ));
+        }
+        self.finish(
+            args,
+            &[
+                "center",
+                "radius",
+                "to_world",
+                "flip_normals",
+                "bsdf",
+                "emitter",
+            ],
+        )?;
+        let full = m * DMat4::from_translation(center) * DMat4::from_scale(DVec3::splat(radius));
+        let (c, r) = similarity(&full).ok_or_else(|| {
+            xf_loc.error(
+                "the sphere's to_world scales unevenly or shears it: an ellipsoid, which vkpath's spheres cannot be",
+                "Scale spheres uniformly (or give radius).",
+            )
+        })?;
+        let o = &mut self.out_shapes;
+        o.line("", None);
+        o.line("[[sphere]]", loc);
+        o.line(format!("center   = {}", vec3(c)), loc);
+        o.line(format!("radius   = {}", num(r)), loc);
+        o.line(format!("material = {material}"), loc);
+        Ok(())
+    }
+
+    /// A `rectangle`, `cube` or `disk`: its triangles placed (with Mitsuba's uvs when textured).
+    fn flat_shape(&mut self, cx: ShapeCx<'_>) {
+        let ShapeCx {
+            obj,
+            kind,
+            m,
+            flip,
+            material,
+            textured,
+            ..
+        } = cx;
+        let loc = Some(&obj.loc);
+        // Textured: Mitsuba's own vertices with their uvs (rectangle: (x + 1, y + 1) / 2; the cube
+        // its 24-vertex mesh); else the plain triangles (the same surfaces).
+        let (local, uvs) = match (kind, textured) {
+            ("rectangle", false) => (rectangle_triangles(), None),
+            ("cube", false) => (cube_triangles(), None),
+            ("rectangle", true) => {
+                let t = rectangle_triangles();
+                let uv = t
+                    .iter()
+                    .map(|f| f.map(|p| [(p.x + 1.0) / 2.0, (p.y + 1.0) / 2.0]))
+                    .collect();
+                (t, Some(uv))
+            }
+            ("cube", true) => {
+                let (t, uv) = mitsuba_cube();
+                (t, Some(uv))
+            }
+            _ => (disk_triangles(), None),
+        };
+        // Mitsuba's rectangle and disk take their normal through the inverse transpose, so a
+        // mirroring to_world (det < 0) keeps it on the side that +z maps to, while the winding of
+        // the mirrored vertices turns to the other side: reverse it to keep the emitting side.
+        // (The cube is a mesh there, whose normals follow the winding.)
+        let det = DMat3::from_mat4(m).determinant();
+        let reverse = (det < 0.0 && kind != "cube") != flip.is_some_and(|(f, _)| f);
+        let o = &mut self.out_shapes;
+        for (k, [a, b, c]) in local.into_iter().enumerate() {
+            let [a, b, c] = [a, b, c].map(|p| m.transform_point3(p));
+            let (b, c) = if reverse { (c, b) } else { (b, c) };
+            o.line("", None);
+            o.line("[[triangle]]", loc);
+            o.line(
+                format!("vertices = [{}, {}, {}]", vec3(a), vec3(b), vec3(c)),
+                loc,
+            );
+            o.line(format!("material = {material}"), loc);
+            if let Some(uvs) = &uvs {
+                let [ua, ub, uc]: [[f64; 2]; 3] = uvs[k];
+                let (ub, uc) = if reverse { (uc, ub) } else { (ub, uc) };
+                let uv = |[u, v]: [f64; 2]| format!("[{}, {}]", num(u), num(v));
+                o.line(
+                    format!("uv       = [{}, {}, {}]", uv(ua), uv(ub), uv(uc)),
+                    loc,
+                );
+            }
+        }
+    }
+
+    /// An `obj`, `ply` or `serialized` mesh: a `[[mesh]]` of the file, placed; a shapegroup's mesh
+    /// written once and instanced after.
+    fn mesh_shape(&mut self, cx: ShapeCx<'_>) -> Result<(), SceneError> {
+        let ShapeCx {
+            obj,
+            kind,
+            args,
+            m,
+            xf_loc,
+            flip,
+            material,
+            textured,
+            shape_name,
+            in_group,
+        } = cx;
+        let loc = Some(&obj.loc);
+        let Some((name, floc)) = args.string("filename")? else {
+            return Err(obj.loc.error(
+                format!("a {kind} shape needs a filename"),
+                "Give <string name=\"filename\" value=\"mesh.obj\"/>.",
+            ));
+        };
+        let file = self.file(name, floc);
+        let face_normals = args.boolean("face_normals")?.is_some_and(|(f, _)| f);
+        if let Some((true, l)) = flip {
+            return Err(l.error(
+                "flip_normals on a mesh: vkpath's [[mesh]] keeps the file's winding",
+                "Reverse the faces in the mesh file instead.",
+            ));
+        }
+        let serialized = kind == "serialized";
+        let flip_uv = if serialized {
+            None
+        } else {
+            args.boolean("flip_tex_coords")?
+        };
+        // Which mesh of a .serialized file (Mitsuba's default 0).
+        let index_arg = if serialized {
+            args.int("shape_index")?
+        } else {
+            None
+        };
+        let shape_index = match index_arg {
+            None => None,
+            Some((i, l)) => Some(u32::try_from(i).map_err(|_| {
+                l.error(
+                    format!("shape_index = {i}: a mesh's index in the file, from 0"),
+                    "Give 0 for the file's first mesh.",
+                )
+            })?),
+        };
+        if textured {
+            // vkpath's uv (0, 0) is the image's bottom-left corner: Mitsuba's OBJ reader with
+            // flip_tex_coords = true (its default). Its PLY reader does not flip; nor does its
+            // serialized reader, whose v vkpath's own turns over (super::super::serialized).
+            let flipped = serialized || flip_uv.map_or(kind == "obj", |(f, _)| f);
+            if !flipped {
+                return Err(obj.loc.error(
+                    "a texture on a mesh whose texture coordinates Mitsuba does not flip (a PLY, or flip_tex_coords = false): vkpath's uv (0, 0) is the image's bottom-left corner",
+                    "Use an OBJ with flip_tex_coords true (the default).",
+                ));
+            }
+        }
+        self.finish(
+            args,
+            &[
+                "filename",
+                "face_normals",
+                if serialized {
+                    "shape_index"
+                } else {
+                    "flip_tex_coords"
+                },
+                "to_world",
+                "flip_normals",
+                "bsdf",
+                "emitter",
+            ],
+        )?;
+        // A similarity as scale / rotate / translate; any other transform that keeps the
+        // handedness as a `matrix`. A mirror is refused: Mitsuba keeps a mesh's face normals on
+        // the side its winding gives (so a one-sided emitter turns around), where vkpath's
+        // `matrix` keeps the front a face had before (pbrt-v4's convention).
+        let srt = placement(&m);
+        if srt.is_none() && DMat3::from_mat4(m).determinant() <= 0.0 {
+            return Err(xf_loc.error(
+                "the mesh's to_world mirrors it (or is singular)",
+                "Mitsuba turns a mirrored mesh's faces around and vkpath keeps their fronts: bake the mirror into the mesh file.",
+            ));
+        }
+        // A shapegroup's mesh at its second and later instances: one more placement of the
+        // mesh written at the first.
+        let key = obj as *const Obj as usize;
+        if let Some(mesh) = self.shared_meshes.get(&key).filter(|_| in_group) {
+            let mesh = toml_string(mesh);
+            let o = &mut self.out_shapes;
+            o.line("", None);
+            o.line("[[instance]]", loc);
+            o.line(format!("mesh      = {mesh}"), loc);
+            write_placement(o, srt, &m, &xf_loc);
+            return Ok(());
+        }
+        let file_ref = self.refer(&file);
+        let o = &mut self.out_shapes;
+        o.line("", None);
+        o.line("[[mesh]]", loc);
+        if in_group {
+            o.line(format!("name      = {}", toml_string(&shape_name)), loc);
+            self.shared_meshes.insert(key, shape_name.clone());
+        }
+        let o = &mut self.out_shapes;
+        o.line(format!("obj       = {file_ref}"), Some(floc));
+        if let Some(i) = shape_index {
+            o.line(format!("shape_index = {i}"), loc);
+        }
+        o.line(format!("material  = {material}"), loc);
+        write_placement(o, srt, &m, &xf_loc);
+        o.line(format!("smooth    = {}", !face_normals), loc);
+        Ok(())
+    }
+}
+
+/// What the translation of one shape's kind needs: the shape, its parameters, its placement (to_world
+/// after the parent's) and where it was given, `flip_normals`, its material's TOML name, whether the
+/// material reads a texture, the shape's name and whether it is a shapegroup's member.
+struct ShapeCx<'a> {
+    obj: &'a Obj,
+    kind: &'a str,
+    args: &'a Args<'a>,
+    m: DMat4,
+    xf_loc: Loc,
+    flip: Option<(bool, &'a Loc)>,
+    material: String,
+    textured: bool,
+    shape_name: String,
+    in_group: bool,
 }
 
 /// A mesh's placement in a `[[mesh]]` or `[[instance]]`: `srt` (scale, rotate, translate) when the

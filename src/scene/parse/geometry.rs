@@ -83,6 +83,30 @@ pub(super) struct MeshPart {
     maps: MeshMaps,
 }
 
+/// What the readers of one `[[mesh]]`'s keys share: its index and keys, its `material` (an index into
+/// the scene's materials so far), the file read.
+struct MeshContext<'a> {
+    i: usize,
+    raw: &'a RawMesh,
+    material: Option<u32>,
+    names: &'a [String],
+    materials: &'a [Material],
+    base: &'a Path,
+    obj_path: PathBuf,
+    obj: Arc<ObjMesh>,
+}
+
+impl MeshContext<'_> {
+    /// The dotted key of `field` in this mesh's table.
+    fn key(&self, field: &str) -> String {
+        format!("mesh[{}].{field}", self.i)
+    }
+}
+
+/// A group of a mesh's faces by their file material: its id in the file, the scene material's index,
+/// its texture and maps.
+type MtlGroup = (Option<u32>, u32, Option<Arc<Texture>>, MeshMaps);
+
 /// An axis-aligned box, its least and greatest corners (empty: +inf and -inf).
 type Bounds = [DVec3; 2];
 
@@ -282,196 +306,20 @@ impl Checker<'_> {
         )?;
         let smooth = m.smooth.as_ref().is_none_or(|s| *s.get_ref());
 
-        let obj_path = base.join(m.obj.get_ref());
-        let shape_index = match &m.shape_index {
-            None => 0,
-            Some(s) if mesh_file::is_serialized(&obj_path) => *s.get_ref(),
-            Some(s) => {
-                return Err(self.error(
-                    s.span(),
-                    &key("shape_index"),
-                    "shape_index picks one of the meshes of a Mitsuba .serialized file, and this mesh is \
-                     not one",
-                    "Remove shape_index.",
-                ));
-            }
+        let (obj_path, obj) = self.mesh_file(i, m, base, files)?;
+        let cx = MeshContext {
+            i,
+            raw: m,
+            material,
+            names,
+            materials,
+            base,
+            obj_path,
+            obj,
         };
-        let cached = (obj_path.clone(), shape_index);
-        let obj = match files.objs.get(&cached) {
-            Some(obj) => obj.clone(),
-            None => {
-                let loaded = mesh_file::load_mesh_file(&obj_path, shape_index).map_err(|e| {
-                    let at = e.line.map_or(String::new(), |l| format!(", line {l}"));
-                    let hint = if mesh_file::is_gltf(&obj_path) {
-                        "The path is relative to the scene file. A glTF 2.0 file (.gltf with its buffers, or .glb) \
-                         needs a scene with at least one mesh of TRIANGLES primitives."
-                    } else if mesh_file::is_serialized(&obj_path) {
-                        "The path is relative to the scene file. A Mitsuba .serialized file (versions 3 and 4) \
-                         holds one or more meshes; shape_index picks one (from 0)."
-                    } else if mesh_file::is_ply(&obj_path) {
-                        "The path is relative to the scene file. A PLY mesh (ascii or binary, version 1.0) needs \
-                         `element vertex` with x, y, z (nx, ny, nz and u, v optional) and `element face` with a \
-                         `vertex_indices` list, all numbers finite."
-                    } else {
-                        "The path is relative to the scene file. The OBJ must have `v x y z` vertices and `f` faces \
-                         with 1-based indices (`vt u v` and `vn x y z` optional), all numbers finite."
-                    };
-                    self.error(
-                        m.obj.span(),
-                        &key("obj"),
-                        format!("{}{at}: {}", obj_path.display(), e.message),
-                        hint,
-                    )
-                })?;
-                let loaded = Arc::new(loaded);
-                files.objs.insert(cached, loaded.clone());
-                loaded
-            }
-        };
-
-        let texture = match (&m.texture, material) {
-            (None, _) => None,
-            (Some(t), None) => {
-                return Err(self.error(
-                    t.span(),
-                    &key("texture"),
-                    "a texture is given but no material for it to apply to",
-                    "Give the mesh a `material` as well; without one, the OBJ's MTL materials are used, with \
-                     their own map_Kd textures.",
-                ));
-            }
-            (Some(t), Some(material)) => {
-                let tkey = key("texture");
-                // The texture replaces the albedo (or tint) and multiplies the emission: a material with
-                // neither has nothing for it to change.
-                let untexturable = match materials.get(material as usize) {
-                    Some(Material {
-                        bsdf: Bsdf::Dielectric { .. },
-                        emission: None,
-                        ..
-                    }) => Some("a dielectric that does not emit"),
-                    Some(Material {
-                        bsdf:
-                            Bsdf::Conductor {
-                                fresnel: ConductorFresnel::Complex { .. },
-                                ..
-                            },
-                        emission: None,
-                        ..
-                    }) => Some("a conductor given by its index of refraction that does not emit"),
-                    _ => None,
-                };
-                if let Some(what) = untexturable {
-                    return Err(self.error(
-                        t.span(),
-                        &tkey,
-                        format!(
-                            "material \"{}\" is {what}: it has no albedo for a texture to replace and no emission for it to multiply",
-                            names[material as usize]
-                        ),
-                        "Give textured meshes a diffuse or plastic material (the texture is the albedo), a mirror (the tint), a metallic_roughness material or a conductor with base_color (the texture is the base colour) or an emitting material (the texture multiplies the emission).",
-                    ));
-                }
-                if obj.uvs.is_none() {
-                    return Err(self.error(
-                        t.span(),
-                        &tkey,
-                        format!(
-                            "{} has no texture coordinates (`vt`) for every face corner, so the texture cannot be mapped",
-                            obj_path.display()
-                        ),
-                        "Export the OBJ with uvs (faces written `v/vt` or `v/vt/vn`), or remove `texture`.",
-                    ));
-                }
-                Some(self.mesh_texture(
-                    t,
-                    &tkey,
-                    base,
-                    files,
-                    "The path is relative to the scene file; the texture must be a PNG image (sRGB).",
-                )?)
-            }
-        };
-
-        // The glTF-style maps (docs/scene-format.md, "[[mesh]]"): each needs the mesh's `material`, a
-        // material it can change, and the mesh's uvs.
-        let mut maps = MeshMaps {
-            normal_scale: 1.0,
-            ..MeshMaps::default()
-        };
-        let given = [
-            ("emission_texture", &m.emission_texture),
-            ("metallic_roughness_texture", &m.metallic_roughness_texture),
-            ("normal_map", &m.normal_map),
-        ];
-        for (field, t) in given {
-            let Some(t) = t else { continue };
-            let tkey = key(field);
-            let Some(material) = material else {
-                return Err(self.error(
-                    t.span(),
-                    &tkey,
-                    format!("`{field}` is given but no material for it to apply to"),
-                    "Give the mesh a `material` as well.",
-                ));
-            };
-            let mat = materials.get(material as usize);
-            let unfit = match field {
-                "emission_texture" if mat.is_some_and(|m| m.emission.is_none()) => {
-                    Some("does not emit: there is no emission for the texture to multiply")
-                }
-                "metallic_roughness_texture"
-                    if !mat.is_some_and(|m| matches!(m.bsdf, Bsdf::MetallicRoughness { .. })) =>
-                {
-                    Some(
-                        "is not a metallic_roughness material: it has no metallic and roughness for the texture to scale",
-                    )
-                }
-                _ => None,
-            };
-            if let Some(why) = unfit {
-                return Err(self.error(
-                    t.span(),
-                    &tkey,
-                    format!("material \"{}\" {why}", names[material as usize]),
-                    "emission_texture needs an emitting material (an `emission`, or an emitter), metallic_roughness_texture a metallic_roughness material.",
-                ));
-            }
-            if obj.uvs.is_none() {
-                return Err(self.error(
-                    t.span(),
-                    &tkey,
-                    format!(
-                        "{} has no texture coordinates (`vt`) for every face corner, so `{field}` cannot be mapped",
-                        obj_path.display()
-                    ),
-                    "Export the OBJ with uvs (faces written `v/vt` or `v/vt/vn`), or remove the key.",
-                ));
-            }
-            let tex = self.mesh_texture(
-                t,
-                &tkey,
-                base,
-                files,
-                "The path is relative to the scene file; data maps (metallic_roughness_texture, normal_map) are read as stored, so give them as PNG (8-bit, not sRGB-decoded).",
-            )?;
-            match field {
-                "emission_texture" => maps.emissive = Some(tex),
-                "metallic_roughness_texture" => maps.metallic_roughness = Some(tex),
-                _ => maps.normal = Some(tex),
-            }
-        }
-        if let Some(s) = &m.normal_scale {
-            if m.normal_map.is_none() {
-                return Err(self.error(
-                    s.span(),
-                    &key("normal_scale"),
-                    "normal_scale is given without a normal_map",
-                    "Give the mesh a `normal_map`, or remove `normal_scale`.",
-                ));
-            }
-            maps.normal_scale = self.number(s, &key("normal_scale"))?;
-        }
+        let texture = self.mesh_texture_key(&cx, files)?;
+        let maps = self.mesh_maps(&cx, files)?;
+        let (obj_path, obj) = (&cx.obj_path, cx.obj.clone());
 
         let mut table = MeshTable {
             source: MeshSource {
@@ -526,7 +374,7 @@ impl Checker<'_> {
         // A glTF primitive without a material has the file's default (glTF 2.0 §3.9.6), even when the
         // file has no materials at all: vkpath's, diffuse Kd 0.8, as for the primitives that name none
         // in a file that has some (docs/scene-format.md, "glTF meshes").
-        if obj.materials.is_empty() && !mesh_file::is_gltf(&obj_path) {
+        if obj.materials.is_empty() && !mesh_file::is_gltf(obj_path) {
             let Some(problem) = &obj.mtl_problem else {
                 return Err(self.error(
                     raw.span(),
@@ -542,11 +390,278 @@ impl Checker<'_> {
                 "mesh[{i}]: {problem}; its faces are diffuse grey (albedo 0.8, MTL's default Kd). Give the mesh a `material` to choose one."
             ));
         }
+        let made = self.mtl_materials(&cx, &mut table, files);
+        let parts_of = |m: &ObjMesh| -> Vec<MeshPart> {
+            made.iter()
+                .map(|(id, index, texture, maps)| MeshPart {
+                    obj: Arc::new(m.subset(*id)),
+                    material: *index,
+                    texture: texture.clone(),
+                    maps: maps.clone(),
+                })
+                .filter(|part| !part.obj.triangles.is_empty())
+                .collect()
+        };
+        table.source.parts = parts_of(&obj);
+        table.source.shared = obj
+            .shared
+            .iter()
+            .map(|g| SharedParts {
+                parts: parts_of(&g.mesh),
+                nodes: g.nodes.clone(),
+                bounds: OnceCell::new(),
+            })
+            .collect();
+        // (The MTL materials are not in `materials` yet: the parts look theirs up in the table.)
+        let mut all = materials.to_vec();
+        all.extend(table.materials.iter().map(|(_, m)| m.clone()));
+        self.place_table(table, &placement, &all, raw.span(), &format!("mesh[{i}]"))
+    }
+
+    /// A `[[mesh]]`'s file (`obj`, and `shape_index` for a Mitsuba .serialized file), read once however
+    /// many meshes name it; a problem reading it is reported at the `obj` key, with the file's own line.
+    fn mesh_file(
+        &self,
+        i: usize,
+        m: &RawMesh,
+        base: &Path,
+        files: &mut FileCache,
+    ) -> Result<(PathBuf, Arc<ObjMesh>), SceneError> {
+        let key = |field: &str| format!("mesh[{i}].{field}");
+        let obj_path = base.join(m.obj.get_ref());
+        let shape_index = match &m.shape_index {
+            None => 0,
+            Some(s) if mesh_file::is_serialized(&obj_path) => *s.get_ref(),
+            Some(s) => {
+                return Err(self.error(
+                    s.span(),
+                    &key("shape_index"),
+                    "shape_index picks one of the meshes of a Mitsuba .serialized file, and this mesh is \
+                     not one",
+                    "Remove shape_index.",
+                ));
+            }
+        };
+        let cached = (obj_path.clone(), shape_index);
+        let obj = match files.objs.get(&cached) {
+            Some(obj) => obj.clone(),
+            None => {
+                let loaded = mesh_file::load_mesh_file(&obj_path, shape_index).map_err(|e| {
+                    let at = e.line.map_or(String::new(), |l| format!(", line {l}"));
+                    let hint = if mesh_file::is_gltf(&obj_path) {
+                        "The path is relative to the scene file. A glTF 2.0 file (.gltf with its buffers, or .glb) \
+                         needs a scene with at least one mesh of TRIANGLES primitives."
+                    } else if mesh_file::is_serialized(&obj_path) {
+                        "The path is relative to the scene file. A Mitsuba .serialized file (versions 3 and 4) \
+                         holds one or more meshes; shape_index picks one (from 0)."
+                    } else if mesh_file::is_ply(&obj_path) {
+                        "The path is relative to the scene file. A PLY mesh (ascii or binary, version 1.0) needs \
+                         `element vertex` with x, y, z (nx, ny, nz and u, v optional) and `element face` with a \
+                         `vertex_indices` list, all numbers finite."
+                    } else {
+                        "The path is relative to the scene file. The OBJ must have `v x y z` vertices and `f` faces \
+                         with 1-based indices (`vt u v` and `vn x y z` optional), all numbers finite."
+                    };
+                    self.error(
+                        m.obj.span(),
+                        &key("obj"),
+                        format!("{}{at}: {}", obj_path.display(), e.message),
+                        hint,
+                    )
+                })?;
+                let loaded = Arc::new(loaded);
+                files.objs.insert(cached, loaded.clone());
+                loaded
+            }
+        };
+        Ok((obj_path, obj))
+    }
+
+    /// A `[[mesh]]`'s `texture`: the albedo (tint, base colour) of its material, or the factor of its
+    /// emission; it needs a material with one of those and the file's texture coordinates.
+    fn mesh_texture_key(
+        &self,
+        cx: &MeshContext<'_>,
+        files: &mut FileCache,
+    ) -> Result<Option<Arc<Texture>>, SceneError> {
+        Ok(match (&cx.raw.texture, cx.material) {
+            (None, _) => None,
+            (Some(t), None) => {
+                return Err(self.error(
+                    t.span(),
+                    &cx.key("texture"),
+                    "a texture is given but no material for it to apply to",
+                    "Give the mesh a `material` as well; without one, the OBJ's MTL materials are used, with \
+                     their own map_Kd textures.",
+                ));
+            }
+            (Some(t), Some(material)) => {
+                let tkey = cx.key("texture");
+                // The texture replaces the albedo (or tint) and multiplies the emission: a material with
+                // neither has nothing for it to change.
+                let untexturable = match cx.materials.get(material as usize) {
+                    Some(Material {
+                        bsdf: Bsdf::Dielectric { .. },
+                        emission: None,
+                        ..
+                    }) => Some("a dielectric that does not emit"),
+                    Some(Material {
+                        bsdf:
+                            Bsdf::Conductor {
+                                fresnel: ConductorFresnel::Complex { .. },
+                                ..
+                            },
+                        emission: None,
+                        ..
+                    }) => Some("a conductor given by its index of refraction that does not emit"),
+                    Some(Material {
+                        bsdf: Bsdf::Plugin { .. },
+                        emission: None,
+                        ..
+                    }) => Some(
+                        "a plugin material that does not emit (its parameters take their textures in its own table)",
+                    ),
+                    _ => None,
+                };
+                if let Some(what) = untexturable {
+                    return Err(self.error(
+                        t.span(),
+                        &tkey,
+                        format!(
+                            "material \"{}\" is {what}: it has no albedo for a texture to replace and no emission for it to multiply",
+                            cx.names[material as usize]
+                        ),
+                        "Give textured meshes a diffuse or plastic material (the texture is the albedo), a mirror (the tint), a metallic_roughness material or a conductor with base_color (the texture is the base colour) or an emitting material (the texture multiplies the emission).",
+                    ));
+                }
+                if cx.obj.uvs.is_none() {
+                    return Err(self.error(
+                        t.span(),
+                        &tkey,
+                        format!(
+                            "{} has no texture coordinates (`vt`) for every face corner, so the texture cannot be mapped",
+                            cx.obj_path.display()
+                        ),
+                        "Export the OBJ with uvs (faces written `v/vt` or `v/vt/vn`), or remove `texture`.",
+                    ));
+                }
+                Some(self.mesh_texture(
+                    t,
+                    &tkey,
+                    cx.base,
+                    files,
+                    "The path is relative to the scene file; the texture must be a PNG image (sRGB).",
+                )?)
+            }
+        })
+    }
+
+    /// A `[[mesh]]`'s glTF-style maps (docs/scene-format.md, "[[mesh]]"): each needs the mesh's
+    /// `material`, a material it can change, and the file's texture coordinates.
+    fn mesh_maps(
+        &self,
+        cx: &MeshContext<'_>,
+        files: &mut FileCache,
+    ) -> Result<MeshMaps, SceneError> {
+        let mut maps = MeshMaps {
+            normal_scale: 1.0,
+            ..MeshMaps::default()
+        };
+        let given = [
+            ("emission_texture", &cx.raw.emission_texture),
+            (
+                "metallic_roughness_texture",
+                &cx.raw.metallic_roughness_texture,
+            ),
+            ("normal_map", &cx.raw.normal_map),
+        ];
+        for (field, t) in given {
+            let Some(t) = t else { continue };
+            let tkey = cx.key(field);
+            let Some(material) = cx.material else {
+                return Err(self.error(
+                    t.span(),
+                    &tkey,
+                    format!("`{field}` is given but no material for it to apply to"),
+                    "Give the mesh a `material` as well.",
+                ));
+            };
+            let mat = cx.materials.get(material as usize);
+            let unfit = match field {
+                "emission_texture" if mat.is_some_and(|m| m.emission.is_none()) => {
+                    Some("does not emit: there is no emission for the texture to multiply")
+                }
+                "metallic_roughness_texture"
+                    if !mat.is_some_and(|m| matches!(m.bsdf, Bsdf::MetallicRoughness { .. })) =>
+                {
+                    Some(
+                        "is not a metallic_roughness material: it has no metallic and roughness for the texture to scale",
+                    )
+                }
+                _ => None,
+            };
+            if let Some(why) = unfit {
+                return Err(self.error(
+                    t.span(),
+                    &tkey,
+                    format!("material \"{}\" {why}", cx.names[material as usize]),
+                    "emission_texture needs an emitting material (an `emission`, or an emitter), metallic_roughness_texture a metallic_roughness material.",
+                ));
+            }
+            if cx.obj.uvs.is_none() {
+                return Err(self.error(
+                    t.span(),
+                    &tkey,
+                    format!(
+                        "{} has no texture coordinates (`vt`) for every face corner, so `{field}` cannot be mapped",
+                        cx.obj_path.display()
+                    ),
+                    "Export the OBJ with uvs (faces written `v/vt` or `v/vt/vn`), or remove the key.",
+                ));
+            }
+            let tex = self.mesh_texture(
+                t,
+                &tkey,
+                cx.base,
+                files,
+                "The path is relative to the scene file; data maps (metallic_roughness_texture, normal_map) are read as stored, so give them as PNG (8-bit, not sRGB-decoded).",
+            )?;
+            match field {
+                "emission_texture" => maps.emissive = Some(tex),
+                "metallic_roughness_texture" => maps.metallic_roughness = Some(tex),
+                _ => maps.normal = Some(tex),
+            }
+        }
+        if let Some(s) = &cx.raw.normal_scale {
+            if cx.raw.normal_map.is_none() {
+                return Err(self.error(
+                    s.span(),
+                    &cx.key("normal_scale"),
+                    "normal_scale is given without a normal_map",
+                    "Give the mesh a `normal_map`, or remove `normal_scale`.",
+                ));
+            }
+            maps.normal_scale = self.number(s, &cx.key("normal_scale"))?;
+        }
+        Ok(maps)
+    }
+
+    /// The scene materials of a `[[mesh]]` without a `material`: one per MTL (or glTF) material its
+    /// faces use, in the order they first use them, with its texture and maps (added to `table`, with
+    /// what could not be used as warnings). Returns, per group: the file's material id, the scene
+    /// material's index, its texture and maps.
+    fn mtl_materials(
+        &self,
+        cx: &MeshContext<'_>,
+        table: &mut MeshTable,
+        files: &mut FileCache,
+    ) -> Vec<MtlGroup> {
+        let i = cx.i;
         // One mesh per MTL material, in the order the faces first use them (faces with none, or when no
         // MTL file could be read, get MTL's default: diffuse, Kd 0.8); the file's own space first, then
         // its shared meshes, whose parts use the same scene materials.
         let mut groups: Vec<Option<u32>> = Vec::new();
-        for m in std::iter::once(&*obj).chain(obj.shared.iter().map(|g| &g.mesh)) {
+        for m in std::iter::once(&*cx.obj).chain(cx.obj.shared.iter().map(|g| &g.mesh)) {
             for t in 0..m.triangles.len() {
                 let id = m.face_materials.get(t).copied().flatten();
                 if !groups.contains(&id) {
@@ -556,10 +671,10 @@ impl Checker<'_> {
         }
         // Per material of the file: its scene material, texture and maps.
         let mut made = Vec::new();
-        let obj_dir = obj_path.parent().unwrap_or(Path::new("."));
+        let obj_dir = cx.obj_path.parent().unwrap_or(Path::new("."));
         for id in groups {
-            let index = (names.len() + table.materials.len()) as u32;
-            let (name, material, texture, maps) = match id.map(|k| &obj.materials[k as usize]) {
+            let index = (cx.names.len() + table.materials.len()) as u32;
+            let (name, material, texture, maps) = match id.map(|k| &cx.obj.materials[k as usize]) {
                 None => (
                     format!("mesh[{i}]/default"),
                     Material::from(Bsdf::Diffuse {
@@ -573,25 +688,25 @@ impl Checker<'_> {
                     if clipped {
                         table.warnings.push(format!(
                             "mesh[{i}]: {}: MTL material \"{}\" has colours outside [0, 1] or non-finite values; they were clipped",
-                            obj_path.display(),
+                            cx.obj_path.display(),
                             mtl.name
                         ));
                     }
                     let texture = match &mtl.diffuse_texture {
-                        _ if mtl.texture.is_some() && obj.uvs.is_some() => mtl.texture.clone(),
+                        _ if mtl.texture.is_some() && cx.obj.uvs.is_some() => mtl.texture.clone(),
                         None if mtl.texture.is_some() => {
                             table.warnings.push(format!(
                                 "mesh[{i}]: {}: material \"{}\" has a texture but the file has no texture coordinates for every vertex; the texture is not used",
-                                obj_path.display(),
+                                cx.obj_path.display(),
                                 mtl.name
                             ));
                             None
                         }
                         None => None,
-                        Some(_) if obj.uvs.is_none() => {
+                        Some(_) if cx.obj.uvs.is_none() => {
                             table.warnings.push(format!(
                                 "mesh[{i}]: {}: MTL material \"{}\" has a map_Kd but the OBJ has no texture coordinates; the texture is not used",
-                                obj_path.display(),
+                                cx.obj_path.display(),
                                 mtl.name
                             ));
                             None
@@ -619,14 +734,14 @@ impl Checker<'_> {
                     };
                     // glTF's other textures need the texture coordinates too.
                     let mut maps = mtl.maps.clone();
-                    if obj.uvs.is_none() {
+                    if cx.obj.uvs.is_none() {
                         if maps.emissive.is_some()
                             || maps.metallic_roughness.is_some()
                             || maps.normal.is_some()
                         {
                             table.warnings.push(format!(
                                 "mesh[{i}]: {}: material \"{}\" has an emissive, metallic-roughness or normal texture but the file has no texture coordinates for every vertex; it is not used",
-                                obj_path.display(),
+                                cx.obj_path.display(),
                                 mtl.name
                             ));
                         }
@@ -645,31 +760,7 @@ impl Checker<'_> {
             made.push((id, index, texture, maps));
             table.materials.push((name, material));
         }
-        let parts_of = |m: &ObjMesh| -> Vec<MeshPart> {
-            made.iter()
-                .map(|(id, index, texture, maps)| MeshPart {
-                    obj: Arc::new(m.subset(*id)),
-                    material: *index,
-                    texture: texture.clone(),
-                    maps: maps.clone(),
-                })
-                .filter(|part| !part.obj.triangles.is_empty())
-                .collect()
-        };
-        table.source.parts = parts_of(&obj);
-        table.source.shared = obj
-            .shared
-            .iter()
-            .map(|g| SharedParts {
-                parts: parts_of(&g.mesh),
-                nodes: g.nodes.clone(),
-                bounds: OnceCell::new(),
-            })
-            .collect();
-        // (The MTL materials are not in `materials` yet: the parts look theirs up in the table.)
-        let mut all = materials.to_vec();
-        all.extend(table.materials.iter().map(|(_, m)| m.clone()));
-        self.place_table(table, &placement, &all, raw.span(), &format!("mesh[{i}]"))
+        made
     }
 
     /// Places every part of `table.source` by `placement` into `table.meshes`; each of the file's
