@@ -504,35 +504,7 @@ impl Parser {
                 });
                 Ok(())
             }
-            "float" | "integer" | "boolean" | "string" => {
-                let a = self.attrs(src, node, &["name", "value"], &["name", "value"])?;
-                let v = a.get("value").unwrap_or("");
-                let value = match tag {
-                    "float" => Value::Float(parse_float(v).ok_or_else(|| {
-                        loc.error(format!("value=\"{v}\" is not a number"), "Write a decimal number, e.g. value=\"0.5\".")
-                    })?),
-                    "integer" => Value::Integer(v.trim().parse().map_err(|_| {
-                        loc.error(format!("value=\"{v}\" is not an integer"), "Write a whole number, e.g. value=\"64\".")
-                    })?),
-                    "boolean" => Value::Boolean(match v.trim().to_ascii_lowercase().as_str() {
-                        "true" => true,
-                        "false" => false,
-                        _ => {
-                            return Err(loc.error(
-                                format!("value=\"{v}\" is not a boolean"),
-                                "Write value=\"true\" or value=\"false\".",
-                            ));
-                        }
-                    }),
-                    _ => Value::Str(v.to_string()),
-                };
-                out.push(Prop {
-                    name: a.get("name").unwrap_or("").to_string(),
-                    value,
-                    loc,
-                });
-                Ok(())
-            }
+            "float" | "integer" | "boolean" | "string" => self.number_or_string(src, node, tag, loc, out),
             "point" | "vector" => {
                 let a = self.attrs(src, node, &["name", "value", "x", "y", "z"], &["name"])?;
                 let v = xyz(&a, 0.0).map_err(|p| loc.error(p, "Give value=\"x, y, z\" or the attributes x, y and z."))?;
@@ -543,67 +515,8 @@ impl Parser {
                 });
                 Ok(())
             }
-            "rgb" => {
-                let a = self.attrs(src, node, &["name", "value"], &["name", "value"])?;
-                let v = a.get("value").unwrap_or("");
-                let numbers = numbers(v);
-                let rgb = match numbers.as_deref() {
-                    Some([g]) => DVec3::splat(*g),
-                    Some([r, g, b]) => DVec3::new(*r, *g, *b),
-                    _ => {
-                        return Err(loc.error(
-                            format!("value=\"{v}\" is not one or three numbers"),
-                            "Write value=\"r, g, b\" (or one number for a grey).",
-                        ));
-                    }
-                };
-                out.push(Prop {
-                    name: a.get("name").unwrap_or("").to_string(),
-                    value: Value::Rgb(rgb),
-                    loc,
-                });
-                Ok(())
-            }
-            "spectrum" if node.attribute("type").is_none() => {
-                let a = self.attrs(src, node, &["name", "value", "filename"], &["name"])?;
-                let name = a.get("name").unwrap_or("").to_string();
-                let v = a.get("value").unwrap_or("");
-                let samples = match a.get("filename") {
-                    Some(_) if a.get("value").is_some() => {
-                        return Err(loc.error(
-                            "a spectrum with both a value and a filename",
-                            "Give one of them.",
-                        ));
-                    }
-                    Some(file) => Some(self.spectrum_file(src, file, &loc)?),
-                    None => None,
-                };
-                if let Some(x) = parse_float(v).filter(|_| samples.is_none()) {
-                    out.push(Prop {
-                        name,
-                        value: Value::Spectrum(x),
-                        loc,
-                    });
-                    return Ok(());
-                }
-                // Wavelength:value pairs, as the colour Mitsuba's RGB variants make of them (spectra.rs):
-                // bounded (a reflectance) unless inside an emitter or an index of refraction.
-                let Some(samples) = samples.or_else(|| spectrum_samples(v)) else {
-                    return Err(loc.error(
-                        format!("value=\"{v}\" is neither one number nor wavelength:value pairs in increasing wavelength (nm), two at least"),
-                        "Write value=\"0.5\" or value=\"400:0.343, 404:0.445, ...\".",
-                    ));
-                };
-                let in_emitter =
-                    node.parent_element().map(|p| p.tag_name().name()) == Some("emitter");
-                let unbounded = in_emitter || ["eta", "k", "int_ior", "ext_ior"].contains(&name.as_str());
-                out.push(Prop {
-                    name,
-                    value: Value::Rgb(spectrum_to_rgb(&samples, !unbounded)),
-                    loc,
-                });
-                Ok(())
-            }
+            "rgb" => self.rgb_element(src, node, loc, out),
+            "spectrum" if node.attribute("type").is_none() => self.spectrum_element(src, node, loc, out),
             "transform" => {
                 let a = self.attrs(src, node, &["name"], &["name"])?;
                 let xf = self.transform(src, node)?;
@@ -622,74 +535,217 @@ impl Parser {
                 "a <scene> inside another element",
                 "A file has one <scene>, its root; to combine files use <include filename=\"...\"/>.",
             )),
-            t if OBJECT_TAGS.contains(&t) || (t == "spectrum") => {
-                if t == "spectrum" {
-                    return self.unknown(
-                        loc,
-                        "a <spectrum type=...> plugin: vkpath renders in RGB and reads uniform spectra and wavelength:value lists only".into(),
-                    );
-                }
-                let a = self.attrs(src, node, &["type", "id", "name"], &["type"])?;
-                let mut props = Vec::new();
-                self.children(src, node, &mut props)?;
-                for (i, p) in props.iter().enumerate() {
-                    if !p.name.is_empty() && props[..i].iter().any(|q| q.name == p.name) {
-                        return Err(p.loc.error(
-                            format!("the parameter \"{}\" is given twice", p.name),
-                            "Give each parameter once.",
-                        ));
-                    }
-                }
-                let obj = Rc::new(Obj {
-                    tag: t.to_string(),
-                    kind: a.get("type").unwrap_or("").to_string(),
-                    loc: loc.clone(),
-                    props,
-                    legacy: src.upgrade,
-                });
-                if let Some(id) = a.get("id") {
-                    if let Some(prev) = self.ids.get(id) {
-                        return Err(loc.error(
-                            format!(
-                                "the id \"{id}\" is already used by {} at {}, line {}",
-                                prev.loc.element,
-                                prev.loc.file.display(),
-                                prev.loc.line
-                            ),
-                            "Give every object its own id.",
-                        ));
-                    }
-                    self.ids.insert(id.to_string(), obj.clone());
-                }
-                out.push(Prop {
-                    name: a.get("name").unwrap_or("").to_string(),
-                    value: Value::Object(obj),
-                    loc,
-                });
-                Ok(())
-            }
-            "path" => {
-                // Mitsuba's file resolver gains a folder: relative to the file that names it.
-                let a = self.attrs(src, node, &["value"], &["value"])?;
-                let value = a.get("value").unwrap_or("");
-                let p = Path::new(value);
-                let dir = if p.is_absolute() {
-                    p.to_path_buf()
-                } else {
-                    absolute(&absolute(&src.file).parent().unwrap_or(Path::new("")).join(p))
-                };
-                if !dir.is_dir() {
-                    return Err(loc.error(
-                        format!("the <path> folder \"{value}\" does not exist ({})", dir.display()),
-                        "A <path> adds a folder to search for files; it is relative to the file that names it.",
-                    ));
-                }
-                self.paths.push(dir);
-                Ok(())
-            }
+            t if OBJECT_TAGS.contains(&t) || (t == "spectrum") => self.object_element(src, node, tag, loc, out),
+            "path" => self.path_element(src, node, loc),
             "alias" => self.unknown(loc, format!("<{tag}> is not read by vkpath")),
             other => self.unknown(loc, format!("<{other}> is not a Mitsuba 3 element vkpath reads")),
         }
+    }
+
+    /// `<float>`, `<integer>`, `<boolean>`, `<string>`: a named value.
+    fn number_or_string(
+        &mut self,
+        src: &Src,
+        node: roxmltree::Node,
+        tag: &str,
+        loc: Loc,
+        out: &mut Vec<Prop>,
+    ) -> Result<(), SceneError> {
+        let a = self.attrs(src, node, &["name", "value"], &["name", "value"])?;
+        let v = a.get("value").unwrap_or("");
+        let value = match tag {
+            "float" => Value::Float(parse_float(v).ok_or_else(|| {
+                loc.error(
+                    format!("value=\"{v}\" is not a number"),
+                    "Write a decimal number, e.g. value=\"0.5\".",
+                )
+            })?),
+            "integer" => Value::Integer(v.trim().parse().map_err(|_| {
+                loc.error(
+                    format!("value=\"{v}\" is not an integer"),
+                    "Write a whole number, e.g. value=\"64\".",
+                )
+            })?),
+            "boolean" => Value::Boolean(match v.trim().to_ascii_lowercase().as_str() {
+                "true" => true,
+                "false" => false,
+                _ => {
+                    return Err(loc.error(
+                        format!("value=\"{v}\" is not a boolean"),
+                        "Write value=\"true\" or value=\"false\".",
+                    ));
+                }
+            }),
+            _ => Value::Str(v.to_string()),
+        };
+        out.push(Prop {
+            name: a.get("name").unwrap_or("").to_string(),
+            value,
+            loc,
+        });
+        Ok(())
+    }
+
+    /// `<rgb>`: a colour, three numbers or one grey.
+    fn rgb_element(
+        &mut self,
+        src: &Src,
+        node: roxmltree::Node,
+        loc: Loc,
+        out: &mut Vec<Prop>,
+    ) -> Result<(), SceneError> {
+        let a = self.attrs(src, node, &["name", "value"], &["name", "value"])?;
+        let v = a.get("value").unwrap_or("");
+        let numbers = numbers(v);
+        let rgb = match numbers.as_deref() {
+            Some([g]) => DVec3::splat(*g),
+            Some([r, g, b]) => DVec3::new(*r, *g, *b),
+            _ => {
+                return Err(loc.error(
+                    format!("value=\"{v}\" is not one or three numbers"),
+                    "Write value=\"r, g, b\" (or one number for a grey).",
+                ));
+            }
+        };
+        out.push(Prop {
+            name: a.get("name").unwrap_or("").to_string(),
+            value: Value::Rgb(rgb),
+            loc,
+        });
+        Ok(())
+    }
+
+    /// `<spectrum>` without a type: one number (uniform), wavelength:value pairs or a file of them, as the colour Mitsuba's RGB variants make of it.
+    fn spectrum_element(
+        &mut self,
+        src: &Src,
+        node: roxmltree::Node,
+        loc: Loc,
+        out: &mut Vec<Prop>,
+    ) -> Result<(), SceneError> {
+        let a = self.attrs(src, node, &["name", "value", "filename"], &["name"])?;
+        let name = a.get("name").unwrap_or("").to_string();
+        let v = a.get("value").unwrap_or("");
+        let samples = match a.get("filename") {
+            Some(_) if a.get("value").is_some() => {
+                return Err(loc.error(
+                    "a spectrum with both a value and a filename",
+                    "Give one of them.",
+                ));
+            }
+            Some(file) => Some(self.spectrum_file(src, file, &loc)?),
+            None => None,
+        };
+        if let Some(x) = parse_float(v).filter(|_| samples.is_none()) {
+            out.push(Prop {
+                name,
+                value: Value::Spectrum(x),
+                loc,
+            });
+            return Ok(());
+        }
+        // Wavelength:value pairs, as the colour Mitsuba's RGB variants make of them (spectra.rs):
+        // bounded (a reflectance) unless inside an emitter or an index of refraction.
+        let Some(samples) = samples.or_else(|| spectrum_samples(v)) else {
+            return Err(loc.error(
+                format!("value=\"{v}\" is neither one number nor wavelength:value pairs in increasing wavelength (nm), two at least"),
+                "Write value=\"0.5\" or value=\"400:0.343, 404:0.445, ...\".",
+            ));
+        };
+        let in_emitter = node.parent_element().map(|p| p.tag_name().name()) == Some("emitter");
+        let unbounded = in_emitter || ["eta", "k", "int_ior", "ext_ior"].contains(&name.as_str());
+        out.push(Prop {
+            name,
+            value: Value::Rgb(spectrum_to_rgb(&samples, !unbounded)),
+            loc,
+        });
+        Ok(())
+    }
+
+    /// A plugin object (`<bsdf>`, `<shape>`, ...): its parameters read, given once each, and its id registered.
+    fn object_element(
+        &mut self,
+        src: &Src,
+        node: roxmltree::Node,
+        tag: &str,
+        loc: Loc,
+        out: &mut Vec<Prop>,
+    ) -> Result<(), SceneError> {
+        if tag == "spectrum" {
+            return self.unknown(
+                loc,
+                "a <spectrum type=...> plugin: vkpath renders in RGB and reads uniform spectra and wavelength:value lists only".into(),
+            );
+        }
+        let a = self.attrs(src, node, &["type", "id", "name"], &["type"])?;
+        let mut props = Vec::new();
+        self.children(src, node, &mut props)?;
+        for (i, p) in props.iter().enumerate() {
+            if !p.name.is_empty() && props[..i].iter().any(|q| q.name == p.name) {
+                return Err(p.loc.error(
+                    format!("the parameter \"{}\" is given twice", p.name),
+                    "Give each parameter once.",
+                ));
+            }
+        }
+        let obj = Rc::new(Obj {
+            tag: tag.to_string(),
+            kind: a.get("type").unwrap_or("").to_string(),
+            loc: loc.clone(),
+            props,
+            legacy: src.upgrade,
+        });
+        if let Some(id) = a.get("id") {
+            if let Some(prev) = self.ids.get(id) {
+                return Err(loc.error(
+                    format!(
+                        "the id \"{id}\" is already used by {} at {}, line {}",
+                        prev.loc.element,
+                        prev.loc.file.display(),
+                        prev.loc.line
+                    ),
+                    "Give every object its own id.",
+                ));
+            }
+            self.ids.insert(id.to_string(), obj.clone());
+        }
+        out.push(Prop {
+            name: a.get("name").unwrap_or("").to_string(),
+            value: Value::Object(obj),
+            loc,
+        });
+        Ok(())
+    }
+
+    /// `<path>`: a folder added to where files are looked for, relative to the file that names it.
+    fn path_element(
+        &mut self,
+        src: &Src,
+        node: roxmltree::Node,
+        loc: Loc,
+    ) -> Result<(), SceneError> {
+        // Mitsuba's file resolver gains a folder: relative to the file that names it.
+        let a = self.attrs(src, node, &["value"], &["value"])?;
+        let value = a.get("value").unwrap_or("");
+        let p = Path::new(value);
+        let dir = if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            absolute(
+                &absolute(&src.file)
+                    .parent()
+                    .unwrap_or(Path::new(""))
+                    .join(p),
+            )
+        };
+        if !dir.is_dir() {
+            return Err(loc.error(
+                format!("the <path> folder \"{value}\" does not exist ({})", dir.display()),
+                "A <path> adds a folder to search for files; it is relative to the file that names it.",
+            ));
+        }
+        self.paths.push(dir);
+        Ok(())
     }
 
     /// The file `name` names from `src`, found as Mitsuba's file resolver finds it ([`resolve`]), or an

@@ -17,7 +17,27 @@ use toml::Spanned;
 /// the 1.5 of glTF's dielectrics.
 const PLASTIC_DEFAULT_IOR: f32 = 1.5;
 
+/// The keys a material type allows besides the modifiers, and the BSDF it reads.
+type Keyed = (Vec<&'static str>, Bsdf);
+
+/// What every type but `emitter` may add: emission.
+const EMISSION: [&str; 2] = ["emission", "two_sided_emission"];
+
+/// What every type takes: the surface modifiers.
+const MODIFIERS: [&str; 8] = [
+    "opacity",
+    "alpha_cutoff",
+    "bump",
+    "normal_map",
+    "one_sided",
+    "back",
+    "blend",
+    "blend_weight",
+];
+
 impl Checker<'_> {
+    /// Material `name` of `[materials]`: its type's BSDF (a built-in type's own reader below, a
+    /// plugin's by `plugins.rs`), with the keys it allows checked, its emission and its modifiers.
     pub(super) fn material(
         &self,
         name: &str,
@@ -28,34 +48,9 @@ impl Checker<'_> {
         let key = |field: &str| format!("materials.{name}.{field}");
         let kind = m.kind.get_ref().as_str();
         let mut textures = MaterialTextures::default();
-        let radiance = |v: &Spanned<RawParam<RawVec3>>,
-                        field: &str,
-                        files: &mut Files,
-                        slot: &mut Option<TextureRef>| {
-            self.color_param(
-                v,
-                &key(field),
-                |r| r.min_element() < 0.0,
-                "emitted radiance cannot be negative",
-                "Give a linear RGB radiance in W sr^-1 m^-2 with components >= 0.",
-                files,
-                slot,
-            )
-        };
         // Each type allows only some of the optional keys; a key for another type is treated like any
         // unknown key rather than silently ignored. Every type but `emitter` may also emit; every type
         // takes the surface modifiers.
-        const EMISSION: [&str; 2] = ["emission", "two_sided_emission"];
-        const MODIFIERS: [&str; 8] = [
-            "opacity",
-            "alpha_cutoff",
-            "bump",
-            "normal_map",
-            "one_sided",
-            "back",
-            "blend",
-            "blend_weight",
-        ];
         let (allowed, bsdf): (Vec<&str>, _) = match kind {
             "diffuse" => {
                 let albedo = self.required(
@@ -117,128 +112,10 @@ impl Checker<'_> {
                     Bsdf::Dielectric { ior, roughness },
                 )
             }
-            "conductor" => {
-                let fresnel = self.conductor_fresnel(name, raw, files, &mut textures.albedo)?;
-                // The tint multiplies the Fresnel reflectance (Mitsuba's specular_reflectance). A
-                // textured tint is the albedo slot, which a Schlick conductor's base colour holds.
-                let tint = match &m.tint {
-                    None => Vec3::ONE,
-                    Some(t) => {
-                        let schlick = matches!(fresnel, ConductorFresnel::Schlick { .. });
-                        if schlick && matches!(t.get_ref(), RawParam::Texture(_)) {
-                            return Err(self.error(
-                                t.span(),
-                                &key("tint"),
-                                "a conductor with base_color cannot also have a textured tint",
-                                "Give the tint as a constant [r, g, b], or texture the base_color instead                                  (the tint multiplies it).",
-                            ));
-                        }
-                        self.unit_color(t, &key("tint"), files, &mut textures.albedo)?
-                    }
-                };
-                (
-                    vec![
-                        "preset",
-                        "eta",
-                        "k",
-                        "base_color",
-                        "roughness",
-                        "distribution",
-                        "tint",
-                        EMISSION[0],
-                        EMISSION[1],
-                    ],
-                    Bsdf::Conductor {
-                        fresnel,
-                        roughness: {
-                            let r = self.roughness(
-                                &m.roughness,
-                                &key("roughness"),
-                                files,
-                                &mut textures.roughness,
-                            )?;
-                            self.distribution(&m.distribution, &key("distribution"), r)?
-                        },
-                        tint,
-                    },
-                )
-            }
-            "plastic" => {
-                let albedo = self.required(
-                    &m.albedo,
-                    raw,
-                    &key("albedo"),
-                    "a plastic material needs an albedo (the colour of its diffuse base)",
-                )?;
-                let albedo =
-                    self.unit_color(albedo, &key("albedo"), files, &mut textures.albedo)?;
-                let ior = match &m.ior {
-                    Some(ior) => self.ior(ior, &key("ior"))?,
-                    None => PLASTIC_DEFAULT_IOR,
-                };
-                let roughness = self.roughness(
-                    &m.roughness,
-                    &key("roughness"),
-                    files,
-                    &mut textures.roughness,
-                )?;
-                let roughness =
-                    self.distribution(&m.distribution, &key("distribution"), roughness)?;
-                let nonlinear = m.nonlinear.as_ref().is_none_or(|n| *n.get_ref());
-                (
-                    vec![
-                        "albedo",
-                        "ior",
-                        "roughness",
-                        "distribution",
-                        "nonlinear",
-                        EMISSION[0],
-                        EMISSION[1],
-                    ],
-                    Bsdf::Plastic {
-                        albedo,
-                        ior,
-                        roughness,
-                        nonlinear,
-                    },
-                )
-            }
+            "conductor" => self.conductor_material(name, raw, files, &mut textures)?,
+            "plastic" => self.plastic_material(name, raw, files, &mut textures)?,
             "metallic_roughness" => {
-                let base_color = match &m.base_color {
-                    Some(c) => {
-                        self.unit_color(c, &key("base_color"), files, &mut textures.albedo)?
-                    }
-                    None => Vec3::ONE,
-                };
-                // glTF's defaults: metallic 1, roughness 1.
-                let (metallic, roughness) =
-                    self.metallic_and_roughness(name, m, files, &mut textures, (1.0, 1.0))?;
-                (
-                    vec![
-                        "base_color",
-                        "metallic",
-                        "roughness",
-                        "ior",
-                        "specular",
-                        "specular_color",
-                        "transmission",
-                        "volume",
-                        "attenuation_color",
-                        "attenuation_distance",
-                        "clearcoat",
-                        "clearcoat_roughness",
-                        "sheen_color",
-                        "sheen_roughness",
-                        EMISSION[0],
-                        EMISSION[1],
-                    ],
-                    Bsdf::MetallicRoughness {
-                        base_color,
-                        metallic,
-                        roughness,
-                        layers: self.gltf_layers(name, m)?,
-                    },
-                )
+                self.metallic_roughness_material(name, raw, files, &mut textures)?
             }
             "principled" => self.principled(name, m, files, &mut textures)?,
             "emitter" => (vec!["radiance", "two_sided"], Bsdf::Black),
@@ -256,25 +133,33 @@ impl Checker<'_> {
                 let (kind, plugin) = bsdfs::by_toml_type(other).expect("matched");
                 self.plugin_material(kind, plugin, name, raw, files, &mut textures)?
             }
-            other => {
-                let registered: Vec<String> = crate::materials::PLUGINS
-                    .iter()
-                    .map(|p| format!("\"{}\"", p.name))
-                    .collect();
-                return Err(self.error(
-                    m.kind.span(),
-                    &key("type"),
-                    format!("unknown material type \"{other}\""),
-                    format!(
-                        "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior), \
-                         \"thin_dielectric\" (optional ior), \
-                         \"conductor\" (with preset, eta and k, or base_color), \"plastic\" (with albedo), \
-                         \"metallic_roughness\", \"principled\", \"emitter\" (with radiance), or {} (see docs/scene-format.md).",
-                        registered.join(", ")
-                    ),
-                ));
-            }
+            other => return Err(self.unknown_material_type(name, m, other)),
         };
+        self.reject_foreign_material_keys(name, m, &allowed)?;
+        let emission = self.material_emission(
+            name,
+            raw,
+            bsdf == Bsdf::Black,
+            files,
+            &mut textures.emission,
+        )?;
+        self.modifiers(name, m, files, &mut textures)?;
+        Ok(Material {
+            bsdf,
+            emission,
+            textures,
+        })
+    }
+
+    /// Refuses a key the material's type does not take (`allowed`, and the modifiers), as any unknown
+    /// key: a built-in type's key on another type, a plugin's key on another, or a mistake.
+    fn reject_foreign_material_keys(
+        &self,
+        name: &str,
+        m: &RawMaterial,
+        allowed: &[&str],
+    ) -> Result<(), SceneError> {
+        let kind = m.kind.get_ref().as_str();
         let present = [
             ("albedo", m.albedo.as_ref().map(Spanned::span)),
             ("tint", m.tint.as_ref().map(Spanned::span)),
@@ -323,8 +208,36 @@ impl Checker<'_> {
             &allowed,
             &format!("materials.{name}"),
             &format!("a {kind} material"),
-        )?;
-        let emission = if bsdf == Bsdf::Black {
+        )
+    }
+
+    /// What a material emits: an emitter's `radiance` (required), any other's optional `emission`, each
+    /// a colour or a texture (recorded in `emission_texture`), and whether both faces emit.
+    fn material_emission(
+        &self,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+        black: bool,
+        files: &mut Files,
+        emission_texture: &mut Option<TextureRef>,
+    ) -> Result<Option<Emission>, SceneError> {
+        let m = raw.get_ref();
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let radiance = |v: &Spanned<RawParam<RawVec3>>,
+                        field: &str,
+                        files: &mut Files,
+                        slot: &mut Option<TextureRef>| {
+            self.color_param(
+                v,
+                &key(field),
+                |r| r.min_element() < 0.0,
+                "emitted radiance cannot be negative",
+                "Give a linear RGB radiance in W sr^-1 m^-2 with components >= 0.",
+                files,
+                slot,
+            )
+        };
+        Ok(if black {
             let r = self.required(
                 &m.radiance,
                 raw,
@@ -332,13 +245,13 @@ impl Checker<'_> {
                 "an emitter material needs a radiance",
             )?;
             Some(Emission {
-                radiance: radiance(r, "radiance", files, &mut textures.emission)?,
+                radiance: radiance(r, "radiance", files, emission_texture)?,
                 two_sided: m.two_sided.as_ref().is_some_and(|t| *t.get_ref()),
             })
         } else {
             match (&m.emission, &m.two_sided_emission) {
                 (Some(e), two_sided) => Some(Emission {
-                    radiance: radiance(e, "emission", files, &mut textures.emission)?,
+                    radiance: radiance(e, "emission", files, emission_texture)?,
                     two_sided: two_sided.as_ref().is_some_and(|t| *t.get_ref()),
                 }),
                 (None, Some(t)) => {
@@ -351,13 +264,177 @@ impl Checker<'_> {
                 }
                 (None, None) => None,
             }
-        };
-        self.modifiers(name, m, files, &mut textures)?;
-        Ok(Material {
-            bsdf,
-            emission,
-            textures,
         })
+    }
+
+    /// A `conductor`: its Fresnel (a preset, eta and k, or a base colour), roughness and tint.
+    fn conductor_material(
+        &self,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+        files: &mut Files,
+        textures: &mut MaterialTextures,
+    ) -> Result<Keyed, SceneError> {
+        let m = raw.get_ref();
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let fresnel = self.conductor_fresnel(name, raw, files, &mut textures.albedo)?;
+        // The tint multiplies the Fresnel reflectance (Mitsuba's specular_reflectance). A
+        // textured tint is the albedo slot, which a Schlick conductor's base colour holds.
+        let tint = match &m.tint {
+            None => Vec3::ONE,
+            Some(t) => {
+                let schlick = matches!(fresnel, ConductorFresnel::Schlick { .. });
+                if schlick && matches!(t.get_ref(), RawParam::Texture(_)) {
+                    return Err(self.error(
+                        t.span(),
+                        &key("tint"),
+                        "a conductor with base_color cannot also have a textured tint",
+                        "Give the tint as a constant [r, g, b], or texture the base_color instead                                  (the tint multiplies it).",
+                    ));
+                }
+                self.unit_color(t, &key("tint"), files, &mut textures.albedo)?
+            }
+        };
+        Ok((
+            vec![
+                "preset",
+                "eta",
+                "k",
+                "base_color",
+                "roughness",
+                "distribution",
+                "tint",
+                EMISSION[0],
+                EMISSION[1],
+            ],
+            Bsdf::Conductor {
+                fresnel,
+                roughness: {
+                    let r = self.roughness(
+                        &m.roughness,
+                        &key("roughness"),
+                        files,
+                        &mut textures.roughness,
+                    )?;
+                    self.distribution(&m.distribution, &key("distribution"), r)?
+                },
+                tint,
+            },
+        ))
+    }
+
+    /// A `plastic`: a diffuse base under a dielectric coat.
+    fn plastic_material(
+        &self,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+        files: &mut Files,
+        textures: &mut MaterialTextures,
+    ) -> Result<Keyed, SceneError> {
+        let m = raw.get_ref();
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let albedo = self.required(
+            &m.albedo,
+            raw,
+            &key("albedo"),
+            "a plastic material needs an albedo (the colour of its diffuse base)",
+        )?;
+        let albedo = self.unit_color(albedo, &key("albedo"), files, &mut textures.albedo)?;
+        let ior = match &m.ior {
+            Some(ior) => self.ior(ior, &key("ior"))?,
+            None => PLASTIC_DEFAULT_IOR,
+        };
+        let roughness = self.roughness(
+            &m.roughness,
+            &key("roughness"),
+            files,
+            &mut textures.roughness,
+        )?;
+        let roughness = self.distribution(&m.distribution, &key("distribution"), roughness)?;
+        let nonlinear = m.nonlinear.as_ref().is_none_or(|n| *n.get_ref());
+        Ok((
+            vec![
+                "albedo",
+                "ior",
+                "roughness",
+                "distribution",
+                "nonlinear",
+                EMISSION[0],
+                EMISSION[1],
+            ],
+            Bsdf::Plastic {
+                albedo,
+                ior,
+                roughness,
+                nonlinear,
+            },
+        ))
+    }
+
+    /// glTF's `metallic_roughness`, with the Khronos extensions' layers.
+    fn metallic_roughness_material(
+        &self,
+        name: &str,
+        raw: &Spanned<RawMaterial>,
+        files: &mut Files,
+        textures: &mut MaterialTextures,
+    ) -> Result<Keyed, SceneError> {
+        let m = raw.get_ref();
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let base_color = match &m.base_color {
+            Some(c) => self.unit_color(c, &key("base_color"), files, &mut textures.albedo)?,
+            None => Vec3::ONE,
+        };
+        // glTF's defaults: metallic 1, roughness 1.
+        let (metallic, roughness) =
+            self.metallic_and_roughness(name, m, files, textures, (1.0, 1.0))?;
+        Ok((
+            vec![
+                "base_color",
+                "metallic",
+                "roughness",
+                "ior",
+                "specular",
+                "specular_color",
+                "transmission",
+                "volume",
+                "attenuation_color",
+                "attenuation_distance",
+                "clearcoat",
+                "clearcoat_roughness",
+                "sheen_color",
+                "sheen_roughness",
+                EMISSION[0],
+                EMISSION[1],
+            ],
+            Bsdf::MetallicRoughness {
+                base_color,
+                metallic,
+                roughness,
+                layers: self.gltf_layers(name, m)?,
+            },
+        ))
+    }
+
+    /// The error for a `type` vkpath does not read, listing those it does.
+    fn unknown_material_type(&self, name: &str, m: &RawMaterial, other: &str) -> SceneError {
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let registered: Vec<String> = crate::materials::PLUGINS
+            .iter()
+            .map(|p| format!("\"{}\"", p.name))
+            .collect();
+        self.error(
+            m.kind.span(),
+            &key("type"),
+            format!("unknown material type \"{other}\""),
+            format!(
+                "Use \"diffuse\" (with albedo), \"mirror\" (optional tint), \"dielectric\" (with ior), \
+                 \"thin_dielectric\" (optional ior), \
+                 \"conductor\" (with preset, eta and k, or base_color), \"plastic\" (with albedo), \
+                 \"metallic_roughness\", \"principled\", \"emitter\" (with radiance), or {} (see docs/scene-format.md).",
+                registered.join(", ")
+            ),
+        )
     }
 
     /// The surface modifiers any material takes: `opacity` (a number in [0, 1] or a texture),
