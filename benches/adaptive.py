@@ -15,7 +15,8 @@ Writes the same table as Markdown to --out.
         --out benches/results/adaptive-YYYY-MM-DD.md
 
 Needs numpy and OpenEXR (benches/peers/setup.sh installs both in benches/peers/.venv). Extra render flags
-go after `--` (Bitterli's files: `-- --xml-lenient -D integrator=path`).
+go after `--` (Bitterli's files that name `$integrator`, all but the living room:
+`-- --xml-lenient -D integrator=path`; a `-D` the file does not use is an error).
 """
 
 import argparse

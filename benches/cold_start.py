@@ -31,7 +31,10 @@ def render_once(binary, scene, cache, extra):
         cmd = [binary, "render", scene, "--width", "32", "--height", "32", "--spp", "1",
                "-o", os.path.join(out, "image.png")] + extra
         if scene.endswith(".xml"):
-            cmd += ["--xml-lenient", "-D", "integrator=path"]
+            cmd += ["--xml-lenient"]
+            with open(scene, encoding="utf-8") as f:
+                if "$integrator" in f.read():  # a -D the file does not use is an error
+                    cmd += ["-D", "integrator=path"]
         env = dict(os.environ, MESA_SHADER_CACHE_DIR=cache)
         env.pop("MESA_SHADER_CACHE_DISABLE", None)
         start = time.monotonic()

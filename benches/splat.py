@@ -11,7 +11,7 @@ and samples/s (`--json`), and the ratios: MSE (off / on, at equal samples) and e
     python3 benches/splat.py --binary target/release/vkpath --width 256 --spp 16 64 --ref-spp 1024 \
         SCENE.xml ... --out benches/results/splat-YYYY-MM-DD.md
 
-Extra render flags go after `--` (Bitterli's files: `-- --xml-lenient -D integrator=path`, as
+Extra render flags go after `--` (Bitterli's files that name `$integrator`: `-- --xml-lenient -D integrator=path`, as
 benches/peers/compare.py renders them).
 """
 

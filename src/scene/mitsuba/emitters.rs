@@ -143,7 +143,7 @@ impl Tr<'_> {
             _ => {
                 self.unsupported(
                     obj,
-                    "point, directional, constant, envmap and area (inside a shape)",
+                    "point, spot, directional, constant, envmap and area (inside a shape)",
                 )?;
             }
         }

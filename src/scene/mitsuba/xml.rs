@@ -387,10 +387,25 @@ impl Parser {
         src.upgrade = self.version(&loc, attrs.get("version"))?;
         let mut props = Vec::new();
         self.children(&src, root, &mut props)?;
-        for (name, _) in self.defines.iter().filter(|(_, seen)| !seen) {
-            self.warnings.push(format!(
-                "{}: -D {name}=...: the scene has no <default name=\"{name}\"> and no attribute uses ${name}; the parameter changes nothing",
-                path.display()
+        // A -D the file neither declares nor uses is a mistake (a misspelt name, another file's
+        // parameter): refused naming it, as Mitsuba 3's "Found unused parameters" (cli.md).
+        if let Some((name, _)) = self.defines.iter().find(|(_, seen)| !seen) {
+            let declared: Vec<&str> = self
+                .params
+                .iter()
+                .map(|(n, _)| n.as_str())
+                .filter(|n| self.defines.iter().all(|(d, seen)| d != n || *seen))
+                .collect();
+            let names = if declared.is_empty() {
+                "it declares no parameter".to_string()
+            } else {
+                format!("it declares {}", declared.join(", "))
+            };
+            return Err(loc.error(
+                format!(
+                    "-D {name}=...: the scene has no <default name=\"{name}\"> and no attribute uses ${name}"
+                ),
+                &format!("Remove -D {name}, or give a name the file uses ({names})."),
             ));
         }
         Ok(Obj {
@@ -990,10 +1005,28 @@ impl Parser {
                             DMat4::from_mat3(DMat3::from_cols_array(&rows).transpose())
                         }
                         _ => {
-                            return Err(loc.error(
-                                "a <matrix> value must be 16 numbers (or 9), row by row",
-                                "Write value=\"m00 m01 m02 m03 m10 ... m33\".",
-                            ));
+                            // Sixteen (or nine) entries of which one is not a finite number: say which.
+                            let tokens: Vec<&str> = v
+                                .split(|c: char| c == ',' || c.is_whitespace())
+                                .filter(|t| !t.is_empty())
+                                .collect();
+                            let bad = tokens.iter().find(|t| parse_float(t).is_none());
+                            return Err(match bad {
+                                Some(t) if tokens.len() == 16 || tokens.len() == 9 => loc.error(
+                                    format!(
+                                        "a <matrix> entry \"{t}\" is not a finite number (of its {} entries)",
+                                        tokens.len()
+                                    ),
+                                    "Write every entry as a finite decimal number.",
+                                ),
+                                _ => loc.error(
+                                    format!(
+                                        "a <matrix> value must be 16 numbers (or 9), row by row; it has {} entries",
+                                        tokens.len()
+                                    ),
+                                    "Write value=\"m00 m01 m02 m03 m10 ... m33\".",
+                                ),
+                            });
                         }
                     }
                 }
