@@ -1102,6 +1102,14 @@ fn obj_and_texture_errors_name_the_file_the_line_and_the_key() {
             vec!["bad5.obj, line 4", "normal 1"],
         ),
         (
+            // Issue 53: a corner without its vertex index was refused without the OBJ's line.
+            "corner without a vertex",
+            "obj = \"bad6.obj\"\nmaterial = \"white\"",
+            9,
+            "mesh[0].obj",
+            vec!["bad6.obj, line 5", "`//1` has no vertex index"],
+        ),
+        (
             "no faces",
             "obj = \"bad4.obj\"\nmaterial = \"white\"",
             9,
@@ -1184,7 +1192,12 @@ fn obj_and_texture_errors_name_the_file_the_line_and_the_key() {
         "v 0 0 0\r\nv 1 0 0\r\nv 0 NaN 0\r\nf 1 2 3\r\n",
     );
     write(d, "bad4.obj", "# only vertices\nv 0 0 0\nv 1 0 0\n");
-    write(d, "bad5.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf //1 2 3\n");
+    write(d, "bad5.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2 3\n");
+    write(
+        d,
+        "bad6.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf //1 2//1 3//1\n",
+    );
     std::fs::write(d.join("bad.png"), b"not a png at all").unwrap();
     image::RgbImage::new(2, 2).save(d.join("ok.png")).unwrap();
     for (what, keys, line, key, words) in cases {

@@ -273,6 +273,16 @@ fn locate_bad_index(bytes: &[u8]) -> Option<ObjError> {
                     ));
                 }
                 for corner in corners {
+                    // `//1` (a normal without its vertex) was refused as "a missing vertex" with no
+                    // line: tobj reads the empty index as none.
+                    if corner.split('/').next().is_none_or(str::is_empty) {
+                        return Some(ObjError::at(
+                            line,
+                            format!(
+                                "the face corner `{corner}` has no vertex index (a corner is v, v/vt, v//vn or v/vt/vn)"
+                            ),
+                        ));
+                    }
                     for (k, part) in corner.split('/').enumerate().take(3) {
                         if part.is_empty() {
                             continue;
