@@ -2623,3 +2623,59 @@ fn a_gltf_without_materials_takes_the_default() {
     ));
     check(&Scene::load(&path).unwrap_or_else(|e| panic!("{e}")));
 }
+
+/// Issue 53: extension values their specifications require to be finite (KHR_texture_transform's
+/// offset, scale, rotation) or positive (KHR_materials_volume's attenuationDistance) are refused naming
+/// the element, read as a glTF scene or as a `[[mesh]]` (exit 2 from the binary); before, a rotation of
+/// 1e300 rendered NaN samples and a distance of 0 was clamped with a warning.
+#[test]
+fn gltf_extension_values_out_of_range_are_refused_naming_the_element() {
+    let img = image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]));
+    let cases = [
+        (
+            r#""emissiveTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"rotation": 1e300}}}"#,
+            "materials[0].emissiveTexture.extensions.KHR_texture_transform.rotation",
+        ),
+        (
+            r#""emissiveTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"offset": [0.5, 1e39]}}}"#,
+            "KHR_texture_transform.offset",
+        ),
+        (
+            r#""emissiveTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"scale": [1.0]}}}"#,
+            "KHR_texture_transform.scale",
+        ),
+        (
+            r#""extensions": {"KHR_materials_volume": {"thicknessFactor": 0.1, "attenuationDistance": 0}}"#,
+            "materials[0].extensions.KHR_materials_volume.attenuationDistance = 0",
+        ),
+        (
+            r#""extensions": {"KHR_materials_volume": {"thicknessFactor": 0.1, "attenuationDistance": -1}}"#,
+            "attenuationDistance = -1",
+        ),
+    ];
+    for (extra, needle) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        write_textured_quad(
+            dir.path(),
+            &format!(
+                r#"{{"pbrMetallicRoughness": {{"baseColorFactor": [0.5, 0.5, 0.5, 1.0]}},
+                   "emissiveFactor": [1.0, 1.0, 1.0], {extra}}}"#
+            ),
+            std::slice::from_ref(&img),
+        );
+        let path = dir.path().join("quad.gltf");
+        let as_scene = Scene::load(&path).expect_err(needle).to_string();
+        assert!(as_scene.contains(needle), "{as_scene}");
+        let toml = dir.path().join("s.toml");
+        std::fs::write(
+            &toml,
+            "[camera]\nposition = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nfov = 40\n[[mesh]]\nobj = \"quad.gltf\"\n",
+        )
+        .unwrap();
+        let as_mesh = Scene::load(&toml).expect_err(needle).to_string();
+        assert!(
+            as_mesh.contains(needle) && as_mesh.contains("mesh[0].obj"),
+            "{as_mesh}"
+        );
+    }
+}

@@ -159,10 +159,79 @@ pub fn read_gltf(bytes: &[u8]) -> Result<gltf::Gltf, String> {
             "images[{i}] {problem} (glTF 2.0 requires one, §5.18)"
         ));
     }
+    check_extension_values(&json)?;
     Ok(gltf::Gltf {
         document: gltf::Document::from_json(json).map_err(invalid)?,
         blob: unchecked.blob,
     })
+}
+
+/// The extension values whose specifications require them to be finite and (for a distance) positive,
+/// refused naming their element when they are not, as other invalid glTF is: every KHR_texture_transform's
+/// `offset`, `scale` (two numbers each) and `rotation` (one), within f32 (a value beyond it would become
+/// an infinity in the renderer's f32 and NaN samples), and KHR_materials_volume's `attenuationDistance`
+/// (> 0; absent is infinity).
+fn check_extension_values(json: &gltf::json::Root) -> Result<(), String> {
+    let value =
+        serde_json::to_value(json).map_err(|e| format!("not a valid glTF 2.0 file: {e}"))?;
+    let Some(materials) = value.get("materials").and_then(|m| m.as_array()) else {
+        return Ok(());
+    };
+    let finite = |v: &serde_json::Value| v.as_f64().is_some_and(|x| x.abs() <= f64::from(f32::MAX));
+    fn walk(
+        v: &serde_json::Value,
+        path: &str,
+        check: &mut dyn FnMut(&str, &str, &serde_json::Value) -> Result<(), String>,
+    ) -> Result<(), String> {
+        if let Some(obj) = v.as_object() {
+            for (key, child) in obj {
+                check(path, key, child)?;
+                walk(child, &format!("{path}.{key}"), check)?;
+            }
+        } else if let Some(items) = v.as_array() {
+            for (i, child) in items.iter().enumerate() {
+                walk(child, &format!("{path}[{i}]"), check)?;
+            }
+        }
+        Ok(())
+    }
+    let mut check = |path: &str, key: &str, v: &serde_json::Value| -> Result<(), String> {
+        let at = format!("{path}.{key}");
+        match key {
+            "KHR_texture_transform" => {
+                for (field, count) in [("offset", 2), ("scale", 2), ("rotation", 1)] {
+                    let Some(x) = v.get(field) else { continue };
+                    let ok = match (x.as_array(), count) {
+                        (Some(a), 2) => a.len() == 2 && a.iter().all(finite),
+                        (None, 1) => finite(x),
+                        _ => false,
+                    };
+                    if !ok {
+                        return Err(format!(
+                            "{at}.{field} = {x} is not {} (KHR_texture_transform requires them, within                              32-bit floats)",
+                            if count == 2 {
+                                "two finite numbers"
+                            } else {
+                                "a finite number"
+                            }
+                        ));
+                    }
+                }
+                Ok(())
+            }
+            "KHR_materials_volume" => match v.get("attenuationDistance") {
+                Some(d) if !(finite(d) && d.as_f64().is_some_and(|x| x > 0.0)) => Err(format!(
+                    "{at}.attenuationDistance = {d} is not a positive number (KHR_materials_volume                      requires it; leave it out for no attenuation)"
+                )),
+                _ => Ok(()),
+            },
+            _ => Ok(()),
+        }
+    };
+    for (i, m) in materials.iter().enumerate() {
+        walk(m, &format!("materials[{i}]"), &mut check)?;
+    }
+    Ok(())
 }
 
 pub fn load_gltf(path: &Path) -> Result<ObjMesh, ObjError> {
