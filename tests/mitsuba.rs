@@ -2721,3 +2721,58 @@ fn matrix_and_emitter_messages_say_what_is_wrong() {
         "{e}"
     );
 }
+
+/// Issue 53: Mitsuba's other algorithms for the same image (bdpt, pssmlt, sppm, photonmapper, ...) are
+/// read as the path tracer with their max_depth and a note naming what was read past; a custom
+/// integrator picked by a `<default>` is refused with the `-D` that overrides it.
+#[test]
+fn other_integrators_read_as_the_path_tracer_with_a_note() {
+    for (kind, extra) in [
+        (
+            "bdpt",
+            r#"<integer name="max_depth" value="5"/><boolean name="lightImage" value="true"/>"#,
+        ),
+        (
+            "pssmlt",
+            r#"<integer name="maxDepth" value="5"/><float name="pLarge" value="0.3"/>"#,
+        ),
+        (
+            "sppm",
+            r#"<integer name="max_depth" value="5"/><integer name="photonCount" value="250000"/>"#,
+        ),
+        ("photonmapper", r#"<integer name="max_depth" value="5"/>"#),
+    ] {
+        let version = if extra.contains("maxDepth")
+            || extra.contains("photonCount")
+            || extra.contains("lightImage")
+        {
+            "0.6.0"
+        } else {
+            "3.0.0"
+        };
+        let body =
+            format!(r#"<integrator type="{kind}">{extra}</integrator><shape type="sphere"/>"#);
+        let text = scene_xml(&body).replace("version=\"3.0.0\"", &format!("version=\"{version}\""));
+        let dir = tempfile::tempdir().unwrap();
+        let p = write(dir.path(), "scene.xml", &text);
+        let s = Scene::load(&p).unwrap_or_else(|e| panic!("{kind}: {e}"));
+        assert_eq!(s.render.max_bounces, 4, "{kind}: max_depth 5");
+        let notes: Vec<_> = s.warnings.iter().filter(|w| w.contains(kind)).collect();
+        assert_eq!(notes.len(), 1, "{kind}: {:?}", s.warnings);
+        assert!(
+            notes[0].starts_with(vkpath::scene::NOTE)
+                && notes[0].contains("only the noise differs"),
+            "{}",
+            notes[0]
+        );
+        if extra.contains("pLarge") {
+            assert!(notes[0].contains("p_large read past"), "{}", notes[0]);
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let e = error_in(
+        dir.path(),
+        r#"<default name="algo" value="guided"/><integrator type="$algo"/><shape type="sphere"/>"#,
+    );
+    assert!(e.contains("-D algo=path"), "{e}");
+}

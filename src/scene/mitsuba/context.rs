@@ -21,6 +21,9 @@ pub(super) const ORTHO_TOL: f64 = 1e-3;
 /// The translator of a scene's objects into TOML.
 pub(super) struct Tr<'p> {
     pub(super) ids: &'p HashMap<String, Rc<Obj>>,
+    /// The file's parameters (`<default>`s and -D), by name, with the values they have: what a
+    /// message can point at when a value came from one.
+    pub(super) parameters: Vec<(String, String)>,
     pub(super) lenient: bool,
     pub(super) warnings: Vec<String>,
     /// Where files are found after beside the file naming them (`Parser::search_dirs`).
@@ -59,6 +62,7 @@ impl<'p> Tr<'p> {
     ) -> Tr<'p> {
         Tr {
             ids,
+            parameters: Vec::new(),
             lenient,
             warnings,
             search_dirs,

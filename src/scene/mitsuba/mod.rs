@@ -71,6 +71,7 @@ pub fn to_toml(
         search_dirs,
         refer_dir,
     );
+    tr.parameters = parser.parameters().to_vec();
     if options.auto_camera {
         return Err(SceneError::import(
             path,

@@ -3,7 +3,7 @@
 
 use super::args::{Args, resolve_ref};
 use super::context::Tr;
-use super::objects::{Obj, SEE_DOCS, Value};
+use super::objects::{Loc, Obj, SEE_DOCS, Value};
 use super::toml_out::{TomlOut, num};
 use crate::scene::SceneError;
 use std::path::Path;
@@ -227,15 +227,23 @@ impl Tr<'_> {
         if obj.kind == "direct" {
             return self.direct_integrator(obj);
         }
+        if SAME_IMAGE.contains(&obj.kind.as_str()) {
+            return self.other_algorithm(obj);
+        }
         if obj.kind != "path" {
             let problem = format!(
                 "vkpath is a path tracer: it does not read Mitsuba's integrator \"{}\"",
                 obj.kind
             );
-            return Err(obj.loc.error(
-                problem,
-                "Use <integrator type=\"path\"> (max_depth 2 is direct lighting).",
-            ));
+            // A custom plugin picked by a <default> (as Bitterli's scenes do): -D overrides it.
+            let hint = match self.parameters.iter().find(|(_, v)| *v == obj.kind) {
+                Some((name, _)) => format!(
+                    "The file's parameter ${name} picks it: give -D {name}=path to render the scene with \
+                     the path tracer, as Mitsuba's own command line would."
+                ),
+                None => "Use <integrator type=\"path\"> (max_depth 2 is direct lighting).".into(),
+            };
+            return Err(obj.loc.error(problem, &hint));
         }
         let args = Args::new(obj);
         let depth = args.int("max_depth")?;
@@ -255,18 +263,47 @@ impl Tr<'_> {
                  (default 3); both are unbiased, only the noise differs"
             )));
         }
-        // Mitsuba's max_depth counts path segments (1: emitters seen directly, 2: direct light), vkpath's
-        // max_bounces scattering events (0: emitters only, 1: direct light): max_bounces = max_depth - 1.
-        match depth {
-            None | Some((-1, _)) => Ok((-1, "Mitsuba max_depth = -1 (no limit)".into())),
-            Some((d, _)) if d >= 1 && d - 1 < i64::from(u32::MAX) => {
-                Ok((d - 1, format!("Mitsuba max_depth = {d}")))
-            }
-            Some((d, loc)) => Err(loc.error(
-                format!("max_depth = {d}: vkpath needs -1 (no limit) or a depth of at least 1"),
-                "max_depth counts path segments: 1 shows the emitters only, 2 is direct light.",
-            )),
+        max_bounces(depth)
+    }
+
+    /// An integrator of [`SAME_IMAGE`]: another algorithm for the image the path tracer computes, read
+    /// as the path tracer with its `max_depth` and a note; its own parameters (photon counts, mutation
+    /// settings, radii) change the noise, not the image, and are read past.
+    fn other_algorithm(&mut self, obj: &Obj) -> Result<(i64, String), SceneError> {
+        let args = Args::new(obj);
+        if let Some((true, loc)) = args.boolean("hide_emitters")? {
+            return Err(loc.error(
+                "hide_emitters = true: vkpath always shows the emitters the camera sees",
+                "Remove hide_emitters (or set it to false).",
+            ));
         }
+        let depth = args.int("max_depth")?;
+        let skipped: Vec<&str> = args
+            .unread()
+            .map(|p| p.name.as_str())
+            .filter(|n| !n.is_empty())
+            .collect();
+        let biased = matches!(obj.kind.as_str(), "sppm" | "ppm" | "photonmapper");
+        self.warnings.push(format!(
+            "{}{}",
+            crate::scene::NOTE,
+            obj.loc.warning(format!(
+                "Mitsuba's {} integrator computes the path tracer's image by another algorithm: vkpath \
+                 renders it with its path tracer (the same max_depth); only the noise differs{}{}",
+                obj.kind,
+                if biased {
+                    " (and the photon map's blur, which vanishes as Mitsuba's radius shrinks)"
+                } else {
+                    ""
+                },
+                if skipped.is_empty() {
+                    String::new()
+                } else {
+                    format!("; its {} read past", skipped.join(", "))
+                }
+            ))
+        ));
+        max_bounces(depth)
     }
 
     /// Mitsuba's `direct` integrator: the emitters seen directly plus direct illumination, by emitter
@@ -305,5 +342,34 @@ impl Tr<'_> {
             1,
             "Mitsuba's direct integrator: path tracing with max_depth 2".into(),
         ))
+    }
+}
+
+/// Mitsuba's integrators that estimate the image the path tracer does by other algorithms (Mitsuba 0.6
+/// files name them often): read as the path tracer, with a note.
+const SAME_IMAGE: &[&str] = &[
+    "bdpt",
+    "pssmlt",
+    "mlt",
+    "erpt",
+    "ptracer",
+    "sppm",
+    "ppm",
+    "photonmapper",
+];
+
+/// vkpath's bounce limit for Mitsuba's `max_depth` (absent: -1, no limit), with a comment.
+fn max_bounces(depth: Option<(i64, &Loc)>) -> Result<(i64, String), SceneError> {
+    // Mitsuba's max_depth counts path segments (1: emitters seen directly, 2: direct light), vkpath's
+    // max_bounces scattering events (0: emitters only, 1: direct light): max_bounces = max_depth - 1.
+    match depth {
+        None | Some((-1, _)) => Ok((-1, "Mitsuba max_depth = -1 (no limit)".into())),
+        Some((d, _)) if d >= 1 && d - 1 < i64::from(u32::MAX) => {
+            Ok((d - 1, format!("Mitsuba max_depth = {d}")))
+        }
+        Some((d, loc)) => Err(loc.error(
+            format!("max_depth = {d}: vkpath needs -1 (no limit) or a depth of at least 1"),
+            "max_depth counts path segments: 1 shows the emitters only, 2 is direct light.",
+        )),
     }
 }

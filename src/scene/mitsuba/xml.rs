@@ -252,6 +252,11 @@ impl Parser {
         }
     }
 
+    /// The file's parameters with their values (-D first, then the `<default>`s not overridden).
+    pub(super) fn parameters(&self) -> &[(String, String)] {
+        &self.params
+    }
+
     /// Notes that the file declares or uses parameter `name` (see `defines`).
     fn mention(&mut self, name: &str) {
         if let Some(d) = self.defines.iter_mut().find(|(n, _)| n == name) {
