@@ -2776,3 +2776,30 @@ fn other_integrators_read_as_the_path_tracer_with_a_note() {
     );
     assert!(e.contains("-D algo=path"), "{e}");
 }
+
+/// Issue 53: --xml-lenient never hides an empty result: a scene whose every light was skipped loads with
+/// a warning that the image will be black; one that keeps a light has no such warning.
+#[test]
+fn lenient_reading_says_when_no_light_is_left() {
+    let dir = tempfile::tempdir().unwrap();
+    let load_lenient = |body: &str| {
+        let p = write(dir.path(), "scene.xml", &scene_xml(body));
+        Scene::load_with_options(&p, None, true).unwrap()
+    };
+    let black = load_lenient(r#"<emitter type="projector"/><shape type="sphere"/>"#);
+    let said: Vec<_> = black
+        .warnings
+        .iter()
+        .filter(|w| w.contains("no light is left"))
+        .collect();
+    assert_eq!(said.len(), 1, "{:?}", black.warnings);
+    assert!(said[0].contains("black"), "{}", said[0]);
+    let lit = load_lenient(
+        r#"<emitter type="projector"/><emitter type="constant"/><shape type="sphere"/>"#,
+    );
+    assert!(
+        lit.warnings.iter().all(|w| !w.contains("no light is left")),
+        "{:?}",
+        lit.warnings
+    );
+}

@@ -283,6 +283,7 @@ fn scene_toml(
         toml,
         warnings,
         origins,
+        skipped_lights: 0,
     })
 }
 

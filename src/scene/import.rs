@@ -86,6 +86,15 @@ impl Importer {
         let mut scene =
             Scene::from_toml_str_cached(&t.toml, Some(path), cache).map_err(|e| t.relocate(e))?;
         let mut warnings = t.warnings;
+        // Lenient reading never hides an empty result: when what it skipped leaves the scene without
+        // any light, the image would be black, which the warnings above do not say.
+        if t.skipped_lights > 0 && !scene.has_light() {
+            warnings.push(format!(
+                "{}: no light is left once what --xml-lenient skipped is gone (see the warnings above): \
+                 the image will be black",
+                path.display()
+            ));
+        }
         warnings.append(&mut scene.warnings);
         scene.warnings = warnings;
         Ok((scene, t.toml))

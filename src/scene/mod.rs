@@ -702,6 +702,17 @@ impl Scene {
         parse::parse_scene_cached(text, path, cache)
     }
 
+    /// Whether any light is in the scene: a light, an emitting material, or an environment that is not
+    /// black. (An emitting material counts whether or not a shape uses it.)
+    pub fn has_light(&self) -> bool {
+        !self.lights.is_empty()
+            || !self.environment.is_black()
+            || self
+                .materials
+                .iter()
+                .any(|m| m.emission.is_some_and(|e| e.radiance.max_element() > 0.0))
+    }
+
     /// The embedded default scene (the course's box of spheres).
     pub fn default_scene() -> Scene {
         Scene::from_toml_str(DEFAULT_SCENE_TOML, None).expect("the embedded default scene is valid")

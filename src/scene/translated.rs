@@ -44,6 +44,9 @@ pub struct Translated {
     pub toml: String,
     pub warnings: Vec<String>,
     pub origins: Vec<Option<Origin>>,
+    /// Lights a lenient reading skipped (an emitter, or a shape that emits): when the scene is left
+    /// without any light, the reader says the image will be black.
+    pub skipped_lights: usize,
 }
 
 impl Translated {
@@ -53,6 +56,7 @@ impl Translated {
             toml,
             warnings: Vec::new(),
             origins: Vec::new(),
+            skipped_lights: 0,
         }
     }
 

@@ -24,6 +24,8 @@ pub(super) struct Tr<'p> {
     /// The file's parameters (`<default>`s and -D), by name, with the values they have: what a
     /// message can point at when a value came from one.
     pub(super) parameters: Vec<(String, String)>,
+    /// Emitters (and shapes that emit) skipped by a lenient reading.
+    pub(super) skipped_lights: usize,
     pub(super) lenient: bool,
     pub(super) warnings: Vec<String>,
     /// Where files are found after beside the file naming them (`Parser::search_dirs`).
@@ -63,6 +65,7 @@ impl<'p> Tr<'p> {
         Tr {
             ids,
             parameters: Vec::new(),
+            skipped_lights: 0,
             lenient,
             warnings,
             search_dirs,
@@ -130,6 +133,15 @@ impl<'p> Tr<'p> {
                 obj.loc
                     .warning(format!("{problem}; skipped (--xml-lenient)")),
             );
+            let emits = |o: &Obj| {
+                o.tag == "emitter"
+                    || o.props
+                        .iter()
+                        .any(|p| matches!(&p.value, Value::Object(e) if e.tag == "emitter"))
+            };
+            if emits(obj) {
+                self.skipped_lights += 1;
+            }
             Ok(())
         } else {
             Err(obj.loc.error(

@@ -85,5 +85,6 @@ pub fn to_toml(
         toml: toml.text,
         warnings: tr.warnings,
         origins: toml.origins,
+        skipped_lights: tr.skipped_lights,
     })
 }
