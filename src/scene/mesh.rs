@@ -484,10 +484,14 @@ fn unit_or_zero(v: DVec3) -> Vec3 {
     }
 }
 
-/// Smooth vertex normals for a mesh without its own: at each vertex, the sum of the unnormalised face
-/// normals (v1 - v0) x (v2 - v0) of the faces around it, i.e. the area-weighted mean face normal, then
-/// normalised. Vertices at the same position are welded first (OBJ exporters split a position where the
-/// uv or normal changes, and those splits must not crease the surface). Sums run in f64.
+/// Smooth vertex normals for a mesh without its own, as Mitsuba 3 computes them
+/// (`Mesh::recompute_vertex_normals`; Thürmer and Wüthrich, "Computing vertex normals from polygonal
+/// facets", 1998): at each vertex, the sum of the unit normals of the faces around it, each weighted by
+/// the face's interior angle at that vertex, then normalised. Weighting by angle makes the normal a
+/// property of the surface, not of how it was cut into triangles (an area weighting leans towards the
+/// larger faces: up to 38 degrees off on a PLY teapot). Degenerate faces add nothing. Vertices at the
+/// same position are welded first (OBJ exporters split a position where the uv or normal changes, and
+/// those splits must not crease the surface). Sums run in f64.
 pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
     let mut weld: HashMap<[u32; 3], usize> = HashMap::with_capacity(positions.len());
     let welded: Vec<usize> = positions
@@ -500,10 +504,18 @@ pub fn vertex_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
         .collect();
     let mut sums = vec![DVec3::ZERO; weld.len()];
     for t in triangles {
-        let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
-        let n = (b - a).cross(c - a);
-        for &i in t {
-            sums[welded[i as usize]] += n;
+        let v = t.map(|i| positions[i as usize].as_dvec3());
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        let len = n.length();
+        if !(len > 0.0 && len.is_finite()) {
+            continue;
+        }
+        for k in 0..3 {
+            // The interior angle at corner k, between the edges to the other two corners:
+            // atan2(|e1 x e2|, e1 . e2), accurate for small and obtuse angles alike.
+            let (e1, e2) = (v[(k + 1) % 3] - v[k], v[(k + 2) % 3] - v[k]);
+            let angle = e1.cross(e2).length().atan2(e1.dot(e2));
+            sums[welded[t[k] as usize]] += n * (angle / len);
         }
     }
     welded.iter().map(|&w| unit_or_zero(sums[w])).collect()
@@ -529,6 +541,28 @@ mod tests {
         assert_eq!(n[0], n[3]);
         assert_eq!(n[1], n[4]);
         assert!((n[0] - Vec3::Y).length() < 1e-6, "{:?}", n[0]);
+    }
+
+    /// The angle weighting against a hand computation: a vertex shared by a fan of two faces, one a
+    /// long thin sliver, the other a right angle. The corner angles at the apex are 90 and 45 degrees
+    /// with unit normals +z and +x: the normal is (45 x + 90 z) / |...| = (1, 0, 2) / sqrt 5, whatever
+    /// the faces' areas (an area weighting would give another direction).
+    #[test]
+    fn computed_normals_weight_faces_by_their_angle_at_the_vertex() {
+        let positions = vec![
+            Vec3::new(0.0, 0.0, 0.0), // the shared vertex
+            Vec3::new(10.0, 0.0, 0.0),
+            Vec3::new(0.0, 10.0, 0.0), // face 0: right angle at the origin, normal +z
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.0, 1.0, -1.0), // face 1: 45 degrees at the origin, normal +x
+        ];
+        let tris = [[0, 1, 2], [0, 3, 4]];
+        let n = vertex_normals(&positions, &tris)[0];
+        let want = Vec3::new(1.0, 0.0, 2.0) / 5f32.sqrt();
+        assert!((n - want).length() < 1e-6, "{n:?} vs {want:?}");
+        // Area-weighted, face 0 (area 50) would swamp face 1 (area 0.5).
+        let area = (Vec3::Z * 100.0 + Vec3::X * 1.0).normalize();
+        assert!((n - area).length() > 0.3);
     }
 
     #[test]
