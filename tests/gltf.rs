@@ -809,8 +809,10 @@ fn gltf_alpha_modes_cut_out_and_blend() {
 
 /// A texture's sampler and KHR_texture_transform: an emissive quad whose 4 x 4 texture (every texel its
 /// own colour) is read with magFilter NEAREST, wrap REPEAT and a transform of offset, rotation and scale
-/// shows, at every pixel centre, the texel the extension's own formula picks in glTF's uv space (uv' =
-/// T R S uv, R the extension's column-major rotation, v down the image), computed here in f64: its sRGB
+/// shows, at every pixel centre, the texel the extension's formula picks in glTF's uv space (uv' =
+/// T R S uv, v down the image, R = [[cos, sin], [-sin, cos]]: the rotation as three.js, Babylon.js,
+/// Blender and the Khronos TextureTransformTest model read it, not the transposed matrix the
+/// extension's text prints, KhronosGroup/glTF issue 1563), computed here in f64: its sRGB
 /// decoding, to f32 rounding; pixels within 1e-3 texel of a texel edge are skipped. The same image given as
 /// a base64 data URI renders the same bits.
 #[test]
@@ -857,7 +859,7 @@ fn gltf_texture_transform_and_sampler_pick_the_specifications_texel() {
             let y = 1.0 - (f64::from(j) + 0.5) / 16.0;
             let (u, v) = ((x + 1.0) / 2.0, (1.0 - y) / 2.0);
             let (su, sv) = (sx * u, sy * v);
-            let uv = [c * su - s * sv + tx, s * su + c * sv + ty];
+            let uv = [c * su + s * sv + tx, -s * su + c * sv + ty];
             let t = uv.map(|a| (a - a.floor()) * 4.0);
             if t.iter().any(|a| (a - a.round()).abs() < 1e-3) {
                 continue;

@@ -1197,11 +1197,14 @@ fn uv_set(m: &gltf::Material) -> u32 {
 /// (`transform`, the extension's JSON; its texCoord overrides the textureInfo's).
 ///
 /// The extension's transform is uv' = T R S uv in glTF's uv space, whose v runs down the image, with
-/// R = [[cos r, -sin r], [sin r, cos r]] (the extension's column-major mat3), S = diag(sx, sy) and T the
-/// offset (tx, ty). vkpath's uv has v up, v_vk = 1 - v_gl (F = diag(1, -1) plus (0, 1)), so in vkpath's
-/// space the same lookup is F T R S F: its linear part is diag(1, -1) R S diag(1, -1) = R(-r) S, and its
-/// offset F(T R S (0, 1)) = (tx - sin r sy, 1 - ty - cos r sy). Written as the texture reference's scale
-/// (sx, sy), rotation -r and that offset.
+/// S = diag(sx, sy), T the offset (tx, ty) and R = [[cos r, sin r], [-sin r, cos r]]: the rotation as
+/// every implementation reads it (three.js, Babylon.js, Blender's importer and the Khronos
+/// TextureTransformTest model, whose arrows point at their labels only so), the transpose of the matrix
+/// the extension's text prints (KhronosGroup/glTF issue 1563). vkpath's uv has v up, v_vk = 1 - v_gl
+/// (F = diag(1, -1) plus (0, 1)), so in vkpath's space the same lookup is F T R S F: its linear part is
+/// diag(1, -1) R S diag(1, -1) = R' S with R' = [[cos r, -sin r], [sin r, cos r]], a rotation by +r,
+/// and its offset F(T R S (0, 1)) = (tx + sin r sy, 1 - ty - cos r sy). Written as the texture
+/// reference's scale (sx, sy), rotation r and that offset.
 fn texture_read(
     tex: &gltf::Texture,
     transform: Option<&gltf::json::Value>,
@@ -1249,8 +1252,8 @@ fn texture_read(
         let finite = [tx, ty, sx, sy, r].iter().all(|x| x.is_finite());
         if finite {
             read.scale = [sx as f32, sy as f32];
-            read.rotation_deg = (-r).to_degrees() as f32;
-            read.offset = [(tx - sin * sy) as f32, (1.0 - ty - cos * sy) as f32];
+            read.rotation_deg = r.to_degrees() as f32;
+            read.offset = [(tx + sin * sy) as f32, (1.0 - ty - cos * sy) as f32];
         } else {
             note("its KHR_texture_transform is not finite; not applied".into());
         }
