@@ -12,7 +12,6 @@ const LIMIT: usize = 150;
 
 /// The functions over the limit today: (file, function, lines). Shrinks as they are split.
 const TOO_LONG: &[(&str, &str, usize)] = &[
-    ("src/scene/parse/mod.rs", "scene", 213),
     ("src/render/mod.rs", "check_device_memory", 204),
     ("src/render/mod.rs", "build", 202),
     ("src/scene/mitsuba/sensor.rs", "sensor", 199),
@@ -24,7 +23,7 @@ const TOO_LONG: &[(&str, &str, usize)] = &[
     ("src/gpu/kernel.rs", "submit", 174),
     ("src/scene/parse/settings.rs", "camera", 171),
     ("src/scene/parse/params.rs", "texture_ref", 167),
-    ("src/scene/gltf_scene.rs", "scene_toml", 164),
+    ("src/scene/gltf_scene.rs", "scene_toml", 160),
     ("src/kernel/upload.rs", "build", 161),
     ("src/scene/ply.rs", "parse_ply", 160),
     ("shaders/trace.wgsl", "path_step", 156),

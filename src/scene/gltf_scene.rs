@@ -279,12 +279,7 @@ fn scene_toml(
         ));
     }
     let origins = origins(path, &toml, &camera_element);
-    Ok(Translated {
-        toml,
-        warnings,
-        origins,
-        skipped_lights: 0,
-    })
+    Ok(Translated::new(toml, warnings, origins))
 }
 
 /// The `[camera]` of a glTF camera node at `world`, and its aspect ratio.

@@ -50,6 +50,16 @@ pub struct Translated {
 }
 
 impl Translated {
+    /// A translation that skipped no light.
+    pub fn new(toml: String, warnings: Vec<String>, origins: Vec<Option<Origin>>) -> Translated {
+        Translated {
+            toml,
+            warnings,
+            origins,
+            skipped_lights: 0,
+        }
+    }
+
     /// Text read as it is: no warnings, no origins.
     pub fn as_written(toml: String) -> Translated {
         Translated {

@@ -47,9 +47,9 @@ mod settings;
 
 pub use error::SceneError;
 
-use super::Scene;
 use super::image_texture::{Texture, load_texture};
 use super::mesh::{self, ObjMesh};
+use super::{Material, Scene, Triangle};
 use error::{SEE_CONTRACT, backticked_after, find_key_path, guess_key_at, join_key, plain_words};
 use raw::RawScene;
 use serde::Deserialize;
@@ -59,6 +59,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use toml::Spanned;
 use toml::de::DeTable;
+
+/// A scene's meshes, its instanced meshes, and the warnings reading them gave.
+type MeshTables = (Vec<mesh::Mesh>, Vec<mesh::InstancedMesh>, Vec<String>);
 
 /// The file name errors report for the embedded default scene, which has no path.
 const DEFAULT_SCENE_FILE: &str = "<default scene>";
@@ -131,19 +134,61 @@ impl Checker<'_> {
         let base = path.and_then(Path::parent).unwrap_or(Path::new(""));
         let environment = self.environment(raw, background, base, cache)?;
 
-        // TOML has already rejected duplicate names, so sorting by position is a total order.
-        let mut named: Vec<_> = raw.materials.iter().collect();
-        named.sort_by_key(|(name, _)| name.span().start);
         // Relative model and image paths are relative to the scene file (to the working directory for the
         // embedded scene). A file used by several meshes or materials is read once.
         let mut files = Files {
             base,
             loaded: cache,
         };
+        let (mut materials, mut material_names) = self.scene_materials(raw, &mut files)?;
+        let mut spheres = Vec::with_capacity(raw.sphere.len());
+        for (i, sphere) in raw.sphere.iter().enumerate() {
+            spheres.push(self.sphere(i, sphere.get_ref(), &material_names)?);
+        }
+        let (triangles, meshes) = self.scene_triangles(raw, &material_names)?;
+        let (meshes, instanced, warnings) = self.scene_meshes(
+            raw,
+            (&mut materials, &mut material_names),
+            meshes,
+            triangles.len(),
+            &mut files,
+        )?;
+        let mut lights = Vec::with_capacity(raw.light.len());
+        for (i, light) in raw.light.iter().enumerate() {
+            lights.push(self.light(i, light)?);
+        }
+
+        Ok(Scene {
+            path: path.map(Path::to_path_buf),
+            camera,
+            image,
+            render,
+            materials,
+            material_names,
+            spheres,
+            triangles,
+            meshes,
+            instanced,
+            lights,
+            environment,
+            warnings,
+        })
+    }
+
+    /// `[materials]`, in the file's order, with their names; then their `back` and `blend` links, once
+    /// every name is known.
+    fn scene_materials(
+        &self,
+        raw: &RawScene,
+        files: &mut Files,
+    ) -> Result<(Vec<Material>, Vec<String>), SceneError> {
+        // TOML has already rejected duplicate names, so sorting by position is a total order.
+        let mut named: Vec<_> = raw.materials.iter().collect();
+        named.sort_by_key(|(name, _)| name.span().start);
         let mut materials = Vec::with_capacity(named.len());
         let mut material_names = Vec::with_capacity(named.len());
         for (name, material) in &named {
-            materials.push(self.material(name.get_ref(), material, &mut files)?);
+            materials.push(self.material(name.get_ref(), material, files)?);
             material_names.push(name.get_ref().clone());
         }
         // Back and blend materials, once every name is known (a material may name one defined after
@@ -174,14 +219,19 @@ impl Checker<'_> {
             (m.textures.back, m.textures.blend) = (back, blend);
         }
 
-        let mut spheres = Vec::with_capacity(raw.sphere.len());
-        for (i, sphere) in raw.sphere.iter().enumerate() {
-            spheres.push(self.sphere(i, sphere.get_ref(), &material_names)?);
-        }
+        Ok((materials, material_names))
+    }
+
+    /// `[[triangle]]`s: plain ones, and those with texture coordinates as one-triangle meshes.
+    fn scene_triangles(
+        &self,
+        raw: &RawScene,
+        material_names: &[String],
+    ) -> Result<(Vec<Triangle>, Vec<mesh::Mesh>), SceneError> {
         let mut triangles = Vec::with_capacity(raw.triangle.len());
         let mut meshes = Vec::with_capacity(raw.mesh.len());
         for (i, triangle) in raw.triangle.iter().enumerate() {
-            let t = self.triangle(i, triangle.get_ref(), &material_names)?;
+            let t = self.triangle(i, triangle.get_ref(), material_names)?;
             match self.triangle_uv(i, triangle.get_ref())? {
                 None => triangles.push(t),
                 Some(uv) => meshes.push(mesh::Mesh {
@@ -197,7 +247,24 @@ impl Checker<'_> {
                 }),
             }
         }
-        let mut total = triangles.len() + meshes.len(); // (a textured [[triangle]] is a one-triangle mesh)
+        Ok((triangles, meshes))
+    }
+
+    /// `[[mesh]]`es and `[[instance]]`s after `meshes` (the textured triangles, `triangles` more
+    /// counted): each mesh's file read and placed (its MTL materials appended to `materials` and
+    /// `material_names`), each instance a copy or one more placement of a named mesh's shared copy.
+    /// Returns the meshes, the instanced meshes and the warnings.
+    fn scene_meshes(
+        &self,
+        raw: &RawScene,
+        scene_materials: (&mut Vec<Material>, &mut Vec<String>),
+        mut meshes: Vec<mesh::Mesh>,
+        triangles: usize,
+        files: &mut Files,
+    ) -> Result<MeshTables, SceneError> {
+        let (materials, material_names) = scene_materials;
+        let base = files.base;
+        let mut total = triangles + meshes.len(); // (a textured [[triangle]] is a one-triangle mesh)
         let mut warnings = Vec::new();
         // Named meshes, for [[instance]]s.
         let mut sources: Vec<(String, geometry::MeshSource)> = Vec::new();
@@ -214,7 +281,7 @@ impl Checker<'_> {
             )
         };
         for (i, mesh) in raw.mesh.iter().enumerate() {
-            let table = self.mesh(i, mesh, &material_names, &materials, base, files.loaded)?;
+            let table = self.mesh(i, mesh, material_names, materials, base, files.loaded)?;
             total += table
                 .meshes
                 .iter()
@@ -256,7 +323,7 @@ impl Checker<'_> {
         let mut pending: Vec<(usize, Range<usize>, String, Vec<mesh::MeshPlacement>)> = Vec::new();
         for (i, instance) in raw.instance.iter().enumerate() {
             let label = format!("instance[{i}]");
-            match self.instance(i, instance, &sources, &material_names, &materials)? {
+            match self.instance(i, instance, &sources, material_names, materials)? {
                 geometry::Placed::Copies(placed) => {
                     total += placed.iter().map(|m| m.triangles.len()).sum::<usize>();
                     if total > mesh::MAX_TRIANGLES {
@@ -294,7 +361,7 @@ impl Checker<'_> {
             });
             let parts = self.instanced_parts(
                 &sources[source].1,
-                &materials,
+                materials,
                 span.clone(),
                 &label,
                 keep_uvs,
@@ -305,26 +372,7 @@ impl Checker<'_> {
             }
             instanced.push(mesh::InstancedMesh { parts, placements });
         }
-        let mut lights = Vec::with_capacity(raw.light.len());
-        for (i, light) in raw.light.iter().enumerate() {
-            lights.push(self.light(i, light)?);
-        }
-
-        Ok(Scene {
-            path: path.map(Path::to_path_buf),
-            camera,
-            image,
-            render,
-            materials,
-            material_names,
-            spheres,
-            triangles,
-            meshes,
-            instanced,
-            lights,
-            environment,
-            warnings,
-        })
+        Ok((meshes, instanced, warnings))
     }
 
     /// The image file `t` names (relative to the scene file), read once however many keys name it.
