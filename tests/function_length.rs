@@ -17,7 +17,6 @@ const TOO_LONG: &[(&str, &str, usize)] = &[
     ("src/scene/mitsuba/sensor.rs", "sensor", 199),
     ("src/checkpoint/mod.rs", "decode", 198),
     ("src/scene/mitsuba/translate.rs", "scene", 194),
-    ("src/scene/parse/settings.rs", "render", 191),
     ("src/gpu/context.rs", "new", 187),
     ("src/scene/gltf.rs", "add", 178),
     ("src/gpu/kernel.rs", "submit", 174),

@@ -311,6 +311,38 @@ impl Checker<'_> {
                 "The seed is a 32-bit unsigned integer.",
             )
         })?;
+        let (filter, filter_sigma, filter_radius) = self.render_filter(raw)?;
+        let background = raw.background.as_ref().map_or(Ok(Vec3::ZERO), |b| {
+            self.vec3_unless(
+                b,
+                "render.background",
+                |b| b.min_element() < 0.0,
+                "background radiance cannot be negative",
+                "Give a linear RGB radiance with components >= 0; [0, 0, 0] is black.",
+            )
+        })?;
+        let (sampler, light_sampling, clamp) = self.render_sampling(raw)?;
+        let adaptive = self.render_adaptive(raw)?;
+        let settings = RenderSettings {
+            samples,
+            max_bounces,
+            seed,
+            filter,
+            filter_sigma,
+            filter_radius,
+            sample_border: raw.sample_border.as_ref().is_none_or(|b| *b.get_ref()),
+            splat: raw.splat.as_ref().map(|b| *b.get_ref()),
+            adaptive,
+            sampler,
+            light_sampling,
+            clamp,
+        };
+        self.check_splat(raw, &settings)?;
+        Ok((settings, background))
+    }
+
+    /// `render.filter` and its width: (filter, Gaussian sigma, tent radius), in pixels.
+    fn render_filter(&self, raw: &RawRender) -> Result<(Filter, f32, f32), SceneError> {
         let filter = match &raw.filter {
             None => Filter::Gaussian,
             Some(f) => match f.get_ref().as_str() {
@@ -346,15 +378,14 @@ impl Checker<'_> {
                 "filter_radius is in pixels; 1 is the default.",
             )
         })?;
-        let background = raw.background.as_ref().map_or(Ok(Vec3::ZERO), |b| {
-            self.vec3_unless(
-                b,
-                "render.background",
-                |b| b.min_element() < 0.0,
-                "background radiance cannot be negative",
-                "Give a linear RGB radiance with components >= 0; [0, 0, 0] is black.",
-            )
-        })?;
+        Ok((filter, filter_sigma, filter_radius))
+    }
+
+    /// `render.sampler`, `render.light_sampling` and the firefly `render.clamp`.
+    fn render_sampling(
+        &self,
+        raw: &RawRender,
+    ) -> Result<(Sampler, LightSampling, Option<f32>), SceneError> {
         let sampler = match &raw.sampler {
             None => Sampler::Sobol,
             Some(s) => match s.get_ref().as_str() {
@@ -397,7 +428,12 @@ impl Checker<'_> {
                 "clamp is the largest radiance a sample may carry in any channel (biased: leave it out for an unbiased image).",
             )?),
         };
-        let adaptive = crate::scene::Adaptive {
+        Ok((sampler, light_sampling, clamp))
+    }
+
+    /// Adaptive sampling's keys: `render.adaptive`, `adaptive_threshold`, `adaptive_min_samples`.
+    fn render_adaptive(&self, raw: &RawRender) -> Result<crate::scene::Adaptive, SceneError> {
+        Ok(crate::scene::Adaptive {
             on: raw.adaptive.as_ref().map(|b| *b.get_ref()),
             threshold: match &raw.adaptive_threshold {
                 None => None,
@@ -420,21 +456,11 @@ impl Checker<'_> {
                      between checks); it must be at least 2, for a variance.",
                 )?),
             },
-        };
-        let settings = RenderSettings {
-            samples,
-            max_bounces,
-            seed,
-            filter,
-            filter_sigma,
-            filter_radius,
-            sample_border: raw.sample_border.as_ref().is_none_or(|b| *b.get_ref()),
-            splat: raw.splat.as_ref().map(|b| *b.get_ref()),
-            adaptive,
-            sampler,
-            light_sampling,
-            clamp,
-        };
+        })
+    }
+
+    /// `render.splat = true` where the filter cannot be splatted, or with adaptive sampling: refused.
+    fn check_splat(&self, raw: &RawRender, settings: &RenderSettings) -> Result<(), SceneError> {
         if let Some(splat) = &raw.splat
             && *splat.get_ref()
             && !settings.can_splat()
@@ -462,7 +488,7 @@ impl Checker<'_> {
                 "Leave out one of splat and adaptive (an adaptive render keeps each pixel's own samples).",
             ));
         }
-        Ok((settings, background))
+        Ok(())
     }
 }
 
