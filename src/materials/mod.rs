@@ -48,7 +48,7 @@ pub struct MaterialPlugin {
     pub name: &'static str,
     /// Its WGSL file's text (`<name>.wgsl` in its folder).
     pub source: &'static str,
-    /// One sentence: the model and where it comes from (the scene format's table, `vkpath info`).
+    /// One sentence: the model and where it comes from (the scene format's section).
     pub summary: &'static str,
     /// The Mitsuba plugin types (`<bsdf type="...">`, any version) read as this kind, each parameter by
     /// its key, with the same defaults. Empty: the importer has its own mapping or none.
@@ -220,25 +220,17 @@ impl MaterialPlugin {
         self.params.iter().enumerate().find(|(_, p)| p.key == key)
     }
 
-    /// The block of `values` (one per parameter, in order; textures none: their words are filled when
-    /// the textures are uploaded).
+    /// The block of `values` (one per parameter, in order, each of its parameter's type, as the reader
+    /// gives them; textures none: their words are filled when the textures are uploaded).
     pub fn pack(&self, values: &[Value]) -> [f32; BLOCK_WORDS] {
         let mut block = [0.0; BLOCK_WORDS];
-        for ((slot, value), p) in self.layout().iter().zip(values).zip(self.params) {
+        for (slot, value) in self.layout().iter().zip(values) {
             match *value {
                 Value::Color(c) => block[slot.word..slot.word + 3].copy_from_slice(&c),
                 Value::Float(x) => block[slot.word] = x,
                 Value::Choice(i) => block[slot.word] = i as f32,
                 Value::Bool(b) => block[slot.word] = f32::from(u8::from(b)),
             }
-            debug_assert_eq!(
-                p.ty.words(),
-                if matches!(value, Value::Color(_)) {
-                    3
-                } else {
-                    1
-                }
-            );
             if let Some(t) = slot.texture_word {
                 block[t] = NO_TEXTURE_WORD;
             }
