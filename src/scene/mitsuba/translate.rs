@@ -248,12 +248,7 @@ impl Tr<'_> {
         let args = Args::new(obj);
         let depth = args.int("max_depth")?;
         let rr = args.int("rr_depth")?;
-        if let Some((true, loc)) = args.boolean("hide_emitters")? {
-            return Err(loc.error(
-                "hide_emitters = true: vkpath always shows the emitters the camera sees",
-                "Remove hide_emitters (or set it to false).",
-            ));
-        }
+        refuse_hidden_emitters(&args)?;
         self.finish(&args, &["max_depth", "rr_depth", "hide_emitters"])?;
         if let Some((r, loc)) = rr
             && r != 3
@@ -271,12 +266,7 @@ impl Tr<'_> {
     /// settings, radii) change the noise, not the image, and are read past.
     fn other_algorithm(&mut self, obj: &Obj) -> Result<(i64, String), SceneError> {
         let args = Args::new(obj);
-        if let Some((true, loc)) = args.boolean("hide_emitters")? {
-            return Err(loc.error(
-                "hide_emitters = true: vkpath always shows the emitters the camera sees",
-                "Remove hide_emitters (or set it to false).",
-            ));
-        }
+        refuse_hidden_emitters(&args)?;
         let depth = args.int("max_depth")?;
         let skipped: Vec<&str> = args
             .unread()
@@ -313,12 +303,7 @@ impl Tr<'_> {
     /// (emitter_samples, bsdf_samples, shading_samples) change only the noise: read past with a warning.
     fn direct_integrator(&mut self, obj: &Obj) -> Result<(i64, String), SceneError> {
         let args = Args::new(obj);
-        if let Some((true, loc)) = args.boolean("hide_emitters")? {
-            return Err(loc.error(
-                "hide_emitters = true: vkpath always shows the emitters the camera sees",
-                "Remove hide_emitters (or set it to false).",
-            ));
-        }
+        refuse_hidden_emitters(&args)?;
         for name in ["emitter_samples", "bsdf_samples", "shading_samples"] {
             if let Some((n, loc)) = args.int(name)?
                 && n != 1
@@ -371,5 +356,16 @@ fn max_bounces(depth: Option<(i64, &Loc)>) -> Result<(i64, String), SceneError> 
             format!("max_depth = {d}: vkpath needs -1 (no limit) or a depth of at least 1"),
             "max_depth counts path segments: 1 shows the emitters only, 2 is direct light.",
         )),
+    }
+}
+
+/// An integrator's `hide_emitters = true`: refused (vkpath always shows the emitters the camera sees).
+fn refuse_hidden_emitters(args: &Args) -> Result<(), SceneError> {
+    match args.boolean("hide_emitters")? {
+        Some((true, loc)) => Err(loc.error(
+            "hide_emitters = true: vkpath always shows the emitters the camera sees",
+            "Remove hide_emitters (or set it to false).",
+        )),
+        _ => Ok(()),
     }
 }

@@ -99,14 +99,8 @@ impl Checker<'_> {
                     "a dielectric material needs an ior",
                 )?;
                 let ior = self.ior(ior, &key("ior"))?;
-                let roughness = self.roughness(
-                    &m.roughness,
-                    &key("roughness"),
-                    files,
-                    &mut textures.roughness,
-                )?;
                 let roughness =
-                    self.distribution(&m.distribution, &key("distribution"), roughness)?;
+                    self.microfacet_roughness(name, m, files, &mut textures.roughness)?;
                 (
                     vec!["ior", "roughness", "distribution", EMISSION[0], EMISSION[1]],
                     Bsdf::Dielectric { ior, roughness },
@@ -267,6 +261,20 @@ impl Checker<'_> {
         })
     }
 
+    /// A microfacet material's `roughness` (one number, [u, v] or a texture, recorded in `slot`) and
+    /// its `distribution` (GGX or Beckmann): dielectric, conductor and plastic.
+    fn microfacet_roughness(
+        &self,
+        name: &str,
+        m: &RawMaterial,
+        files: &mut Files,
+        slot: &mut Option<TextureRef>,
+    ) -> Result<Roughness, SceneError> {
+        let key = |field: &str| format!("materials.{name}.{field}");
+        let r = self.roughness(&m.roughness, &key("roughness"), files, slot)?;
+        self.distribution(&m.distribution, &key("distribution"), r)
+    }
+
     /// A `conductor`: its Fresnel (a preset, eta and k, or a base colour), roughness and tint.
     fn conductor_material(
         &self,
@@ -309,15 +317,7 @@ impl Checker<'_> {
             ],
             Bsdf::Conductor {
                 fresnel,
-                roughness: {
-                    let r = self.roughness(
-                        &m.roughness,
-                        &key("roughness"),
-                        files,
-                        &mut textures.roughness,
-                    )?;
-                    self.distribution(&m.distribution, &key("distribution"), r)?
-                },
+                roughness: self.microfacet_roughness(name, m, files, &mut textures.roughness)?,
                 tint,
             },
         ))
@@ -344,13 +344,7 @@ impl Checker<'_> {
             Some(ior) => self.ior(ior, &key("ior"))?,
             None => PLASTIC_DEFAULT_IOR,
         };
-        let roughness = self.roughness(
-            &m.roughness,
-            &key("roughness"),
-            files,
-            &mut textures.roughness,
-        )?;
-        let roughness = self.distribution(&m.distribution, &key("distribution"), roughness)?;
+        let roughness = self.microfacet_roughness(name, m, files, &mut textures.roughness)?;
         let nonlinear = m.nonlinear.as_ref().is_none_or(|n| *n.get_ref());
         Ok((
             vec![
